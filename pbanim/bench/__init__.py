@@ -1,0 +1,125 @@
+"""Benchmarks: ``pbanim bench NAME [--quick] [--json FILE]``.
+
+Each family is a module ``pbanim/bench/NAME.py`` with ``run(quick: bool) -> Report``. A report holds
+tables (medians of repeats, baselines measured *in the same run*) and goals, printed last, one line each:
+
+    goal <id>: <measured> (target <target>) met|missed
+
+Benchmarks never run inside the test suite except as a tiny smoke run (``quick=True``) that checks they
+execute and print their goal lines.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import pkgutil
+import time
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+__all__ = ["Goal", "Table", "Report", "median_time", "available", "run_bench", "format_report"]
+
+
+@dataclass
+class Goal:
+    """A measured figure against a target. ``met`` is computed, not declared."""
+
+    id: str
+    measured: float
+    target: float
+    sense: str = "<="          # "<=" (lower is better) or ">="
+    unit: str = "x"
+    note: str = ""
+
+    @property
+    def met(self) -> bool:
+        if not np.isfinite(self.measured):
+            return False
+        return self.measured <= self.target if self.sense == "<=" else self.measured >= self.target
+
+    def line(self) -> str:
+        fmt = lambda v: f"{v:.3g}{self.unit}"  # noqa: E731
+        note = f" — {self.note}" if self.note else ""
+        return (f"goal {self.id}: {fmt(self.measured)} (target {self.sense} {fmt(self.target)}) "
+                f"{'met' if self.met else 'missed'}{note}")
+
+
+@dataclass
+class Table:
+    title: str
+    header: list[str]
+    rows: list[list[Any]] = field(default_factory=list)
+
+    def format(self) -> str:
+        def cell(v):
+            if isinstance(v, float):
+                return f"{v:.3e}" if (v != 0 and (abs(v) < 1e-2 or abs(v) >= 1e4)) else f"{v:.4g}"
+            return str(v)
+
+        cells = [[cell(v) for v in r] for r in self.rows]
+        widths = [max(len(h), *(len(r[i]) for r in cells)) if cells else len(h) for i, h in enumerate(self.header)]
+        out = [f"## {self.title}", "  ".join(h.ljust(w) for h, w in zip(self.header, widths)),
+               "  ".join("-" * w for w in widths)]
+        out += ["  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in cells]
+        return "\n".join(out)
+
+
+@dataclass
+class Report:
+    name: str
+    tables: list[Table] = field(default_factory=list)
+    goals: list[Goal] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {"name": self.name,
+                "tables": [{"title": t.title, "header": t.header, "rows": t.rows} for t in self.tables],
+                "goals": [{"id": g.id, "measured": g.measured, "target": g.target, "sense": g.sense,
+                           "unit": g.unit, "met": g.met, "line": g.line()} for g in self.goals],
+                "notes": self.notes}
+
+
+def median_time(fn: Callable[[], Any], repeats: int = 5, min_time: float = 0.0) -> float:
+    """Median wall time of ``fn()`` over ``repeats`` runs (each run looped until ``min_time`` s)."""
+    times = []
+    for _ in range(max(1, repeats)):
+        n, start = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            el = time.perf_counter() - start
+            if el >= min_time:
+                break
+        times.append(el / n)
+    return float(np.median(times))
+
+
+def available() -> list[str]:
+    import pbanim.bench as pkg
+
+    return sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if not m.name.startswith("_"))
+
+
+def run_bench(name: str, quick: bool = False) -> Report:
+    names = available()
+    if name not in names:
+        raise ValueError(f"benchmark must be one of {names}, got {name!r}")
+    mod = importlib.import_module(f"pbanim.bench.{name}")
+    return mod.run(quick=quick)
+
+
+def format_report(rep: Report) -> str:
+    parts = [f"# pbanim bench {rep.name}"]
+    parts += [t.format() for t in rep.tables]
+    parts += [f"note: {n}" for n in rep.notes]
+    parts += [g.line() for g in rep.goals]
+    return "\n\n".join(parts[:-len(rep.goals)] if rep.goals else parts) + (
+        "\n\n" + "\n".join(g.line() for g in rep.goals) if rep.goals else "")
+
+
+def write_json(rep: Report, path: str) -> None:
+    with open(path, "w") as fh:
+        json.dump(rep.to_json(), fh, indent=1, default=float)

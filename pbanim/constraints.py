@@ -1,0 +1,3 @@
+"""pbanim.constraints — being written (see the open issue for this chapter)."""
+
+__all__: list[str] = []

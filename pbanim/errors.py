@@ -1,0 +1,139 @@
+"""Named errors of pbanim.
+
+Every failure a student can meet has a name and a message that says what went wrong, with which
+value, and what to do about it. Solvers never return garbage: they raise one of these, or return a
+result whose ``success`` is False.
+
+======================  ==========================================================================
+error                   raised when
+======================  ==========================================================================
+SimulationDiverged      a state or force stops being finite, or grows past a bound, during stepping
+SingularConstraintError the constraint system JWJᵀλ = r has no solution (inconsistent rows)
+ConvergenceError        an iterative solver (CG, Newton, PGS) did not reach its tolerance
+SingularChartError      a reduced-coordinate chart loses rank (generalized mass near singular)
+InfeasibleContact       a contact QP / LCP has no solution or the solver failed
+InconsistentContact     the acceleration-level contact problem is inconsistent (Painlevé)
+======================  ==========================================================================
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "PbanimError",
+    "SimulationDiverged",
+    "SingularConstraintError",
+    "ConvergenceError",
+    "SingularChartError",
+    "InfeasibleContact",
+    "InconsistentContact",
+]
+
+
+class PbanimError(Exception):
+    """Base class of every error pbanim raises on purpose (besides ``ValueError`` for bad input)."""
+
+
+class SimulationDiverged(PbanimError, FloatingPointError):
+    """A simulation produced a non-finite (or exploding) quantity.
+
+    Attributes
+    ----------
+    t : float
+        Time at the start of the step that diverged.
+    step : int
+        Index of that step (0-based), or -1 when unknown.
+    quantity : str
+        What stopped being finite ("state", "velocity", "lambda", ...).
+    """
+
+    def __init__(self, t: float, step: int, quantity: str, detail: str = "") -> None:
+        self.t = float(t)
+        self.step = int(step)
+        self.quantity = quantity
+        msg = (f"simulation diverged at t = {self.t:.6g} (step {self.step}): {quantity} is not finite"
+               f"{'; ' + detail if detail else ''}; reduce the step h or use a stabler method")
+        super().__init__(msg)
+
+
+class SingularConstraintError(PbanimError, ValueError):
+    """The constraint system is singular and inconsistent: no λ satisfies it.
+
+    Attributes
+    ----------
+    rows : list[int]
+        Indices of the dependent (conflicting) constraint rows.
+    residual : float
+        Norm of the residual of the best (least-squares) answer.
+    """
+
+    def __init__(self, rows, residual: float, detail: str = "") -> None:
+        self.rows = [int(r) for r in rows]
+        self.residual = float(residual)
+        msg = (f"constraints are inconsistent: rows {self.rows} are dependent and conflict "
+               f"(least-squares residual {self.residual:.3e}){'; ' + detail if detail else ''}; "
+               "remove or fix the conflicting constraints")
+        super().__init__(msg)
+
+
+class ConvergenceError(PbanimError, RuntimeError):
+    """An iterative solver stopped before reaching its tolerance.
+
+    Attributes
+    ----------
+    iterations : int
+    residual : float
+    tol : float
+    """
+
+    def __init__(self, solver: str, iterations: int, residual: float, tol: float, detail: str = "") -> None:
+        self.solver = solver
+        self.iterations = int(iterations)
+        self.residual = float(residual)
+        self.tol = float(tol)
+        msg = (f"{solver} did not converge: residual {self.residual:.3e} > tol {self.tol:.1e} after "
+               f"{self.iterations} iterations{'; ' + detail if detail else ''}; raise max_iter, loosen tol "
+               "or use a direct solver")
+        super().__init__(msg)
+
+
+class SingularChartError(PbanimError, ValueError):
+    """A reduced-coordinate chart is (nearly) singular: the generalized mass JᵀMJ lost rank."""
+
+    def __init__(self, cond: float, u, detail: str = "") -> None:
+        self.cond = float(cond)
+        self.u = u
+        msg = (f"reduced coordinates are near a singular chart: cond(JᵀMJ) = {self.cond:.3e} at u = {u}"
+               f"{'; ' + detail if detail else ''}; switch to another chart or to maximal coordinates")
+        super().__init__(msg)
+
+
+class InfeasibleContact(PbanimError, RuntimeError):
+    """A contact problem (QP or LCP) has no solution, or its solver failed.
+
+    Attributes
+    ----------
+    status : str
+        The solver's own status.
+    residual : float
+        Natural-map residual ‖f − max(0, f − (Af + b))‖ of the best iterate (nan when none).
+    """
+
+    def __init__(self, solver: str, status: str, residual: float = float("nan"), detail: str = "") -> None:
+        self.solver = solver
+        self.status = str(status)
+        self.residual = float(residual)
+        msg = (f"contact solver {solver!r} failed: status {self.status}, residual {self.residual:.3e}"
+               f"{'; ' + detail if detail else ''}")
+        super().__init__(msg)
+
+
+class InconsistentContact(PbanimError, RuntimeError):
+    """The acceleration-level contact LCP is inconsistent (e.g. Painlevé's paradox).
+
+    Use the velocity-level (impulse) time-stepping scheme instead.
+    """
+
+    def __init__(self, detail: str = "") -> None:
+        msg = ("acceleration-level contact problem is inconsistent (no contact forces satisfy the "
+               f"complementarity conditions){'; ' + detail if detail else ''}; use the velocity-level scheme")
+        super().__init__(msg)

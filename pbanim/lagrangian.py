@@ -1,0 +1,3 @@
+"""pbanim.lagrangian — being written (see the open issue for this chapter)."""
+
+__all__: list[str] = []

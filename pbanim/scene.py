@@ -1,0 +1,217 @@
+"""Scenes: bodies + declared effects → a step pipeline (every chapter).
+
+A :class:`Scene` is built from one *mechanical system* (particles, rigid bodies, ...) and a list of
+declared *effects* (gravity, drag, springs, constraints, collisions, resting contact, controllers...).
+Building it assembles ``scene.pipeline``, the ordered names of the stages that will run:
+
+    force effects (declaration order)  →  constraint effects  →  integrate[method]  →  post-step effects
+
+A stage that is not declared is never called, allocates nothing and imports nothing: a scene without
+springs never touches spring code, a scene without resting contact never imports qpsolvers.
+
+The system protocol (implemented by :class:`pbanim.particles.ParticleSystem`, :class:`pbanim.rigid.RigidBodies`)
+------------------------------------------------------------------------------------------------------------
+``split``                         number of position components at the front of the flat state y = [q, v]
+``state()``                       the current (initial) state, a fresh flat float64 array
+``zero_forces()``                 a zeroed generalized-force array Q (e.g. shape (N, dim); (N, 6) for rigid bodies)
+``derivative(y, Q)``              dy/dt given the total generalized force Q
+``kinetic_energy(y)``             T
+``linear_momentum(y)``            P, shape (dim,)
+``angular_momentum(y)``           L about the origin
+
+The effect protocol (subclass :class:`Effect`)
+----------------------------------------------
+``name``                          the stage name shown in ``scene.pipeline``
+``phase``                         "force" | "constraint" | "post_step"
+``bind(system)``                  validate against the system (indices in range, shapes), precompute
+``apply(t, y, Q)``                force phase: add generalized forces into Q in place
+``constrain(t, y, Q) -> Q``       constraint phase: return Q + Q_C (the constraint force Jᵀλ)
+``post_step(t, y, h) -> y``       post-step phase: impulses, projections (may return y unchanged)
+``potential_energy(y)``           optional: V of a conservative force (summed into the scene energy)
+``diagnostics(t, y) -> dict``     optional: per-step scalars/arrays recorded in ``SimResult.diagnostics``
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Sequence
+
+import numpy as np
+
+from .errors import SimulationDiverged
+from .ode import get_method
+from .results import SimResult
+
+__all__ = ["Effect", "Scene", "check_finite"]
+
+_PHASES = ("force", "constraint", "post_step")
+
+
+class Effect:
+    """Base class of a declared effect; override the hooks of your phase."""
+
+    name: str = "effect"
+    phase: str = "force"
+
+    def bind(self, system: Any) -> None:
+        """Validate against ``system`` and precompute; called once by :class:`Scene`."""
+
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:  # pragma: no cover - interface
+        raise NotImplementedError(f"{type(self).__name__} declares phase 'force' but has no apply()")
+
+    def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError(f"{type(self).__name__} declares phase 'constraint' but has no constrain()")
+
+    def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError(f"{type(self).__name__} declares phase 'post_step' but has no post_step()")
+
+
+def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") -> None:
+    """Raise :class:`SimulationDiverged` if ``y`` has a NaN or Inf (one BLAS pass, no temporaries)."""
+    flat = np.ravel(y)
+    if not np.isfinite(flat @ flat):
+        bad = np.flatnonzero(~np.isfinite(flat))
+        detail = f"first bad component {int(bad[0])}" if bad.size else "norm overflowed"
+        raise SimulationDiverged(t, step, quantity, detail)
+
+
+class Scene:
+    """A mechanical system and its declared effects.
+
+    Parameters
+    ----------
+    system : mechanical system
+        See the module docstring for the protocol.
+    effects : sequence of Effect
+        What the scene simulates; nothing else is computed.
+
+    Examples
+    --------
+    >>> from pbanim.particles import ParticleSystem, Gravity
+    >>> ps = ParticleSystem(positions=[[0.0, 10.0]], velocities=[[1.0, 0.0]], masses=[2.0])
+    >>> scene = Scene(ps, [Gravity()])
+    >>> scene.pipeline
+    ('gravity', 'integrate')
+    """
+
+    def __init__(self, system: Any, effects: Sequence[Effect] = ()) -> None:
+        for attr in ("split", "state", "zero_forces", "derivative"):
+            if not hasattr(system, attr):
+                raise ValueError(f"system must implement the mechanical-system protocol; "
+                                 f"{type(system).__name__} has no {attr!r}")
+        self.system = system
+        self.effects = list(effects)
+        for e in self.effects:
+            if getattr(e, "phase", None) not in _PHASES:
+                raise ValueError(f"effect {e!r} has phase {getattr(e, 'phase', None)!r}; "
+                                 f"expected one of {_PHASES}")
+            e.bind(system)
+        self._force = [e for e in self.effects if e.phase == "force"]
+        self._constraint = [e for e in self.effects if e.phase == "constraint"]
+        self._post = [e for e in self.effects if e.phase == "post_step"]
+
+    @property
+    def pipeline(self) -> tuple[str, ...]:
+        """Ordered names of the stages a step runs."""
+        return tuple([e.name for e in self._force] + [e.name for e in self._constraint]
+                     + ["integrate"] + [e.name for e in self._post])
+
+    # -- continuous part -------------------------------------------------------------------------
+    def forces(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Total generalized force Q (applied + constraint forces) at (t, y)."""
+        Q = self.system.zero_forces()
+        for e in self._force:
+            e.apply(t, y, Q)
+        for e in self._constraint:
+            Q = e.constrain(t, y, Q)
+        return Q
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """dy/dt of the scene's continuous dynamics (what every integrator steps)."""
+        return self.system.derivative(y, self.forces(t, y))
+
+    # -- diagnostics ----------------------------------------------------------------------------
+    def potential_energy(self, y: np.ndarray) -> float:
+        return float(sum(e.potential_energy(y) for e in self.effects if hasattr(e, "potential_energy")))
+
+    def energy(self, y: np.ndarray) -> float:
+        """Total energy T + ΣV over the effects that have a potential."""
+        return float(self.system.kinetic_energy(y)) + self.potential_energy(y)
+
+    def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
+        sysm = self.system
+        T = float(sysm.kinetic_energy(y)) if hasattr(sysm, "kinetic_energy") else np.nan
+        V = self.potential_energy(y)
+        d: dict[str, Any] = {"kinetic": T, "potential": V, "energy": T + V}
+        if hasattr(sysm, "linear_momentum"):
+            d["momentum"] = np.asarray(sysm.linear_momentum(y), dtype=float)
+        if hasattr(sysm, "angular_momentum"):
+            d["angular_momentum"] = np.asarray(sysm.angular_momentum(y), dtype=float)
+        for e in self.effects:
+            if hasattr(e, "diagnostics"):
+                d.update(e.diagnostics(t, y))
+        return d
+
+    # -- stepping -------------------------------------------------------------------------------
+    def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
+        """One step of the pipeline: integrate the continuous part, then the post-step stages."""
+        y = get_method(method).step(self.rhs, t, y, h, split=self.system.split)
+        for e in self._post:
+            y = e.post_step(t + h, y, h)
+        return y
+
+    def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
+                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
+                 check_every: int = 1) -> SimResult:
+        """Fixed-step simulation from ``t0`` to ``t_end``.
+
+        Parameters
+        ----------
+        t_end, h : float
+            End time and step (h > 0). The number of steps is round((t_end − t0)/h).
+        method : str
+            A name in :data:`pbanim.ode.METHODS`.
+        y0 : ndarray, optional
+            Start state (default ``system.state()``).
+        record_every : int
+            Record the state and diagnostics every this many steps (and at the end).
+        check_every : int
+            Check for non-finite states every this many steps (raises :class:`SimulationDiverged`).
+        """
+        h = float(h)
+        if not np.isfinite(h) or h <= 0:
+            raise ValueError(f"h must be a positive finite step, got {h}")
+        if not np.isfinite(t_end) or t_end <= t0:
+            raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
+        if record_every < 1:
+            raise ValueError(f"record_every must be a positive integer, got {record_every}")
+        m = get_method(method)
+        n_steps = max(1, int(round((t_end - t0) / h)))
+        y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
+        check_finite(y, t0, 0, "initial state")
+        ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
+        counter = [0]
+
+        def fun(t, yy):
+            counter[0] += 1
+            return self.rhs(t, yy)
+
+        split = self.system.split
+        start = time.perf_counter()
+        t = t0
+        for k in range(n_steps):
+            y = m.step(fun, t, y, h, split=split)
+            for e in self._post:
+                y = e.post_step(t + h, y, h)
+            t = t0 + (k + 1) * h
+            if (k + 1) % check_every == 0 or k + 1 == n_steps:
+                check_finite(y, t - h, k)
+            if (k + 1) % record_every == 0 or k + 1 == n_steps:
+                ts.append(t)
+                ys.append(y.copy())
+                if diagnostics:
+                    diags.append(self.diagnostics(t, y))
+        wall = time.perf_counter() - start
+        diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
+        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], status=0, wall_time=wall,
+                         method=method, nsteps=n_steps, diagnostics=diag_arrays)
