@@ -5,6 +5,7 @@ One submodule per chapter, all re-exported here (numpy/scipy only at import):
 =================  ==================================================================================
 submodule          systems
 =================  ==================================================================================
+``models.particles`` projectile with linear drag, two-body spring, hanging net (ch01)
 ``models.ode``     harmonic and damped oscillators, projectile with linear drag, Kepler orbit,
                    two-body spring, pendulum with its elliptic-integral period (ch01, ch02)
 ``models.constrained`` bead on a circle, hanging chains, redundant constraints (ch03)
@@ -16,6 +17,7 @@ submodule          systems
 """
 
 from .ode import *  # noqa: F401,F403
+from .particles import *  # noqa: F401,F403
 from .constrained import *  # noqa: F401,F403
 from .reduced import *  # noqa: F401,F403
 from .rigid import *  # noqa: F401,F403

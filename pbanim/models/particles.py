@@ -1,0 +1,3 @@
+"""Canonical models — being written."""
+
+__all__: list[str] = []
