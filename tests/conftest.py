@@ -1,6 +1,8 @@
 """Shared test set-up: hypothesis profile for CI, Agg backend, and a cache of quick figure runs."""
 
 import os
+import pickle
+from pathlib import Path
 
 import matplotlib
 import pytest
@@ -16,19 +18,47 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 _FIGURE_CACHE: dict = {}
 
 
+def _shared_dir(tmp_path_factory) -> Path:
+    """A folder shared by all xdist workers of this run (the parent of the per-worker base temp)."""
+    base = tmp_path_factory.getbasetemp()
+    root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    path = root / "figure-cache"
+    path.mkdir(exist_ok=True)
+    return path
+
+
 @pytest.fixture(scope="session")
 def figure_data(tmp_path_factory):
-    """``figure_data("ch03_bead_tension")`` → the data dict of that figure run in quick mode (cached)."""
+    """``figure_data("ch03_bead_tension")`` → the data dict of that figure run in quick mode.
+
+    Each figure runs once per test session: the result (data and written files) is pickled into a folder
+    shared by the xdist workers, so tests/test_chapters.py and the per-module tests reuse one run.
+    """
     from pbanim.plotting import load_chapters, run_figure
 
-    out = tmp_path_factory.mktemp("figures")
+    shared = _shared_dir(tmp_path_factory)
+
+    def run(key: str):
+        if key in _FIGURE_CACHE:
+            return _FIGURE_CACHE[key]
+        pkl = shared / f"{key}.pkl"
+        if pkl.exists():
+            with open(pkl, "rb") as fh:
+                _FIGURE_CACHE[key] = pickle.load(fh)
+            return _FIGURE_CACHE[key]
+        specs = load_chapters([key[:4]])
+        if key not in specs:
+            raise KeyError(f"no figure {key!r}; chapter {key[:4]} has {sorted(specs)}")
+        data, files = run_figure(specs[key], shared / "png", quick=True)
+        _FIGURE_CACHE[key] = (data, files)
+        tmp = pkl.with_suffix(f".{os.getpid()}.tmp")
+        with open(tmp, "wb") as fh:
+            pickle.dump((data, files), fh)
+        os.replace(tmp, pkl)  # atomic: another worker sees all or nothing
+        return _FIGURE_CACHE[key]
 
     def get(key: str) -> dict:
-        if key not in _FIGURE_CACHE:
-            specs = load_chapters([key[:4]])
-            if key not in specs:
-                raise KeyError(f"no figure {key!r}; chapter {key[:4]} has {sorted(specs)}")
-            _FIGURE_CACHE[key] = run_figure(specs[key], out, quick=True)
-        return _FIGURE_CACHE[key][0]
+        return run(key)[0]
 
+    get.files = lambda key: run(key)[1]  # type: ignore[attr-defined]
     return get

@@ -1,0 +1,64 @@
+"""Every chapter's figures run in quick mode, write their files, return finite data, and are checked.
+
+The physics of each figure's data is checked in the module's own test file through the ``figure_data``
+fixture (one run per session, shared); here we check what holds for every figure, and that no figure
+goes unchecked.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pbanim.plotting import FIGURES, load_chapters
+
+SPECS = load_chapters()
+TESTS = Path(__file__).parent
+
+
+def _numbers(value):
+    """Every numeric leaf of a figure's data (dicts, lists, tuples, arrays)."""
+    if isinstance(value, dict):
+        for v in value.values():
+            yield from _numbers(v)
+    elif isinstance(value, (list, tuple)):
+        for v in value:
+            yield from _numbers(v)
+    elif isinstance(value, np.ndarray) and value.dtype.kind in "fiub":
+        yield value.astype(float)
+    elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        yield np.array([float(value)])
+
+
+def test_every_chapter_has_figures():
+    chapters = {s.chapter for s in SPECS.values()}
+    assert {"ch01", "ch02"} <= chapters, f"chapters with figures: {sorted(chapters)}"
+
+
+@pytest.mark.parametrize("key", sorted(SPECS))
+def test_figure_runs_and_returns_data(key, figure_data):
+    data = figure_data(key)
+    numbers = list(_numbers(data))
+    assert numbers, f"figure {key} returned no numeric data: {sorted(data)}"
+    # a figure may show a diverged run (that is often its point) but most of its numbers are finite
+    finite = np.concatenate([n.ravel() for n in numbers])
+    assert np.isfinite(finite).mean() > 0.5, f"figure {key}: most of its data is not finite"
+    files = figure_data.files(key)
+    assert files and all(Path(f).stat().st_size > 1000 for f in files), f"figure {key} wrote {files}"
+
+
+@pytest.mark.parametrize("key", sorted(SPECS))
+def test_figure_data_is_checked_by_a_physics_test(key):
+    # each figure's returned data must be checked somewhere (figure_data("<key>") in a test file)
+    uses = [p.name for p in TESTS.glob("test_*.py") if p.name != "test_chapters.py" and f'"{key}"' in p.read_text()]
+    assert uses, f"no test checks the data of figure {key}; add figure_data({key!r}) checks to its module's test"
+
+
+def test_figures_are_deterministic(tmp_path):
+    # same code, same bytes: Agg, fixed DPI, scrubbed metadata, seeded RNG
+    from pbanim.plotting import run_figure
+
+    spec = FIGURES[sorted(SPECS)[0]]
+    _, a = run_figure(spec, tmp_path / "a", quick=True)
+    _, b = run_figure(spec, tmp_path / "b", quick=True)
+    assert [p.read_bytes() for p in a] == [p.read_bytes() for p in b]
