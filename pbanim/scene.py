@@ -29,6 +29,18 @@ The effect protocol (subclass :class:`Effect`)
 ``post_step(t, y, h) -> y``       post-step phase: impulses, projections (may return y unchanged)
 ``potential_energy(y)``           optional: V of a conservative force (summed into the scene energy)
 ``diagnostics(t, y) -> dict``     optional: per-step scalars/arrays recorded in ``SimResult.diagnostics``
+``stages() -> list``              optional: the stage effects it contributes (default: itself), e.g. a
+                                  constraint effect plus its post-step projection
+``jacobian(t, y)``                optional: ∂Q/∂x, ∂Q/∂v as a ``ForceJacobian`` (sparse, ``None`` = zero);
+                                  when every force effect has one, :meth:`Scene.jac` assembles the state
+                                  Jacobian and implicit methods use it instead of finite differences
+
+Optional fast paths (pure speed; results equal the generic path to roundoff)
+----------------------------------------------------------------------------
+A system with ``kick_drift(y, Q, h, out, lo, hi)`` (particles) lets :meth:`Scene.step` run symplectic Euler
+with one force evaluation into preallocated buffers; if moreover every force effect is ``local`` (the
+force on particle i depends on particle i only) and has ``apply_block(t, x, v, Q, lo, hi)``, the step runs
+over cache-sized blocks of particles, so its memory traffic is close to one copy of the state.
 """
 
 from __future__ import annotations
@@ -37,6 +49,8 @@ import time
 from typing import Any, Sequence
 
 import numpy as np
+
+import scipy.sparse as sp
 
 from .errors import SimulationDiverged
 from .ode import get_method
@@ -100,7 +114,9 @@ class Scene:
                 raise ValueError(f"system must implement the mechanical-system protocol; "
                                  f"{type(system).__name__} has no {attr!r}")
         self.system = system
-        self.effects = list(effects)
+        # an effect may contribute several stages (e.g. Constraints + its post-step projection)
+        self.effects = [s for e in effects
+                        for s in (e.stages() if callable(getattr(e, "stages", None)) else (e,))]
         for e in self.effects:
             if getattr(e, "phase", None) not in _PHASES:
                 raise ValueError(f"effect {e!r} has phase {getattr(e, 'phase', None)!r}; "
@@ -109,6 +125,11 @@ class Scene:
         self._force = [e for e in self.effects if e.phase == "force"]
         self._constraint = [e for e in self.effects if e.phase == "constraint"]
         self._post = [e for e in self.effects if e.phase == "post_step"]
+        # lean symplectic-Euler path (see the module docstring): buffers are allocated on first use
+        self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
+        self._blocked = self._lean and all(getattr(e, "local", False) and hasattr(e, "apply_block")
+                                           for e in self._force)
+        self._Qbuf: np.ndarray | None = None
 
     @property
     def pipeline(self) -> tuple[str, ...]:
@@ -132,7 +153,8 @@ class Scene:
 
     # -- diagnostics ----------------------------------------------------------------------------
     def potential_energy(self, y: np.ndarray) -> float:
-        return float(sum(e.potential_energy(y) for e in self.effects if hasattr(e, "potential_energy")))
+        return float(sum(e.potential_energy(y) for e in self.effects
+                         if callable(getattr(e, "potential_energy", None))))
 
     def energy(self, y: np.ndarray) -> float:
         """Total energy T + ΣV over the effects that have a potential."""
@@ -148,17 +170,90 @@ class Scene:
         if hasattr(sysm, "angular_momentum"):
             d["angular_momentum"] = np.asarray(sysm.angular_momentum(y), dtype=float)
         for e in self.effects:
-            if hasattr(e, "diagnostics"):
+            if callable(getattr(e, "diagnostics", None)):
                 d.update(e.diagnostics(t, y))
         return d
+
+    # -- Jacobian -------------------------------------------------------------------------------
+    @property
+    def has_jacobian(self) -> bool:
+        """True when every force effect provides ``jacobian`` (and no constraint effect is declared)."""
+        return (hasattr(self.system, "W") and hasattr(self.system, "dim") and not self._constraint
+                and all(callable(getattr(e, "jacobian", None)) for e in self._force))
+
+    def jac(self, t: float, y: np.ndarray) -> sp.csr_matrix:
+        """Sparse state Jacobian ∂(dy/dt)/∂y = [[0, I], [W ∂Q/∂x, W ∂Q/∂v]] from the effects' Jacobians.
+
+        Raises ValueError if some force effect has no ``jacobian`` (see :attr:`has_jacobian`).
+
+        Examples
+        --------
+        >>> from pbanim.particles import ParticleSystem, Drag
+        >>> ps = ParticleSystem([[0.0, 0.0]], masses=2.0)
+        >>> Scene(ps, [Drag(4.0)]).jac(0.0, ps.state()).toarray()
+        array([[ 0.,  0.,  1.,  0.],
+               [ 0.,  0.,  0.,  1.],
+               [ 0.,  0., -2.,  0.],
+               [ 0.,  0.,  0., -2.]])
+        """
+        if not self.has_jacobian:
+            missing = [e.name for e in self._force if not callable(getattr(e, "jacobian", None))]
+            raise ValueError(f"scene has no analytic Jacobian: effects {missing or [e.name for e in self._constraint]} "
+                             f"provide none; implicit methods then use finite differences")
+        n = self.system.split
+        Kx = sp.csr_matrix((n, n))
+        Kv = sp.csr_matrix((n, n))
+        for e in self._force:
+            fj = e.jacobian(t, y)
+            if fj.dQdx is not None:
+                Kx = Kx + fj.dQdx
+            if fj.dQdv is not None:
+                Kv = Kv + fj.dQdv
+        Wd = sp.diags(np.repeat(self.system.W, self.system.dim))
+        return sp.bmat([[None, sp.eye(n)], [Wd @ Kx, Wd @ Kv]], format="csr")
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
         """One step of the pipeline: integrate the continuous part, then the post-step stages."""
-        y = get_method(method).step(self.rhs, t, y, h, split=self.system.split)
+        if method == "symplectic_euler" and self._lean:
+            y = self._lean_step(t, y, h)
+        else:
+            m = get_method(method)
+            jac = self.jac if (m.implicit and self.has_jacobian) else None
+            y = m.step(self.rhs, t, y, h, split=self.system.split, jac=jac)
         for e in self._post:
             y = e.post_step(t + h, y, h)
         return y
+
+    _BLOCK = 8192  # particles per block of the blocked lean path (a few 100 kB per array: stays in cache)
+
+    def _lean_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        """Symplectic Euler with one force evaluation into preallocated buffers (see module docstring)."""
+        sysm = self.system
+        N, dim = sysm.N, sysm.dim
+        out = np.empty_like(y)
+        if not self._blocked:
+            if self._Qbuf is None or self._Qbuf.shape != (N, dim):
+                self._Qbuf = sysm.zero_forces()
+            Q = self._Qbuf
+            Q.fill(0.0)
+            for e in self._force:
+                e.apply(t, y, Q)
+            return sysm.kick_drift(y, Q, h, out, 0, N)
+        B = min(N, self._BLOCK)
+        if self._Qbuf is None or self._Qbuf.shape != (B, dim):
+            self._Qbuf = np.zeros((B, dim))
+        s = sysm.split
+        for lo in range(0, N, B):
+            hi = min(N, lo + B)
+            Q = self._Qbuf[: hi - lo]
+            Q.fill(0.0)
+            x = y[lo * dim: hi * dim].reshape(hi - lo, dim)
+            v = y[s + lo * dim: s + hi * dim].reshape(hi - lo, dim)
+            for e in self._force:
+                e.apply_block(t, x, v, Q, lo, hi)
+            sysm.kick_drift(y, Q, h, out, lo, hi)
+        return out
 
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
                  y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
@@ -186,11 +281,17 @@ class Scene:
         if record_every < 1:
             raise ValueError(f"record_every must be a positive integer, got {record_every}")
         m = get_method(method)
+        lean = method == "symplectic_euler" and self._lean
+        jac_fn = None
+        if m.implicit and self.has_jacobian:
+            def jac_fn(t, yy):
+                counter[1] += 1
+                return self.jac(t, yy)
         n_steps = max(1, int(round((t_end - t0) / h)))
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
-        counter = [0]
+        counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations
 
         def fun(t, yy):
             counter[0] += 1
@@ -200,7 +301,11 @@ class Scene:
         start = time.perf_counter()
         t = t0
         for k in range(n_steps):
-            y = m.step(fun, t, y, h, split=split)
+            if lean:
+                counter[0] += 1
+                y = self._lean_step(t, y, h)
+            else:
+                y = m.step(fun, t, y, h, split=split, jac=jac_fn)
             for e in self._post:
                 y = e.post_step(t + h, y, h)
             t = t0 + (k + 1) * h
@@ -213,5 +318,5 @@ class Scene:
                     diags.append(self.diagnostics(t, y))
         wall = time.perf_counter() - start
         diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
-        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], status=0, wall_time=wall,
+        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
                          method=method, nsteps=n_steps, diagnostics=diag_arrays)

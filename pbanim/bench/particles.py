@@ -1,0 +1,130 @@
+"""``pbanim bench particles``: the cost of a scene step, against what numpy and the memory allow (ch01).
+
+Measured in one run, so both sides of every ratio share the machine's load:
+
+1. One :meth:`pbanim.scene.Scene.step` (symplectic Euler, gravity + drag, 3-D, random masses) at
+   N = 10³ … 10⁶ against a hand-written numpy step doing the same arithmetic on separate x, v arrays
+   (F = m g − k_d v; v₁ = v + h W F; x₁ = x + h v₁), and against the memory-bandwidth bound: one
+   ``np.copyto`` of the state into a preallocated array (read y once, write it once) — no step can
+   return a new state faster.
+2. Damped springs (S = 10⁵ random pairs among N = 2·10⁴ particles, 3-D): pbanim's force accumulation
+   (:meth:`DampedSprings.apply`, scatter by ``np.bincount``) against the same spring forces scattered by
+   the scipy.sparse incidence product Q = Bᵀ f, and ``np.add.at`` for reference.
+
+Goals (issue 2, point 4): step ≤ 1.2× the numpy step at every N; ≤ 2.5× the copy at N = 10⁶;
+springs ≤ 1.5× the sparse scatter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Goal, Report, Table, median_time
+
+__all__ = ["run"]
+
+
+def _gravity_drag(N: int, rng: np.random.Generator):
+    from ..particles import Drag, Gravity, ParticleSystem
+    from ..scene import Scene
+
+    ps = ParticleSystem(rng.normal(size=(N, 3)), rng.normal(size=(N, 3)), rng.uniform(0.5, 2.0, N))
+    return ps, Scene(ps, [Gravity(), Drag(0.3)])
+
+
+def step_table(sizes, repeats: int, rng: np.random.Generator):
+    """Rows (N, scene, numpy, copy, ratios) for one gravity + drag step."""
+    h, kd = 1e-3, 0.3
+    rows = []
+    for N in sizes:
+        ps, scene = _gravity_drag(N, rng)
+        y = ps.state()
+        s = ps.split
+        x, v = y[:s].reshape(N, 3).copy(), y[s:].reshape(N, 3).copy()
+        mg = ps.m[:, None] * np.array([0.0, 0.0, -9.81])
+        W = ps.W[:, None]
+
+        def numpy_step():
+            F = mg - kd * v
+            v1 = v + h * (F * W)
+            x1 = x + h * v1
+            return x1, v1
+
+        buf = np.empty_like(y)
+        # agreement first: the two steps compute the same state
+        x1, v1 = numpy_step()
+        y1 = scene.step(0.0, y, h)
+        err = float(np.max(np.abs(y1 - np.concatenate([x1.ravel(), v1.ravel()]))))
+        min_time = 0.05 if N < 10**5 else 0.0
+        t_scene = median_time(lambda: scene.step(0.0, y, h), repeats, min_time)
+        t_numpy = median_time(numpy_step, repeats, min_time)
+        t_copy = median_time(lambda: np.copyto(buf, y), repeats, min_time)
+        rows.append([N, t_scene, t_numpy, t_copy, t_scene / t_numpy, t_scene / t_copy, err])
+    return rows
+
+
+def spring_table(S: int, N: int, repeats: int, rng: np.random.Generator):
+    from ..particles import DampedSprings, ParticleSystem
+    from ..scene import Scene
+
+    ps = ParticleSystem(rng.normal(size=(N, 3)), rng.normal(size=(N, 3)), 1.0)
+    pairs = rng.integers(0, N, size=(S, 2))
+    pairs[:, 1] = (pairs[:, 0] + 1 + rng.integers(0, N - 1, size=S)) % N      # a ≠ b
+    springs = DampedSprings(pairs, stiffness=100.0, damping=0.5)
+    Scene(ps, [springs])  # binds
+    y = ps.state()
+    Q = ps.zero_forces()
+    BT = springs.incidence().T.tocsr()
+
+    def pbanim_apply():
+        Q.fill(0.0)
+        springs.apply(0.0, y, Q)
+
+    def sparse_apply():
+        Q.fill(0.0)
+        np.add(Q, BT @ springs.spring_forces(y), out=Q)
+
+    def add_at_apply():
+        Q.fill(0.0)
+        springs.apply_add_at(0.0, y, Q)
+
+    def forces_only():
+        springs.spring_forces(y)
+
+    pbanim_apply()
+    Qa = Q.copy()
+    sparse_apply()
+    err = float(np.max(np.abs(Q - Qa)))
+    t_p = median_time(pbanim_apply, repeats, 0.05)
+    t_s = median_time(sparse_apply, repeats, 0.05)
+    t_a = median_time(add_at_apply, repeats, 0.05)
+    t_f = median_time(forces_only, repeats, 0.05)
+    return [["pbanim (bincount scatter)", t_p, t_p / t_s, err], ["scipy.sparse Bᵀf", t_s, 1.0, 0.0],
+            ["np.add.at", t_a, t_a / t_s, 0.0], ["spring forces f only (no scatter)", t_f, t_f / t_s, 0.0]], t_p / t_s
+
+
+def run(quick: bool = False) -> Report:
+    """Run the particle benchmarks (``quick``: N ≤ 10⁵ and fewer springs, for the test suite's smoke run)."""
+    rng = np.random.default_rng(1)
+    sizes = [10**3, 10**4, 10**5] if quick else [10**3, 10**4, 10**5, 10**6]
+    repeats = 3 if quick else 7
+    rows = step_table(sizes, repeats, rng)
+    rep = Report("particles")
+    rep.tables.append(Table("one scene step, gravity + drag (symplectic Euler, 3-D), median seconds",
+                            ["N", "scene.step", "numpy step", "copy of y", "scene/numpy", "scene/copy",
+                             "max |Δy|"], rows))
+    S, Ns = (10**4, 2000) if quick else (10**5, 2 * 10**4)
+    srows, ratio = spring_table(S, Ns, repeats, rng)
+    rep.tables.append(Table(f"damped springs: force accumulation, S = {S} springs, N = {Ns}, median seconds",
+                            ["variant", "time", "/ sparse", "max |ΔQ|"], srows))
+    for r in rows:
+        rep.goals.append(Goal(f"particles-step-vs-numpy-N{r[0]:.0e}".replace("+0", ""), r[4], 1.2, "<=", "x",
+                              "scene.step / hand-written numpy step"))
+    big = rows[-1]
+    rep.goals.append(Goal("particles-step-vs-bandwidth", big[5], 2.5, "<=", "x",
+                          f"scene.step / copy of the state at N = {big[0]:.0e}"
+                          + ("" if big[0] == 10**6 else " (quick mode; the goal is at N = 1e6)")))
+    rep.goals.append(Goal("particles-springs-vs-sparse", ratio, 1.5, "<=", "x",
+                          f"DampedSprings.apply / sparse incidence scatter at S = {S}"))
+    rep.notes.append("ratios < 1 are faster than the baseline; all timings share one run")
+    return rep

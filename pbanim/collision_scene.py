@@ -1,0 +1,401 @@
+"""Collisions in scenes: the post-step effect and the time-of-impact driver (chapter 06).
+
+:class:`Collisions` is a post-step effect for particle scenes (``ParticleSystem``: point particles or
+spheres of a given radius) and rigid scenes (``RigidBodies`` with one shape per body). After each step it
+detects contacts, applies impulses (:func:`pbanim.collision_impulse.resolve_collisions`) and projects the
+remaining penetration away (each body moved along the normal of its deepest contact, shared by inverse
+mass). That is *fixed-step detection*: the collision is noticed after the step, when the bodies already
+overlap, so the impact happens up to h late.
+
+:func:`simulate_collisions` chooses the time of impact by name:
+
+``toi="fixed"``  the plain step and the post-step effect (what ``Scene.simulate`` does);
+``toi="event"``  the signed distances g(y) of the pairs that are apart at the step's start are an event
+                 of :func:`pbanim.solve` (terminal, direction −1, bracketing root finder): the step is
+                 split at g = 0, the impulse applied there, and the solver restarted for the rest of the
+                 step. Contacts that start the step touching (resting ones) go to the post-step effect.
+
+Signed distances are exact for sphere/particle–plane, sphere–sphere and box/capsule–plane (vertices and
+end spheres); box–box and capsule–sphere pairs are handled by the post-step detection only.
+
+Restitution threshold (ORACLES D10): a contact approaching slower than ``rest_velocity`` gets ε = 0.
+Gravity adds g·h of approach speed per step to a body lying on the ground, so a threshold below g·h
+bounces a resting body every step (jitter); the default ``rest_velocity = 3·g·h`` (``gravity`` = 9.81
+m/s² unless given) stops it: a resting body never rises.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any, Sequence
+
+import numpy as np
+
+from .collision_broad import grid_pairs
+from .collision_impulse import ImpulseBodies, ImpulseResult, resolve_collisions
+from .collision_narrow import collide, sphere_plane, sphere_sphere
+from .collision_shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
+from .ode import get_method
+from .results import SimResult
+from .scene import Effect, check_finite
+
+__all__ = ["Collisions", "simulate_collisions"]
+
+
+class Collisions(Effect):
+    """Post-step collision response (detection → impulses → projection) for particle and rigid scenes.
+
+    Parameters
+    ----------
+    shapes : Shape or sequence of Shape, optional
+        Rigid scenes: one ``Sphere``/``Box``/``Capsule`` per body (or one for all).
+    obstacles : sequence
+        Static world geometry: ``Plane`` objects, or ``(Sphere, centre)`` pairs.
+    radius : float or (N,) array
+        Particle scenes: particle radii (0 = points, which only meet obstacles).
+    restitution, friction : float
+        ε ∈ [0, 1] and μ ≥ 0.
+    mode : {"sequential", "simultaneous"}
+        See :mod:`pbanim.collision_impulse`.
+    rest_velocity : float, optional
+        Restitution threshold (m/s); default 3·gravity·h at each step.
+    project : bool
+        Remove the remaining penetration after the impulses (default True).
+
+    Examples
+    --------
+    >>> from pbanim.particles import ParticleSystem, Gravity
+    >>> from pbanim.scene import Scene
+    >>> ps = ParticleSystem([[0.0, 1.0]], [[0.0, 0.0]])
+    >>> scene = Scene(ps, [Gravity(), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
+    >>> scene.pipeline
+    ('gravity', 'integrate', 'collisions')
+    >>> y = scene.simulate(2.0, 1e-3).y[:, -1]
+    >>> bool(abs(y[1]) < 1e-12 and y[3] == 0.0)       # at rest on the ground
+    True
+    """
+
+    name = "collisions"
+    phase = "post_step"
+
+    def __init__(self, shapes=None, obstacles: Sequence = (), radius=0.0, restitution: float = 1.0,
+                 friction: float = 0.0, mode: str = "sequential", rest_velocity: float | None = None,
+                 gravity: float = 9.81, project: bool = True, max_iter: int = 1000) -> None:
+        self.restitution = check_restitution(restitution)
+        self.friction = check_friction(friction)
+        if mode not in ("sequential", "simultaneous"):
+            raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
+        if rest_velocity is not None and not (np.isfinite(rest_velocity) and rest_velocity >= 0):
+            raise ValueError(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
+        self.mode, self.rest_velocity, self.gravity = mode, rest_velocity, float(gravity)
+        self.project, self.max_iter = bool(project), int(max_iter)
+        self.planes, self.spheres = [], []
+        for ob in obstacles:
+            if isinstance(ob, Plane):
+                self.planes.append(ob)
+            elif isinstance(ob, tuple) and len(ob) == 2 and isinstance(ob[0], Sphere):
+                self.spheres.append((ob[0], np.append(np.asarray(ob[1], float), [0.0] * (3 - len(ob[1])))))
+            else:
+                raise ValueError(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
+        self.shapes_in, self.radius_in = shapes, radius
+        self.log: list[dict] = []
+        self.last: ImpulseResult | None = None
+
+    # -- binding ------------------------------------------------------------------------------------
+    def bind(self, system) -> None:
+        self.system = system
+        self.rigid = hasattr(system, "inv_I_body")
+        N = system.N
+        if self.rigid:
+            sh = self.shapes_in
+            sh = [sh] * N if not isinstance(sh, (list, tuple)) else list(sh)
+            if len(sh) != N or not all(isinstance(s, (Sphere, Box, Capsule)) for s in sh):
+                raise ValueError(f"shapes must be one Sphere/Box/Capsule per body ({N} bodies), got {self.shapes_in!r}")
+            self.shapes = sh
+            self.radius = np.array([s.radius if isinstance(s, (Sphere, Capsule)) else 0.0 for s in sh])
+            self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
+            self.inv_mass = system.inv_mass
+        else:
+            r = np.broadcast_to(np.asarray(self.radius_in, float), (N,)).copy()
+            if not np.all(np.isfinite(r)) or np.any(r < 0):
+                raise ValueError(f"radius must be >= 0 for every particle, got {self.radius_in}")
+            self.radius, self.is_sphere, self.dim = r, r > 0, system.dim
+            self.inv_mass = system.W
+
+    # -- state access ---------------------------------------------------------------------------
+    def _poses(self, y):
+        if self.rigid:
+            x = self.system.unpack(y)[0]
+            return x, self.system.rotations(y)
+        x = self.system.unpack(y)[0]
+        x3 = np.zeros((self.system.N, 3))
+        x3[:, : self.dim] = x
+        return x3, None
+
+    def bodies(self, y) -> ImpulseBodies:
+        """The bodies' velocities and inverse masses at y, with the world row (for the impulse solver)."""
+        x, _ = self._poses(y)
+        if self.rigid:
+            v, w = self.system.velocities(y)
+            return ImpulseBodies.make(x, v, self.system.inv_mass, w, self.system.inv_inertia_world(y))
+        v3 = np.zeros((self.system.N, 3))
+        v3[:, : self.dim] = self.system.unpack(y)[1]
+        return ImpulseBodies.make(x, v3, self.system.W)
+
+    # -- detection ------------------------------------------------------------------------------
+    def contacts(self, y, margin: float = 0.0) -> Contacts:
+        """All contacts at state y (bodies against obstacles and against each other)."""
+        x, R = self._poses(y)
+        N = len(x)
+        parts = []
+        sph = np.flatnonzero(self.is_sphere) if self.rigid else np.arange(N)
+        for pl in self.planes:
+            parts.append(sphere_plane(x[sph], self.radius[sph], pl, a=sph, margin=margin))
+            if self.rigid:
+                for i in np.flatnonzero(~self.is_sphere):
+                    parts.append(collide(self.shapes[i], x[i], R[i], pl, None, None, i, -1, margin))
+        for shape, centre in self.spheres:
+            if not self.rigid:
+                parts.append(sphere_sphere(x, self.radius, centre, shape.radius, np.arange(N), -1, margin))
+                continue
+            for i in range(N):
+                parts.append(collide(self.shapes[i], x[i], R[i], shape, centre, np.eye(3), i, -1, margin))
+        parts.append(self._pair_contacts(x, R, margin))
+        return Contacts.concatenate(parts)
+
+    def _pairs(self, x, margin):
+        """Broad phase on bounding spheres (uniform grid)."""
+        if self.rigid:
+            bound = np.array([s.radius if isinstance(s, Sphere) else
+                              (s.radius + s.half_length if isinstance(s, Capsule) else np.linalg.norm(s.half_extents))
+                              for s in self.shapes])
+            bound = np.where(self.inv_mass > 0, bound, bound)  # static bodies keep their bounds
+        else:
+            bound = self.radius
+        if len(x) < 2 or not np.any(bound > 0):
+            return np.zeros((0, 2), np.intp)
+        return grid_pairs(x, bound, margin=margin).pairs
+
+    def _pair_contacts(self, x, R, margin) -> Contacts:
+        pairs = self._pairs(x, margin)
+        if not len(pairs):
+            return Contacts.empty()
+        i, j = pairs[:, 1], pairs[:, 0]
+        if not self.rigid:
+            keep = (self.radius[i] > 0) & (self.radius[j] > 0)
+            return sphere_sphere(x[i[keep]], self.radius[i[keep]], x[j[keep]], self.radius[j[keep]], i[keep], j[keep], margin)
+        both = self.is_sphere[i] & self.is_sphere[j]
+        parts = [sphere_sphere(x[i[both]], self.radius[i[both]], x[j[both]], self.radius[j[both]], i[both], j[both], margin)]
+        for a, b in zip(i[~both], j[~both]):
+            if (self.inv_mass[a] == 0 and self.inv_mass[b] == 0):
+                continue
+            parts.append(collide(self.shapes[a], x[a], R[a], self.shapes[b], x[b], R[b], a, b, margin))
+        return Contacts.concatenate(parts)
+
+    def gaps(self, y, pairs=None) -> np.ndarray:
+        """Signed distances (> 0 apart) of every body–plane feature and of ``pairs`` of spheres."""
+        x, R = self._poses(y)
+        out = []
+        for pl in self.planes:
+            if self.rigid:
+                for i, s in enumerate(self.shapes):
+                    if isinstance(s, Box):
+                        out.append(pl.distance(x[i] + (R[i] @ s.vertices().T).T))
+                    elif isinstance(s, Capsule):
+                        ends = x[i] + np.outer([-s.half_length, s.half_length], R[i][:, 2])
+                        out.append(pl.distance(ends) - s.radius)
+                    else:
+                        out.append(pl.distance(x[i:i + 1]) - s.radius)
+            else:
+                out.append(pl.distance(x) - self.radius)
+        if not self.rigid:
+            for shape, centre in self.spheres:
+                out.append(np.linalg.norm(x - centre, axis=1) - self.radius - shape.radius)
+        if pairs is not None and len(pairs):
+            d = x[pairs[:, 0]] - x[pairs[:, 1]]
+            out.append(np.linalg.norm(d, axis=1) - self.radius[pairs[:, 0]] - self.radius[pairs[:, 1]])
+        return np.concatenate(out) if out else np.zeros(0)
+
+    def sphere_pairs(self, y, margin: float) -> np.ndarray:
+        """Candidate sphere pairs (both spheres) within ``margin`` — the pairs whose gap is an event."""
+        x, _ = self._poses(y)
+        p = self._pairs(x, margin)
+        if len(p):
+            p = p[self.is_sphere[p[:, 0]] & self.is_sphere[p[:, 1]]]
+        return p
+
+    # -- response -------------------------------------------------------------------------------
+    def respond(self, t: float, y: np.ndarray, h: float, margin: float = 0.0) -> np.ndarray:
+        """Impulses for the contacts at y (and projection of the penetration); returns the new state."""
+        c = self.contacts(y, margin)
+        if c.m == 0:
+            self.last = None
+            return y
+        bodies = self.bodies(y)
+        rest = self.rest_velocity if self.rest_velocity is not None else 3.0 * self.gravity * h
+        vn_before = np.einsum("ij,ij->i", bodies.v[c.a] - bodies.v[c.b], c.normal)
+        res = resolve_collisions(bodies, c, self.restitution, self.friction, self.mode, rest, self.max_iter)
+        self.last = res
+        if np.any(res.normal_impulse > 0):
+            self.log.append({"t": t, "contacts": c.m, "impulse": float(res.normal_impulse.sum()),
+                             "vn_min": float(vn_before.min())})
+        y = self._apply(y, c, res.impulse)
+        if self.project:
+            y = self._project(y, c)
+        return y
+
+    def _apply(self, y, c: Contacts, J) -> np.ndarray:
+        if self.rigid:
+            idx = np.concatenate([c.a, c.b])
+            return self.system.apply_impulses(y, idx, np.concatenate([c.point, c.point]), np.concatenate([J, -J]))
+        y = np.array(y, dtype=float, copy=True)
+        N, dim = self.system.N, self.dim
+        dv = np.zeros((N + 1, 3))
+        W = np.append(self.system.W, 0.0)
+        np.add.at(dv, c.a, W[c.a, None] * J)
+        np.add.at(dv, c.b, -W[c.b, None] * J)
+        y[self.system.split:] += dv[:N, :dim].ravel()
+        return y
+
+    def _project(self, y, c: Contacts) -> np.ndarray:
+        """Move each body along the normal of its deepest contact by its inverse-mass share of the depth."""
+        deep = c.depth > 0
+        if not deep.any():
+            return y
+        c = c.select(deep)
+        W = np.append(self.inv_mass, 0.0)
+        wsum = W[c.a] + W[c.b]
+        share = np.where(wsum > 0, c.depth / np.where(wsum > 0, wsum, 1.0), 0.0)
+        N = len(self.inv_mass)
+        best = np.zeros(N + 1)
+        dx = np.zeros((N + 1, 3))
+        for idx, sign in ((c.a, 1.0), (c.b, -1.0)):
+            move = share * W[idx]
+            for k in np.flatnonzero(move > 0):      # keep the largest correction per body
+                if move[k] > best[idx[k]]:
+                    best[idx[k]] = move[k]
+                    dx[idx[k]] = sign * move[k] * c.normal[k]
+        y = np.array(y, dtype=float, copy=True)
+        if self.rigid:
+            self.system.unpack(y)[0][...] += dx[:N]
+        else:
+            self.system.unpack(y)[0][...] += dx[:N, : self.dim]
+        return y
+
+    def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        return self.respond(t, y, h)
+
+    def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
+        res = self.last
+        return {"contacts": 0 if res is None else len(res.normal_impulse),
+                "collision_impulse": 0.0 if res is None else float(res.normal_impulse.sum())}
+
+
+def _solve_segment(fun, t0, y0, t1, method, events, split):
+    """One (partial) step from t0 to t1 with terminal events; pbanim.solve when it has events."""
+    from . import ode
+
+    solve = getattr(ode, "solve", None)
+    if solve is not None:
+        res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
+        if res.status == 1 and res.t_events is not None and len(res.t_events[0]):
+            return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
+        return t1, np.asarray(res.y[:, -1]), False
+    # fallback while pbanim.solve is being written: bracket the sign change and bisect (Brent)
+    from scipy.optimize import brentq
+
+    step = get_method(method).step
+    y1 = step(fun, t0, y0, t1 - t0, split=split)
+    g0, g1 = events[0](t0, y0), events[0](t1, y1)
+    if not (g0 > 0 and g1 <= 0):
+        return t1, y1, False
+    tc = brentq(lambda s: events[0](t0 + s, step(fun, t0, y0, s, split=split)), 0.0, t1 - t0,
+                xtol=1e-15, rtol=1e-15)
+    return t0 + tc, step(fun, t0, y0, tc, split=split), True
+
+
+def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi: str = "event", *,
+                        t0: float = 0.0, y0: np.ndarray | None = None, record_every: int = 1,
+                        max_events_per_step: int = 100, gap_tol: float = 1e-12) -> SimResult:
+    """Simulate a scene holding one :class:`Collisions` effect, with the time of impact chosen by ``toi``.
+
+    Returns a :class:`~pbanim.results.SimResult` whose ``t_events[0]`` are the located impact times and
+    ``y_events[0]`` the states just after the impulses (``toi="event"``), and ``diagnostics`` as in
+    ``Scene.simulate``.
+
+    >>> from pbanim.particles import ParticleSystem, Gravity
+    >>> from pbanim.scene import Scene
+    >>> ps = ParticleSystem([[0.0, 1.0]])
+    >>> scene = Scene(ps, [Gravity([0, -10.0]), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
+    >>> res = simulate_collisions(scene, 0.6, 0.01, toi="event")
+    >>> round(float(res.t_events[0][0]), 12) == round(np.sqrt(0.2), 12)    # √(2h₀/g)
+    True
+    """
+    if toi not in ("event", "fixed"):
+        raise ValueError(f"toi must be 'event' or 'fixed', got {toi!r}")
+    h = float(h)
+    if not np.isfinite(h) or h <= 0:
+        raise ValueError(f"h must be a positive finite step, got {h}")
+    if not np.isfinite(t_end) or t_end <= t0:
+        raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
+    coll = [e for e in scene.effects if isinstance(e, Collisions)]
+    if len(coll) != 1:
+        raise ValueError(f"scene must hold exactly one Collisions effect, found {len(coll)}")
+    col = coll[0]
+    others = [e for e in scene.effects if e.phase == "post_step" and e is not col]
+    m = get_method(method)
+    split = scene.system.split
+    n_steps = max(1, int(round((t_end - t0) / h)))
+    y = np.array(scene.system.state() if y0 is None else y0, dtype=float, copy=True)
+    check_finite(y, t0, 0, "initial state")
+    ts, ys, diags = [t0], [y.copy()], [scene.diagnostics(t0, y)]
+    impact_t, impact_y = [], []
+    nfev = [0]
+
+    def fun(t, yy):
+        nfev[0] += 1
+        return scene.rhs(t, yy)
+
+    start = time.perf_counter()
+    for k in range(n_steps):
+        t, t1 = t0 + k * h, t0 + (k + 1) * h
+        if toi == "fixed":
+            y = m.step(fun, t, y, h, split=split)
+        else:
+            for _ in range(max_events_per_step):
+                vmax = float(np.abs(y[split:]).max()) if y.size > split else 0.0
+                pairs = col.sphere_pairs(y, margin=2 * (vmax + col.gravity * h) * h + gap_tol)
+                g = col.gaps(y, pairs)
+                active = g > gap_tol
+                if not active.any():
+                    y = m.step(fun, t, y, t1 - t, split=split)
+                    break
+
+                def event(tt, yy, active=active, pairs=pairs):
+                    return float(np.min(col.gaps(yy, pairs)[active]))
+
+                event.terminal, event.direction = True, -1
+                tc, yc, hit = _solve_segment(fun, t, y, t1, method, [event], split)
+                if not hit:
+                    y = yc
+                    break
+                g_c = abs(event(tc, yc))
+                y = col.respond(tc, yc, h, margin=max(10 * gap_tol, 2 * g_c))
+                impact_t.append(tc)
+                impact_y.append(y.copy())
+                t = tc
+                if t1 - t <= 1e-14 * max(1.0, abs(t1)):
+                    break
+        for e in others:
+            y = e.post_step(t1, y, h)
+        y = col.respond(t1, y, h)
+        check_finite(y, t1 - h, k)
+        if (k + 1) % record_every == 0 or k + 1 == n_steps:
+            ts.append(t1)
+            ys.append(y.copy())
+            diags.append(scene.diagnostics(t1, y))
+    wall = time.perf_counter() - start
+    diag_arrays = {key: np.array([d[key] for d in diags]) for key in diags[0]}
+    return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], status=0, wall_time=wall,
+                     method=f"{method}+{toi}", nsteps=n_steps, diagnostics=diag_arrays,
+                     t_events=[np.array(impact_t)], y_events=[np.array(impact_y).reshape(len(impact_t), -1)])

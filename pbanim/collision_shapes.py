@@ -1,0 +1,235 @@
+"""Collision shapes and the ``Contacts`` record (chapter 06, part of :mod:`pbanim.collision`).
+
+A shape is geometry in its body frame; the pose (centre x, rotation R) comes from the body. A contact
+between bodies a and b is (point p, unit normal n pointing from b towards a, penetration depth ≥ 0):
+body a moves along +n to separate, and the relative normal velocity
+
+    v_rel = n·(ṗ_a − ṗ_b),     ṗ = v + ω × (p − x)
+
+is negative when the bodies approach. Index −1 is the static world (planes and fixed obstacles).
+
+=================  ===========  ==========  ==================================================
+symbol             code         shape       meaning
+=================  ===========  ==========  ==================================================
+a, b               ``a, b``     (m,) int    body indices (−1 = the static world)
+p                  ``point``    (m, 3)      contact point, midway between the two surfaces
+n                  ``normal``   (m, 3)      unit normal, from b towards a
+d                  ``depth``    (m,)        penetration depth (≥ 0; 0 = touching)
+=================  ===========  ==========  ==================================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+__all__ = ["Contacts", "Plane", "Sphere", "Box", "Capsule", "check_restitution", "check_friction"]
+
+
+@dataclass
+class Contacts:
+    """Struct of arrays of m contacts (the interface every contact solver codes against).
+
+    Attributes
+    ----------
+    a, b : ndarray of int, shape (m,)
+        The two bodies; −1 is the static world. ``a`` moves along +``normal`` to separate.
+    point : ndarray, shape (m, 3)
+    normal : ndarray, shape (m, 3)
+        Unit normals pointing from b towards a.
+    depth : ndarray, shape (m,)
+        Penetration depths ≥ 0.
+
+    Examples
+    --------
+    >>> c = Contacts(a=[0], b=[-1], point=[[0, 0, 0]], normal=[[0, 0, 1]], depth=[0.01])
+    >>> c.m, c.normal.shape
+    (1, (1, 3))
+    >>> Contacts.concatenate([c, Contacts.empty()]).m
+    1
+    """
+
+    a: np.ndarray
+    b: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    depth: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.a = np.asarray(self.a, dtype=np.intp).reshape(-1)
+        self.b = np.asarray(self.b, dtype=np.intp).reshape(-1)
+        self.point = np.asarray(self.point, dtype=float).reshape(-1, 3)
+        self.normal = np.asarray(self.normal, dtype=float).reshape(-1, 3)
+        self.depth = np.asarray(self.depth, dtype=float).reshape(-1)
+        m = self.a.size
+        if not (self.b.size == m and len(self.point) == m and len(self.normal) == m and self.depth.size == m):
+            raise ValueError(f"Contacts fields must all have m = {m} rows, got b {self.b.shape}, point "
+                             f"{self.point.shape}, normal {self.normal.shape}, depth {self.depth.shape}")
+
+    @property
+    def m(self) -> int:
+        """Number of contacts."""
+        return int(self.a.size)
+
+    def __len__(self) -> int:
+        return self.m
+
+    @classmethod
+    def empty(cls) -> "Contacts":
+        return cls(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+
+    @classmethod
+    def concatenate(cls, parts: Iterable["Contacts"]) -> "Contacts":
+        parts = [p for p in parts if p.m]
+        if not parts:
+            return cls.empty()
+        return cls(np.concatenate([p.a for p in parts]), np.concatenate([p.b for p in parts]),
+                   np.concatenate([p.point for p in parts]), np.concatenate([p.normal for p in parts]),
+                   np.concatenate([p.depth for p in parts]))
+
+    def select(self, mask) -> "Contacts":
+        """The contacts where ``mask`` (bool array or index array) holds."""
+        return Contacts(self.a[mask], self.b[mask], self.point[mask], self.normal[mask], self.depth[mask])
+
+
+def _positive(name: str, value, fix: str) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name} must be positive and finite, got {value}; {fix}")
+    return v
+
+
+def check_restitution(restitution) -> float:
+    """Validate ε ∈ [0, 1] (ORACLES G3).
+
+    >>> check_restitution(1.5)
+    Traceback (most recent call last):
+    ...
+    ValueError: restitution must lie in [0, 1], got 1.5; use 0 for a plastic and 1 for an elastic impact
+    """
+    e = float(restitution)
+    if not (0.0 <= e <= 1.0):
+        raise ValueError(f"restitution must lie in [0, 1], got {restitution}; use 0 for a plastic and 1 "
+                         "for an elastic impact")
+    return e
+
+
+def check_friction(friction) -> float:
+    """Validate the Coulomb coefficient μ ≥ 0 (ORACLES G3)."""
+    mu = float(friction)
+    if not (np.isfinite(mu) and mu >= 0.0):
+        raise ValueError(f"friction must be a finite coefficient >= 0, got {friction}; use 0 for smooth contact")
+    return mu
+
+
+class Plane:
+    """Static half-space boundary {p : n·p = offset}; the free side is n·p > offset.
+
+    >>> Plane([0, 0, 2.0]).normal, Plane([0, 0, 1], offset=1.0).distance([[0, 0, 3.0]])
+    (array([0., 0., 1.]), array([2.]))
+    """
+
+    static = True
+
+    def __init__(self, normal=(0.0, 0.0, 1.0), offset: float = 0.0) -> None:
+        n = np.asarray(normal, dtype=float).reshape(-1)
+        if n.size == 2:
+            n = np.array([n[0], n[1], 0.0])
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
+            raise ValueError(f"plane normal must be a finite nonzero 2- or 3-vector, got {normal}")
+        self.normal = n / np.linalg.norm(n)
+        self.offset = float(offset)
+        if not np.isfinite(self.offset):
+            raise ValueError(f"plane offset must be finite, got {offset}")
+
+    def distance(self, points) -> np.ndarray:
+        """Signed distance n·p − offset of points (k, 3) (or (k, 2), padded with z = 0)."""
+        p = _as3(points)
+        return p @ self.normal - self.offset
+
+    def __repr__(self) -> str:
+        return f"Plane(normal={self.normal.tolist()}, offset={self.offset})"
+
+
+class Sphere:
+    """Sphere of radius r about the body centre.
+
+    >>> Sphere(0)
+    Traceback (most recent call last):
+    ...
+    ValueError: Sphere radius must be positive and finite, got 0; a sphere needs a radius > 0 (use a particle for a point)
+    """
+
+    def __init__(self, radius: float) -> None:
+        self.radius = _positive("Sphere radius", radius, "a sphere needs a radius > 0 (use a particle for a point)")
+
+    def inertia(self, mass: float) -> np.ndarray:
+        """Body-frame inertia tensor of a solid sphere, (2/5) m r² 𝟙."""
+        return 0.4 * mass * self.radius**2 * np.eye(3)
+
+    def __repr__(self) -> str:
+        return f"Sphere(radius={self.radius})"
+
+
+class Box:
+    """Box with half extents (hx, hy, hz) along the body axes.
+
+    >>> Box([1, 0.5, 0.25]).vertices().shape
+    (8, 3)
+    """
+
+    def __init__(self, half_extents) -> None:
+        he = np.broadcast_to(np.asarray(half_extents, dtype=float), (3,)).copy()
+        if not np.all(np.isfinite(he)) or np.any(he <= 0):
+            raise ValueError(f"Box half_extents must be three positive finite numbers, got {half_extents}; "
+                             "a box with a zero extent is degenerate (use a Plane)")
+        self.half_extents = he
+
+    def vertices(self) -> np.ndarray:
+        """The 8 corners in the body frame, (8, 3)."""
+        s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
+        return s * self.half_extents
+
+    def inertia(self, mass: float) -> np.ndarray:
+        """Body-frame inertia (m/3) diag(hy²+hz², hx²+hz², hx²+hy²)."""
+        hx, hy, hz = self.half_extents
+        return mass / 3.0 * np.diag([hy * hy + hz * hz, hx * hx + hz * hz, hx * hx + hy * hy])
+
+    def __repr__(self) -> str:
+        return f"Box(half_extents={self.half_extents.tolist()})"
+
+
+class Capsule:
+    """Capsule: the points within ``radius`` of the segment from −half_length to +half_length on body z.
+
+    >>> Capsule(radius=0.1, half_length=0.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: Capsule half_length must be positive and finite, got 0.0; a capsule of zero length is a Sphere
+    """
+
+    def __init__(self, radius: float, half_length: float) -> None:
+        self.radius = _positive("Capsule radius", radius, "a capsule needs a radius > 0")
+        self.half_length = _positive("Capsule half_length", half_length, "a capsule of zero length is a Sphere")
+
+    def inertia(self, mass: float) -> np.ndarray:
+        """Body-frame inertia, approximated by a solid cylinder of length 2(half_length + radius)."""
+        r, L = self.radius, 2 * (self.half_length + self.radius)
+        ixx = mass * (3 * r * r + L * L) / 12.0
+        return np.diag([ixx, ixx, 0.5 * mass * r * r])
+
+    def __repr__(self) -> str:
+        return f"Capsule(radius={self.radius}, half_length={self.half_length})"
+
+
+def _as3(points) -> np.ndarray:
+    """Points as (k, 3) float, padding 2-D points with z = 0."""
+    p = np.asarray(points, dtype=float)
+    p = p.reshape(-1, p.shape[-1]) if p.ndim else p.reshape(1, 1)
+    if p.shape[1] == 2:
+        p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
+    if p.shape[1] != 3:
+        raise ValueError(f"points must have 2 or 3 coordinates, got shape {np.shape(points)}")
+    return p

@@ -1,0 +1,454 @@
+"""Constraint kinds for particles: C(q), J = ∂C/∂q and J̇q̇, each kind vectorized (chapter 03).
+
+Every kind holds *many* constraints of one type (a whole chain, a whole cloth) and evaluates all of them
+with array operations, never a Python loop per constraint. A kind describes its rows by *slots*: row r
+touches particles ``slots[r, 0..k-1]`` (``-1`` = a fixed point of the world, which has W = 0), and its
+Jacobian row is made of one ``dim``-vector per slot, ``G[r, s] = ∂C_r/∂x_{slots[r, s]}``. From these blocks
+:mod:`pbanim.constraints_assembly` builds J (scipy.sparse) and JWJᵀ with a sparsity pattern computed once.
+
+=================  ==========================  ===================================  =====================
+kind               C (one row)                 J blocks                              J̇q̇
+=================  ==========================  ===================================  =====================
+Distance (rod)     ½(|x_b − x_a|² − L²)        −d at a, +d at b (d = x_b − x_a)      |v_b − v_a|²
+FixedPoint (nail)  x_{p,i} − p̄_i  (dim rows)   e_i at p                              0
+OnCircle (bead)    ½(|x − c|² − R²)            (x − c)ᵀ                              |v|²
+OnLine / OnPlane   n·(x − p̄)                   nᵀ                                    0
+LinearCombination  Σ_j c_j x_{p_j, i_j} − d    c_j e_{i_j} at p_j                    0
+Angle2D            ∠(x_a − x_b, x_c − x_b) − θ̄  ∓u⊥/|u|², w⊥/|w|² (2-D)                see :class:`Angle2D`
+UserConstraint     C(x)                        your J(x)                             your J̇q̇(x, v)
+=================  ==========================  ===================================  =====================
+
+The quadratic forms (Witkin's) make J̇q̇ a sum of squares; their multiplier has units of force per length:
+the rod tension is T = −λ L (negative λ pulls the ends together), the bead's normal force is −λ R.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
+           "Angle2D", "UserConstraint", "check_constraint", "ConstraintCheck"]
+
+
+def _as_index(a, name: str, k: int | None = None) -> np.ndarray:
+    arr = np.array(a, dtype=np.int64, ndmin=1 if k is None else 2)
+    if k is not None and (arr.ndim != 2 or arr.shape[1] != k):
+        raise ValueError(f"{name} must have shape (m, {k}), got {np.shape(a)}")
+    return arr
+
+
+class Constraint:
+    """Base class of a vectorized constraint kind (``m`` rows; see the module docstring).
+
+    Subclasses set ``slots`` (m, k) and implement :meth:`evaluate`. ``bind(N, dim)`` validates indices
+    against the particle system.
+    """
+
+    kind = "constraint"
+    slots: np.ndarray
+
+    @property
+    def m(self) -> int:
+        return int(self.slots.shape[0])
+
+    def bind(self, N: int, dim: int, x0: np.ndarray | None = None) -> None:
+        bad = self.slots[(self.slots >= N) | (self.slots < -1)]
+        if bad.size:
+            raise ValueError(f"particle index {int(bad[0])} out of range for a system of {N} particles "
+                             f"({self.kind}); use indices in [0, {N - 1}] (or -1 for a fixed point)")
+        self.dim = dim
+
+    def evaluate(self, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(C (m,), G (m, k, dim), J̇q̇ (m,)) at positions x and velocities v of shape (N, dim)."""
+        raise NotImplementedError
+
+    # -- per-constraint views for students (not used in the hot path) ---------------------------------
+    def value(self, x: np.ndarray) -> np.ndarray:
+        """C(x), shape (m,)."""
+        x = np.asarray(x, float)
+        return self.evaluate(x, np.zeros_like(x))[0]
+
+    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
+        """J(x) = ∂C/∂q as a sparse (m, N·dim) matrix, q = x.ravel()."""
+        x = np.asarray(x, float)
+        N, dim = x.shape
+        _, G, _ = self.evaluate(x, np.zeros_like(x))
+        k = self.slots.shape[1]
+        rows = np.repeat(np.arange(self.m), k * dim)
+        cols = (self.slots[:, :, None] * dim + np.arange(dim)).ravel()
+        keep = np.repeat(self.slots.ravel() >= 0, dim)
+        return sp.csr_matrix((G.ravel()[keep], (rows[keep], cols[keep])), shape=(self.m, N * dim))
+
+    def jdot_qdot(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """J̇q̇, shape (m,)."""
+        return self.evaluate(np.asarray(x, float), np.asarray(v, float))[2]
+
+
+def _gather(x: np.ndarray, idx: np.ndarray, fixed: np.ndarray) -> np.ndarray:
+    """x[idx] with rows where idx == -1 taken from ``fixed`` (world points)."""
+    out = x[idx]
+    neg = idx < 0
+    if neg.any():
+        out[neg] = fixed[neg]
+    return out
+
+
+class Distance(Constraint):
+    """Rods: C = ½(|x_b − x_a|² − L²) for each pair (a, b); b = −1 ties a to the fixed point ``anchors[r]``.
+
+    Parameters
+    ----------
+    pairs : array_like of int, shape (m, 2)
+        Particle indices (a, b); b (or a) may be −1 for a rod to a fixed world point.
+    lengths : array_like, shape (m,) or scalar, optional
+        Rest lengths L > 0 (default: the distances in the initial configuration, set at bind).
+    anchors : array_like, shape (m, dim) or (dim,), optional
+        World points for the −1 ends (rows without a −1 ignore it).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> rod = Distance([[0, 1]], lengths=1.0)
+    >>> x = np.array([[0.0, 0.0], [0.0, -2.0]]); v = np.array([[0.0, 0.0], [1.0, 0.0]])
+    >>> rod.bind(2, 2); rod.value(x), rod.jdot_qdot(x, v)
+    (array([1.5]), array([1.]))
+    >>> rod.jacobian(x).toarray()
+    array([[-0.,  2.,  0., -2.]])
+    """
+
+    kind = "distance"
+
+    def __init__(self, pairs, lengths=None, anchors=None) -> None:
+        self.slots = _as_index(pairs, "pairs", 2)
+        if np.any(np.all(self.slots < 0, axis=1)):
+            raise ValueError("pairs must have at least one particle per rod, got a row (-1, -1)")
+        self.lengths_in = None if lengths is None else np.broadcast_to(np.asarray(lengths, float), (self.m,)).copy()
+        if self.lengths_in is not None:
+            bad = self.lengths_in[~(np.isfinite(self.lengths_in) & (self.lengths_in > 0))]
+            if bad.size:
+                raise ValueError(f"length must be positive, got {bad[0]}; rest lengths of rods are > 0")
+        self.anchors_in = anchors
+
+    def bind(self, N, dim, x0=None) -> None:
+        super().bind(N, dim)
+        anchors = np.zeros(dim) if self.anchors_in is None else np.asarray(self.anchors_in, float)
+        self.anchors = np.broadcast_to(anchors, (self.m, dim)).copy()
+        if self.anchors_in is None and np.any(self.slots < 0):
+            raise ValueError("anchors must be given for rods to a fixed point (pairs containing -1)")
+        if self.lengths_in is None:
+            if x0 is None:
+                raise ValueError("lengths must be given when no initial positions are known")
+            a = _gather(x0, self.slots[:, 0], self.anchors)
+            b = _gather(x0, self.slots[:, 1], self.anchors)
+            self.lengths = np.linalg.norm(b - a, axis=1)
+            if np.any(self.lengths <= 0):
+                raise ValueError(f"length must be positive, got {self.lengths.min()} (coincident particles)")
+        else:
+            self.lengths = self.lengths_in
+        self._L2 = self.lengths ** 2
+        self._ia, self._ib = self.slots[:, 0], self.slots[:, 1]
+        self._fixed = bool(np.any(self.slots < 0))
+
+    def evaluate(self, x, v):
+        if self._fixed:
+            zero = np.zeros_like(self.anchors)
+            d = _gather(x, self._ib, self.anchors) - _gather(x, self._ia, self.anchors)
+            w = _gather(v, self._ib, zero) - _gather(v, self._ia, zero)
+        else:
+            d = x[self._ib] - x[self._ia]
+            w = v[self._ib] - v[self._ia]
+        C = 0.5 * (np.einsum("ij,ij->i", d, d) - self._L2)
+        G = np.stack([-d, d], axis=1)
+        return C, G, np.einsum("ij,ij->i", w, w)
+
+    def tension(self, x: np.ndarray, lam: np.ndarray) -> np.ndarray:
+        """Rod tensions T = −λ|x_b − x_a| (positive when the rod pulls its ends together)."""
+        d = _gather(x, self._ib, self.anchors) - _gather(x, self._ia, self.anchors)
+        return -np.asarray(lam) * np.linalg.norm(d, axis=1)
+
+
+class FixedPoint(Constraint):
+    """Nails: x_p = p̄ for each listed particle (dim rows per particle, C = x_{p,i} − p̄_i).
+
+    >>> import numpy as np
+    >>> nail = FixedPoint([1], points=[[0.0, 1.0]]); nail.bind(2, 2)
+    >>> nail.value(np.array([[5.0, 5.0], [0.5, 1.0]]))
+    array([0.5, 0. ])
+    """
+
+    kind = "fixed_point"
+
+    def __init__(self, particles, points=None) -> None:
+        self.particles = _as_index(particles, "particles")
+        self.points_in = points
+
+    def bind(self, N, dim, x0=None) -> None:
+        self.slots = np.repeat(self.particles, dim)[:, None]
+        if np.any(self.particles < 0):
+            raise ValueError(f"particle index {int(self.particles.min())} out of range for a system of "
+                             f"{N} particles (fixed_point); use indices in [0, {N - 1}]")
+        super().bind(N, dim)
+        if self.points_in is None:
+            if x0 is None:
+                raise ValueError("points must be given when no initial positions are known")
+            pts = x0[self.particles]
+        else:
+            pts = np.broadcast_to(np.asarray(self.points_in, float), (len(self.particles), dim))
+        self.points = np.array(pts, float).ravel()
+        self._axis = np.tile(np.arange(dim), len(self.particles))
+        self._G = np.eye(dim)[self._axis][:, None, :]
+
+    def evaluate(self, x, v):
+        C = x[self.particles].ravel() - self.points
+        return C, self._G, np.zeros(self.m)
+
+
+class OnCircle(Constraint):
+    """Beads on circles (spheres in 3-D): C = ½(|x − c|² − R²), J = (x − c)ᵀ, J̇q̇ = |v|² (ORACLES B1).
+
+    >>> import numpy as np
+    >>> bead = OnCircle([0], center=[0.0, 0.0], radius=1.0); bead.bind(1, 2)
+    >>> bead.jdot_qdot(np.array([[0.0, -1.0]]), np.array([[2.0, 0.0]]))
+    array([4.])
+    """
+
+    kind = "on_circle"
+
+    def __init__(self, particles, center, radius) -> None:
+        self.slots = _as_index(particles, "particles")[:, None]
+        self.radius = np.broadcast_to(np.asarray(radius, float), (self.m,)).copy()
+        if np.any(~(self.radius > 0)):
+            raise ValueError(f"radius must be positive, got {self.radius[~(self.radius > 0)][0]}")
+        self.center_in = np.asarray(center, float)
+
+    def bind(self, N, dim, x0=None) -> None:
+        super().bind(N, dim)
+        self.center = np.broadcast_to(self.center_in, (self.m, dim)).copy()
+        self._p = self.slots[:, 0]
+
+    def evaluate(self, x, v):
+        r = x[self._p] - self.center
+        vv = v[self._p]
+        C = 0.5 * (np.einsum("ij,ij->i", r, r) - self.radius ** 2)
+        return C, r[:, None, :], np.einsum("ij,ij->i", vv, vv)
+
+
+class _Affine(Constraint):
+    """Rows n·x_p − d = 0 with constant normals (OnLine, OnPlane): J constant, J̇q̇ = 0."""
+
+    def _set(self, particles, normals, offsets) -> None:
+        self.slots = particles[:, None]
+        self._n = normals
+        self._d = offsets
+
+    def evaluate(self, x, v):
+        C = np.einsum("ij,ij->i", x[self.slots[:, 0]], self._n) - self._d
+        return C, self._n[:, None, :], np.zeros(self.m)
+
+
+def _unit(a, name: str) -> np.ndarray:
+    a = np.asarray(a, float)
+    nrm = np.linalg.norm(a)
+    if not np.isfinite(nrm) or nrm == 0:
+        raise ValueError(f"{name} must be a non-zero finite vector, got {a.tolist()}")
+    return a / nrm
+
+
+class OnPlane(_Affine):
+    """Particles on a plane (a line in 2-D): n·(x − p̄) = 0, one row per particle.
+
+    >>> import numpy as np
+    >>> c = OnPlane([0], point=[0.0, 1.0], normal=[0.0, 2.0]); c.bind(1, 2)
+    >>> c.value(np.array([[3.0, 1.5]]))
+    array([0.5])
+    """
+
+    kind = "on_plane"
+
+    def __init__(self, particles, point, normal) -> None:
+        self.particles = _as_index(particles, "particles")
+        self.point, self.normal = np.asarray(point, float), _unit(normal, "normal")
+        self.slots = self.particles[:, None]
+
+    def bind(self, N, dim, x0=None) -> None:
+        if self.normal.shape != (dim,) or self.point.shape != (dim,):
+            raise ValueError(f"point and normal must have shape ({dim},), got {self.point.shape}, {self.normal.shape}")
+        p = self.particles
+        self._set(p, np.tile(self.normal, (len(p), 1)), np.full(len(p), self.normal @ self.point))
+        super().bind(N, dim)
+
+
+class OnLine(_Affine):
+    """Beads on a straight wire through p̄ along a: n_k·(x − p̄) = 0 for the dim − 1 normals n_k ⟂ a."""
+
+    kind = "on_line"
+
+    def __init__(self, particles, point, direction) -> None:
+        self.particles = _as_index(particles, "particles")
+        self.point, self.direction = np.asarray(point, float), _unit(direction, "direction")
+        self.slots = np.repeat(self.particles, len(self.direction) - 1)[:, None]
+
+    def bind(self, N, dim, x0=None) -> None:
+        if self.direction.shape != (dim,) or self.point.shape != (dim,):
+            raise ValueError(f"point and direction must have shape ({dim},), got {self.point.shape}, "
+                             f"{self.direction.shape}")
+        # orthonormal complement of the direction: the last dim−1 columns of a full QR
+        Qm, _ = np.linalg.qr(self.direction[:, None], mode="complete")
+        normals = Qm[:, 1:].T
+        p = self.particles
+        self._set(np.repeat(p, dim - 1), np.tile(normals, (len(p), 1)), np.tile(normals @ self.point, len(p)))
+        super().bind(N, dim)
+
+
+class LinearCombination(Constraint):
+    """Rows Σ_j c_rj x[p_rj, i_rj] − d_r = 0 on particle coordinates (k terms per row).
+
+    ``particles``, ``axes``, ``coefficients`` have shape (m, k); ``offsets`` shape (m,).
+    ORACLES B4 uses it for x = 0, y = 0, x + y = 0 on one particle.
+    """
+
+    kind = "linear"
+
+    def __init__(self, particles, axes, coefficients, offsets=0.0) -> None:
+        self.slots = np.array(particles, dtype=np.int64, ndmin=2)
+        self.axes = np.array(axes, dtype=np.int64, ndmin=2)
+        self.coef = np.array(coefficients, dtype=float, ndmin=2)
+        if not (self.slots.shape == self.axes.shape == self.coef.shape):
+            raise ValueError(f"particles, axes and coefficients must have one shape (m, k), got "
+                             f"{self.slots.shape}, {self.axes.shape}, {self.coef.shape}")
+        if np.any(self.slots < 0):
+            raise ValueError(f"particle index {int(self.slots.min())} out of range (linear): no fixed points here")
+        self.offsets = np.broadcast_to(np.asarray(offsets, float), (self.m,)).copy()
+
+    def bind(self, N, dim, x0=None) -> None:
+        super().bind(N, dim)
+        if np.any((self.axes < 0) | (self.axes >= dim)):
+            raise ValueError(f"axes must be in [0, {dim - 1}], got {self.axes[(self.axes < 0) | (self.axes >= dim)][0]}")
+        self._G = self.coef[:, :, None] * np.eye(dim)[self.axes]
+
+    def evaluate(self, x, v):
+        C = np.sum(self.coef * x[self.slots, self.axes], axis=1) - self.offsets
+        return C, self._G, np.zeros(self.m)
+
+
+def _perp(u: np.ndarray) -> np.ndarray:
+    return np.stack([-u[:, 1], u[:, 0]], axis=1)
+
+
+class Angle2D(Constraint):
+    """Bending angles in 2-D: C = θ(u, w) − θ̄ with u = x_a − x_b, w = x_c − x_b, θ the signed angle u → w.
+
+    J blocks: ∂θ/∂x_a = −u⊥/|u|², ∂θ/∂x_c = w⊥/|w|², ∂θ/∂x_b = −(both); u⊥ = (−u_y, u_x).
+    J̇q̇ = 2(u⊥·u̇)(u·u̇)/|u|⁴ − 2(w⊥·ẇ)(w·ẇ)/|w|⁴.  C is wrapped to (−π, π].
+    """
+
+    kind = "angle"
+
+    def __init__(self, triples, angles) -> None:
+        self.slots = _as_index(triples, "triples", 3)
+        self.angles = np.broadcast_to(np.asarray(angles, float), (self.m,)).copy()
+
+    def bind(self, N, dim, x0=None) -> None:
+        if dim != 2:
+            raise ValueError(f"Angle2D needs a 2-D system, got dim = {dim}")
+        if np.any(self.slots < 0):
+            raise ValueError("triples must index particles (no -1 fixed points in Angle2D)")
+        super().bind(N, dim)
+
+    def evaluate(self, x, v):
+        a, b, c = self.slots.T
+        u, w = x[a] - x[b], x[c] - x[b]
+        du, dw = v[a] - v[b], v[c] - v[b]
+        uu, ww = np.einsum("ij,ij->i", u, u), np.einsum("ij,ij->i", w, w)
+        th = np.arctan2(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0], np.einsum("ij,ij->i", u, w))
+        C = np.angle(np.exp(1j * (th - self.angles)))
+        ga, gc = -_perp(u) / uu[:, None], _perp(w) / ww[:, None]
+        G = np.stack([ga, -ga - gc, gc], axis=1)
+        up, wp = _perp(u), _perp(w)
+        jd = (2 * np.einsum("ij,ij->i", up, du) * np.einsum("ij,ij->i", u, du) / uu ** 2
+              - 2 * np.einsum("ij,ij->i", wp, dw) * np.einsum("ij,ij->i", w, dw) / ww ** 2)
+        return C, G, jd
+
+
+class UserConstraint(Constraint):
+    """Constraints from your own callables, for students writing their own C, J and J̇q̇.
+
+    Parameters
+    ----------
+    C : callable x -> (m,)
+    J : callable x -> (m, N·dim) dense or sparse
+    Jdot_qdot : callable (x, v) -> (m,)
+    m : int
+        Number of rows.
+
+    x and v are (N, dim) arrays. Check your J and J̇q̇ with :func:`check_constraint` first. Scenes with
+    user constraints use the generic sparse assembly (no linear-time solver).
+    """
+
+    kind = "user"
+
+    def __init__(self, C: Callable, J: Callable, Jdot_qdot: Callable, m: int) -> None:
+        if int(m) < 1:
+            raise ValueError(f"m must be a positive number of rows, got {m}")
+        self.C_fun, self.J_fun, self.Jd_fun = C, J, Jdot_qdot
+        self.slots = np.zeros((int(m), 0), dtype=np.int64)
+
+    def value(self, x):
+        return np.asarray(self.C_fun(np.asarray(x, float)), float).reshape(self.m)
+
+    def jacobian(self, x):
+        J = self.J_fun(np.asarray(x, float))
+        return sp.csr_matrix(J).reshape(self.m, np.size(x))
+
+    def jdot_qdot(self, x, v):
+        return np.asarray(self.Jd_fun(np.asarray(x, float), np.asarray(v, float)), float).reshape(self.m)
+
+
+@dataclass
+class ConstraintCheck:
+    """Outcome of :func:`check_constraint`: worst relative errors of J and J̇q̇ against finite differences."""
+
+    J_error: float
+    Jdot_error: float
+    tol: float
+
+    @property
+    def ok(self) -> bool:
+        return self.J_error <= self.tol and self.Jdot_error <= self.tol
+
+
+def check_constraint(c: Constraint, q, qd, eps: float = 1e-6, tol: float = 1e-6) -> ConstraintCheck:
+    """Compare a constraint's J and J̇q̇ with centred finite differences at (q, q̇).
+
+    J is checked column by column against (C(q + εe_j) − C(q − εe_j))/2ε; J̇q̇ against
+    (J(q + εq̇) − J(q − εq̇))q̇/2ε (the derivative of J along the motion). Errors are relative to the
+    largest entry (or 1).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = Distance([[0, 1]], lengths=1.0); c.bind(2, 2)
+    >>> rng = np.random.default_rng(0)
+    >>> check_constraint(c, rng.normal(size=(2, 2)), rng.normal(size=(2, 2))).ok
+    True
+    """
+    x = np.array(q, float)
+    v = np.array(qd, float).reshape(x.shape)
+    if not hasattr(c, "dim"):
+        c.bind(x.shape[0], x.shape[1], x0=x)
+    J = c.jacobian(x).toarray()
+    Jfd = np.empty_like(J)
+    flat = x.ravel()
+    for j in range(flat.size):
+        dx = np.zeros_like(flat)
+        dx[j] = eps
+        Jfd[:, j] = (c.value((flat + dx).reshape(x.shape)) - c.value((flat - dx).reshape(x.shape))) / (2 * eps)
+    Jd = c.jdot_qdot(x, v)
+    Jdfd = (c.jacobian(x + eps * v).toarray() - c.jacobian(x - eps * v).toarray()) @ v.ravel() / (2 * eps)
+    eJ = float(np.max(np.abs(J - Jfd), initial=0.0) / max(1.0, np.max(np.abs(J), initial=0.0)))
+    eD = float(np.max(np.abs(Jd - Jdfd), initial=0.0) / max(1.0, np.max(np.abs(Jd), initial=0.0)))
+    return ConstraintCheck(eJ, eD, tol)

@@ -1,0 +1,243 @@
+"""Solvers for the Lagrange multipliers λ: Witkin's JWJᵀλ = r (dense, sparse, CG), the KKT saddle point,
+and Baraff's linear-time elimination for chains and trees (chapter 03).
+
+Every solver has one signature and returns a :class:`ConstraintSolution`. With c = −J̇q̇ − k_s C − k_d Ċ
+(the C̈ the constraints ask for):
+
+    Witkin:  (J W Jᵀ) λ = c − J W Q                    KKT:  [[M, −Jᵀ], [J, 0]] [q̈; λ] = [Q; c]
+
+and Q_C = Jᵀλ, q̈ = W (Q + Q_C). Both give the same q̈ and λ when J has full row rank (ORACLES B5).
+
+Redundant constraints (J rank deficient): λ is not unique but Jᵀλ is. Direct solvers detect a
+vanishing pivot (|pivot| < 1e-13 · the largest diagonal entry) and fall back to the **minimum-norm**
+λ = A⁺ r computed from the eigen-decomposition of A = JWJᵀ (eigenvalues below 1e-12·max treated as
+zero); CG started at λ = 0 converges to the same minimum-norm answer. If r has a component in the
+null space of A (‖P_null r‖ > 1e-9 ‖r‖), no λ exists: :class:`~pbanim.errors.SingularConstraintError`
+names the dependent rows and the residual (ORACLES B4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from .errors import ConvergenceError, SingularConstraintError
+
+__all__ = ["ConstraintSolution", "SOLVERS", "solve_lambda"]
+
+SOLVERS = ("auto", "witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear")
+_PIVOT = 1e-13
+_DENSE_AUTO = 64  # "auto" uses the dense solve below this many rows when the structure is general
+
+
+@dataclass
+class ConstraintSolution:
+    """λ and what follows from it.
+
+    Attributes
+    ----------
+    lam : ndarray (m,)          Lagrange multipliers λ.
+    Q_C : ndarray (n,)          constraint force Jᵀλ (flat, like q).
+    qdd : ndarray (n,)          accelerations q̈ = W (Q + Q_C).
+    solver : str                the solver that ran ("auto" resolved).
+    iterations : int            CG iterations (0 for direct solvers).
+    residual : float            ‖JWJᵀλ − r‖ / max(‖r‖, tiny) (KKT: of the saddle-point system).
+    rank_deficient : bool       the minimum-norm fallback was used (redundant constraints).
+    """
+
+    lam: np.ndarray
+    Q_C: np.ndarray
+    qdd: np.ndarray
+    solver: str
+    iterations: int = 0
+    residual: float = 0.0
+    rank_deficient: bool = False
+
+
+def _rel(res: np.ndarray, r: np.ndarray) -> float:
+    return float(np.linalg.norm(res) / max(np.linalg.norm(r), 1e-300))
+
+
+def min_norm_lambda(A, r: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+    """Minimum-norm λ = A⁺r for symmetric PSD A; raise SingularConstraintError if r ∉ range(A)."""
+    Ad = A.toarray() if sp.issparse(A) else np.asarray(A, float)
+    if Ad.shape[0] > 4000:
+        sol = spla.lsmr(sp.csr_matrix(A), r, atol=1e-15, btol=1e-15, maxiter=20 * Ad.shape[0])[0]
+        res = A @ sol - r
+        if _rel(res, r) > tol:
+            rows = np.flatnonzero(np.abs(res) > tol * max(np.abs(r).max(), 1e-300))
+            raise SingularConstraintError(rows, float(np.linalg.norm(res)), "detected by LSMR")
+        return sol
+    ev, U = np.linalg.eigh(0.5 * (Ad + Ad.T))
+    big = ev > 1e-12 * max(ev.max(initial=0.0), 1e-300)
+    coef = U.T @ r
+    null = ~big
+    if null.any():
+        rn = U[:, null] @ coef[null]
+        if np.linalg.norm(rn) > tol * max(np.linalg.norm(r), 1e-300):
+            support = np.abs(U[:, null]) > 1e-6
+            conflicting = support[:, np.abs(coef[null]) > tol * max(np.linalg.norm(r), 1e-300)]
+            rows = np.flatnonzero(conflicting.any(axis=1)) if conflicting.size else np.flatnonzero(support.any(axis=1))
+            raise SingularConstraintError(rows, float(np.linalg.norm(rn)),
+                                          "the right-hand side has a component along a dependent combination")
+    return U[:, big] @ (coef[big] / ev[big])
+
+
+def _cho_dense(A: np.ndarray, r: np.ndarray):
+    try:
+        c, low = sla.cho_factor(A, lower=True, check_finite=False)
+    except np.linalg.LinAlgError:
+        return None
+    d = np.diag(c) ** 2
+    if d.min() < _PIVOT * np.diag(A).max():
+        return None
+    return sla.cho_solve((c, low), r, check_finite=False)
+
+
+def _splu(A, r: np.ndarray, **kw):
+    try:
+        lu = spla.splu(sp.csc_matrix(A), **kw)
+    except RuntimeError:  # "Factor is exactly singular"
+        return None
+    u = np.abs(lu.U.diagonal())
+    if u.min() < _PIVOT * u.max():
+        return None
+    return lu.solve(r)
+
+
+def _linear(cset, asm, r: np.ndarray):
+    """Baraff's leaves-first elimination: tridiagonal (dptsv), banded Cholesky, or zero-fill sparse LDLᵀ."""
+    st = cset.structure
+    order = st.order
+    rp = r[order]
+    if st.kind == "chain" and st.bandwidth == 0:  # uncoupled rows: A is diagonal
+        d = cset.bands(asm)[0]
+        if d.min() < _PIVOT * d.max():
+            return None
+        x = rp / d
+    elif st.kind == "chain":
+        ab = cset.bands(asm)
+        d, e = ab[0], ab[1, :-1]
+        _, _, x, info = sla.lapack.dptsv(d, e, rp)
+        if info != 0:
+            return None
+        # dptsv's pivots are not returned in a usable form: check the factorization by its residual
+        res = d * x
+        res[:-1] += e * x[1:]
+        res[1:] += e * x[:-1]
+        if not np.all(np.isfinite(x)) or _rel(res - rp, rp) > 1e-9:
+            return None
+    elif st.kind == "banded":
+        ab = cset.bands(asm)
+        try:
+            cb = sla.cholesky_banded(ab, lower=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            return None
+        if (cb[0] ** 2).min() < _PIVOT * ab[0].max():
+            return None
+        x = sla.cho_solve_banded((cb, True), rp, check_finite=False)
+    else:
+        x = _splu(cset.permuted_matrix(asm), rp, permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                  options={"SymmetricMode": True})
+        if x is None:
+            return None
+    lam = np.empty_like(x)
+    lam[order] = x
+    return lam
+
+
+def _cg(J, W, r, tol, max_iter, x0=None):
+    m = J.shape[0]
+    JT = J.T.tocsr()
+    op = spla.LinearOperator((m, m), matvec=lambda y: J @ (W * (JT @ y)), dtype=float)
+    it = [0]
+
+    def cb(_):
+        it[0] += 1
+
+    lam, info = spla.cg(op, r, x0=x0, rtol=tol, atol=0.0, maxiter=max_iter, callback=cb)
+    res = _rel(J @ (W * (JT @ lam)) - r, r)
+    if info != 0 or not np.isfinite(res) or res > 10 * tol:
+        raise ConvergenceError("witkin-cg", it[0], res, tol, f"m = {m} rows")
+    return lam, it[0], res
+
+
+def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=None, A=None,
+                 tol: float = 1e-12, max_iter: int | None = None) -> ConstraintSolution:
+    """Solve for λ with a named solver (see the module docstring).
+
+    Parameters
+    ----------
+    J : sparse or dense (m, n)
+        Constraint Jacobian.
+    W : array_like (n,)
+        Inverse masses per coordinate (W = M⁻¹ is diagonal for particles).
+    Q : array_like (n,)
+        Applied generalized force.
+    c : array_like (m,)
+        Desired C̈: −J̇q̇ − k_s C − k_d Ċ.
+    solver : {"witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear", "auto"}
+        "linear" and "auto" need ``cset``/``asm`` (a :class:`~pbanim.constraints_assembly.ConstraintSet`
+        whose structure is a chain or tree).
+    tol, max_iter : CG's relative tolerance and iteration cap (default 10·m + 100).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> J = np.array([[0.0, -1.0]])                 # a particle at (0, -1) on a unit circle
+    >>> sol = solve_lambda(J, np.ones(2), np.array([0.0, -9.81]), np.array([-1.0]), "witkin-dense")
+    >>> round(float(sol.lam[0]), 12), sol.qdd.round(12)
+    (-10.81, array([0., 0.]))
+    """
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
+    W = np.asarray(W, float)
+    Q = np.asarray(Q, float).ravel()
+    c = np.asarray(c, float)
+    J = J if sp.issparse(J) else sp.csr_matrix(np.atleast_2d(np.asarray(J, float)))
+    m = J.shape[0]
+    if solver == "auto":
+        if cset is not None and cset.structure.linear:
+            solver = "linear"
+        else:
+            solver = "witkin-dense" if m <= _DENSE_AUTO else "witkin-sparse"
+    if solver == "linear" and (cset is None or not cset.structure.linear):
+        kind = "general" if cset is None else cset.structure.kind
+        raise ValueError(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds; "
+                         f"this set's structure is {kind!r}; use 'auto', 'witkin-sparse' or 'kkt'")
+    r = c - J @ (W * Q)
+    it, deficient = 0, False
+    if solver == "kkt":
+        K = sp.bmat([[sp.diags(1.0 / W), -J.T], [J, None]], format="csc")
+        rhs = np.concatenate([Q, c])
+        z = _splu(K, rhs)
+        if z is not None:
+            qdd, lam = z[: len(Q)], z[len(Q):]
+            Q_C = J.T @ lam
+            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, _rel(K @ z - rhs, rhs))
+        lam, deficient = None, True
+    elif solver == "witkin-cg":
+        lam, it, res = _cg(J, W, r, tol, max_iter or 10 * m + 100)
+    else:
+        if A is None:
+            A = cset.matrix(asm) if (cset is not None and asm is not None) else (J @ sp.diags(W) @ J.T).tocsr()
+        if solver == "witkin-dense":
+            lam = _cho_dense(A.toarray() if sp.issparse(A) else A, r)
+        elif solver == "witkin-sparse":
+            lam = _splu(A, r)
+        else:
+            lam = _linear(cset, asm, r)
+        deficient = lam is None
+    if lam is None:
+        if A is None:
+            A = (J @ sp.diags(W) @ J.T).tocsr()
+        lam = min_norm_lambda(A, r)
+    Q_C = J.T @ lam
+    qdd = W * (Q + Q_C)
+    if solver != "witkin-cg":
+        res = _rel(J @ (W * Q_C) - r, r)
+    return ConstraintSolution(lam, Q_C, qdd, solver, it, res, deficient)

@@ -1,0 +1,386 @@
+"""LCP and QP solvers for contact forces (chapter 07): one signature, a certificate every time.
+
+The linear complementarity problem of resting contact (Baraff 1994, the lecture's three conditions)
+
+    w = A f + b ≥ 0          (no inter-penetration: d̈ᵢ ≥ 0)
+    f ≥ 0                    (no glue)
+    fᵀ w = 0                 (a force vanishes where the contact breaks)
+
+For a symmetric positive semidefinite A (frictionless contact, A = J W Jᵀ) it is the optimality
+condition of the QP  min ½ fᵀAf + bᵀf  s.t. f ≥ 0  (w is the multiplier of f ≥ 0).
+
+=========  ===========  ==========  =============================================================
+symbol     code         shape       meaning
+=========  ===========  ==========  =============================================================
+A          ``A``        (m, m)      LCP matrix (J W Jᵀ for frictionless contact)
+b          ``b``        (m,)        free relative acceleration (or velocity) of the contacts
+f          ``f``        (m,)        contact force magnitudes (impulses at the velocity level)
+w          ``w``        (m,)        A f + b: relative normal accelerations d̈
+r          residual     scalar      natural-map residual ‖f − max(0, f − w)‖∞ (zero iff solved)
+=========  ===========  ==========  =============================================================
+
+Solvers (``solver=``): ``"qp"`` (qpsolvers; ProxQP by default through proxsuite's own box
+constraints), ``"lemke"`` (complementary pivoting, Cottle–Pang–Stone §4.4, lexicographic
+anti-cycling), ``"dantzig"`` (Baraff 1994's principal pivoting, Bland's rule for ties),
+``"pgs"`` (projected Gauss–Seidel with warm start). Limiting cases: b ≥ 0 gives f = 0 for every
+solver; a single contact gives f = max(0, −b/A).
+
+Every answer is judged by the natural-map residual computed from A and b (ORACLES D8), never by
+the solver's own claim. A failed or infeasible problem raises :class:`~pbanim.errors.InfeasibleContact`
+(``raise_on_failure=False`` returns ``success=False`` instead); ``fallback="lemke"`` retries with
+another solver, explicitly and recorded in ``extra["fallback_from"]`` — never silently.
+
+References: D. Baraff, "Fast contact force computation for nonpenetrating rigid bodies", SIGGRAPH 1994;
+R. W. Cottle, J.-S. Pang, R. E. Stone, *The Linear Complementarity Problem* (1992), ch. 4;
+K. G. Murty, *Linear Complementarity, Linear and Nonlinear Programming* (1988);
+A. Bambade et al., "PROX-QP: Yet another quadratic programming solver for robotics and beyond", RSS 2022.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from .errors import InfeasibleContact
+from .results import ContactSolution, natural_map_residual
+
+__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "pgs", "qp"]
+
+LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs")
+
+
+def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
+    A = np.array(A, dtype=float, ndmin=2)
+    b = np.array(b, dtype=float, ndmin=1)
+    if b.ndim != 1:
+        raise ValueError(f"b must be a vector, got shape {b.shape}")
+    m = b.size
+    if A.shape != (m, m):
+        raise ValueError(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
+    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+        raise ValueError("A and b must be finite (got NaN or Inf); check the contact assembly")
+    return A, b
+
+
+def _scale(b: np.ndarray) -> float:
+    return max(1.0, float(np.max(np.abs(b)))) if b.size else 1.0
+
+
+def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) -> np.ndarray:
+    """Re-solve A_CC f_C = −b_C on the support C = {fᵢ > 0} (least squares: redundant contacts
+    make A_CC singular but consistent); keep the answer only if it has a smaller residual."""
+    C = np.flatnonzero(f > 0)
+    if C.size == 0:
+        return f
+    fC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
+    g = np.zeros_like(f)
+    g[C] = np.maximum(fC, 0.0)
+    if natural_map_residual(g, A @ g + b) < natural_map_residual(f, A @ f + b):
+        return g
+    return f
+
+
+# ---------------------------------------------------------------------------------------------
+# Lemke's complementary pivoting (Cottle–Pang–Stone §4.4), lexicographic anti-cycling
+# ---------------------------------------------------------------------------------------------
+def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-12,
+          **_: Any) -> tuple[np.ndarray, str, int]:
+    """Lemke's method on w − A f − d z₀ = b with covering vector d = 1.
+
+    Returns ``(f, status, pivots)``; status is "solved", "ray" (secondary ray: for a copositive-plus A
+    the LCP is infeasible) or "max_iter". Ties in the ratio test are broken lexicographically with the
+    rows of B⁻¹, which prevents cycling on degenerate problems.
+    """
+    m = b.size
+    if np.all(b >= 0):
+        return np.zeros(m), "solved", 0
+    max_iter = 50 * (m + 1) + 1000 if max_iter is None else int(max_iter)
+    # tableau columns: w (0..m-1), f (m..2m-1), z0 (2m); last column the basic values
+    T = np.hstack([np.eye(m), -A, -np.ones((m, 1)), b[:, None]])
+    basis = np.arange(m)
+
+    def lexmin(rows: np.ndarray, col: np.ndarray) -> int:
+        # lexicographic minimum of [x_B, B⁻¹] rows divided by the pivot column entries
+        cand = rows
+        for k in [2 * m + 1] + list(range(m)):
+            ratios = T[cand, k] / col[cand]
+            best = ratios.min()
+            cand = cand[ratios <= best + pivot_tol * max(1.0, abs(best))]
+            if cand.size == 1:
+                break
+        return int(cand[0])
+
+    def pivot(r: int, e: int) -> None:
+        T[r] /= T[r, e]
+        col = T[:, e].copy()
+        col[r] = 0.0
+        T[:] -= np.outer(col, T[r])
+        basis[r] = e
+
+    # first pivot: z0 enters, the most negative b leaves (lexicographic among ties)
+    rows = np.arange(m)
+    neg = rows[T[:, 2 * m + 1] < 0]
+    # with d = 1 the ratio is b_i / 1; the minimum (most negative) leaves
+    r = lexmin(neg, np.ones(m)) if neg.size else 0
+    leaving = int(basis[r])
+    pivot(r, 2 * m)
+    pivots = 1
+    while pivots < max_iter:
+        e = leaving + m if leaving < m else leaving - m  # the complement of what just left
+        col = T[:, e]
+        pos = np.flatnonzero(col > pivot_tol)
+        if pos.size == 0:
+            return np.zeros(m), "ray", pivots
+        # if z0 can leave at the minimum ratio, let it (terminates with a solution)
+        r = lexmin(pos, col)
+        z0_row = np.flatnonzero(basis == 2 * m)
+        if z0_row.size and z0_row[0] in pos:
+            rz = int(z0_row[0])
+            if T[rz, 2 * m + 1] / col[rz] <= T[r, 2 * m + 1] / col[r] + pivot_tol:
+                r = rz
+        leaving = int(basis[r])
+        pivot(r, e)
+        pivots += 1
+        if leaving == 2 * m:
+            f = np.zeros(m)
+            zb = basis >= m
+            f[basis[zb] - m] = T[zb, 2 * m + 1]
+            return np.maximum(f, 0.0), "solved", pivots
+    return np.zeros(m), "max_iter", pivots
+
+
+# ---------------------------------------------------------------------------------------------
+# Baraff 1994 / Dantzig principal pivoting: drive one contact at a time to complementarity
+# ---------------------------------------------------------------------------------------------
+def dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-12,
+            **_: Any) -> tuple[np.ndarray, str, int]:
+    """Baraff's (1994) force-computation algorithm (a Dantzig–Cottle principal pivoting method).
+
+    Keeps a clamped set C (wᵢ = 0, fᵢ ≥ 0) and an unclamped set NC (fᵢ = 0, wᵢ ≥ 0); each
+    contact d with w_d < 0 is driven to zero by moving along Δf (Δf_d = 1, A_CC Δf_C = −A_Cd) up to
+    the first blocking index. Ties are broken by the smallest index (Bland). Redundant contacts make
+    A_CC singular but consistent: solved by least squares. Status "solved", "infeasible" (no blocking
+    index: Δw_d ≤ 0, which for a PSD A proves infeasibility) or "max_iter".
+    """
+    m = b.size
+    f = np.zeros(m)
+    w = b.copy()
+    clamped = np.zeros(m, dtype=bool)
+    unclamped = np.zeros(m, dtype=bool)
+    max_iter = 20 * (m + 1) + 100 if max_iter is None else int(max_iter)
+    it = 0
+    tol = pivot_tol * _scale(b)
+    while True:
+        todo = np.flatnonzero((w < -tol) & ~clamped & ~unclamped)
+        if todo.size == 0:
+            return np.maximum(f, 0.0), "solved", it
+        d = int(todo[0])  # Bland: smallest index first
+        while True:
+            it += 1
+            if it > max_iter:
+                return f, "max_iter", it
+            C = np.flatnonzero(clamped)
+            df = np.zeros(m)
+            df[d] = 1.0
+            if C.size:
+                df[C] = -np.linalg.lstsq(A[np.ix_(C, C)], A[C, d], rcond=None)[0]
+            dw = A @ df
+            s, j = np.inf, -1
+            if dw[d] > pivot_tol:
+                s, j = -w[d] / dw[d], d
+            for i in C:  # a clamped force reaching zero
+                if df[i] < -pivot_tol:
+                    si = -f[i] / df[i]
+                    if si < s - pivot_tol or (si <= s + pivot_tol and i < j):
+                        s, j = si, i
+            for i in np.flatnonzero(unclamped):  # an unclamped acceleration reaching zero
+                if dw[i] < -pivot_tol:
+                    si = -w[i] / dw[i]
+                    if si < s - pivot_tol or (si <= s + pivot_tol and i < j):
+                        s, j = si, i
+            if j < 0:
+                return f, "infeasible", it
+            s = max(s, 0.0)
+            f += s * df
+            w += s * dw
+            if j == d:
+                clamped[d] = True
+                w[d] = 0.0
+                break
+            if clamped[j]:
+                clamped[j], unclamped[j] = False, True
+                f[j] = 0.0
+            else:
+                unclamped[j], clamped[j] = False, True
+                w[j] = 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Projected Gauss–Seidel
+# ---------------------------------------------------------------------------------------------
+def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-10,
+        warm_start: np.ndarray | None = None, omega: float = 1.0, **_: Any) -> tuple[np.ndarray, str, int]:
+    """Projected Gauss–Seidel (SOR with relaxation ``omega``): fᵢ ← max(0, fᵢ − ω wᵢ / Aᵢᵢ), sweep by sweep.
+
+    Stops when the natural-map residual ≤ tol·max(1, ‖b‖∞) ("converged"), else after ``max_iter``
+    sweeps with status "max_iter" — it never claims a convergence it did not reach. Needs Aᵢᵢ > 0.
+    """
+    m = b.size
+    diag = np.diag(A).copy()
+    if np.any(diag <= 0):
+        i = int(np.flatnonzero(diag <= 0)[0])
+        return np.zeros(m), f"zero_diagonal(A[{i},{i}] = {diag[i]:.3g})", 0
+    f = np.zeros(m) if warm_start is None else np.maximum(np.array(warm_start, dtype=float), 0.0)
+    w = A @ f + b
+    thresh = tol * _scale(b)
+    if natural_map_residual(f, w) <= thresh:
+        return f, "converged", 0
+    rows = [A[i] for i in range(m)]
+    for sweep in range(1, int(max_iter) + 1):
+        for i in range(m):
+            fi = f[i] - omega * (rows[i] @ f + b[i]) / diag[i]
+            f[i] = fi if fi > 0.0 else 0.0
+        if natural_map_residual(f, A @ f + b) <= thresh:
+            return f, "converged", sweep
+    return f, "max_iter", int(max_iter)
+
+
+# ---------------------------------------------------------------------------------------------
+# QP: min ½ fᵀAf + bᵀf, f ≥ 0
+# ---------------------------------------------------------------------------------------------
+def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float = 1e-12,
+       max_iter: int | None = None, warm_start: np.ndarray | None = None, native_box: bool = True,
+       polish: bool = True, tol: float = 1e-10, **opts: Any) -> tuple[np.ndarray, str, int]:
+    """The contact QP through qpsolvers (``backend`` = any name in ``qpsolvers.available_solvers``).
+
+    With ``backend="proxqp"`` and ``native_box=True`` (default) proxsuite's dense ProxQP is called with
+    its own box constraints ``l_box = 0`` (qpsolvers would turn the bound into a dense inequality
+    block); ``native_box=False`` goes through ``qpsolvers.solve_problem`` with ``lb = 0``. Needs a
+    symmetric positive semidefinite A. ``polish`` re-solves on the support (like OSQP's polishing)
+    when that lowers the natural-map residual; ``extra["polished"]`` says whether it did.
+    """
+    import qpsolvers  # lazy: never imported unless a QP is solved
+
+    if backend not in qpsolvers.available_solvers:
+        raise ValueError(f"backend must be an installed qpsolvers solver, one of "
+                         f"{qpsolvers.available_solvers}, got {backend!r}")
+    m = b.size
+    x0 = None if warm_start is None else np.maximum(np.asarray(warm_start, dtype=float), 0.0)
+    if backend == "proxqp" and native_box:
+        import proxsuite
+
+        res = proxsuite.proxqp.dense.solve(A, b, None, None, None, None, None, l_box=np.zeros(m),
+                                           u_box=np.full(m, np.inf), x=x0, eps_abs=eps_abs, eps_rel=0.0,
+                                           max_iter=max_iter or 10000, **opts)
+        found = res.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
+        f, status, iters = np.asarray(res.x, dtype=float).copy(), str(res.info.status).split(".")[-1], int(res.info.iter)
+    else:
+        kw = dict(opts)
+        if backend == "proxqp":
+            kw.update(eps_abs=eps_abs, eps_rel=0.0, max_iter=max_iter or 10000)
+        prob = qpsolvers.Problem(A, b, lb=np.zeros(m))
+        sol = qpsolvers.solve_problem(prob, solver=backend, initvals=x0, **kw)
+        found = bool(sol.found)
+        f = np.zeros(m) if sol.x is None else np.asarray(sol.x, dtype=float).copy()
+        info = sol.extras.get("info") if isinstance(sol.extras, dict) else None
+        status = str(getattr(info, "status", "found" if found else "not_found")).split(".")[-1]
+        iters = int(getattr(info, "iter", 0))
+    if not found or not np.all(np.isfinite(f)):
+        return np.where(np.isfinite(f), f, 0.0), status, iters
+    f = np.maximum(f, 0.0)
+    if polish:
+        f = _polish(A, b, f, tol)
+    return f, status, iters
+
+
+_IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp}
+
+
+def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure: bool = True,
+              fallback: str | None = None, warm_start=None, **opts: Any) -> ContactSolution:
+    """Solve the LCP  w = A f + b ≥ 0, f ≥ 0, fᵀw = 0  and certify the answer.
+
+    Parameters
+    ----------
+    A : array_like, shape (m, m)
+    b : array_like, shape (m,)
+    solver : {"qp", "lemke", "dantzig", "pgs"}
+        ``"qp"`` needs a symmetric PSD A (frictionless contact); the pivoting methods also take the
+        non-symmetric matrices of friction; ``"pgs"`` needs Aᵢᵢ > 0.
+    tol : float
+        Success iff the natural-map residual ≤ tol·max(1, ‖b‖∞).
+    raise_on_failure : bool
+        Raise :class:`~pbanim.errors.InfeasibleContact` on failure (default) or return ``success=False``.
+    fallback : str, optional
+        Another solver to try when this one fails (explicit; recorded in ``extra["fallback_from"]``).
+    warm_start : array_like, optional
+        A previous answer: PGS starts from it, the QP uses it as initial guess, and the pivoting
+        methods first try its support as the active set (kept only if it certifies).
+    **opts
+        Solver options: ``max_iter``, ``omega`` (pgs), ``backend``, ``eps_abs``, ``native_box``,
+        ``polish`` (qp), ``pivot_tol`` (pivoting).
+
+    Returns
+    -------
+    ContactSolution
+        ``f``, ``status``, ``success``, ``iterations``, ``time``, and the residuals computed from A, b.
+
+    Examples
+    --------
+    >>> sol = solve_lcp([[2.0, 1.0], [1.0, 2.0]], [-1.0, 1.0], solver="lemke")
+    >>> sol.f.round(12).tolist(), sol.success, sol.residual < 1e-12
+    ([0.5, 0.0], True, True)
+    >>> solve_lcp([[-1.0]], [-1.0], solver="dantzig")
+    Traceback (most recent call last):
+    ...
+    pbanim.errors.InfeasibleContact: contact solver 'dantzig' failed: status infeasible, residual 1.000e+00...
+    """
+    if solver not in _IMPL:
+        raise ValueError(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
+    if fallback is not None and fallback not in _IMPL:
+        raise ValueError(f"fallback must be None or one of {LCP_SOLVERS}, got {fallback!r}")
+    if not (np.isfinite(tol) and tol > 0):
+        raise ValueError(f"tol must be a positive finite number, got {tol}")
+    A, b = _check(A, b)
+    m = b.size
+    if solver == "qp":
+        asym = np.max(np.abs(A - A.T)) if m else 0.0
+        if asym > 1e-12 * max(1.0, np.max(np.abs(A))):
+            raise ValueError(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "
+                             "use solver='lemke' for friction or other non-symmetric LCPs")
+        if m and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, np.max(np.abs(A))):
+            raise ValueError("A must be positive semidefinite for solver='qp' (the QP is then convex); "
+                             "use solver='lemke' for an indefinite LCP")
+    thresh = tol * _scale(b)
+    start = time.perf_counter()
+    f, status, iters, extra = None, "", 0, {}
+    if warm_start is not None:
+        warm_start = np.asarray(warm_start, dtype=float)
+        if warm_start.shape != (m,):
+            raise ValueError(f"warm_start must have shape ({m},), got {warm_start.shape}")
+        if solver in ("lemke", "dantzig") and np.any(warm_start > 0):
+            g = _polish(A, b, np.where(warm_start > 0, 1.0, 0.0) * np.maximum(warm_start, 0), tol)
+            if natural_map_residual(g, A @ g + b) <= thresh:
+                f, status, extra["warm_start_hit"] = g, "solved", True
+    if f is None:
+        kw = dict(opts)
+        if solver in ("pgs", "qp"):
+            kw.update(tol=tol, warm_start=warm_start)
+        f, status, iters = _IMPL[solver](A, b, **kw)
+    elapsed = time.perf_counter() - start
+    sol = ContactSolution(f=np.asarray(f, dtype=float), solver=solver, status=status, success=False,
+                          iterations=iters, time=elapsed, A=A, b=b, extra=extra)
+    # success is the certificate, whatever the solver's own status (kept in ``status``)
+    sol.success = bool(np.all(np.isfinite(sol.f)) and sol.residual <= thresh)
+    if not sol.success and fallback is not None and fallback != solver:
+        other = solve_lcp(A, b, fallback, tol=tol, raise_on_failure=raise_on_failure, warm_start=None)
+        other.extra["fallback_from"] = {"solver": solver, "status": status, "residual": sol.residual}
+        other.time += elapsed
+        return other
+    if not sol.success and raise_on_failure:
+        raise InfeasibleContact(solver, status, sol.residual,
+                                f"m = {m} contacts, tol {thresh:.1e}; pass raise_on_failure=False to inspect "
+                                "the best iterate, or fallback='lemke'")
+    return sol
