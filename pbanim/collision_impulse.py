@@ -20,7 +20,10 @@ Several contacts.
 - ``"sequential"`` (Baraff 1989/course notes): loop over the colliding contacts, one impulse at a time,
   until none approaches. Each impulse obeys Newton's law for its own pair, as if the collisions were a
   sequence of binary impacts separated by tiny gaps: the *propagating* law — Newton's cradle passes the
-  whole velocity down the chain, (v₀, 0, 0) → (0, 0, v₀).
+  whole velocity down the chain, (v₀, 0, 0) → (0, 0, v₀). Contacts approaching slower than the
+  restitution threshold are *resting*: after the loop they are stopped together (ε = 0, by the LCP
+  below), as Baraff hands resting contact to the contact-force solver — one corner at a time would spin
+  a box that lands flat.
 - ``"simultaneous"``: one impulse vector f for all contacts at once, from the linear complementarity
   problem w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 with A = J W Jᵀ (W = M⁻¹), b = v⁻ + ε min(v⁻, 0) (Newton's law
   applied to every contact together, as for a rigid chain): (v₀, 0, 0) → (−v₀/3, 2v₀/3, 2v₀/3). Solved by
@@ -298,6 +301,26 @@ def _normal_lcp(bodies: ImpulseBodies, c: Contacts):
     return A
 
 
+def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float, lcp: str):
+    """All normal impulses at once from the LCP (ε per contact), then staggered friction; in place."""
+    u0n = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
+    A = _normal_lcp(bodies, c)
+    b = u0n + e_i * np.minimum(u0n, 0.0)
+    f, its = solve_lcp_small(A, b, method=lcp)
+    apply_impulses(bodies, c, f[:, None] * c.normal)
+    w = A @ f + b
+    residual = float(np.max(np.abs(f - np.maximum(0.0, f - w))))
+    Jt = np.zeros((c.m, 3))
+    sticking = np.zeros(c.m, bool)
+    if mu > 0:
+        K = collision_matrix(bodies, c)
+        for i in np.flatnonzero(f > 0):
+            ci = c.select([i])
+            Jt[i], sticking[i] = _tangent_friction(K[i], contact_velocity(bodies, ci)[0], c.normal[i], f[i], mu)
+            apply_impulses(bodies, ci, Jt[i])
+    return f, Jt, sticking, its, residual
+
+
 def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: float = 1.0,
                        friction: float = 0.0, mode: str = "sequential", rest_velocity: float = 0.0,
                        max_iter: int = 1000, tol: float = 1e-12, lcp: str = "lemke") -> ImpulseResult:
@@ -329,41 +352,34 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
     scale = max(1.0, float(np.abs(u0n).max())) if m else 1.0
     its, residual = 0, 0.0
     if m and mode == "sequential":
+        # Baraff's loop over the colliding contacts (faster than rest_velocity), one impulse at a time
+        fast = max(rest_velocity, tol * scale)
         for its in range(1, max_iter + 1):
             vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-            colliding = np.flatnonzero(vn < -tol * scale)
+            colliding = np.flatnonzero(vn < -fast)
             if colliding.size == 0:
                 break
             for i in colliding:
                 ci = c.select([i])
                 u = contact_velocity(bodies, ci)[0]
-                vni = float(u @ c.normal[i])
-                e_i = eps if -vni > rest_velocity else 0.0
-                J, stick = contact_impulse(collision_matrix(bodies, ci)[0], u, c.normal[i], e_i, mu)
+                J, stick = contact_impulse(collision_matrix(bodies, ci)[0], u, c.normal[i], eps, mu)
                 apply_impulses(bodies, ci, J)
                 impulse[i] += J
                 sticking[i] = stick
         else:
             vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
             raise ConvergenceError("sequential impulses", max_iter, float(-vn.min()), tol * scale,
-                                   detail=f"{int((vn < -tol * scale).sum())} contacts still colliding")
-        residual = float(max(0.0, -vn.min()))
+                                   detail=f"{int((vn < -fast).sum())} contacts still colliding")
+        # what still approaches is resting contact: stopped together (ε = 0), as Baraff hands it to ch07
+        vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
+        if np.any(vn < -tol * scale):
+            f, Jt, st, _, residual = _simultaneous(bodies, c, np.zeros(m), mu, lcp)
+            impulse += f[:, None] * c.normal + Jt
+            sticking |= st
     elif m:
-        A = _normal_lcp(bodies, c)
         e_i = np.where(-u0n > rest_velocity, eps, 0.0)
-        b = u0n + e_i * np.minimum(u0n, 0.0)
-        f, its = solve_lcp_small(A, b, method=lcp)
-        apply_impulses(bodies, c, f[:, None] * c.normal)
-        impulse += f[:, None] * c.normal
-        w = A @ f + b
-        residual = float(np.max(np.abs(f - np.maximum(0.0, f - w))))
-        if mu > 0:
-            K = collision_matrix(bodies, c)
-            for i in np.flatnonzero(f > 0):
-                ci = c.select([i])
-                Jt, sticking[i] = _tangent_friction(K[i], contact_velocity(bodies, ci)[0], c.normal[i], f[i], mu)
-                apply_impulses(bodies, ci, Jt)
-                impulse[i] += Jt
+        f, Jt, sticking, its, residual = _simultaneous(bodies, c, e_i, mu, lcp)
+        impulse += f[:, None] * c.normal + Jt
     bodies.v[-1] = 0.0
     bodies.omega[-1] = 0.0
     jn = np.einsum("ij,ij->i", impulse, c.normal) if m else np.zeros(0)

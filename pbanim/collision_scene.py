@@ -70,7 +70,7 @@ class Collisions(Effect):
     >>> scene = Scene(ps, [Gravity(), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
     >>> scene.pipeline
     ('gravity', 'integrate', 'collisions')
-    >>> y = scene.simulate(2.0, 1e-3).y[:, -1]
+    >>> y = scene.simulate(1.5, 4e-3).y[:, -1]
     >>> bool(abs(y[1]) < 1e-12 and y[3] == 0.0)       # at rest on the ground
     True
     """
@@ -268,13 +268,13 @@ class Collisions(Effect):
         share = np.where(wsum > 0, c.depth / np.where(wsum > 0, wsum, 1.0), 0.0)
         N = len(self.inv_mass)
         best = np.zeros(N + 1)
+        moves = [(c.a, share * W[c.a], 1.0), (c.b, share * W[c.b], -1.0)]
+        for idx, move, _ in moves:
+            np.maximum.at(best, idx, move)
         dx = np.zeros((N + 1, 3))
-        for idx, sign in ((c.a, 1.0), (c.b, -1.0)):
-            move = share * W[idx]
-            for k in np.flatnonzero(move > 0):      # keep the largest correction per body
-                if move[k] > best[idx[k]]:
-                    best[idx[k]] = move[k]
-                    dx[idx[k]] = sign * move[k] * c.normal[k]
+        for idx, move, sign in moves:      # the largest correction per body (ties: any of them)
+            pick = (move > 0) & (move >= best[idx])
+            dx[idx[pick]] = sign * move[pick, None] * c.normal[pick]
         y = np.array(y, dtype=float, copy=True)
         if self.rigid:
             self.system.unpack(y)[0][...] += dx[:N]
@@ -297,11 +297,17 @@ def _solve_segment(fun, t0, y0, t1, method, events, split):
 
     solve = getattr(ode, "solve", None)
     if solve is not None:
-        res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
-        if res.status == 1 and res.t_events is not None and len(res.t_events[0]):
-            return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
-        return t1, np.asarray(res.y[:, -1]), False
-    # fallback while pbanim.solve is being written: bracket the sign change and bisect (Brent)
+        try:
+            res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
+        except ValueError as exc:   # pbanim.solve in progress: empty y_events could not be reshaped
+            if "reshape" not in str(exc):
+                raise
+            res = None
+        if res is not None:
+            if res.status == 1 and res.t_events is not None and len(res.t_events[0]):
+                return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
+            return t1, np.asarray(res.y[:, -1]), False
+    # fallback (pbanim.solve absent or failing): bracket the sign change, Brent on partial steps
     from scipy.optimize import brentq
 
     step = get_method(method).step
@@ -328,7 +334,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     >>> ps = ParticleSystem([[0.0, 1.0]])
     >>> scene = Scene(ps, [Gravity([0, -10.0]), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
     >>> res = simulate_collisions(scene, 0.6, 0.01, toi="event")
-    >>> round(float(res.t_events[0][0]), 12) == round(np.sqrt(0.2), 12)    # √(2h₀/g)
+    >>> bool(abs(res.t_events[0][0] - np.sqrt(0.2)) < 1e-12)    # √(2h₀/g)
     True
     """
     if toi not in ("event", "fixed"):
@@ -398,4 +404,4 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     diag_arrays = {key: np.array([d[key] for d in diags]) for key in diags[0]}
     return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], status=0, wall_time=wall,
                      method=f"{method}+{toi}", nsteps=n_steps, diagnostics=diag_arrays,
-                     t_events=[np.array(impact_t)], y_events=[np.array(impact_y).reshape(len(impact_t), -1)])
+                     t_events=[np.array(impact_t)], y_events=[np.array(impact_y).reshape(len(impact_t), y.size)])

@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .constraints_kinds import Constraint, UserConstraint
+from .constraints_kinds import Constraint, UserConstraint, _dot
 
 __all__ = ["ConstraintSet", "Assembly", "Structure"]
 
@@ -50,10 +50,18 @@ class Assembly:
     """Everything one evaluation needs: C, Ċ = Jq̇, J̇q̇ (m,), J (sparse m × n), and the block values."""
 
     C: np.ndarray
-    Cdot: np.ndarray
     Jdv: np.ndarray
     J: sp.csr_matrix
+    v: np.ndarray                   # q̇ (flat), for Ċ
     vals: np.ndarray | None = None  # W_p G_r·G_s for each half pair (blocks mode)
+    _Cdot: np.ndarray | None = None
+
+    @property
+    def Cdot(self) -> np.ndarray:
+        """Ċ = J q̇ (computed on first use)."""
+        if self._Cdot is None:
+            self._Cdot = self.J @ self.v
+        return self._Cdot
 
 
 def _pattern(r1: np.ndarray, r2: np.ndarray, m: int, fmt: str = "csr"):
@@ -121,7 +129,7 @@ class ConstraintSet:
         for c, off in zip(self.constraints, self.offsets):
             k = c.slots.shape[1]
             flat = np.flatnonzero(c.slots.ravel() >= 0)
-            sel.append(flat)
+            sel.append(None if len(flat) == c.slots.size else flat)
             rows.append(off + flat // k)
             parts.append(c.slots.ravel()[flat])
         self._sel = sel
@@ -200,12 +208,15 @@ class ConstraintSet:
         if self.blocks:
             C = np.concatenate([o[0] for o in out])
             Jdv = np.concatenate([o[2] for o in out])
-            Gf = np.concatenate([o[1].reshape(-1, self.dim)[sel] for o, sel in zip(out, self._sel)])
+            Gs = [o[1].reshape(-1, self.dim) for o in out]
+            Gs = [G if sel is None else np.take(G, sel, axis=0) for G, sel in zip(Gs, self._sel)]
+            Gf = Gs[0] if len(Gs) == 1 else np.concatenate(Gs)
             J = self._J
-            J.data = Gf.ravel()[self._Jperm]
+            J.data = np.take(Gf.ravel(), self._Jperm)
             vals = None
             if pairs:
-                vals = self._pw * np.einsum("ij,ij->i", Gf[self._ei], Gf[self._ej])
+                vals = _dot(np.take(Gf, self._ei, axis=0), np.take(Gf, self._ej, axis=0))
+                vals *= self._pw
         else:
             Cs, Js, Jds = [], [], []
             for c, o in zip(self.constraints, out):
@@ -219,7 +230,7 @@ class ConstraintSet:
                     Js.append(c.jacobian(x))
             C, Jdv = np.concatenate(Cs), np.concatenate(Jds)
             J, vals = sp.vstack(Js, format="csr"), None
-        return Assembly(C=C, Cdot=J @ v.ravel(), Jdv=Jdv, J=J, vals=vals)
+        return Assembly(C=C, Jdv=Jdv, J=J, v=v.ravel(), vals=vals)
 
     def matrix(self, asm: Assembly) -> sp.csr_matrix:
         """A = JWJᵀ (sparse) from an assembly."""

@@ -18,7 +18,7 @@ names the dependent rows and the residual (ORACLES B4).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -45,7 +45,8 @@ class ConstraintSolution:
     qdd : ndarray (n,)          accelerations q̈ = W (Q + Q_C).
     solver : str                the solver that ran ("auto" resolved).
     iterations : int            CG iterations (0 for direct solvers).
-    residual : float            ‖JWJᵀλ − r‖ / max(‖r‖, tiny) (KKT: of the saddle-point system).
+    residual : float            ‖JWJᵀλ − r‖ / max(‖r‖, tiny) (KKT: of the saddle-point system);
+                                computed on first access from the stored problem.
     rank_deficient : bool       the minimum-norm fallback was used (redundant constraints).
     """
 
@@ -54,24 +55,37 @@ class ConstraintSolution:
     qdd: np.ndarray
     solver: str
     iterations: int = 0
-    residual: float = 0.0
     rank_deficient: bool = False
+    _residual: float | None = field(default=None, repr=False)
+    _problem: tuple | None = field(default=None, repr=False)
+
+    @property
+    def residual(self) -> float:
+        if self._residual is None:
+            J, W, r = self._problem
+            self._residual = _rel(J @ (W * self.Q_C) - r, r)
+        return self._residual
+
+
+def _norm(a: np.ndarray) -> float:
+    # not np.linalg.norm: its BLAS dot goes multi-threaded on long vectors, slow on a busy machine
+    return float(np.sqrt(np.add.reduce(a * a)))
 
 
 def _rel(res: np.ndarray, r: np.ndarray) -> float:
-    return float(np.linalg.norm(res) / max(np.linalg.norm(r), 1e-300))
+    return _norm(res) / max(_norm(r), 1e-300)
 
 
 def min_norm_lambda(A, r: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     """Minimum-norm λ = A⁺r for symmetric PSD A; raise SingularConstraintError if r ∉ range(A)."""
-    Ad = A.toarray() if sp.issparse(A) else np.asarray(A, float)
-    if Ad.shape[0] > 4000:
+    if A.shape[0] > 4000:
         sol = spla.lsmr(sp.csr_matrix(A), r, atol=1e-15, btol=1e-15, maxiter=20 * Ad.shape[0])[0]
         res = A @ sol - r
         if _rel(res, r) > tol:
             rows = np.flatnonzero(np.abs(res) > tol * max(np.abs(r).max(), 1e-300))
             raise SingularConstraintError(rows, float(np.linalg.norm(res)), "detected by LSMR")
         return sol
+    Ad = A.toarray() if sp.issparse(A) else np.asarray(A, float)
     ev, U = np.linalg.eigh(0.5 * (Ad + Ad.T))
     big = ev > 1e-12 * max(ev.max(initial=0.0), 1e-300)
     coef = U.T @ r
@@ -122,14 +136,9 @@ def _linear(cset, asm, r: np.ndarray):
     elif st.kind == "chain":
         ab = cset.bands(asm)
         d, e = ab[0], ab[1, :-1]
-        _, _, x, info = sla.lapack.dptsv(d, e, rp)
-        if info != 0:
-            return None
-        # dptsv's pivots are not returned in a usable form: check the factorization by its residual
-        res = d * x
-        res[:-1] += e * x[1:]
-        res[1:] += e * x[:-1]
-        if not np.all(np.isfinite(x)) or _rel(res - rp, rp) > 1e-9:
+        D, _, x, info = sla.lapack.dptsv(d, e, rp)
+        # dptsv factors A = L D Lᵀ: a vanishing pivot D_i means dependent rows (redundant constraints)
+        if info != 0 or D.min() < _PIVOT * d.max():
             return None
     elif st.kind == "banded":
         ab = cset.bands(asm)
@@ -152,6 +161,8 @@ def _linear(cset, asm, r: np.ndarray):
 
 def _cg(J, W, r, tol, max_iter, x0=None):
     m = J.shape[0]
+    if not np.any(r):
+        return np.zeros(m), 0, 0.0
     JT = J.T.tocsr()
     op = spla.LinearOperator((m, m), matvec=lambda y: J @ (W * (JT @ y)), dtype=float)
     it = [0]
@@ -218,12 +229,12 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         if z is not None:
             qdd, lam = z[: len(Q)], z[len(Q):]
             Q_C = J.T @ lam
-            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, _rel(K @ z - rhs, rhs))
+            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
         lam, deficient = None, True
     elif solver == "witkin-cg":
         lam, it, res = _cg(J, W, r, tol, max_iter or 10 * m + 100)
     else:
-        if A is None:
+        if A is None and solver != "linear":
             A = cset.matrix(asm) if (cset is not None and asm is not None) else (J @ sp.diags(W) @ J.T).tocsr()
         if solver == "witkin-dense":
             lam = _cho_dense(A.toarray() if sp.issparse(A) else A, r)
@@ -238,6 +249,5 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         lam = min_norm_lambda(A, r)
     Q_C = J.T @ lam
     qdd = W * (Q + Q_C)
-    if solver != "witkin-cg":
-        res = _rel(J @ (W * Q_C) - r, r)
-    return ConstraintSolution(lam, Q_C, qdd, solver, it, res, deficient)
+    return ConstraintSolution(lam, Q_C, qdd, solver, it, deficient, res if solver == "witkin-cg" else None,
+                              (J, W, r))

@@ -46,7 +46,7 @@ import numpy as np
 from .errors import InfeasibleContact
 from .results import ContactSolution, natural_map_residual
 
-__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "pgs", "qp"]
+__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "pgs", "qp", "residual_threshold"]
 
 LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs")
 
@@ -68,24 +68,48 @@ def _scale(b: np.ndarray) -> float:
     return max(1.0, float(np.max(np.abs(b)))) if b.size else 1.0
 
 
-def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) -> np.ndarray:
-    """Re-solve A_CC f_C = −b_C on the support C = {fᵢ > 0} (least squares: redundant contacts
-    make A_CC singular but consistent); keep the answer only if it has a smaller residual."""
-    C = np.flatnonzero(f > 0)
-    if C.size == 0:
-        return f
-    fC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
-    g = np.zeros_like(f)
-    g[C] = np.maximum(fC, 0.0)
-    if natural_map_residual(g, A @ g + b) < natural_map_residual(f, A @ f + b):
-        return g
-    return f
+def residual_threshold(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) -> float:
+    """tol·max(1, ‖b‖∞) + 1000 ε ‖|A||f|‖∞: the residual a solution must reach to be accepted.
+
+    The second term is the roundoff floor of w = A f + b (1000 ulps of the terms that cancel): a stack
+    of 1000 kg boxes cannot have w exact to better than that, whatever the solver.
+    """
+    if b.size == 0:
+        return tol
+    return tol * _scale(b) + 1000 * np.finfo(float).eps * float(np.max(np.abs(A) @ np.abs(f)))
+
+
+def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int = 4) -> np.ndarray:
+    """Re-solve A_CC f_C = −b_C on the active set C = {fᵢ > wᵢ} (least squares: redundant
+    contacts make A_CC singular but consistent), dropping indices that come out negative; a few
+    rounds, keeping the best answer by natural-map residual (never a worse one)."""
+    best, best_r = f, natural_map_residual(f, A @ f + b)
+    g = f
+    for _ in range(rounds):
+        w = A @ g + b
+        C = np.flatnonzero(g > w)  # the natural active-set guess (includes violated wᵢ < 0 at fᵢ = 0)
+        if C.size == 0:
+            break
+        gC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
+        for _drop in range(3):
+            if np.all(gC >= 0) or not np.any(gC > 0):
+                break
+            C = C[gC > 0]
+            gC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
+        g = np.zeros_like(f)
+        g[C] = np.maximum(gC, 0.0)
+        r = natural_map_residual(g, A @ g + b)
+        if r < best_r:
+            best, best_r = g, r
+        else:
+            break
+    return best
 
 
 # ---------------------------------------------------------------------------------------------
 # Lemke's complementary pivoting (Cottle–Pang–Stone §4.4), lexicographic anti-cycling
 # ---------------------------------------------------------------------------------------------
-def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-12,
+def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-9,
           **_: Any) -> tuple[np.ndarray, str, int]:
     """Lemke's method on w − A f − d z₀ = b with covering vector d = 1.
 
@@ -101,11 +125,12 @@ def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_to
     T = np.hstack([np.eye(m), -A, -np.ones((m, 1)), b[:, None]])
     basis = np.arange(m)
 
-    def lexmin(rows: np.ndarray, col: np.ndarray) -> int:
+    def lexmin(rows: np.ndarray, col: np.ndarray, clamp: bool = True) -> int:
         # lexicographic minimum of [x_B, B⁻¹] rows divided by the pivot column entries
         cand = rows
         for k in [2 * m + 1] + list(range(m)):
-            ratios = T[cand, k] / col[cand]
+            vals = np.maximum(T[cand, k], 0.0) if (clamp and k == 2 * m + 1) else T[cand, k]  # roundoff: x_B ≥ 0
+            ratios = vals / col[cand]
             best = ratios.min()
             cand = cand[ratios <= best + pivot_tol * max(1.0, abs(best))]
             if cand.size == 1:
@@ -123,14 +148,15 @@ def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_to
     rows = np.arange(m)
     neg = rows[T[:, 2 * m + 1] < 0]
     # with d = 1 the ratio is b_i / 1; the minimum (most negative) leaves
-    r = lexmin(neg, np.ones(m)) if neg.size else 0
+    r = lexmin(neg, np.ones(m), clamp=False) if neg.size else 0
     leaving = int(basis[r])
     pivot(r, 2 * m)
     pivots = 1
     while pivots < max_iter:
         e = leaving + m if leaving < m else leaving - m  # the complement of what just left
         col = T[:, e]
-        pos = np.flatnonzero(col > pivot_tol)
+        # relative pivot threshold: redundant contacts leave roundoff-level entries that must not pivot
+        pos = np.flatnonzero(col > pivot_tol * max(1.0, float(np.max(np.abs(col)))))
         if pos.size == 0:
             return np.zeros(m), "ray", pivots
         # if z0 can leave at the minimum ratio, let it (terminates with a solution)
@@ -138,7 +164,7 @@ def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_to
         z0_row = np.flatnonzero(basis == 2 * m)
         if z0_row.size and z0_row[0] in pos:
             rz = int(z0_row[0])
-            if T[rz, 2 * m + 1] / col[rz] <= T[r, 2 * m + 1] / col[r] + pivot_tol:
+            if max(T[rz, 2 * m + 1], 0.0) / col[rz] <= max(T[r, 2 * m + 1], 0.0) / col[r] + 1e-12 * _scale(b):
                 r = rz
         leaving = int(basis[r])
         pivot(r, e)
@@ -224,7 +250,7 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
         warm_start: np.ndarray | None = None, omega: float = 1.0, **_: Any) -> tuple[np.ndarray, str, int]:
     """Projected Gauss–Seidel (SOR with relaxation ``omega``): fᵢ ← max(0, fᵢ − ω wᵢ / Aᵢᵢ), sweep by sweep.
 
-    Stops when the natural-map residual ≤ tol·max(1, ‖b‖∞) ("converged"), else after ``max_iter``
+    Stops when the natural-map residual ≤ :func:`residual_threshold` ("converged"), else after ``max_iter``
     sweeps with status "max_iter" — it never claims a convergence it did not reach. Needs Aᵢᵢ > 0.
     """
     m = b.size
@@ -233,15 +259,15 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
         i = int(np.flatnonzero(diag <= 0)[0])
         return np.zeros(m), f"zero_diagonal(A[{i},{i}] = {diag[i]:.3g})", 0
     f = np.zeros(m) if warm_start is None else np.maximum(np.array(warm_start, dtype=float), 0.0)
-    w = A @ f + b
-    thresh = tol * _scale(b)
-    if natural_map_residual(f, w) <= thresh:
+    absA = np.abs(A)
+    if natural_map_residual(f, A @ f + b) <= residual_threshold(A, b, f, tol):
         return f, "converged", 0
     rows = [A[i] for i in range(m)]
     for sweep in range(1, int(max_iter) + 1):
         for i in range(m):
             fi = f[i] - omega * (rows[i] @ f + b[i]) / diag[i]
             f[i] = fi if fi > 0.0 else 0.0
+        thresh = tol * _scale(b) + 1000 * np.finfo(float).eps * float(np.max(absA @ f))
         if natural_map_residual(f, A @ f + b) <= thresh:
             return f, "converged", sweep
     return f, "max_iter", int(max_iter)
@@ -250,7 +276,7 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
 # ---------------------------------------------------------------------------------------------
 # QP: min ½ fᵀAf + bᵀf, f ≥ 0
 # ---------------------------------------------------------------------------------------------
-def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float = 1e-12,
+def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float = 1e-9,
        max_iter: int | None = None, warm_start: np.ndarray | None = None, native_box: bool = True,
        polish: bool = True, tol: float = 1e-10, **opts: Any) -> tuple[np.ndarray, str, int]:
     """The contact QP through qpsolvers (``backend`` = any name in ``qpsolvers.available_solvers``).
@@ -310,7 +336,8 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         ``"qp"`` needs a symmetric PSD A (frictionless contact); the pivoting methods also take the
         non-symmetric matrices of friction; ``"pgs"`` needs Aᵢᵢ > 0.
     tol : float
-        Success iff the natural-map residual ≤ tol·max(1, ‖b‖∞).
+        Success iff the natural-map residual ≤ tol·max(1, ‖b‖∞) + 1000 ε ‖|A||f|‖∞
+        (:func:`residual_threshold`; ``extra["threshold"]`` holds the value used).
     raise_on_failure : bool
         Raise :class:`~pbanim.errors.InfeasibleContact` on failure (default) or return ``success=False``.
     fallback : str, optional
@@ -353,7 +380,6 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         if m and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, np.max(np.abs(A))):
             raise ValueError("A must be positive semidefinite for solver='qp' (the QP is then convex); "
                              "use solver='lemke' for an indefinite LCP")
-    thresh = tol * _scale(b)
     start = time.perf_counter()
     f, status, iters, extra = None, "", 0, {}
     if warm_start is not None:
@@ -362,18 +388,28 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
             raise ValueError(f"warm_start must have shape ({m},), got {warm_start.shape}")
         if solver in ("lemke", "dantzig") and np.any(warm_start > 0):
             g = _polish(A, b, np.where(warm_start > 0, 1.0, 0.0) * np.maximum(warm_start, 0), tol)
-            if natural_map_residual(g, A @ g + b) <= thresh:
+            if natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
                 f, status, extra["warm_start_hit"] = g, "solved", True
     if f is None:
         kw = dict(opts)
         if solver in ("pgs", "qp"):
             kw.update(tol=tol, warm_start=warm_start)
+        polish = kw.pop("polish", True)
+        if solver == "qp":
+            kw["polish"] = polish
         f, status, iters = _IMPL[solver](A, b, **kw)
+        if polish and solver in ("lemke", "dantzig") and status == "solved":
+            g = _polish(A, b, f, tol)  # one least-squares solve on the support: removes pivoting roundoff
+            extra["polished"] = g is not f
+            f = g
     elapsed = time.perf_counter() - start
     sol = ContactSolution(f=np.asarray(f, dtype=float), solver=solver, status=status, success=False,
                           iterations=iters, time=elapsed, A=A, b=b, extra=extra)
     # success is the certificate, whatever the solver's own status (kept in ``status``)
-    sol.success = bool(np.all(np.isfinite(sol.f)) and sol.residual <= thresh)
+    finite = bool(np.all(np.isfinite(sol.f)))
+    thresh = residual_threshold(A, b, sol.f, tol) if finite else tol
+    extra["threshold"] = thresh
+    sol.success = bool(finite and sol.residual <= thresh)
     if not sol.success and fallback is not None and fallback != solver:
         other = solve_lcp(A, b, fallback, tol=tol, raise_on_failure=raise_on_failure, warm_start=None)
         other.extra["fallback_from"] = {"solver": solver, "status": status, "residual": sol.residual}

@@ -121,6 +121,7 @@ class ParticleSystem:
         self.N, self.dim = x.shape
         self.split = self.N * self.dim
         self.W = 1.0 / m
+        self._Wflat = np.repeat(self.W, self.dim)  # W per component: flat operands keep numpy's loops long
         self._h_cached, self._hW = None, None
 
     # -- state -----------------------------------------------------------------------------------
@@ -143,7 +144,7 @@ class ParticleSystem:
         """dy/dt = [v, W Q]."""
         dy = np.empty_like(y)
         dy[: self.split] = y[self.split:]
-        np.multiply(Q, self.W[:, None], out=dy[self.split:].reshape(self.N, self.dim))
+        np.multiply(Q.reshape(-1), self._Wflat, out=dy[self.split:])
         return dy
 
     def kick_drift(self, y: np.ndarray, Q: np.ndarray, h: float, out: np.ndarray, lo: int = 0,
@@ -156,10 +157,10 @@ class ParticleSystem:
         """
         hi = self.N if hi is None else hi
         if h != self._h_cached:
-            self._hW, self._h_cached = h * self.W[:, None], h
+            self._hW, self._h_cached = h * self._Wflat, h
         s, d = self.split, self.dim
         i, j = lo * d, hi * d
-        a = np.multiply(Q, self._hW[lo:hi], out=Q).reshape(-1)
+        a = np.multiply(Q.reshape(-1), self._hW[i:j], out=Q.reshape(-1))
         vo = out[s + i: s + j]
         np.add(y[s + i: s + j], a, out=vo)
         np.multiply(vo, h, out=a)
@@ -208,7 +209,6 @@ class Gravity(Effect):
 
     name = "gravity"
     phase = "force"
-    local = True  # the force on particle i depends on particle i only
 
     def __init__(self, g: Any = None) -> None:
         self.g_in = g
@@ -227,9 +227,9 @@ class Gravity(Effect):
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         Q += self._mg
 
-    def apply_block(self, t: float, x: np.ndarray, v: np.ndarray, Q: np.ndarray, lo: int, hi: int) -> None:
-        """:meth:`apply` restricted to particles lo:hi (x, v, Q are the block's (hi − lo, dim) views)."""
-        Q += self._mg[lo:hi]
+    def affine(self) -> tuple[np.ndarray, None]:
+        """Q = c + d v with c = m g, d = 0 (lets :class:`pbanim.scene.Scene` fold it into one update)."""
+        return self._mg, None
 
     def potential_energy(self, y: np.ndarray) -> float:
         x, _ = self.system.unpack(y)
@@ -260,7 +260,6 @@ class Drag(Effect):
 
     name = "drag"
     phase = "force"
-    local = True
 
     def __init__(self, damping: Any = 0.1) -> None:
         self.damping_in = damping
@@ -268,21 +267,18 @@ class Drag(Effect):
     def bind(self, system: Any) -> None:
         self.system = system
         self.kd = _per_particle(self.damping_in, system.N, "damping", "use a drag coefficient k_d >= 0")
-        self._kd = self.kd[:, None]
+        self._kdflat = np.repeat(self.kd, system.dim)
         self._scalar = bool(np.all(self.kd == self.kd[0]))
         self._k0 = float(self.kd[0])
-        self._scratch: np.ndarray | None = None
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         _, v = self.system.unpack(y)
-        Q -= (self._k0 * v) if self._scalar else (self._kd * v)
+        Qf = Q.reshape(-1)
+        Qf -= (self._k0 * v.reshape(-1)) if self._scalar else (self._kdflat * v.reshape(-1))
 
-    def apply_block(self, t: float, x: np.ndarray, v: np.ndarray, Q: np.ndarray, lo: int, hi: int) -> None:
-        buf = self._scratch
-        if buf is None or buf.shape[0] < Q.shape[0]:
-            buf = self._scratch = np.empty_like(Q)
-        tmp = np.multiply(v, self._k0 if self._scalar else self._kd[lo:hi], out=buf[: Q.shape[0]])
-        np.subtract(Q, tmp, out=Q)
+    def affine(self) -> tuple[None, np.ndarray]:
+        """Q = c + d v with c = 0, d = −k_d (lets :class:`pbanim.scene.Scene` fold it into one update)."""
+        return None, -self.kd
 
     def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:
         n = self.system.N * self.system.dim

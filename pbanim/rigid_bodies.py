@@ -107,6 +107,9 @@ class RigidBodies:
         if np.any(bad):
             raise ValueError(f"mass must be positive and finite (np.inf for a static body), got "
                              f"{m[bad][0]} for body {int(np.flatnonzero(bad)[0])}")
+        if I_in.ndim not in (1, 2, 3) or I_in.shape[-1] != 3 or (I_in.ndim == 3 and I_in.shape[1] != 3):
+            raise ValueError(f"inertia must have shape (3,) or (N, 3) (principal moments), or (3, 3) or "
+                             f"(N, 3, 3) (tensors), got {I_in.shape}")
         if I_in.ndim == 1 or (I_in.ndim == 2 and I_in.shape != (3, 3)):  # principal moments
             I_in = I_in[..., :, None] * np.eye(3)
         Ib = _per_body("inertia", I_in, N, (3, 3))
@@ -120,6 +123,7 @@ class RigidBodies:
         self.inv_mass_padded = np.append(self.inv_mass, 0.0)
         self.inv_I_body_padded = np.concatenate([self.inv_I_body, np.zeros((1, 3, 3))])
         self._dyn = (~st).astype(float)[:, None]
+        self._any_static = bool(st.any())
         self._mass_finite = np.where(st, 0.0, m)  # for gravity-like forces (static bodies feel nothing)
 
         x = np.zeros((N, 3)) if positions is None else _per_body("positions", positions, N, (3,))
@@ -259,25 +263,30 @@ class RigidBodies:
 
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies at once (static bodies: 0)."""
+        return self.derivative_and_omega(y, Q)[0]
+
+    def derivative_and_omega(self, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(ẏ, ω): the derivative and the world angular velocities it used (one pass)."""
         N = self.N
         q = y[3 * N:7 * N].reshape(N, 4)
         P = y[7 * N:10 * N].reshape(N, 3)
         L = y[10 * N:13 * N].reshape(N, 3)
         R = quat_to_matrix(q)
-        w = _matvec(R, _matvec(self.inv_I_body, _matTvec(R, L)))
+        w = np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", self.inv_I_body, np.einsum("nji,nj->ni", R, L)))
         dy = np.empty_like(y)
-        dy[:3 * N] = (self.inv_mass[:, None] * P).ravel()
+        np.multiply(P, self.inv_mass[:, None], out=dy[:3 * N].reshape(N, 3))
         qd = dy[3 * N:7 * N].reshape(N, 4)
-        q0, q1, q2, q3 = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-        w0, w1, w2 = w[:, 0], w[:, 1], w[:, 2]
+        q0, q1, q2, q3 = q.T
+        w0, w1, w2 = w.T
         qd[:, 0] = -0.5 * (w0 * q1 + w1 * q2 + w2 * q3)
         qd[:, 1] = 0.5 * (w0 * q0 + w1 * q3 - w2 * q2)
         qd[:, 2] = 0.5 * (w1 * q0 + w2 * q1 - w0 * q3)
         qd[:, 3] = 0.5 * (w2 * q0 + w0 * q2 - w1 * q1)
-        Qd = Q * self._dyn
-        dy[7 * N:10 * N] = Qd[:, :3].ravel()
-        dy[10 * N:] = Qd[:, 3:].ravel()
-        return dy
+        Q = np.asarray(Q, dtype=float).reshape(N, 6)
+        if self._any_static:
+            Q = Q * self._dyn
+        dy[7 * N:].reshape(2, N, 3)[:] = Q.reshape(N, 2, 3).transpose(1, 0, 2)   # [F rows; τ rows]
+        return dy, w
 
     def derivative_readable(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """The same ẏ, one body at a time, written as in Baraff's notes (for teaching; tests compare)."""

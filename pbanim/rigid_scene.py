@@ -88,8 +88,7 @@ def exp_map_step(system: RigidBodies, forces, t: float, y: np.ndarray, h: float,
         if counter is not None:
             counter[0] += 1
         yy, theta = to_y(z)
-        dy = system.derivative(yy, forces(tt, yy))
-        _, w = system.velocities(yy)
+        dy, w = system.derivative_and_omega(yy, forces(tt, yy))
         dz = np.empty_like(z)
         dz[:3 * N] = dy[:3 * N]
         dz[3 * N:6 * N] = dexpinv(theta, w).ravel()

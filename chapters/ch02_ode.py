@@ -1,0 +1,199 @@
+"""Chapter 02 — ODE solvers: orders, stability regions, Kepler orbits, work-precision, stiff springs.
+
+Each figure computes, plots and returns its data (checked in tests/test_ode_figures.py).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pbanim.errors import SimulationDiverged
+from pbanim.models.ode import damped_oscillator, kepler
+from pbanim.ode import METHODS, solve
+from pbanim.plotting import figure
+from pbanim.testing import fitted_order
+
+ORDER = ["euler", "symplectic_euler", "implicit_euler", "midpoint", "verlet", "implicit_midpoint", "rk4", "dopri5"]
+
+
+@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2): slopes = orders")
+def convergence(ctx):
+    kp = kepler(0.3)
+    n_h = 3 if ctx.quick else 6
+    h0 = {1: 2.0**-8, 2: 2.0**-4, 4: 2.0**-4, 5: 2.0**-4}
+    data = {"h": {}, "error": {}, "slope": {}, "order": {}}
+    for name in ORDER:
+        m = METHODS[name]
+        T = 6.0 if m.order == 5 else 2.0  # Dormand–Prince reaches its asymptotic range later
+        exact = kp.exact(T)[:, 0]
+        hs = h0[m.order] / 2.0 ** np.arange(n_h)
+        errs = []
+        for h in hs:
+            y = kp.y0.copy()
+            for k in range(int(round(T / h))):
+                y = m.step(kp.rhs, k * h, y, h, 2)
+            errs.append(float(np.max(np.abs(y - exact))))
+        data["h"][name], data["error"][name], data["order"][name] = hs, np.array(errs), m.order
+        data["slope"][name] = fitted_order(hs, errs, window=(1e-12, 1e-2))
+    fig, ax = ctx.subplots()
+    for name in ORDER:
+        ax.loglog(data["h"][name], data["error"][name], "o-", ms=3,
+                  label=f"{name} (slope {data['slope'][name]:.2f}, order {data['order'][name]})")
+    ax.set_xlabel("step h [s]")
+    ax.set_ylabel("max |y(t) − y*(t)| at the end")
+    ax.legend(fontsize=7)
+    ctx.save(fig)
+    return data
+
+
+def _oscillator_batch(w2, c):
+    """ẍ = −ω²x − cẋ for a batch of (ω², c): the linear system whose eigenvalues are z and z̄."""
+
+    def rhs(t, y):
+        return np.stack([y[..., 1], -w2 * y[..., 0] - c * y[..., 1]], axis=-1)
+
+    J = np.zeros((len(w2), 2, 2))
+    J[:, 0, 1], J[:, 1, 0], J[:, 1, 1] = 1.0, -w2, -c
+    return rhs, (lambda t, y: J)
+
+
+def stability_radius(name, z):
+    """Spectral radius of one step (h = 1) on the real system with eigenvalues z, z̄ (batch over z).
+
+    For a Runge–Kutta method this is |R(z)|; for split methods (symplectic Euler, Verlet) it is their
+    stability function on the damped oscillator, the natural test equation of a partitioned method.
+    """
+    z = np.asarray(z, dtype=complex).ravel()
+    w2, c = np.abs(z) ** 2, -2 * z.real
+    rhs, jac = _oscillator_batch(w2, c)
+    step = METHODS[name].step
+    cols = [step(rhs, 0.0, np.tile(e, (len(z), 1)), 1.0, 1, jac) for e in np.eye(2)]
+    P = np.stack(cols, axis=-1)  # (K, 2, 2): columns are the images of e₁, e₂
+    tr, det = P[:, 0, 0] + P[:, 1, 1], P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] * P[:, 1, 0]
+    disc = np.sqrt(tr.astype(complex) ** 2 / 4 - det)
+    return np.maximum(np.abs(tr / 2 + disc), np.abs(tr / 2 - disc))
+
+
+@figure("ch02", "stability", "Absolute stability regions |R(z)| ≤ 1 (shaded), z = hλ")
+def stability(ctx):
+    n = 80 if ctx.quick else 240  # even: the grid avoids the poles z = 1, 2 of the implicit methods
+    x = np.linspace(-5.0, 3.0, n)
+    yv = np.linspace(-4.0, 4.0, n)
+    Z = x[None, :] + 1j * yv[:, None]
+    data = {"x": x, "y": yv, "rho": {}, "R_direct": {}}
+    for name in ORDER:
+        data["rho"][name] = stability_radius(name, Z).reshape(Z.shape)
+        if name in ("euler", "midpoint", "rk4", "dopri5"):  # R(z) from one step of y' = zy, complex y
+            step = METHODS[name].step
+            data["R_direct"][name] = np.abs(step(lambda t, u: Z * u, 0.0, np.ones_like(Z), 1.0))
+    plt_fig, axes = ctx.subplots(2, 4, figsize=(11, 5.6), sharex=True, sharey=True)
+    for ax, name in zip(axes.ravel(), ORDER):
+        rho = data["rho"][name]
+        ax.contourf(x, yv, (rho <= 1.0).astype(float), levels=[0.5, 1.5], colors=["#8ecae6"])
+        ax.contour(x, yv, rho, levels=[1.0], colors="k", linewidths=0.8)
+        ax.axhline(0, color="0.5", lw=0.5)
+        ax.axvline(0, color="0.5", lw=0.5)
+        ax.set_title(name, fontsize=8)
+        ax.set_aspect("equal")
+    for ax in axes[1]:
+        ax.set_xlabel("Re z = h Re λ")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("Im z = h Im λ")
+    ctx.save(plt_fig)
+    return data
+
+
+@figure("ch02", "kepler", "Kepler orbit (e = 0.5): trajectories and energy error per method, h = T/400")
+def kepler_orbits(ctx):
+    kp = kepler(0.5)
+    T = kp.period
+    orbits = 3 if ctx.quick else 10
+    names = ["euler", "symplectic_euler", "verlet", "implicit_midpoint", "rk4", "dopri5"]
+    data = {"t": {}, "energy_error": {}, "L_error": {}, "orbit": {}, "E_exact": kp.params["E"]}
+    for name in names:
+        if name == "dopri5":
+            r = solve(kp.rhs, (0, orbits * T), kp.y0, method=name, rtol=1e-6, atol=1e-9)
+        else:
+            r = solve(kp.rhs, (0, orbits * T), kp.y0, method=name, h=T / 400, split=2)
+        data["t"][name] = r.t
+        data["orbit"][name] = r.y[:2]
+        data["energy_error"][name] = kp.invariants["energy"](r.y) - kp.params["E"]
+        data["L_error"][name] = kp.invariants["angular_momentum"](r.y) - kp.params["L"]
+    fig, (a1, a2) = ctx.subplots(1, 2, figsize=(11, 4.4))
+    for name in names:
+        a1.plot(*data["orbit"][name], lw=0.7, label=name)
+        a2.semilogy(data["t"][name] / T, np.abs(data["energy_error"][name]) + 1e-17, lw=0.7, label=name)
+    a1.set_aspect("equal")
+    a1.set_xlabel("x [GM = a = 1 units]")
+    a1.set_ylabel("y")
+    a1.set_title("orbits")
+    a1.legend(fontsize=7)
+    a2.set_xlabel("t / T (orbits)")
+    a2.set_ylabel("|E(t) − E*|")
+    a2.set_title("energy error")
+    ctx.save(fig)
+    return data
+
+
+@figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim vs scipy.solve_ivp")
+def work_precision(ctx):
+    from pbanim.bench.ode import _kepler_problem, _runner, _stiff_problem
+    from pbanim.accuracy import rows_by_variant, sweep
+
+    quick = ctx.quick
+    out = {}
+    probs = [("Kepler e = 0.5, 10 periods", _kepler_problem(),
+              {"pbanim:dopri5": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
+               "pbanim:rk4": [1000, 4000] if quick else [1000, 2000, 4000, 8000, 16000],
+               "scipy:RK45": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
+               "scipy:DOP853": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)]}),
+             ("stiff damped spring k = 1e6", _stiff_problem(),
+              {"pbanim:implicit_euler": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
+               "pbanim:implicit_midpoint": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
+               "scipy:Radau": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)],
+               "scipy:LSODA": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)]})]
+    fig, axes = ctx.subplots(1, 2, figsize=(11, 4.4))
+    for ax, (title, (model, t_end, err), params) in zip(axes, probs):
+        rows = sweep(_runner(model, t_end), list(params), params, err, repeats=1 if quick else 3)
+        out[title] = rows
+        for v, rs in rows_by_variant(rows).items():
+            ax.loglog([r.wall_time for r in rs], [max(r.error, 1e-16) for r in rs], "o-" if "pbanim" in v else "s--",
+                      ms=3, label=v)
+        ax.set_xlabel("wall time [s]")
+        ax.set_ylabel("error")
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=7)
+    ctx.save(fig)
+    return {"rows": out}
+
+
+@figure("ch02", "stiff_spring", "Stiff spring k = 1e6 at hω = 2.5: Euler and symplectic Euler explode (limit hω < 2), RK4 (limit 2√2) and implicit methods do not")
+def stiff_spring(ctx):
+    m = damped_oscillator(1e3, 20.0)
+    h = 2.5e-3
+    t_end = 0.5 if ctx.quick else 1.0
+    data = {"h": h, "omega": 1e3, "t": {}, "x": {}, "diverged_at": {}}
+    for name in ["euler", "symplectic_euler", "rk4", "implicit_euler", "implicit_midpoint"]:
+        meth = METHODS[name]
+        ts, xs, y, t = [0.0], [m.y0[0]], m.y0.copy(), 0.0
+        try:
+            r = solve(m.rhs, (0, t_end), m.y0, method=name, h=h, jac=m.jac)
+            ts, xs = r.t, r.y[0]
+        except SimulationDiverged as exc:
+            data["diverged_at"][name] = exc.t
+            while abs(y[0]) < 1e12:  # the same steps, up to a visible blow-up
+                y = meth.step(m.rhs, t, y, h, 1, m.jac)
+                t += h
+                ts.append(t), xs.append(y[0])
+        data["t"][name], data["x"][name] = np.asarray(ts), np.asarray(xs)
+    fig, ax = ctx.subplots()
+    for name in data["t"]:
+        ax.semilogy(data["t"][name], np.abs(data["x"][name]) + 1e-300, lw=0.9, label=name)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("|x(t)| [m]")
+    ax.set_ylim(1e-12, 1e13)
+    ax.legend()
+    ctx.save(fig)
+    return data

@@ -1,0 +1,171 @@
+"""``pbanim bench ode``: what accuracy costs in time for the ODE solvers, against scipy in the same run.
+
+1. Work-precision on the Kepler orbit (e = 0.5, 10 periods; error = max |y(t_end) − y*| from Kepler's
+   equation) and on a stiff damped spring (k = 10⁶, c = 2·10⁵ per unit mass: rates −5 and −2·10⁵ 1/s,
+   t ∈ [0, 1]; error = |x(1) − x*(1)|): at each error level 10⁻³ … 10⁻¹⁰, the cheapest pbanim run vs the
+   cheapest ``solve_ivp`` run (RK45, DOP853, Radau, LSODA, BDF) reaching it. Goal ≤ 0.5×.
+2. Overhead: ``solve(method="rk4")`` on a 2-state oscillator vs a hand-written numpy RK4 loop (same rhs,
+   same stored trajectory). Goal ≤ 1.2×.
+3. Batch: K pendulums (θ₀ from 5° to 175°) in one batch run vs a loop of K ``solve_ivp`` calls, the batch
+   tolerance chosen so its error is no larger than the loop's. Goal ≥ 20×.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ..accuracy import best_at_error, rows_by_variant, sweep
+from ..models.ode import damped_oscillator, harmonic_oscillator, kepler, pendulum
+from ..ode import solve
+from . import Goal, Report, Table, median_time
+
+LEVELS = [10.0 ** -k for k in range(3, 11)]
+
+
+def _kepler_problem():
+    kp = kepler(0.5)
+    t_end = 10 * kp.period
+    ref = kp.exact(t_end)[:, 0]
+    return kp, t_end, lambda y: float(np.max(np.abs(y - ref)))
+
+
+def _stiff_problem():
+    m = damped_oscillator(1e3, 2e5)
+    ref = m.exact(1.0)[0, 0]
+    return m, 1.0, lambda y: float(abs(y[0] - ref))
+
+
+def _runner(model, t_end):
+    J = model.jac
+
+    def run(variant, param):
+        lib, method = variant.split(":", 1)
+        if lib == "scipy":
+            opts = {"jac": J} if J is not None and method in ("Radau", "BDF", "LSODA") else {}
+            r = solve_ivp(model.rhs, (0, t_end), model.y0, method=method, rtol=param, atol=param * 1e-2, **opts)
+            return r.y[:, -1], r.nfev
+        if method == "dopri5":
+            r = solve(model.rhs, (0, t_end), model.y0, method=method, rtol=param, atol=param * 1e-2)
+        else:
+            r = solve(model.rhs, (0, t_end), model.y0, method=method, h=t_end / param, jac=J, split=model.split)
+        return r.y[:, -1], r.nfev
+
+    return run
+
+
+def _work_precision(name, model, t_end, error, ours, theirs, repeats):
+    run = _runner(model, t_end)
+    rows = sweep(run, list(ours) + list(theirs), {**ours, **theirs}, error, repeats=repeats)
+    table = Table(f"work-precision: {name}", ["variant", "param", "error", "wall_time_s", "nfev"],
+                  [r.as_list() for r in rows])
+    by = rows_by_variant(rows)
+    pb = [r for v in ours for r in by[v]]
+    sc = [r for v in theirs for r in by[v]]
+    lv = Table(f"{name}: cheapest run per error level", ["level", "pbanim", "t_pbanim_s", "scipy", "t_scipy_s",
+                                                          "ratio"])
+    ratios = []
+    for L in LEVELS:
+        a, b = best_at_error(pb, L), best_at_error(sc, L)
+        if b is None:  # scipy does not reach this level in the sweep: nothing to compare
+            lv.rows.append([L, a.variant if a else "-", a.wall_time if a else np.nan, "-", np.nan, np.nan])
+            continue
+        ratio = a.wall_time / b.wall_time if a else np.inf
+        ratios.append(ratio)
+        lv.rows.append([L, f"{a.variant}@{a.param:g}" if a else "not reached", a.wall_time if a else np.inf,
+                        f"{b.variant}@{b.param:g}", b.wall_time, ratio])
+    return rows, [table, lv], (max(ratios) if ratios else np.nan)
+
+
+def _overhead(quick):
+    osc = harmonic_oscillator(1.0)
+    f = osc.rhs
+    h, N = 1e-3, (4000 if quick else 20000)
+
+    def hand():
+        y = osc.y0.copy()
+        Y = np.empty((N + 1, 2))
+        Y[0] = y
+        t = 0.0
+        for k in range(N):
+            k1 = f(t, y)
+            k2 = f(t + h / 2, y + h / 2 * k1)
+            k3 = f(t + h / 2, y + h / 2 * k2)
+            k4 = f(t + h, y + h * k3)
+            y = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            Y[k + 1] = y
+            t += h
+        return Y
+
+    ours = lambda: solve(f, (0, N * h), osc.y0, method="rk4", h=h)  # noqa: E731
+    assert np.max(np.abs(ours().y[:, -1] - hand()[-1])) < 1e-12
+    reps = 3 if quick else 7
+    t_hand, t_ours = [], []
+    for _ in range(reps):  # interleaved, so both sides see the same machine load
+        t_hand.append(median_time(hand, 1))
+        t_ours.append(median_time(ours, 1))
+    th, to = float(np.median(t_hand)), float(np.median(t_ours))
+    return Table("overhead: fixed-step RK4, 2-state oscillator", ["variant", "steps", "wall_time_s", "per_step_us"],
+                 [["hand-written numpy loop", N, th, 1e6 * th / N], ["pbanim.solve rk4", N, to, 1e6 * to / N]]), to / th
+
+
+def _batch(quick):
+    K = 100 if quick else 1000
+    th0 = np.radians(np.linspace(5, 175, K))
+    p = pendulum(th0)
+    t_end = 5.0
+    ref = solve(p.rhs, (0, t_end), p.y0, method="dopri5", rtol=1e-12, atol=1e-13).y[:, :, -1]
+
+    def loop():
+        return np.array([solve_ivp(p.rhs, (0, t_end), p.y0[k], method="RK45", rtol=1e-6, atol=1e-9).y[:, -1]
+                         for k in range(K)])
+
+    start = time.perf_counter()
+    yl = loop()
+    t_loop = time.perf_counter() - start
+    err_loop = float(np.max(np.abs(yl - ref)))
+    table = Table(f"batch: {K} pendulums, t ∈ [0, {t_end}]", ["variant", "error", "wall_time_s"],
+                  [[f"loop of {K} solve_ivp RK45 (rtol 1e-6)", err_loop, t_loop]])
+    best = None
+    for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10):
+        fn = lambda rtol=rtol: solve(p.rhs, (0, t_end), p.y0, method="dopri5", rtol=rtol, atol=rtol * 1e-3)  # noqa: E731
+        err = float(np.max(np.abs(fn().y[:, :, -1] - ref)))
+        tb = median_time(fn, 3)
+        table.rows.append([f"pbanim batch dopri5 (rtol {rtol:g})", err, tb])
+        if err <= err_loop:
+            best = tb
+            break
+    return table, (t_loop / best if best else 0.0)
+
+
+def run(quick: bool = False) -> Report:
+    rep = Report("ode")
+    reps = 1 if quick else 3
+    kp, t_end, err = _kepler_problem()
+    tols = [1e-4, 1e-6, 1e-8, 1e-10] if quick else [10.0 ** -k for k in range(3, 14)]
+    hs = [2000, 8000] if quick else [1000, 2000, 4000, 8000, 16000, 32000]
+    _, tables, r_kep = _work_precision("Kepler e = 0.5, 10 periods", kp, t_end, err,
+                                       {"pbanim:dopri5": tols, "pbanim:rk4": hs},
+                                       {"scipy:RK45": tols, "scipy:DOP853": tols}, reps)
+    rep.tables += tables
+    sm, s_end, serr = _stiff_problem()
+    stols = [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)]
+    steps = [100, 1000, 10000] if quick else [100, 300, 1000, 3000, 10000, 30000, 100000]
+    _, tables, r_stiff = _work_precision("stiff damped spring k = 1e6, c = 2e5", sm, s_end, serr,
+                                         {"pbanim:implicit_euler": steps, "pbanim:implicit_midpoint": steps},
+                                         {"scipy:Radau": stols, "scipy:BDF": stols, "scipy:LSODA": stols}, reps)
+    rep.tables += tables
+    t_over, r_over = _overhead(quick)
+    rep.tables.append(t_over)
+    t_batch, r_batch = _batch(quick)
+    rep.tables.append(t_batch)
+    rep.notes.append("ratios are wall-time medians measured in this run; the machine is shared, so expect noise")
+    rep.goals += [
+        Goal("ode-kepler-vs-scipy", r_kep, 0.5, "<=", "x", "worst level of 1e-3..1e-10 (pbanim best / scipy best)"),
+        Goal("ode-stiff-vs-scipy", r_stiff, 0.5, "<=", "x", "worst level; inf = a level pbanim did not reach"),
+        Goal("ode-rk4-overhead", r_over, 1.2, "<=", "x", "solve(rk4) / hand-written numpy loop"),
+        Goal("ode-batch-vs-loop", r_batch, 20.0, ">=", "x", "loop of solve_ivp / batch dopri5 at equal error"),
+    ]
+    return rep

@@ -1,0 +1,529 @@
+"""Tests of pbanim.collision: geometry, broad phase, impulses, time of impact (ORACLES D1–D3, D10, G3)."""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pbanim.collision import (Box, Capsule, Collisions, Contacts, ImpulseBodies, Plane, Sphere, all_pairs,
+                              box_box, box_plane, broad_phase, capsule_plane, capsule_sphere, collide,
+                              collision_matrix, contact_impulse, grid_pairs, resolve_collisions,
+                              simulate_collisions, solve_lcp_small, sphere_plane, sphere_sphere)
+from pbanim.collision_impulse import _normal_lcp
+from pbanim.errors import ConvergenceError
+from pbanim.models.collision import bouncing_ball, falling_rod, newtons_cradle, oblique_spheres, spinning_ball
+from pbanim.rigid_quat import quat_from_axis_angle, quat_to_matrix
+
+
+def rot(axis, angle):
+    return quat_to_matrix(quat_from_axis_angle(np.asarray(axis, float), angle)[None])[0]
+
+
+# ------------------------------------------------------------------------------------------------
+# bad inputs (ORACLES G3): type and message
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("make, match", [
+    (lambda: Sphere(0.0), "Sphere radius must be positive and finite, got 0.0"),
+    (lambda: Sphere(-1.0), "Sphere radius must be positive and finite, got -1.0"),
+    (lambda: Box([1.0, 0.0, 1.0]), r"Box half_extents must be three positive finite numbers"),
+    (lambda: Capsule(0.0, 1.0), "Capsule radius must be positive"),
+    (lambda: Capsule(0.1, 0.0), "Capsule half_length must be positive.*a capsule of zero length is a Sphere"),
+    (lambda: Plane([0.0, 0.0, 0.0]), "plane normal must be a finite nonzero"),
+    (lambda: Collisions(obstacles=[Plane()], restitution=1.5), r"restitution must lie in \[0, 1\], got 1.5"),
+    (lambda: Collisions(obstacles=[Plane()], restitution=-0.1), r"restitution must lie in \[0, 1\], got -0.1"),
+    (lambda: Collisions(obstacles=[Plane()], friction=-0.2), "friction must be a finite coefficient >= 0, got -0.2"),
+    (lambda: Collisions(obstacles=[Plane()], mode="magic"), "mode must be 'sequential' or 'simultaneous'"),
+    (lambda: Collisions(obstacles=[Plane()], rest_velocity=-1.0), "rest_velocity must be a finite velocity >= 0"),
+    (lambda: Collisions(obstacles=["floor"]), "obstacles must be Plane objects"),
+    (lambda: bouncing_ball(h0=-1.0), "h0 must be a positive height, got -1.0"),
+    (lambda: broad_phase([[0, 0, 0]], 1.0, method="octree"), "broad-phase method must be 'grid' or 'all_pairs'"),
+    (lambda: solve_lcp_small(np.eye(2), [-1.0, 1.0], method="pgs"), "LCP method must be 'lemke' or 'enumerate'"),
+])
+def test_bad_inputs_raise_named_value_errors(make, match):
+    # ORACLES G3: ε ∉ [0, 1], μ < 0 and degenerate shapes are rejected with the value and the fix
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+def test_resolve_collisions_validates_restitution_and_friction():
+    # ORACLES G3 at the function boundary too
+    b = ImpulseBodies.make([[0, 0, 1.0]], [[0, 0, -1.0]], 1.0)
+    c = Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0])
+    with pytest.raises(ValueError, match=r"restitution must lie in \[0, 1\], got 2.0"):
+        resolve_collisions(b, c, restitution=2.0)
+    with pytest.raises(ValueError, match="friction must be a finite coefficient >= 0, got -1.0"):
+        resolve_collisions(b, c, friction=-1.0)
+    with pytest.raises(ValueError, match="rest_velocity must be >= 0"):
+        resolve_collisions(b, c, rest_velocity=-1.0)
+
+
+def test_scene_driver_rejects_bad_arguments():
+    bb = bouncing_ball(1.0, 0.5)
+    with pytest.raises(ValueError, match="toi must be 'event' or 'fixed', got 'later'"):
+        simulate_collisions(bb.scene(), 1.0, 0.01, toi="later")
+    with pytest.raises(ValueError, match="h must be a positive finite step, got -0.01"):
+        simulate_collisions(bb.scene(), 1.0, -0.01)
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+    with pytest.raises(ValueError, match="exactly one Collisions effect, found 0"):
+        simulate_collisions(Scene(ParticleSystem([[0.0, 1.0]]), [Gravity()]), 1.0, 0.01)
+    with pytest.raises(ValueError, match="radius must be >= 0 for every particle"):
+        Scene(ParticleSystem([[0.0, 1.0]]), [Collisions(obstacles=[Plane([0, 1])], radius=-1.0)])
+
+
+# ------------------------------------------------------------------------------------------------
+# narrow phase
+# ------------------------------------------------------------------------------------------------
+def test_vectorized_sphere_tests_agree_with_the_pair_loop():
+    # the vectorized sphere–plane / sphere–sphere equal the readable one-pair-at-a-time dispatcher
+    rng = np.random.default_rng(1)
+    c = rng.uniform(-1, 1, (100, 3))
+    r = rng.uniform(0.05, 0.4, 100)
+    pl = Plane([0.2, 0.1, 1.0], offset=-0.1)
+    fast = sphere_plane(c, r, pl, a=np.arange(100))
+    slow = Contacts.concatenate([collide(Sphere(r[i]), c[i], np.eye(3), pl, None, None, i, -1) for i in range(100)])
+    assert fast.m == slow.m > 10
+    for f in ("a", "b", "point", "normal", "depth"):
+        np.testing.assert_allclose(getattr(fast, f), getattr(slow, f), rtol=0, atol=1e-15)
+    i, j = np.triu_indices(100, 1)
+    fast = sphere_sphere(c[i], r[i], c[j], r[j], i, j)
+    slow = Contacts.concatenate([collide(Sphere(r[a]), c[a], None, Sphere(r[b]), c[b], None, a, b) for a, b in zip(i, j)])
+    assert fast.m == slow.m > 10
+    np.testing.assert_allclose(fast.normal, slow.normal, atol=1e-15)
+    np.testing.assert_allclose(fast.depth, slow.depth, atol=1e-15)
+    # the normal points from b to a: a moves along +n to separate
+    assert np.all(np.einsum("ij,ij->i", fast.normal, c[fast.a] - c[fast.b]) > 0)
+
+
+def test_box_plane_manifolds_vertex_edge_face():
+    # hand-built: flat box → 4 corners; box on an edge (45° about x) → 2; corner down → 1 (depths exact)
+    s = np.sqrt(2) / 2
+    flat = box_plane([0, 0, 0.49], np.eye(3), [0.5, 0.5, 0.5], Plane())
+    assert flat.m == 4 and np.allclose(flat.depth, 0.01, atol=1e-15) and np.allclose(flat.normal, [0, 0, 1])
+    edge = box_plane([0, 0, s - 0.01], rot([1, 0, 0], np.pi / 4), [0.5] * 3, Plane())
+    assert edge.m == 2 and np.allclose(edge.depth, 0.01, atol=1e-14)
+    assert np.allclose(sorted(edge.point[:, 0]), [-0.5, 0.5], atol=1e-14)
+    R = rot([1, 0, 0], np.arctan(1 / np.sqrt(2))) @ rot([0, 1, 0], np.pi / 4)   # a body diagonal vertical
+    corner = box_plane([0, 0, np.sqrt(3) / 2 - 0.02], R, [0.5] * 3, Plane())
+    assert corner.m == 1 and abs(corner.depth[0] - 0.02) < 1e-14
+    assert np.allclose(corner.point[0], [0, 0, -0.01], atol=1e-14)     # midway into the overlap
+
+
+def test_box_box_face_face_manifold_is_the_clipped_overlap():
+    # a unit cube shifted (0.3, 0.2) over another, 0.05 deep: the 4 corners of the overlap rectangle
+    c = box_box([0.3, 0.2, 0.95], np.eye(3), [0.5] * 3, [0, 0, 0], np.eye(3), [0.5] * 3, 1, 0)
+    assert c.m == 4 and np.all(c.a == 1) and np.all(c.b == 0)
+    assert np.allclose(c.normal, [0, 0, 1]) and np.allclose(c.depth, 0.05, atol=1e-15)
+    xs, ys = sorted(set(np.round(c.point[:, 0], 12))), sorted(set(np.round(c.point[:, 1], 12)))
+    assert xs == [-0.2, 0.5] and ys == [-0.3, 0.5]
+    assert np.allclose(c.point[:, 2], 0.475)
+    # swapping the roles flips the normal and keeps the manifold
+    d = box_box([0, 0, 0], np.eye(3), [0.5] * 3, [0.3, 0.2, 0.95], np.eye(3), [0.5] * 3, 0, 1)
+    assert d.m == 4 and np.allclose(d.normal, [0, 0, -1]) and np.allclose(d.depth, 0.05)
+
+
+def test_box_box_vertex_face_and_edge_edge():
+    # vertex–face: a cube standing on a corner, 0.02 into the top face of another: one point
+    R = rot([1, 0, 0], np.arctan(1 / np.sqrt(2))) @ rot([0, 1, 0], np.pi / 4)
+    c = box_box([0, 0, np.sqrt(3) / 2 + 0.5 - 0.02], R, [0.5] * 3, [0, 0, 0], np.eye(3), [0.5] * 3, 1, 0)
+    assert c.m == 1 and np.allclose(c.normal, [[0, 0, 1]]) and abs(c.depth[0] - 0.02) < 1e-12
+    assert np.allclose(c.point[0], [0, 0, 0.49], atol=1e-12)
+    # edge–edge: an x-edge of a (rolled 45° about x) crosses a y-edge of b (pitched 45° about y)
+    s = np.sqrt(2) / 2
+    c = box_box([0, 0, 2 * s - 0.05], rot([1, 0, 0], np.pi / 4), [0.5] * 3, [0, 0, 0], rot([0, 1, 0], np.pi / 4),
+                [0.5] * 3, 1, 0)
+    assert c.m == 1 and np.allclose(c.normal[0], [0, 0, 1], atol=1e-12) and abs(c.depth[0] - 0.05) < 1e-12
+    assert np.allclose(c.point[0], [0, 0, s - 0.025], atol=1e-12)
+    # separated boxes: a separating axis exists, no contact
+    assert box_box([0, 0, 1.01], np.eye(3), [0.5] * 3, [0, 0, 0], np.eye(3), [0.5] * 3).m == 0
+
+
+def test_capsule_plane_and_capsule_sphere():
+    # a capsule lying flat touches with both end spheres; standing, with one
+    lying = rot([0, 1, 0], np.pi / 2)
+    c = capsule_plane([0, 0, 0.09], lying, 0.1, 1.0, Plane())
+    assert c.m == 2 and np.allclose(c.depth, 0.01) and np.allclose(sorted(c.point[:, 0]), [-1, 1])
+    c = capsule_plane([0, 0, 1.05], np.eye(3), 0.1, 1.0, Plane())
+    assert c.m == 1 and abs(c.depth[0] - 0.05) < 1e-14
+    # sphere beside the capsule's middle: normal is horizontal, depth r_c + r_s − distance
+    c = capsule_sphere([0, 0, 0], np.eye(3), 0.5, 1.0, [0.9, 0, 0.3], 0.5, a=0, b=1)
+    assert c.m == 1 and np.allclose(c.normal, [[-1, 0, 0]]) and abs(c.depth[0] - 0.1) < 1e-14
+    d = collide(Sphere(0.5), [0.9, 0, 0.3], None, Capsule(0.5, 1.0), [0, 0, 0], np.eye(3), 1, 0)
+    assert np.allclose(d.normal, [[1, 0, 0]]) and d.a[0] == 1
+
+
+# ------------------------------------------------------------------------------------------------
+# broad phase
+# ------------------------------------------------------------------------------------------------
+@given(n=st.integers(2, 300), seed=st.integers(0, 10**6), spread=st.floats(0.5, 20.0))
+def test_grid_finds_exactly_the_all_pairs_set(n, seed, spread):
+    # the uniform grid never misses or invents a pair (same set as the O(N²) test)
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0, spread, (n, 3))
+    r = rng.uniform(0.05, 0.5, n)
+    g, a = grid_pairs(c, r), all_pairs(c, r)
+    np.testing.assert_array_equal(g.pairs, a.pairs)
+
+
+def test_grid_tests_far_fewer_pairs_than_all_pairs():
+    # 1000 spheres at bounded density: the grid tests O(N) candidate pairs, not N(N−1)/2
+    rng = np.random.default_rng(7)
+    N = 1000
+    c = rng.uniform(0, 10 * N ** (1 / 3) * 0.2, (N, 3))
+    g = grid_pairs(c, 0.1)
+    a = all_pairs(c, 0.1)
+    np.testing.assert_array_equal(g.pairs, a.pairs)
+    assert a.tested == N * (N - 1) // 2
+    assert g.tested < 0.02 * a.tested     # measured ~0.6 %, bound 2 %
+
+
+# ------------------------------------------------------------------------------------------------
+# impulses
+# ------------------------------------------------------------------------------------------------
+def test_collision_matrix_matches_baraff_denominator():
+    # nᵀKn = 1/m_a + 1/m_b + n·(I_a⁻¹(r_a×n))×r_a + n·(I_b⁻¹(r_b×n))×r_b, written out per contact
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(2, 3, 3))
+    inv_I = np.linalg.inv(A @ A.transpose(0, 2, 1) + np.eye(3))
+    b = ImpulseBodies.make(rng.normal(size=(2, 3)), rng.normal(size=(2, 3)), [0.5, 0.25], rng.normal(size=(2, 3)), inv_I)
+    c = Contacts([0, 1, 0], [1, -1, -1], rng.normal(size=(3, 3)), np.eye(3), np.zeros(3))
+    K = collision_matrix(b, c)
+    for i in range(3):
+        n, ra, rb = c.normal[i], c.point[i] - b.x[c.a[i]], c.point[i] - b.x[c.b[i]]
+        den = (b.inv_mass[c.a[i]] + b.inv_mass[c.b[i]] + n @ np.cross(b.inv_I[c.a[i]] @ np.cross(ra, n), ra)
+               + n @ np.cross(b.inv_I[c.b[i]] @ np.cross(rb, n), rb))
+        assert abs(n @ K[i] @ n - den) < 1e-14 * max(1, den)
+    # the Delassus matrix of the LCP has the same diagonal
+    assert np.allclose(np.diag(_normal_lcp(b, c)), np.einsum("ij,ijk,ik->i", c.normal, K, c.normal), atol=1e-14)
+
+
+@pytest.mark.parametrize("mode", ["sequential", "simultaneous"])
+@pytest.mark.parametrize("n", [3, 5])
+def test_newtons_cradle(mode, n):
+    # ORACLES D2: sequential (0,…,0,v₀); simultaneous (−v₀/3, 2v₀/3, 2v₀/3) for 3 balls; p and E to 1e-12
+    model = newtons_cradle(n, v0=1.7)
+    x, v = model.positions(), model.velocities()
+    i = np.arange(1, n)
+    contacts = sphere_sphere(x[i], model.radius, x[i - 1], model.radius, i, i - 1)     # touching: depth 0
+    assert contacts.m == n - 1
+    bodies = ImpulseBodies.make(x, v, 1 / model.mass)
+    res = resolve_collisions(bodies, contacts, restitution=1.0, mode=mode)
+    p0, E0 = model.mass * v.sum(0), 0.5 * model.mass * (v**2).sum()
+    p1, E1 = model.mass * res.v.sum(0), 0.5 * model.mass * (res.v**2).sum()
+    assert np.max(np.abs(p1 - p0)) < 1e-12 * abs(p0[0])       # measured 0 (seq), 2e-16 (sim)
+    assert abs(E1 - E0) < 1e-12 * E0                          # measured ≤ 4e-16
+    if mode == "sequential" or n == 3:
+        np.testing.assert_allclose(res.v[:, 0], model.expected(mode), rtol=0, atol=1e-12)
+    else:
+        # five balls simultaneously: every contact reversed, u⁺ = −u⁻, and no contact pulls
+        assert np.all(res.normal_impulse >= 0)
+        np.testing.assert_allclose(np.diff(res.v[:, 0]), [model.v0] + [0.0] * (n - 2), atol=1e-12)
+
+
+def test_oblique_smooth_spheres():
+    # ORACLES D3: (v₂′−v₁′)·n = −ε(v₂−v₁)·n, tangential parts unchanged, momentum conserved, ΔE formula
+    s = oblique_spheres(m1=1.0, m2=2.0, v1=(1.0, 0.5, 0.0), v2=(-0.5, 0.2, 0.1), n=(1.0, 0.3, 0.2), restitution=0.6)
+    for mode in ("sequential", "simultaneous"):
+        x1 = np.zeros(3)
+        x2 = x1 + 1.0 * s.n                       # radii 0.5 + 0.5, touching along n (from 1 to 2)
+        bodies = ImpulseBodies.make([x1, x2], [s.v1, s.v2], [1 / s.m1, 1 / s.m2])
+        c = sphere_sphere(x2, 0.5, x1, 0.5, a=1, b=0)
+        res = resolve_collisions(bodies, c, restitution=s.restitution, mode=mode)
+        v1, v2 = res.v
+        u0, u1 = (s.v2 - s.v1) @ s.n, (v2 - v1) @ s.n
+        assert abs(u1 + s.restitution * u0) < 1e-14
+        t1 = s.v1 - (s.v1 @ s.n) * s.n
+        assert np.allclose(v1 - (v1 @ s.n) * s.n, t1, atol=1e-15)
+        assert np.allclose(s.m1 * v1 + s.m2 * v2, s.m1 * s.v1 + s.m2 * s.v2, atol=1e-14)
+        dE = 0.5 * (s.m1 * v1 @ v1 + s.m2 * v2 @ v2 - s.m1 * s.v1 @ s.v1 - s.m2 * s.v2 @ s.v2)
+        assert abs(dE - s.energy_change()) < 1e-14        # measured ~3e-17
+        np.testing.assert_allclose(np.array([v1, v2]), np.array(s.after()), atol=1e-14)
+
+
+def test_rod_hitting_the_ground_at_one_end():
+    # ORACLES D3: j = −(1+ε)v_rel·n / (1/m + (r×n)·I⁻¹(r×n)); angular momentum about the contact point
+    # is unchanged by the impulse (it acts at that point)
+    rod = falling_rod(mass=2.0, length=1.0, angle=0.5, v=(0.3, 0.0, -2.0), omega=(0.0, 0.7, 0.0), restitution=0.5)
+    R, x, p = rod.rotation(), rod.centre(), rod.contact_point()
+    assert abs(p[2]) < 1e-15
+    inv_I = R @ np.linalg.inv(rod.inertia) @ R.T
+    bodies = ImpulseBodies.make([x], [rod.v], 1 / rod.mass, [rod.omega], inv_I)
+    c = Contacts([0], [-1], [p], [[0, 0, 1]], [0.0])
+    I_world = R @ rod.inertia @ R.T
+    L_p = lambda v, w: I_world @ w + rod.mass * np.cross(x - p, v)        # noqa: E731
+    before = L_p(rod.v, rod.omega)
+    res = resolve_collisions(bodies, c, restitution=rod.restitution)
+    assert abs(res.normal_impulse[0] - rod.impulse()) < 1e-14 * rod.impulse()
+    np.testing.assert_allclose(L_p(res.v[0], res.omega[0]), before, rtol=0, atol=1e-13)
+    u_after = res.v[0] + np.cross(res.omega[0], p - x)
+    u_before = rod.v + np.cross(rod.omega, p - x)
+    assert abs(u_after[2] + rod.restitution * u_before[2]) < 1e-14
+
+
+def test_rod_impulse_through_the_rigid_scene_effect():
+    # ORACLES D3 through Collisions + RigidBodies.apply_impulses: a thin capsule hitting the ground at one
+    # end receives j = −(1+ε) v_rel·n / (1/m + (r×n)·I⁻¹(r×n)); L about the contact point is unchanged
+    from pbanim.rigid import RigidBodies
+    from pbanim.rigid_quat import matrix_to_quat
+    rod = falling_rod(mass=2.0, length=1.0, angle=0.5, v=(0.3, 0.1, -2.0), omega=(0.2, 0.7, 0.0), restitution=0.5)
+    R = rod.rotation() @ rot([0, 1, 0], np.pi / 2)          # capsule axis (body z) along the rod
+    rho = 1e-3
+    x = rod.centre() + rho * np.array([0, 0, 1.0]) - [0, 0, 1e-6]      # the end sphere 1e-6 into the ground
+    rb = RigidBodies(rod.mass, R.T @ (rod.rotation() @ rod.inertia @ rod.rotation().T) @ R, positions=[x],
+                     orientations=[matrix_to_quat(R[None])[0]], velocities=[rod.v], angular_velocities=[rod.omega])
+    col = Collisions(Capsule(rho, 0.5), obstacles=[Plane()], restitution=rod.restitution)
+    col.bind(rb)
+    y0 = rb.state()
+    c = col.contacts(y0)
+    assert c.m == 1
+    p, n = c.point[0], c.normal[0]
+    r = p - x
+    Iinv = rb.inv_inertia_world(y0)[0]
+    v0, w0 = rb.velocities(y0)
+    vrel = (v0[0] + np.cross(w0[0], r)) @ n
+    j = -(1 + rod.restitution) * vrel / (1 / rod.mass + np.cross(r, n) @ Iinv @ np.cross(r, n))
+    y1 = col.respond(0.0, y0, 1e-3)
+    assert abs(col.last.normal_impulse[0] - j) < 1e-13 * j      # measured 0
+    _, _, P0, L0 = rb.unpack(y0)
+    _, _, P1, L1 = rb.unpack(y1)
+    assert np.allclose(P1 - P0, j * n, atol=1e-14)
+    Lp = lambda L, P: L[0] + np.cross(x - p, P[0])             # noqa: E731 - L about p (x before projection)
+    np.testing.assert_allclose(Lp(L1, P1), Lp(L0, P0), atol=1e-14)
+    v1, w1 = rb.velocities(y1)
+    assert abs((v1[0] + np.cross(w1[0], r)) @ n + rod.restitution * vrel) < 1e-13
+
+
+def test_capsule_dropped_flat_rests_on_its_two_end_spheres():
+    # a capsule falling flat (ε = 0.2): two symmetric contacts, simultaneous impulses, rest at z = radius
+    from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
+    from pbanim.rigid_quat import matrix_to_quat
+    cap = Capsule(0.1, 0.4)
+    R = rot([0, 1, 0], np.pi / 2)
+    rb = RigidBodies(1.0, cap.inertia(1.0), positions=[[0, 0, 0.5]], orientations=[matrix_to_quat(R[None])[0]])
+    col = Collisions(cap, obstacles=[Plane()], restitution=0.2, friction=0.4, mode="simultaneous")
+    res = RigidScene(rb, [RigidGravity(), col]).simulate(1.0, 0.004)
+    assert abs(res.y[2, -1] - 0.1) < 1e-12 and np.abs(res.y[7:13, -1]).max() < 1e-12
+    assert res.diagnostics["contacts"][-1] == 2
+
+
+@pytest.mark.parametrize("case", ["stick", "slip", "backspin"])
+def test_spinning_ball_friction_impulse(case):
+    # stick iff (2/7)|u_t| ≤ μ(1+ε)|v_n|; sticking ends with a rolling contact point, sliding with the
+    # friction impulse at μ j_n opposite the slip — v and ω as the stick/slip analysis predicts
+    params = {"stick": dict(v=(1.0, 0, -3.0), omega=(0, 5.0, 0), friction=0.5),
+              "slip": dict(v=(2.0, 0, -1.0), omega=(0, -10.0, 0), friction=0.2),
+              "backspin": dict(v=(0.5, 0, -2.0), omega=(0, 60.0, 0), friction=0.3)}[case]
+    ball = spinning_ball(mass=1.5, radius=0.1, restitution=0.5, **params)
+    assert ball.sticks() == (case == "stick")
+    v_exp, w_exp = ball.after()
+    I = 0.4 * ball.mass * ball.radius**2
+    for mode in ("sequential", "simultaneous"):
+        bodies = ImpulseBodies.make([[0, 0, ball.radius]], [ball.v], 1 / ball.mass, [ball.omega], np.eye(3) / I)
+        c = sphere_plane([[0, 0, ball.radius]], ball.radius, Plane(), a=0)
+        res = resolve_collisions(bodies, c, restitution=ball.restitution, friction=ball.friction, mode=mode)
+        np.testing.assert_allclose(res.v[0], v_exp, rtol=0, atol=1e-13)
+        np.testing.assert_allclose(res.omega[0], w_exp, rtol=0, atol=1e-12)
+        assert res.sticking[0] == ball.sticks()
+        jt = np.linalg.norm(res.impulse[0, :2])
+        assert jt <= ball.friction * res.normal_impulse[0] * (1 + 1e-12)   # inside the Coulomb cone
+        if case == "stick":
+            assert abs(res.v[0, 0] - ball.radius * res.omega[0, 1]) < 1e-13  # rolls: u_t⁺ = 0
+
+
+def test_friction_single_contact_readable_vs_solver():
+    # contact_impulse (readable, one contact) equals resolve_collisions on the same contact
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        A = rng.normal(size=(3, 3))
+        inv_I = np.linalg.inv(A @ A.T + 0.5 * np.eye(3))
+        b = ImpulseBodies.make([[0, 0, 0]], [rng.normal(size=3) - [0, 0, 2]], 0.7, [rng.normal(size=3)], inv_I)
+        c = Contacts([0], [-1], [rng.normal(size=3) * 0.3 - [0, 0, 0.5]], [[0, 0, 1]], [0])
+        K = collision_matrix(b, c)[0]
+        u = b.v[0] + np.cross(b.omega[0], c.point[0] - b.x[0])
+        J, stick = contact_impulse(K, u, c.normal[0], 0.4, 0.6)
+        res = resolve_collisions(b, c, 0.4, 0.6)
+        assert np.allclose(res.impulse[0], J, atol=1e-13) and res.sticking[0] == stick
+        assert np.linalg.norm(J[:2]) <= 0.6 * J[2] * (1 + 1e-12)
+        assert (res.v[0] + np.cross(res.omega[0], c.point[0] - b.x[0]))[2] >= -1e-12   # no approach left
+
+
+def test_static_body_is_the_world_without_special_cases():
+    # a ball hitting a static rigid sphere (inv_mass 0) equals hitting the world (index −1)
+    v = np.array([[1.0, 0.2, 0.0], [0, 0, 0]])
+    world = ImpulseBodies.make([[0, 0, 0]], v[:1], 1.0)
+    static = ImpulseBodies.make([[0, 0, 0], [1.0, 0, 0]], v, [1.0, 0.0])
+    cw = sphere_sphere([[0, 0, 0]], 0.5, [[1.0, 0, 0]], 0.5, a=0, b=-1)
+    cs = sphere_sphere([[0, 0, 0]], 0.5, [[1.0, 0, 0]], 0.5, a=0, b=1)
+    rw = resolve_collisions(world, cw, 0.7, 0.3)
+    rs = resolve_collisions(static, cs, 0.7, 0.3)
+    np.testing.assert_array_equal(rw.v[0], rs.v[0])
+    assert np.all(rs.v[1] == 0)
+    assert abs(rw.v[0, 0] + 0.7) < 1e-15      # normal: −ε v⁻; the tangential part is reduced by friction
+    assert 0 <= rw.v[0, 1] < 0.2
+
+
+def test_sequential_loop_cap_raises_convergence_error():
+    # Baraff's loop on a 10-ball cradle whose contacts are listed right to left needs 9 sweeps (the
+    # velocity travels one contact per sweep); a cap of 3 sweeps raises, naming the iterations
+    model = newtons_cradle(10)
+    x = model.positions()
+    i = np.arange(9, 0, -1)
+    c = sphere_sphere(x[i], model.radius, x[i - 1], model.radius, i, i - 1)
+    with pytest.raises(ConvergenceError, match="sequential impulses did not converge.*after 3 iterations"):
+        resolve_collisions(ImpulseBodies.make(x, model.velocities(), 1.0), c, restitution=1.0, max_iter=3)
+    res = resolve_collisions(ImpulseBodies.make(x, model.velocities(), 1.0), c, restitution=1.0, max_iter=10)
+    assert res.iterations == 10 and np.allclose(res.v[:, 0], model.expected("sequential"), atol=1e-15)
+
+
+@given(m=st.integers(1, 6), k=st.integers(1, 4), seed=st.integers(0, 10**6))
+def test_lemke_agrees_with_enumeration(m, k, seed):
+    # two LCP solvers on PSD A = G Gᵀ (rank ≤ 3k, may be singular): both certify w ≥ 0, f ≥ 0, fᵀw = 0
+    rng = np.random.default_rng(seed)
+    G = rng.normal(size=(m, 3 * k))
+    A = G @ G.T + 1e-3 * np.eye(m)
+    b = G @ rng.normal(size=3 * k) - rng.uniform(0, 1, m)
+    for method in ("lemke", "enumerate"):
+        f, _ = solve_lcp_small(A, b, method=method)
+        w = A @ f + b
+        scale = 1 + np.abs(b).max()
+        assert f.min() >= 0 and w.min() > -1e-9 * scale and abs(f @ w) < 1e-9 * scale**2
+    f1, _ = solve_lcp_small(A, b, "lemke")
+    f2, _ = solve_lcp_small(A, b, "enumerate")
+    assert np.allclose(A @ f1, A @ f2, atol=1e-8 * scale)      # A PD here: unique w
+
+
+# ------------------------------------------------------------------------------------------------
+# time of impact, bouncing ball, restitution threshold (ORACLES D1, D10)
+# ------------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def bounce_event():
+    bb = bouncing_ball(h0=1.0, restitution=0.8, g=9.81)
+    return bb, simulate_collisions(bb.scene(), 1.15 * bb.zeno_time, 0.01, method="rk4", toi="event")
+
+
+def test_bouncing_ball_apex_heights_with_event_location(bounce_event):
+    # ORACLES D1: h_k = ε^(2k) h₀ to 1e-9 (RK4 is exact in free flight; the root finder sets the error)
+    bb, res = bounce_event
+    post = res.y_events[0]
+    apex = post[:, 1] + post[:, 3] ** 2 / (2 * bb.g)
+    k = np.arange(1, 11)
+    err = np.abs(apex[:10] - bb.apex_heights(k))
+    assert err.max() < 1e-9                    # measured 1.1e-14, bound 1e-9 (the oracle's)
+    assert abs(apex[0] / bb.h0 - bb.restitution**2) < 1e-9
+
+
+def test_bouncing_ball_impact_speeds_and_times(bounce_event):
+    # ORACLES D1: impact k at speed ε^(k−1)√(2gh₀), at time t_k; every impact before t∞
+    bb, res = bounce_event
+    post = res.y_events[0]
+    k = np.arange(1, 11)
+    speed_after = post[:10, 3]
+    np.testing.assert_allclose(speed_after, bb.restitution * bb.impact_speeds(k), rtol=1e-12)   # measured 3e-15
+    np.testing.assert_allclose(res.t_events[0][:10], bb.impact_times(k), rtol=1e-12)
+    assert res.t_events[0].max() <= bb.zeno_time
+
+
+def test_bouncing_ball_never_gains_energy_and_rests_after_zeno_time(bounce_event):
+    # ORACLES D1: E(t) never increases; after t∞ the ball lies at y = 0 with v = 0
+    bb, res = bounce_event
+    E = res.diagnostics["energy"]
+    assert np.max(np.diff(E)) <= 1e-12 * E[0]          # measured 0 to roundoff
+    after = res.t > bb.zeno_time
+    assert after.sum() > 5
+    assert np.all(np.abs(res.y[1, after]) < 1e-12) and np.all(res.y[3, after] == 0.0)
+
+
+def test_event_location_beats_fixed_step_detection():
+    # fixed-step detection notices the impact up to h late: first apex error O(h); event location ~1e-14
+    bb = bouncing_ball(h0=1.0, restitution=0.8)
+    T = 1.1 * bb.impact_times(2)[()]
+    errs = {}
+    for toi in ("event", "fixed"):
+        res = simulate_collisions(bb.scene(), T, 0.01, toi=toi)
+        y = res.y[:, res.t > bb.impact_times(1)[()] + 0.02]
+        apex = np.max(y[1] + y[3] ** 2 / (2 * bb.g) * (y[3] > 0))
+        errs[toi] = abs(apex - bb.apex_heights(1)[()])
+    assert errs["event"] < 1e-10 < 1e-4 < errs["fixed"]     # measured ~1e-15 vs ~3e-2
+
+
+def test_resting_ball_never_rises_with_the_default_threshold():
+    # ORACLES D10: a ball lying on the ground under gravity, fixed-step detection: with the default
+    # threshold 3gh > gh it stays at y = 0, v = 0 exactly; with a threshold below gh it bounces every step
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+    h = 0.01
+    rest = Scene(ParticleSystem([[0.0, 0.0]]), [Gravity([0, -9.81]),
+                                                Collisions(obstacles=[Plane([0, 1])], restitution=0.9)])
+    res = rest.simulate(2.0, h)
+    assert np.all(res.y[1] <= 0.0 + 1e-15) and np.all(res.y[1] >= -1e-15) and np.all(res.y[3] == 0.0)
+    jitter = Scene(ParticleSystem([[0.0, 0.0]]), [Gravity([0, -9.81]),
+                                                  Collisions(obstacles=[Plane([0, 1])], restitution=0.9,
+                                                             rest_velocity=0.5 * 9.81 * h)])
+    res = jitter.simulate(2.0, h)
+    assert np.mean(res.y[3] > 0) > 0.3       # bounced off the ground in most steps
+
+
+# ------------------------------------------------------------------------------------------------
+# scenes: rigid boxes, billiards (figure data)
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("mode", ["sequential", "simultaneous"])
+def test_box_dropped_flat_comes_to_rest_on_the_plane(mode):
+    # a box landing flat with ε = 0.3, μ = 0.5 comes to rest on the plane without sinking. Simultaneous
+    # impulses keep the symmetry (z = half height, no rotation); sequential ones depend on the corner
+    # order and leave the box slightly turned (a documented property of the propagating law)
+    from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
+    box = Box([0.5, 0.3, 0.2])
+    rb = RigidBodies(2.0, box.inertia(2.0), positions=[[0, 0, 0.6]])
+    col = Collisions(box, obstacles=[Plane()], restitution=0.3, friction=0.5, mode=mode)
+    res = RigidScene(rb, [RigidGravity(), col]).simulate(1.5, 0.005)
+    z = res.y[2]
+    assert z.min() > 0.2 - 2 * 9.81 * 0.005**2 - 1e-12     # penetration at most ~g h² per step
+    assert np.abs(res.y[7:13, -1]).max() < 1e-12            # P and L: at rest (measured ≤ 1e-17)
+    if mode == "simultaneous":
+        assert abs(z[-1] - 0.2) < 1e-12 and np.allclose(res.y[3:7, -1], [1, 0, 0, 0], atol=1e-12)
+    else:
+        assert abs(z[-1] - 0.2) < 1e-3                       # measured 1.4e-4 (resting slightly tilted)
+
+
+def test_figure_bouncing_heights(figure_data):
+    d = figure_data("ch06_bouncing_heights")
+    k = np.asarray(d["k"])
+    np.testing.assert_allclose(d["apex_event"], d["h0"] * d["restitution"] ** (2 * k), atol=1e-9)
+    assert np.all(np.diff(d["apex_event"]) < 0)
+
+
+def test_figure_newtons_cradle(figure_data):
+    d = figure_data("ch06_newtons_cradle")
+    np.testing.assert_allclose(d["sequential"], [0, 0, d["v0"]], atol=1e-12)
+    np.testing.assert_allclose(d["simultaneous"], np.array([-1, 2, 2]) * d["v0"] / 3, atol=1e-12)
+    assert abs(d["energy_sequential"] - d["energy_before"]) < 1e-12 * d["energy_before"]
+
+
+def test_figure_billiards_break(figure_data):
+    # frictionless elastic billiards on a table: momentum conserved until the first cushion, energy ≈ constant
+    d = figure_data("ch06_billiards_break")
+    p = np.asarray(d["momentum"])
+    before_wall = np.asarray(d["t"]) < d["first_wall_time"]
+    assert np.max(np.abs(p[before_wall] - p[0])) < 1e-9 * np.linalg.norm(p[0])
+    E = np.asarray(d["energy"])
+    assert np.max(np.abs(E - E[0])) < 1e-9 * E[0]             # ε = 1 everywhere
+    assert d["impacts"] > 10
+
+
+def test_figure_toi_accuracy_vs_cost(figure_data):
+    d = figure_data("ch06_toi_accuracy")
+    assert max(d["event_error"]) < 1e-9
+    fe = np.asarray(d["fixed_error"])
+    assert np.all(fe > 1e-6) and fe[-1] < fe[0]         # fixed stepping: error shrinks with h, stays large
+
+
+def test_figure_boxes_tumbling(figure_data):
+    d = figure_data("ch06_boxes_tumbling")
+    assert d["min_height"] > -0.05                    # nothing falls through the ground
+    assert d["final_speed"] < d["max_speed"]          # impacts and friction dissipate
+
+
+def test_bench_smoke():
+    from pbanim.bench.collisions import run
+    rep = run(quick=True)
+    assert rep.goals and all(np.isfinite(g.measured) for g in rep.goals)

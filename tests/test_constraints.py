@@ -1,0 +1,284 @@
+"""Constrained dynamics (chapter 03): λ by Witkin's JWJᵀ, KKT and the linear-time solver; Baumgarte; projection.
+
+Oracles: ORACLES B1 (bead tension), B2 (drift, Baumgarte, its own stability limit), B3 (hanging chains),
+B4 (redundant / inconsistent constraints), B5 (KKT vs Witkin), G3 (bad inputs).
+"""
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pbanim.constraints import (SOLVERS, Constraints, ConstraintSet, Distance, FixedPoint, OnCircle, OnPlane,
+                                baumgarte_feedback_map, baumgarte_spectral_radius, baumgarte_stability_limit, solve_multipliers)
+from pbanim.errors import ConvergenceError, SimulationDiverged, SingularConstraintError
+from pbanim.models.constrained import (bead_on_circle, cloth_patch, hanging_chain, inconsistent_x, random_chain,
+                                       random_tree, redundant_rod, redundant_xy)
+from pbanim.particles import Gravity, ParticleSystem
+from pbanim.scene import Scene
+
+DIRECT = ["witkin-dense", "witkin-sparse", "kkt"]
+
+
+def _gravity_Q(mod):
+    return mod.system.m[:, None] * mod.g
+
+
+# -- B1: bead on a circle ----------------------------------------------------------------------------
+def test_bead_lambda_equals_tension_at_every_step():
+    # ORACLES B1: with C = ½(|x|² − R²), −λ|x| = m(v²/R + g cos θ) at the simulated state, every step
+    mod = bead_on_circle(radius=1.0, mass=1.0, theta0=np.pi / 2)
+    res = Scene(mod.system, [Gravity(mod.g), Constraints(mod.constraints)]).simulate(2.0, 1e-3, "rk4")
+    lam = res.diagnostics["lam"][:, 0]
+    R = np.linalg.norm(res.y[:2].T, axis=1)
+    T = np.array([mod.info["tension"](y) for y in res.y.T])
+    rel = np.max(np.abs(-lam * R - T)) / np.max(np.abs(T))
+    assert rel < 1e-10  # measured 3.6e-16, bound 1e-10 (the issue's)
+    # and the solver choice does not matter: every solver gives the same λ at the final state
+    for s in SOLVERS:
+        sol = solve_multipliers(mod.constraints, mod.system, res.y[:, -1], _gravity_Q(mod), solver=s)
+        assert abs(sol.lam[0] - lam[-1]) <= 1e-12 * abs(lam[-1])  # measured ~1e-16
+
+
+def test_bead_released_from_horizontal_has_3mg_at_the_bottom():
+    # ORACLES B1: energy gives v² = 2gR at the bottom, so the tension there is m(2g + g) = 3mg
+    mod = bead_on_circle(radius=1.0, mass=2.0, g=9.81, theta0=np.pi / 2)
+    res = Scene(mod.system, [Gravity(mod.g), Constraints(mod.constraints)]).simulate(1.0, 1e-3, "rk4")
+    th = np.array([mod.info["theta"](y) for y in res.y.T])
+    lam = res.diagnostics["lam"][:, 0]
+    k = np.flatnonzero((th[:-1] > 0) & (th[1:] <= 0))[0]
+    a = th[k] / (th[k] - th[k + 1])
+    T_bottom = -((1 - a) * lam[k] + a * lam[k + 1])  # R = 1
+    # linear interpolation across the bottom: error ≈ 3mg θ²/2 with θ ≈ ωh
+    assert abs(T_bottom / (3 * 2.0 * 9.81) - 1) < 2e-6  # measured 3.7e-7, bound 2e-6
+
+
+# -- B2: drift, Baumgarte, projection ----------------------------------------------------------------
+def test_drift_without_feedback_follows_the_exact_explicit_euler_recursion():
+    # ORACLES B2: with k_s = k_d = 0 and explicit Euler, x·v stays 0, so |x_{n+1}|² = |x_n|² + h²|v_n|²
+    # exactly; the constraint force (along x) raises the speed: |v_{n+1}|² = |v_n|²(1 + h²|v_n|²/R_n²).
+    mod = bead_on_circle(theta0=0.3, omega0=2.0)
+    h = 1e-2
+    res = Scene(mod.system, [Constraints(mod.constraints)]).simulate(1.0, h, "euler")
+    x, v = res.y[:2].T, res.y[2:].T
+    R2 = np.sum(x * x, axis=1)
+    R2_exact, s = [R2[0]], float(v[0] @ v[0])
+    for _ in range(len(R2) - 1):
+        R2_exact.append(R2_exact[-1] + h * h * s)
+        s *= 1 + h * h * s / R2_exact[-2]
+    assert np.max(np.abs(R2 - np.array(R2_exact)) / R2) < 1e-13  # measured 1.7e-15, bound 1e-13
+    # to first order this is R_n² = R₀² + n h² v₀² (the speed grows only at O(h²) per step)
+    n = np.arange(len(R2))
+    assert np.max(np.abs(R2 - (R2[0] + n * h * h * (v[0] @ v[0]))) / R2) < 5e-3  # measured 7.7e-4
+    assert R2[-1] > R2[0] + 0.9 * (len(R2) - 1) * h * h * (v[0] @ v[0])  # it does drift outward
+
+
+def test_critical_baumgarte_error_follows_the_closed_form_and_never_grows_after_the_transient():
+    # ORACLES B2: C̈ + 2ωĊ + ω²C = 0 ⇒ C(t) = (C₀ + (Ċ₀ + ωC₀)t)e^(−ωt); |C| non-increasing after its peak
+    ps = ParticleSystem([[0.0, -1.05]], [[1.0, -1.0]], masses=1.0)
+    w = 10.0
+    eff = Constraints([OnCircle([0], [0.0, 0.0], 1.0)], stabilization="baumgarte", natural_frequency=w,
+                      damping_ratio=1.0)
+    res = Scene(ps, [Gravity(), eff]).simulate(3.0, 1e-3, "rk4")
+    x, v = res.y[:2].T, res.y[2:].T
+    C = 0.5 * (np.sum(x * x, axis=1) - 1)
+    Cd = np.sum(x * v, axis=1)
+    t = res.t
+    C_exact = (C[0] + (Cd[0] + w * C[0]) * t) * np.exp(-w * t)
+    assert np.max(np.abs(C - C_exact)) < 1e-10  # RK4 at ωh = 0.01; measured ~2e-12, bound 1e-10
+    t_peak = 1 / w - C[0] / (Cd[0] + w * C[0])
+    assert t_peak > 0.01  # a real transient: |C| first grows
+    after = np.abs(C[t >= t_peak + 1e-3])
+    assert np.all(np.diff(after) <= 1e-14)  # non-increasing (to roundoff)
+    assert after[-1] < 1e-9 * after[0]
+
+
+def test_projection_keeps_the_constraint_error_below_1e12():
+    # ORACLES B2: post-step projection onto C = 0, Ċ = 0 (swinging chain, symplectic Euler)
+    mod = hanging_chain(10, link_length=0.1, angle=1.2)
+    eff = Constraints(mod.constraints, stabilization="projection")
+    scene = Scene(mod.system, [Gravity(mod.g), eff])
+    assert scene.pipeline == ("gravity", "constraints", "integrate", "constraint-projection")
+    res = scene.simulate(1.0, 5e-3, "symplectic_euler")
+    assert res.diagnostics["C_max"].max() < 1e-12  # measured ~1e-16 after the first step
+    assert res.diagnostics["Cdot_max"][1:].max() < 1e-12
+    free = Scene(mod.system, [Gravity(mod.g), Constraints(mod.constraints)]).simulate(1.0, 5e-3, "symplectic_euler")
+    assert free.diagnostics["C_max"].max() > 1e-6  # without it the same run drifts
+
+
+def _plane_scene(omega_h, zeta, h, method, C0=1e-3):
+    # a linear constraint (y = 0): the error obeys exactly the discrete feedback map of the integrator
+    ps = ParticleSystem([[0.0, C0]], [[0.3, 0.0]], masses=1.0)
+    eff = Constraints([OnPlane([0], [0.0, 0.0], [0.0, 1.0])], stabilization="baumgarte",
+                      natural_frequency=omega_h / h, damping_ratio=zeta, max_violation=1.0)
+    return Scene(ps, [Gravity(), eff])
+
+
+@pytest.mark.parametrize("method", ["symplectic_euler", "rk4"])
+def test_baumgarte_feedback_has_its_own_step_limit(method):
+    # ORACLES B2: the feedback is a stiff spring; its limit in ω_b h from the eigenvalues of the map
+    lim = baumgarte_stability_limit(method, 1.0)
+    if method == "symplectic_euler":
+        # kick-drift on C̈ = −ω²C − 2ζωĊ is stable iff hk_d < 2 and h²k_s + 2hk_d < 4: (ωh)² + 4ωh = 4
+        assert abs(lim - (2 * np.sqrt(2) - 2)) < 1e-9
+    rho = baumgarte_spectral_radius(method, [0.98 * lim, 1.02 * lim], 1.0)
+    assert rho[0] < 1 < rho[1]
+    h, C0 = 0.01, 1e-3
+    res = _plane_scene(0.98 * lim, 1.0, h, method, C0).simulate(1500 * h, h, method)
+    # bounded just below the limit, by the transient growth of the (non-normal) map: max_k ‖M^k e₁‖ C₀
+    M = baumgarte_feedback_map(method, 0.98 * lim, 1.0)
+    growth = max(np.linalg.norm(np.linalg.matrix_power(M, k)[:, 0]) for k in range(200))
+    assert res.diagnostics["C_max"].max() <= 1.0001 * growth * C0  # measured 17.7 C₀ for RK4 (growth 17.7+)
+    assert res.diagnostics["C_max"][-1] < 1e-6 * C0
+    with pytest.raises(SimulationDiverged, match="constraint violation"):
+        _plane_scene(1.02 * lim, 1.0, h, method, C0).simulate(1500 * h, h, method)
+
+
+# -- B5: every solver agrees ---------------------------------------------------------------------------
+def _model(kind, n, seed):
+    rng = np.random.default_rng(seed)
+    if kind == "chain":
+        return random_chain(n, rng, dim=int(rng.integers(2, 4)))
+    if kind == "tree":
+        return random_tree(n, rng, dim=int(rng.integers(2, 4)))
+    return cloth_patch(3 + n % 4, 2 + (n // 4) % 4, jitter=0.2, seed=seed)  # nx = 2: the rod between the pins is redundant
+
+
+@given(kind=st.sampled_from(["chain", "tree", "cloth"]), n=st.integers(1, 40), seed=st.integers(0, 2**31),
+       ks=st.floats(0, 100), kd=st.floats(0, 20))
+def test_all_solvers_agree_and_satisfy_the_acceleration_constraint(kind, n, seed, ks, kd):
+    # ORACLES B5: Witkin (dense, sparse, CG), KKT and the linear-time solver give one q̈ and λ, and
+    # J q̈ + J̇q̇ + k_s C + k_d Ċ = 0
+    mod = _model(kind, n, seed)
+    ps = mod.system
+    rng = np.random.default_rng(seed + 1)
+    y = ps.state()
+    y[: ps.split] += 0.05 * rng.normal(size=ps.split)  # off the constraint manifold: C ≠ 0
+    cs = ConstraintSet(mod.constraints, ps.N, ps.dim, ps.W, ps.x0)
+    assert cs.structure.linear == (kind != "cloth")
+    Q = _gravity_Q(mod) + rng.normal(size=(ps.N, ps.dim))
+    solvers = DIRECT + ["witkin-cg"] + (["linear"] if cs.structure.linear else [])
+    sols = {s: solve_multipliers(cs, ps, y, Q, solver=s, ks=ks, kd=kd) for s in solvers}
+    ref = sols["witkin-dense"]
+    lam_scale = max(np.abs(ref.lam).max(), 1e-300)
+    qdd_scale = max(np.abs(ref.qdd).max(), np.abs(np.repeat(ps.W, ps.dim) * Q.ravel()).max())
+    for s, sol in sols.items():
+        assert np.abs(sol.lam - ref.lam).max() <= 1e-10 * lam_scale, s  # measured ≤ 5e-14 (CG)
+        assert np.abs(sol.qdd - ref.qdd).max() <= 1e-10 * qdd_scale, s
+    x, v = ps.unpack(y)
+    asm = cs.assemble(x, v)
+    acc = asm.J @ ref.qdd + asm.Jdv + ks * asm.C + kd * asm.Cdot
+    WQ = np.repeat(ps.W, ps.dim) * Q.ravel()
+    scale = np.abs(asm.J @ WQ).max() + np.abs(asm.Jdv).max() + ks * np.abs(asm.C).max() + kd * np.abs(asm.Cdot).max()
+    assert np.abs(acc).max() <= 1e-10 * scale  # measured ~1e-15
+    assert ConstraintSet(mod.constraints, ps.N, ps.dim, ps.W, ps.x0).structure.kind == cs.structure.kind
+
+
+def test_auto_picks_the_linear_solver_for_chains_and_trees_only():
+    mod = hanging_chain(50)
+    ps = mod.system
+    assert solve_multipliers(mod.constraints, ps, ps.state(), _gravity_Q(mod)).solver == "linear"
+    cloth = cloth_patch(8, 8)
+    sol = solve_multipliers(cloth.constraints, cloth.system, cloth.system.state(), _gravity_Q(cloth))
+    assert sol.solver == "witkin-sparse"
+    with pytest.raises(ValueError, match="solver 'linear' needs chain- or tree-structured"):
+        solve_multipliers(cloth.constraints, cloth.system, cloth.system.state(), solver="linear")
+    big = random_tree(300, np.random.default_rng(3))  # wide tree: zero-fill sparse LDLᵀ path
+    cs = ConstraintSet(big.constraints, big.system.N, 2, big.system.W, big.system.x0)
+    assert cs.structure.kind == "tree"
+    a = solve_multipliers(cs, big.system, big.system.state(), _gravity_Q(big), solver="linear")
+    b = solve_multipliers(cs, big.system, big.system.state(), _gravity_Q(big), solver="witkin-dense")
+    assert np.abs(a.lam - b.lam).max() <= 1e-10 * np.abs(b.lam).max()
+
+
+# -- B3: hanging chain at rest ---------------------------------------------------------------------------
+@pytest.mark.parametrize("solver", ["linear", "witkin-dense", "witkin-sparse", "kkt"])
+def test_hanging_chain_tension_is_the_weight_below(solver):
+    # ORACLES B3: at rest, tension in link k = g·Σ(masses below k); n = 1000, masses alternating 1 : 1000
+    mod = hanging_chain(1000, link_length=0.01, mass_ratio=1000.0)
+    ps = mod.system
+    sol = solve_multipliers(mod.constraints, ps, ps.state(), _gravity_Q(mod), solver=solver)
+    T = mod.info["rods"].tension(ps.x0, sol.lam)
+    exact = mod.info["tension_at_rest"]
+    assert np.max(np.abs(T - exact) / exact) < 1e-8  # measured ~1e-13 (dense) … 3e-13, bound 1e-8
+    # and nothing moves: q̈ = W(Q + Q_C) cancels forces up to T_max = 4.9e6 N on a 1 kg particle, so its
+    # roundoff unit is ε·T_max/m_min ≈ 1e-9 m/s²; measured 7.3e-8 (sparse), bound 1e-6
+    assert np.abs(sol.qdd).max() < 1e-6
+
+
+def test_cg_reports_non_convergence_instead_of_a_bad_lambda():
+    # ORACLES B3: iterative solvers report non-convergence (ConvergenceError with iterations and residual)
+    mod = hanging_chain(1000, link_length=0.01, mass_ratio=1000.0)
+    with pytest.raises(ConvergenceError, match=r"witkin-cg did not converge: residual .* after 50 iterations") as e:
+        solve_multipliers(mod.constraints, mod.system, mod.system.state(), _gravity_Q(mod), solver="witkin-cg",
+                          max_iter=50)
+    assert e.value.iterations == 50 and e.value.residual > e.value.tol
+
+
+# -- B4: redundant and inconsistent constraints --------------------------------------------------------
+@pytest.mark.parametrize("build", [redundant_rod, redundant_xy])
+@pytest.mark.parametrize("solver", ["witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear", "auto"])
+def test_redundant_constraints_give_the_unique_constraint_force(build, solver):
+    # ORACLES B4: λ is not unique but Jᵀλ is; the min-norm answer matches the non-redundant model
+    mod = build()
+    ps = mod.system
+    Q = _gravity_Q(mod) + np.array([[0.7, -0.2]])
+    sol = solve_multipliers(mod.constraints, ps, ps.state(), Q, solver=solver, ks=4.0, kd=1.0)
+    ref = solve_multipliers(mod.info["reference"], ps, ps.state(), Q, solver="witkin-dense", ks=4.0, kd=1.0)
+    assert np.abs(sol.Q_C - ref.Q_C).max() <= 1e-10 * max(1.0, np.abs(ref.Q_C).max())  # measured ~1e-15
+    assert np.abs(sol.qdd - ref.qdd).max() <= 1e-10 * max(1.0, np.abs(ref.qdd).max())
+    if build is redundant_rod:  # the min-norm split of one force over two identical rows is half-half
+        assert abs(sol.lam[0] - sol.lam[1]) <= 1e-10 * abs(ref.lam[0])
+        assert abs(sol.lam[0] - ref.lam[0] / 2) <= 1e-10 * abs(ref.lam[0])
+    if solver != "witkin-cg":
+        assert sol.rank_deficient
+
+
+def test_inconsistent_constraints_raise_naming_the_rows_and_the_residual():
+    # ORACLES B4: x = 0 and x = 1 cannot both hold; with feedback the rows ask for different C̈
+    mod = inconsistent_x()
+    ps = mod.system
+    for solver in DIRECT + ["linear"]:
+        with pytest.raises(SingularConstraintError, match=r"rows \[0, 1\] are dependent and conflict") as e:
+            solve_multipliers(mod.constraints, ps, ps.state(), solver=solver, ks=10.0)
+        assert e.value.rows == [0, 1] and e.value.residual > 1.0  # |k_s(C₀ − C₁)|/√2 = 10/√2
+    scene = Scene(ps, [Constraints(mod.constraints, stabilization="projection")])
+    with pytest.raises(SingularConstraintError, match="rows"):
+        scene.simulate(0.1, 0.01)
+
+
+# -- G3: bad inputs ------------------------------------------------------------------------------------
+def test_bad_inputs_raise_value_errors_naming_the_argument():
+    with pytest.raises(ValueError, match=r"length must be positive, got -1.0"):
+        Distance([[0, 1]], lengths=-1.0)
+    mod = hanging_chain(3)
+    with pytest.raises(ValueError, match=r"ks must be a finite number >= 0, got -1"):
+        Constraints(mod.constraints, stabilization="baumgarte", ks=-1.0, kd=1.0)
+    with pytest.raises(ValueError, match=r"kd must be a finite number >= 0, got -2"):
+        Constraints(mod.constraints, stabilization="baumgarte", ks=1.0, kd=-2.0)
+    with pytest.raises(ValueError, match=r"solver must be one of .* got 'lu'"):
+        Constraints(mod.constraints, solver="lu")
+    with pytest.raises(ValueError, match=r"stabilization must be one of .* got 'magic'"):
+        Constraints(mod.constraints, stabilization="magic")
+    with pytest.raises(ValueError, match=r"needs ks and kd, or natural_frequency"):
+        Constraints(mod.constraints, stabilization="baumgarte")
+    with pytest.raises(ValueError, match=r"only apply to stabilization='baumgarte'"):
+        Constraints(mod.constraints, ks=3.0)
+    with pytest.raises(ValueError, match=r"particle index 7 out of range for a system of 3 particles"):
+        Scene(mod.system, [Constraints([Distance([[0, 7]], lengths=1.0)])])
+    with pytest.raises(ValueError, match=r"particle index -5 out of range for a system of 3 particles"):
+        Scene(mod.system, [Constraints([FixedPoint([-5])])])
+    with pytest.raises(ValueError, match=r"radius must be positive, got 0.0"):
+        OnCircle([0], [0.0, 0.0], 0.0)
+    with pytest.raises(ValueError, match=r"solver must be one of .* got 'qr'"):
+        solve_multipliers(mod.constraints, mod.system, mod.system.state(), solver="qr")
+
+
+def test_a_scene_without_constraints_never_assembles_J(monkeypatch):
+    # "only what is declared runs": no constraint effect, no ConstraintSet, no assembly
+    calls = []
+    monkeypatch.setattr(ConstraintSet, "assemble", lambda *a, **k: calls.append(1))
+    mod = hanging_chain(3)
+    scene = Scene(mod.system, [Gravity(mod.g)])
+    scene.simulate(0.1, 0.01, "rk4")
+    assert calls == [] and scene.pipeline == ("gravity", "integrate")

@@ -1,0 +1,292 @@
+"""pbanim.ode: the methods themselves — tableaux, one-step energy maps, stability limits, orders.
+
+ORACLES A1 (exact one-step energy factors and modified energies), A2 (stiff-spring stability limits),
+A3 (convergence orders, parametrized over the registry), plus the bad-input contract of ``solve``.
+"""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import pbanim
+from pbanim.errors import ConvergenceError, SimulationDiverged
+from pbanim.models.ode import damped_oscillator, harmonic_oscillator, kepler
+from pbanim.ode import METHODS, TABLEAUX, explicit_rk_step, get_method
+from pbanim.testing import assert_order
+
+RK_NAMES = ["euler", "midpoint", "rk4", "dopri5"]
+
+
+# --------------------------------------------------------------------------------------------------
+# tableaux
+# --------------------------------------------------------------------------------------------------
+def _order_conditions(b, A, c):
+    """The 17 rooted-tree conditions up to order 5: (order, Σ b·Φ(tree), 1/γ(tree))."""
+    Ac = A @ c
+    return [(1, b.sum(), 1), (2, b @ c, 1 / 2), (3, b @ c**2, 1 / 3), (3, b @ Ac, 1 / 6),
+            (4, b @ c**3, 1 / 4), (4, b @ (c * Ac), 1 / 8), (4, b @ (A @ c**2), 1 / 12), (4, b @ (A @ Ac), 1 / 24),
+            (5, b @ c**4, 1 / 5), (5, b @ (c**2 * Ac), 1 / 10), (5, b @ (c * (A @ c**2)), 1 / 15),
+            (5, b @ (c * (A @ Ac)), 1 / 30), (5, b @ Ac**2, 1 / 20), (5, b @ (A @ c**3), 1 / 20),
+            (5, b @ (A @ (c * Ac)), 1 / 40), (5, b @ (A @ (A @ c**2)), 1 / 60), (5, b @ (A @ (A @ Ac)), 1 / 120)]
+
+
+@pytest.mark.parametrize("name", sorted(TABLEAUX))
+def test_tableau_order_conditions(name):
+    # Butcher's order conditions hold up to the declared order (and ΣB = 1, rows of A sum to C, checked
+    # at construction); for Dormand–Prince the embedded weights b̂ = b − e satisfy them up to order 4
+    tab = TABLEAUX[name]
+    for p, val, exact in _order_conditions(tab.B, tab.A, tab.C):
+        if p <= tab.order:
+            assert val == pytest.approx(exact, abs=1e-14), (name, p)
+    if tab.E is not None:
+        bhat = tab.B - tab.E
+        conds = _order_conditions(bhat, tab.A, tab.C)
+        assert all(v == pytest.approx(x, abs=1e-14) for p, v, x in conds if p <= 4)
+        assert any(abs(v - x) > 1e-6 for p, v, x in conds if p == 5)  # b̂ is only 4th order
+
+
+def test_inconsistent_tableau_is_rejected():
+    # consistency checks: ΣB = 1, rows of A sum to C
+    with pytest.raises(ValueError, match="weights B must sum to 1"):
+        pbanim.Tableau("bad", np.zeros((2, 2)), np.array([0.5, 0.4]), np.zeros(2), 1)
+    with pytest.raises(ValueError, match="rows of A must sum to C"):
+        pbanim.Tableau("bad", np.array([[0, 0], [0.5, 0]]), np.array([0, 1.0]), np.array([0, 0.4]), 2)
+
+
+@pytest.mark.parametrize("name", RK_NAMES)
+def test_compiled_step_equals_readable_tableau_loop(name):
+    # the registered (compiled) step and the readable loop over the tableau are the same formula
+    f = kepler(0.5).rhs
+    y = np.array([0.7, 0.2, -0.3, 1.1])
+    fast = METHODS[name].step(f, 0.3, y, 0.05)
+    slow = explicit_rk_step(name, f, 0.3, y, 0.05)
+    assert np.max(np.abs(fast - slow)) <= 1e-15  # measured 0 – 2e-16
+
+
+@pytest.mark.parametrize("name", RK_NAMES)
+def test_explicit_rk_exact_on_polynomials_of_its_degree(name):
+    # an order-p explicit RK method integrates y' = p t^(p−1) exactly (ORACLES A3)
+    p = TABLEAUX[name].order
+    f = lambda t, y: np.full_like(y, p * t ** (p - 1))  # noqa: E731
+    y1 = METHODS[name].step(f, 0.5, np.array([0.5 ** p]), 0.7)
+    assert y1[0] == pytest.approx(1.2 ** p, rel=1e-14)
+
+
+# --------------------------------------------------------------------------------------------------
+# A1: one-step energy maps on ẍ = −ω²x
+# --------------------------------------------------------------------------------------------------
+W, H = 2.0, 0.15  # y = hω = 0.3
+Y = H * W
+ENERGY_FACTOR = {  # ORACLES A1: E₁/E₀ exactly
+    "euler": 1 + Y**2,
+    "implicit_euler": 1 / (1 + Y**2),
+    "midpoint": 1 + Y**4 / 4,
+    "rk4": 1 - Y**6 / 72 + Y**8 / 576,
+    "implicit_midpoint": 1.0,
+}
+
+
+def _one_step(name, y0, h=H, omega=W):
+    osc = harmonic_oscillator(omega)
+    return METHODS[name].step(osc.rhs, 0.0, np.array(y0, float), h, 1, osc.jac)
+
+
+@pytest.mark.parametrize("name", sorted(ENERGY_FACTOR))
+@pytest.mark.parametrize("y0", [(1.0, 0.0), (0.3, -1.7)])
+def test_exact_one_step_energy_factor(name, y0):
+    # ORACLES A1: on the oscillator one step multiplies E = ½(v² + ω²x²) by |R(ihω)|², whatever the state
+    E = lambda y: 0.5 * (y[1] ** 2 + W**2 * y[0] ** 2)  # noqa: E731
+    ratio = E(_one_step(name, y0)) / E(np.array(y0))
+    assert ratio == pytest.approx(ENERGY_FACTOR[name], rel=1e-12)  # measured ≤ 3e-16
+
+
+def _modified_energy(name, y, h=H, omega=W):
+    x, v = y
+    if name == "symplectic_euler":
+        return 0.5 * (v**2 + omega**2 * x**2) - 0.5 * h * omega**2 * x * v
+    return 0.5 * v**2 + 0.5 * omega**2 * (1 - (h * omega) ** 2 / 4) * x**2  # verlet
+
+
+@pytest.mark.parametrize("name", ["symplectic_euler", "verlet"])
+def test_symplectic_modified_energy_is_exactly_conserved(name):
+    # ORACLES A1: kick-then-drift symplectic Euler conserves H̃ = E − ½hω²xv; Verlet ½v² + ½ω²(1 − y²/4)x²
+    y = np.array([0.3, -1.7])
+    H0 = _modified_energy(name, y)
+    for _ in range(50):
+        y = _one_step(name, y)
+    assert _modified_energy(name, y) == pytest.approx(H0, rel=1e-12)  # measured 4e-16 after 50 steps
+
+
+def test_modified_energy_catches_a_fake_symplectic_euler():
+    # ORACLES A1: explicit Euler (the usual "symplectic Euler" bug) violates H̃ = E − ½hω²xv by O(h²)
+    y0 = np.array([0.3, -1.7])
+    drift = abs(_modified_energy("symplectic_euler", _one_step("euler", y0)) / _modified_energy("symplectic_euler", y0) - 1)
+    assert drift > 1e-3  # measured 4.9e-2
+
+
+def test_damped_symplectic_euler_step_determinant():
+    # ORACLES A1: on ẍ = −ω²x − cẋ the symplectic-Euler one-step map has determinant 1 − hc
+    w, c, h = 3.0, 0.7, 0.1
+    osc = damped_oscillator(w, c)
+    step = METHODS["symplectic_euler"].step
+    Phi = np.column_stack([step(osc.rhs, 0.0, e, h, 1) for e in np.eye(2)])
+    assert np.linalg.det(Phi) == pytest.approx(1 - h * c, rel=1e-13)  # measured 1e-16
+    Phi_euler = np.column_stack([METHODS["euler"].step(osc.rhs, 0.0, e, h) for e in np.eye(2)])
+    assert abs(np.linalg.det(Phi_euler) - (1 - h * c)) > 1e-2  # explicit Euler's is 1 − hc + h²ω²
+
+
+# --------------------------------------------------------------------------------------------------
+# A2: stiff spring stability limits (k = 1e6, ω = 1e3)
+# --------------------------------------------------------------------------------------------------
+OMEGA = 1e3
+H_CRIT = {"symplectic_euler": 2 / OMEGA, "verlet": 2 / OMEGA, "rk4": 2 * np.sqrt(2) / OMEGA}
+
+
+@pytest.mark.parametrize("name", sorted(H_CRIT))
+def test_stiff_spring_stability_limit(name):
+    # ORACLES A2: stable iff hω < 2 (symplectic Euler, Verlet), hω ≤ 2√2 (RK4): bounded at 0.99·h_crit,
+    # SimulationDiverged at 1.01·h_crit
+    osc = harmonic_oscillator(OMEGA)
+    h = 0.99 * H_CRIT[name]
+    r = pbanim.solve(osc.rhs, (0, 20000 * h), osc.y0, method=name, h=h)
+    scale = np.abs(r.y / np.array([[1.0], [OMEGA]])).max()
+    assert scale < 20  # measured 7.1 (symplectic Euler/Verlet ellipse), 1.0 (RK4)
+    h = 1.01 * H_CRIT[name]
+    with pytest.raises(SimulationDiverged, match="diverged at t = .* \\(step [0-9]+\\): state y is not finite"):
+        pbanim.solve(osc.rhs, (0, 20000 * h), osc.y0, method=name, h=h)
+
+
+def test_stiff_spring_explicit_euler_never_stable_implicit_always():
+    # ORACLES A2: explicit Euler grows by (1 + h²ω²) per step for every h; implicit Euler decays at hω = 10
+    osc = harmonic_oscillator(OMEGA)
+    with pytest.raises(SimulationDiverged) as err:
+        pbanim.solve(osc.rhs, (0, 3.0), osc.y0, method="euler", h=1 / OMEGA)
+    assert err.value.step > 0 and err.value.quantity == "state y"
+    r = pbanim.solve(osc.rhs, (0, 1.0), osc.y0, method="implicit_euler", h=10 / OMEGA, jac=osc.jac)
+    E = osc.invariants["energy"](r.y)
+    assert np.all(np.isfinite(r.y)) and np.all(np.diff(E) < 0)
+    assert E[1] / E[0] == pytest.approx(1 / 101, rel=1e-12)  # A1 factor 1/(1 + y²), y = 10
+
+
+# --------------------------------------------------------------------------------------------------
+# A3: convergence order of every registered method (Kepler, e = 0.3, exact from Kepler's equation)
+# --------------------------------------------------------------------------------------------------
+# first steps chosen so every error lies in the asymptotic range inside the fit window 1e-10..1e-2;
+# Dormand–Prince's fifth-order error constant is small, so it needs the longer span T = 6 to be asymptotic
+H0 = {1: 2.0**-10, 2: 2.0**-5, 4: 2.0**-4, 5: 2.0**-4}
+
+
+@pytest.mark.parametrize("name", sorted(METHODS))
+def test_convergence_order(name):
+    # ORACLES A3: fitted slope of log(error) vs log(h) within ±0.15 of the declared order
+    m = METHODS[name]
+    kp = kepler(0.3)
+    T = 6.0 if m.order == 5 else 2.0
+    exact = kp.exact(T)[:, 0]
+    hs = H0[m.order] / 2.0 ** np.arange(3)
+    errs = []
+    for h in hs:
+        y = kp.y0.copy()
+        for k in range(int(round(T / h))):
+            y = m.step(kp.rhs, k * h, y, h, 2)
+        errs.append(np.max(np.abs(y - exact)))
+    p = assert_order(hs, errs, m.order)
+    assert abs(p - m.order) < 0.15  # measured: 1.00, 2.02, 4.06, 1.00, 2.00, 1.00, 2.00, 5.10
+
+
+# --------------------------------------------------------------------------------------------------
+# implicit steps: Newton, Jacobians
+# --------------------------------------------------------------------------------------------------
+def test_linear_force_one_newton_iteration_is_baraffs_step():
+    # implicit Euler on a linear spring: y₁ = (I − hJ)⁻¹ y₀ (Baraff & Witkin's linearized step) exactly
+    osc = damped_oscillator(1e3, 20.0)
+    J = osc.jac(0, None)
+    h = 0.01
+    y1 = METHODS["implicit_euler"].step(osc.rhs, 0.0, osc.y0, h, 1, osc.jac)
+    ref = np.linalg.solve(np.eye(2) - h * J, osc.y0)
+    assert np.max(np.abs(y1 - ref)) <= 1e-15 * np.abs(ref).max()  # measured 0
+    # the same with a sparse Jacobian and with finite differences
+    ys = METHODS["implicit_euler"].step(osc.rhs, 0.0, osc.y0, h, 1, lambda t, y: sp.csr_matrix(J))
+    yfd = METHODS["implicit_euler"].step(osc.rhs, 0.0, osc.y0, h, 1, None)
+    assert np.max(np.abs(ys - ref)) <= 1e-15 * np.abs(ref).max()
+    assert np.max(np.abs(yfd - ref)) <= 1e-10 * np.abs(ref).max()  # measured 3e-13 (FD Jacobian)
+
+
+def test_implicit_midpoint_conserves_quadratic_energy_of_linear_system():
+    # implicit midpoint is symplectic and conserves quadratic invariants: E of the oscillator to roundoff
+    osc = harmonic_oscillator(5.0)
+    r = pbanim.solve(osc.rhs, (0, 10.0), osc.y0, method="implicit_midpoint", h=0.3, jac=osc.jac)
+    E = osc.invariants["energy"](r.y)
+    assert np.max(np.abs(E / E[0] - 1)) < 1e-13  # measured 3e-15
+    assert r.njev == len(r.t) - 1
+
+
+def test_newton_failure_raises_convergence_error():
+    # simplified Newton with a frozen Jacobian cannot converge on y' = −y³ at h = 100 from y = 10
+    with pytest.raises(ConvergenceError, match="Newton \\(implicit step\\) did not converge.*reduce the step h"):
+        METHODS["implicit_euler"].step(lambda t, y: -y**3, 0.0, np.array([10.0]), 100.0)
+
+
+# --------------------------------------------------------------------------------------------------
+# bad input: every rejection names the argument
+# --------------------------------------------------------------------------------------------------
+f2 = harmonic_oscillator().rhs
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(h=0.0), "h must be a positive finite step, got 0.0"),
+    (dict(h=-0.1), "h must be a positive finite step, got -0.1"),
+    (dict(h=np.nan), "h must be a positive finite step, got nan"),
+    (dict(method="rk5"), "method must be one of .* got 'rk5'"),
+    (dict(method="scipy:Euler"), "method must be 'scipy:' \\+ one of .* got 'scipy:Euler'"),
+    (dict(method="rk4", h=None), "h must be given for the fixed-step method 'rk4'"),
+    (dict(rtol=0.0, method="dopri5"), "rtol must be positive, got 0.0"),
+    (dict(atol=-1.0, method="dopri5"), "atol must be non-negative, got -1.0"),
+    (dict(max_steps=0), "max_steps must be a positive integer, got 0"),
+    (dict(h=1e-6, max_steps=10), "needs 1000000 steps over t_span, more than max_steps = 10"),
+    (dict(split=5), "split must be between 0 and n = 2"),
+    (dict(t_eval=[0.5, 2.0]), "t_eval must be sorted .* within t_span"),
+    (dict(t_eval=[0.5, 0.2]), "t_eval must be sorted"),
+])
+def test_bad_arguments_raise_value_error(kwargs, match):
+    # bad arguments are rejected at the boundary with a message naming the argument and its value
+    args = dict(method="rk4", h=0.1)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        pbanim.solve(f2, (0.0, 1.0), [1.0, 0.0], **args)
+
+
+@pytest.mark.parametrize("y0, match", [
+    ([1.0, np.nan], "y0 must be finite, got nan at flat index 1"),
+    ([1.0, np.inf], "y0 must be finite, got inf"),
+    (np.zeros((2, 2, 2)), "y0 must have shape \\(n,\\) or \\(K, n\\) for a batch, got shape \\(2, 2, 2\\)"),
+    ([], "y0 must have shape"),
+])
+def test_bad_initial_state(y0, match):
+    with pytest.raises(ValueError, match=match):
+        pbanim.solve(f2, (0.0, 1.0), y0, method="rk4", h=0.1)
+
+
+def test_bad_fun_and_span():
+    with pytest.raises(ValueError, match="fun\\(t, y\\) must return an array of the shape of y0 \\(3,\\), got \\(2,\\)"):
+        pbanim.solve(lambda t, y: y[:2], (0.0, 1.0), [1.0, 0.0, 0.0], h=0.1)
+    with pytest.raises(ValueError, match="fun must be a callable"):
+        pbanim.solve(3.0, (0.0, 1.0), [1.0], h=0.1)
+    with pytest.raises(ValueError, match="t_span must be two different finite times, got \\(1.0, 1.0\\)"):
+        pbanim.solve(f2, (1.0, 1.0), [1.0, 0.0], h=0.1)
+    with pytest.raises(ValueError, match="t_span must be a pair"):
+        pbanim.solve(f2, 1.0, [1.0, 0.0], h=0.1)
+    with pytest.raises(ValueError, match="events must be callables"):
+        pbanim.solve(f2, (0.0, 1.0), [1.0, 0.0], h=0.1, events=[1.0])
+    with pytest.raises(ValueError, match="events are not supported in batch mode"):
+        pbanim.solve(f2, (0.0, 1.0), np.ones((3, 2)), h=0.1, events=lambda t, y: y[0])
+    with pytest.raises(ValueError, match="batch mode .* needs a pbanim method"):
+        pbanim.solve(f2, (0.0, 1.0), np.ones((3, 2)), method="scipy:RK45")
+    with pytest.raises(ValueError, match="method must be one of"):
+        get_method(None)
+
+
+def test_non_finite_derivative_at_start_is_divergence():
+    with pytest.raises(SimulationDiverged, match="derivative f\\(t0, y0\\) is not finite"):
+        with np.errstate(divide="ignore"):
+            pbanim.solve(lambda t, y: y / 0.0, (0.0, 1.0), [1.0], h=0.1)
