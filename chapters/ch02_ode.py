@@ -9,16 +9,16 @@ import time
 
 import numpy as np
 
-from pbanim.errors import SimulationDiverged
 from pbanim.models.ode import damped_oscillator, kepler
 from pbanim.ode import METHODS, solve
 from pbanim.plotting import figure
 from pbanim.testing import fitted_order
 
-ORDER = ["euler", "symplectic_euler", "implicit_euler", "midpoint", "verlet", "implicit_midpoint", "rk4", "dopri5"]
+ORDER = ["euler", "symplectic_euler", "implicit_euler", "midpoint", "verlet", "implicit_midpoint",
+         "exponential_euler", "rk4", "dopri5"]
 
 
-@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2): slopes = orders")
+@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; dopri5 t = 6): slopes = orders")
 def convergence(ctx):
     kp = kepler(0.3)
     n_h = 3 if ctx.quick else 6
@@ -36,7 +36,7 @@ def convergence(ctx):
                 y = m.step(kp.rhs, k * h, y, h, 2)
             errs.append(float(np.max(np.abs(y - exact))))
         data["h"][name], data["error"][name], data["order"][name] = hs, np.array(errs), m.order
-        data["slope"][name] = fitted_order(hs, errs, window=(1e-12, 1e-2))
+        data["slope"][name] = fitted_order(hs, errs, window=(1e-12, 0.1))
     fig, ax = ctx.subplots()
     for name in ORDER:
         ax.loglog(data["h"][name], data["error"][name], "o-", ms=3,
@@ -88,7 +88,7 @@ def stability(ctx):
         if name in ("euler", "midpoint", "rk4", "dopri5"):  # R(z) from one step of y' = zy, complex y
             step = METHODS[name].step
             data["R_direct"][name] = np.abs(step(lambda t, u: Z * u, 0.0, np.ones_like(Z), 1.0))
-    plt_fig, axes = ctx.subplots(2, 4, figsize=(11, 5.6), sharex=True, sharey=True)
+    plt_fig, axes = ctx.subplots(3, 3, figsize=(9, 8.4), sharex=True, sharey=True)
     for ax, name in zip(axes.ravel(), ORDER):
         rho = data["rho"][name]
         ax.contourf(x, yv, (rho <= 1.0).astype(float), levels=[0.5, 1.5], colors=["#8ecae6"])
@@ -97,7 +97,7 @@ def stability(ctx):
         ax.axvline(0, color="0.5", lw=0.5)
         ax.set_title(name, fontsize=8)
         ax.set_aspect("equal")
-    for ax in axes[1]:
+    for ax in axes[-1]:
         ax.set_xlabel("Re z = h Re λ")
     for ax in axes[:, 0]:
         ax.set_ylabel("Im z = h Im λ")
@@ -152,6 +152,7 @@ def work_precision(ctx):
              ("stiff damped spring k = 1e6", _stiff_problem(),
               {"pbanim:implicit_euler": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
                "pbanim:implicit_midpoint": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
+               "pbanim:exponential_euler": [1, 10] if quick else [1, 10, 100],
                "scipy:Radau": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)],
                "scipy:LSODA": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)]})]
     fig, axes = ctx.subplots(1, 2, figsize=(11, 4.4))
@@ -175,25 +176,22 @@ def stiff_spring(ctx):
     h = 2.5e-3
     t_end = 0.5 if ctx.quick else 1.0
     data = {"h": h, "omega": 1e3, "t": {}, "x": {}, "diverged_at": {}}
-    for name in ["euler", "symplectic_euler", "rk4", "implicit_euler", "implicit_midpoint"]:
+    for name in ["euler", "symplectic_euler", "rk4", "implicit_euler", "implicit_midpoint", "exponential_euler"]:
         meth = METHODS[name]
-        ts, xs, y, t = [0.0], [m.y0[0]], m.y0.copy(), 0.0
-        try:
-            r = solve(m.rhs, (0, t_end), m.y0, method=name, h=h, jac=m.jac)
-            ts, xs = r.t, r.y[0]
-        except SimulationDiverged as exc:
-            data["diverged_at"][name] = exc.t
-            while abs(y[0]) < 1e12:  # the same steps, up to a visible blow-up
-                y = meth.step(m.rhs, t, y, h, 1, m.jac)
-                t += h
-                ts.append(t), xs.append(y[0])
+        ts, xs, y = [0.0], [m.y0[0]], m.y0.copy()
+        for k in range(int(round(t_end / h))):  # the method's own steps, stopped at a visible blow-up
+            y = meth.step(m.rhs, k * h, y, h, 1, m.jac)
+            ts.append((k + 1) * h), xs.append(y[0])
+            if abs(y[0]) > 1e3:  # a thousand times the initial amplitude: diverged
+                data["diverged_at"][name] = (k + 1) * h
+                break
         data["t"][name], data["x"][name] = np.asarray(ts), np.asarray(xs)
     fig, ax = ctx.subplots()
     for name in data["t"]:
         ax.semilogy(data["t"][name], np.abs(data["x"][name]) + 1e-300, lw=0.9, label=name)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("|x(t)| [m]")
-    ax.set_ylim(1e-12, 1e13)
+    ax.set_ylim(1e-12, 1e4)
     ax.legend()
     ctx.save(fig)
     return data

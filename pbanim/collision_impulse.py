@@ -150,13 +150,27 @@ def _lever(bodies: ImpulseBodies, c: Contacts):
 
 
 def contact_velocity(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
-    """u = ṗ_a − ṗ_b with ṗ = v + ω × r, shape (m, 3); v_rel = n·u."""
+    """u = ṗ_a − ṗ_b with ṗ = v + ω × r, shape (m, 3); v_rel = n·u.
+
+    A ball spinning about y over the ground: its lowest point moves at v − ω × (R ẑ):
+
+    >>> b = ImpulseBodies.make([[0, 0, 1.0]], [[1.0, 0, -2.0]], 1.0, omega=[[0, 3.0, 0]])
+    >>> contact_velocity(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))
+    array([[-2.,  0., -2.]])
+    """
     ra, rb = _lever(bodies, c)
     return (bodies.v[c.a] + np.cross(bodies.omega[c.a], ra)) - (bodies.v[c.b] + np.cross(bodies.omega[c.b], rb))
 
 
 def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
-    """K = (1/m_a + 1/m_b) 𝟙 − [r_a]× I_a⁻¹ [r_a]× − [r_b]× I_b⁻¹ [r_b]×, shape (m, 3, 3)."""
+    """K = (1/m_a + 1/m_b) 𝟙 − [r_a]× I_a⁻¹ [r_a]× − [r_b]× I_b⁻¹ [r_b]×, shape (m, 3, 3).
+
+    A solid ball (m = 1, R = 1, I = 2/5) on the ground: 1 along n, 1 + R²/I = 7/2 along the tangents.
+
+    >>> b = ImpulseBodies.make([[0, 0, 1.0]], [[0, 0, 0]], 1.0, inv_I=np.eye(3) / 0.4)
+    >>> np.diag(collision_matrix(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))[0])
+    array([3.5, 3.5, 1. ])
+    """
     ra, rb = _lever(bodies, c)
     Sa, Sb = _skew(ra), _skew(rb)
     lin = (bodies.inv_mass[c.a] + bodies.inv_mass[c.b])[:, None, None] * np.eye(3)
@@ -164,7 +178,16 @@ def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
 
 
 def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
-    """In place: v_a += J/m_a, ω_a += I_a⁻¹(r_a × J); the opposite on b (repeated bodies accumulate)."""
+    """In place: v_a += J/m_a, ω_a += I_a⁻¹(r_a × J); the opposite on b (repeated bodies accumulate).
+
+    The world row (index −1) has zero inverse mass: it absorbs −J and stays at rest.
+
+    >>> b = ImpulseBodies.make([[0, 0, 0]], [[0, 0, -1.0]], 0.5)
+    >>> apply_impulses(b, Contacts([0, 0], [-1, -1], [[0, 0, 0]] * 2, [[0, 0, 1]] * 2, [0, 0]), [[0, 0, 1.0]] * 2)
+    >>> b.v
+    array([[0., 0., 0.],
+           [0., 0., 0.]])
+    """
     J = np.asarray(J, float).reshape(-1, 3)
     ra, rb = _lever(bodies, c)
     dv = np.zeros_like(bodies.v)

@@ -20,8 +20,8 @@ import numpy as np
 
 from .collision_shapes import Box, Capsule, Contacts, Plane, Sphere, _as3
 
-__all__ = ["sphere_plane", "sphere_sphere", "box_plane", "box_box", "capsule_plane", "capsule_sphere",
-           "collide"]
+__all__ = ["sphere_plane", "sphere_sphere", "box_plane", "box_box", "sphere_box", "capsule_plane",
+           "capsule_sphere", "collide"]
 
 _EDGE_BIAS = 0.95   # an edge axis wins only if its overlap is < 0.95 × the best face overlap
 _EPS_AXIS = 1e-9    # |Aᵢ × Bⱼ| below this: parallel edges, the axis is skipped
@@ -132,6 +132,39 @@ def capsule_sphere(x, R, radius: float, half_length: float, center, sphere_radiu
     s = np.clip((c - x) @ u, -half_length, half_length)
     q = x + s * u
     return sphere_sphere(q[None], radius, c[None], sphere_radius, a, b, margin)
+
+
+def sphere_box(center, radius: float, x, R, half_extents, a: int = 0, b: int = 1, margin: float = 0.0) -> Contacts:
+    """Sphere a against box b: the closest point of the box to the centre (clamped in the box frame).
+
+    A centre inside the box is pushed out through the nearest face.
+
+    >>> c = sphere_box([0, 0, 1.4], 0.5, [0, 0, 0], np.eye(3), [1, 1, 1])
+    >>> c.normal, c.depth.round(12), c.point.round(12)
+    (array([[0., 0., 1.]]), array([0.1]), array([[0.  , 0.  , 0.95]]))
+    """
+    c = _as3(center)[0]
+    x = _as3(x)[0]
+    R = np.asarray(R, dtype=float).reshape(3, 3)
+    he = np.broadcast_to(np.asarray(half_extents, float), (3,))
+    p = R.T @ (c - x)
+    q = np.clip(p, -he, he)
+    d = p - q
+    dist = float(np.linalg.norm(d))
+    if dist > 0:
+        n = R @ (d / dist)
+        depth = radius - dist
+    else:                                    # centre inside: leave through the nearest face
+        k = int(np.argmin(he - np.abs(p)))
+        s = 1.0 if p[k] >= 0 else -1.0
+        n = s * R[:, k]
+        q = p.copy()
+        q[k] = s * he[k]
+        depth = radius + he[k] - abs(p[k])
+    if depth < -margin:
+        return Contacts.empty()
+    point = 0.5 * ((c - radius * n) + (x + R @ q))
+    return Contacts([a], [b], [point], [n], [max(depth, 0.0)])
 
 
 def _clip(poly: list, normal: np.ndarray, limit: float) -> list:
@@ -248,10 +281,16 @@ def collide(shape_a, xa, Ra, shape_b, xb, Rb, a: int, b: int, margin: float = 0.
         return sphere_sphere(xa, shape_a.radius, xb, shape_b.radius, a, b, margin)
     elif isinstance(shape_a, Box) and isinstance(shape_b, Box):
         return box_box(xa, Ra, shape_a.half_extents, xb, Rb, shape_b.half_extents, a, b)
+    elif isinstance(shape_a, Sphere) and isinstance(shape_b, Box):
+        return sphere_box(xa, shape_a.radius, xb, Rb, shape_b.half_extents, a, b, margin)
+    elif isinstance(shape_a, Box) and isinstance(shape_b, Sphere):
+        c = sphere_box(xb, shape_b.radius, xa, Ra, shape_a.half_extents, b, a, margin)
+        return Contacts(c.b, c.a, c.point, -c.normal, c.depth)
     elif isinstance(shape_a, Capsule) and isinstance(shape_b, Sphere):
         return capsule_sphere(xa, Ra, shape_a.radius, shape_a.half_length, xb, shape_b.radius, a, b, margin)
     elif isinstance(shape_a, Sphere) and isinstance(shape_b, Capsule):
         c = capsule_sphere(xb, Rb, shape_b.radius, shape_b.half_length, xa, shape_a.radius, b, a, margin)
         return Contacts(c.b, c.a, c.point, -c.normal, c.depth)
     raise NotImplementedError(f"no narrow-phase test for {type(shape_a).__name__}–{type(shape_b).__name__}; "
-                              "supported: sphere/box/capsule–plane, sphere–sphere, box–box, capsule–sphere")
+                              "supported: sphere/box/capsule–plane, sphere–sphere, sphere–box, box–box, "
+                              "capsule–sphere")

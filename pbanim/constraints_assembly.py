@@ -39,6 +39,7 @@ class Structure:
     kind: str
     bandwidth: int = -1
     order: np.ndarray | None = None
+    reversed: bool = False  # order is m−1, …, 0 (a chain numbered from its root): slices, not gathers
 
     @property
     def linear(self) -> bool:
@@ -53,7 +54,8 @@ class Assembly:
     Jdv: np.ndarray
     J: sp.csr_matrix
     v: np.ndarray                   # q̇ (flat), for Ċ
-    vals: np.ndarray | None = None  # W_p G_r·G_s for each half pair (blocks mode)
+    vals: tuple | None = None  # (diag (m,), off (pairs,)): W_p G·G of A = JWJᵀ (blocks mode)
+    JT: sp.csr_matrix | None = None  # Jᵀ (CSR)
     _Cdot: np.ndarray | None = None
 
     @property
@@ -142,20 +144,28 @@ class ConstraintSet:
         indptr = np.concatenate([[0], np.cumsum(np.bincount(jr, minlength=m))])
         self._J = sp.csr_matrix((np.zeros(E * dim), jc[order], indptr), shape=(m, self.n))
         self._Jperm = order
-        # half pairs of blocks at a common particle: entries sorted by particle, all (i ≤ j) in each group
+        # Jᵀ as its own CSR pattern: Q_C = Jᵀλ is then a plain CSR mat-vec (no transpose per step)
+        orderT = np.lexsort((jr, jc))
+        indptrT = np.concatenate([[0], np.cumsum(np.bincount(jc, minlength=self.n))])
+        self._JT = sp.csr_matrix((np.zeros(E * dim), jr[orderT], indptrT), shape=(self.n, m))
+        self._JTperm = orderT
+        # diagonal of A: A_rr = Σ_e∈r W_e|G_e|², summed per row (entries are sorted by row)
+        Wpad = np.r_[self.W, 0.0]  # index −1 (a fixed point) has W = 0
+        self._Wslots = [Wpad[c.slots] for c in self.constraints]
+        # off-diagonal: pairs (i < j) of distinct blocks at a common particle, all pairs in each group
         s = np.argsort(ep, kind="stable")
         ps = ep[s]
         starts = np.flatnonzero(np.r_[True, ps[1:] != ps[:-1]])
         counts = np.diff(np.r_[starts, E])
-        gstart = np.repeat(starts, counts)
-        after = gstart + np.repeat(counts, counts) - np.arange(E)  # entries from here to the group end
+        after = np.repeat(starts, counts) + np.repeat(counts, counts) - np.arange(E) - 1  # blocks after me
         i_idx = np.repeat(np.arange(E), after)
-        j_idx = i_idx + (np.arange(len(i_idx)) - np.repeat(np.cumsum(after) - after, after))
+        j_idx = i_idx + 1 + (np.arange(len(i_idx)) - np.repeat(np.cumsum(after) - after, after))
         self._ei, self._ej = s[i_idx], s[j_idx]
         self._pw = self.W[ep[self._ei]]
         r1, r2 = er[self._ei], er[self._ej]
-        self._A, self._pos1, self._pos2 = _pattern(r1, r2, m)
-        self._off = self._ei != self._ej
+        rows_all = np.arange(m)
+        self._A, pos1, pos2 = _pattern(np.r_[rows_all, r1], np.r_[rows_all, r2], m)
+        self._pdiag, self._pos1, self._pos2 = pos1[:m], pos1[m:], pos2[m:]
         self.structure = self._structure(er, ep, r1, r2)
 
     def _structure(self, er, ep, r1, r2) -> Structure:
@@ -189,7 +199,7 @@ class ConstraintSet:
         bw = int(np.max(np.abs(a - b), initial=0))
         lo, hi = np.maximum(a, b), np.minimum(a, b)
         self._band_pos = (lo - hi) * m + hi          # lower band storage ab[i - j, j]
-        self._band_mult = np.where(self._off & (a == b), 2.0, 1.0)
+        self._band_mult = np.where(a == b, 2.0, 1.0)  # two blocks of one row at one particle
         self._inv = inv
         if bw <= 1:
             kind = "chain"
@@ -197,8 +207,11 @@ class ConstraintSet:
             kind = "banded"
         else:
             kind = "tree"
-            self._Ap, self._ppos1, self._ppos2 = _pattern(a, b, m)
-        return Structure(kind, bw, order)
+            self._Ap, pp1, pp2 = _pattern(np.r_[np.arange(m), a], np.r_[np.arange(m), b], m)
+            self._ppdiag, self._ppos1, self._ppos2 = pp1[:m], pp1[m:], pp2[m:]
+        st = Structure(kind, bw, order)
+        st.reversed = bool(np.array_equal(order, np.arange(m)[::-1]))
+        return st
 
     # -- per step ----------------------------------------------------------------------------------
     def assemble(self, x: np.ndarray, v: np.ndarray, pairs: bool = True) -> Assembly:
@@ -211,12 +224,23 @@ class ConstraintSet:
             Gs = [o[1].reshape(-1, self.dim) for o in out]
             Gs = [G if sel is None else np.take(G, sel, axis=0) for G, sel in zip(Gs, self._sel)]
             Gf = Gs[0] if len(Gs) == 1 else np.concatenate(Gs)
-            J = self._J
-            J.data = np.take(Gf.ravel(), self._Jperm)
+            J, JT = self._J, self._JT
+            gflat = Gf.ravel()
+            J.data = np.take(gflat, self._Jperm)
+            JT.data = np.take(gflat, self._JTperm)
             vals = None
             if pairs:
-                vals = _dot(np.take(Gf, self._ei, axis=0), np.take(Gf, self._ej, axis=0))
-                vals *= self._pw
+                diags = []
+                for o, Ws in zip(out, self._Wslots):
+                    G = o[1]
+                    dk = Ws[:, 0] * _dot(G[:, 0], G[:, 0])
+                    for j in range(1, G.shape[1]):
+                        dk += Ws[:, j] * _dot(G[:, j], G[:, j])
+                    diags.append(dk)
+                diag = diags[0] if len(diags) == 1 else np.concatenate(diags)
+                off = _dot(np.take(Gf, self._ei, axis=0), np.take(Gf, self._ej, axis=0))
+                off *= self._pw
+                vals = (diag, off)
         else:
             Cs, Js, Jds = [], [], []
             for c, o in zip(self.constraints, out):
@@ -230,30 +254,36 @@ class ConstraintSet:
                     Js.append(c.jacobian(x))
             C, Jdv = np.concatenate(Cs), np.concatenate(Jds)
             J, vals = sp.vstack(Js, format="csr"), None
-        return Assembly(C=C, Jdv=Jdv, J=J, v=v.ravel(), vals=vals)
+            JT = J.T.tocsr()
+        return Assembly(C=C, Jdv=Jdv, J=J, v=v.ravel(), vals=vals, JT=JT)
 
     def matrix(self, asm: Assembly) -> sp.csr_matrix:
         """A = JWJᵀ (sparse) from an assembly."""
         if asm.vals is None:
             return (asm.J @ sp.diags(self.Wq) @ asm.J.T).tocsr()
+        diag, off = asm.vals
         nnz = self._A.nnz
-        data = np.bincount(self._pos1, asm.vals, minlength=nnz)
-        data += np.bincount(self._pos2[self._off], asm.vals[self._off], minlength=nnz)
+        data = np.bincount(self._pdiag, diag, minlength=nnz)
+        data += np.bincount(self._pos1, off, minlength=nnz)
+        data += np.bincount(self._pos2, off, minlength=nnz)
         A = self._A.copy()
         A.data = data
         return A
 
     def bands(self, asm: Assembly) -> np.ndarray:
         """A in lower band storage of the leaves-first order: ab[i − j, j] = A[order[i], order[j]]."""
-        b = self.structure.bandwidth
-        ab = np.bincount(self._band_pos, asm.vals * self._band_mult, minlength=(b + 1) * self.m)
-        return ab.reshape(b + 1, self.m)
+        b, m = self.structure.bandwidth, self.m
+        diag, off = asm.vals
+        ab = np.bincount(self._band_pos, off * self._band_mult, minlength=(b + 1) * m) if len(off) else \
+            np.zeros((b + 1) * m)
+        ab[:m] += diag[::-1] if self.structure.reversed else np.take(diag, self.structure.order)
+        return ab.reshape(b + 1, m)
 
     def permuted_matrix(self, asm: Assembly) -> sp.csc_matrix:
         """A in the leaves-first order (tree structure), CSC (A is symmetric)."""
+        diag, off = asm.vals
         nnz = self._Ap.nnz
-        data = np.bincount(self._ppos1, asm.vals, minlength=nnz)
-        data += np.bincount(self._ppos2[self._off], asm.vals[self._off], minlength=nnz)
-        A = self._Ap.copy()
-        A.data = data
-        return sp.csc_matrix((A.data, A.indices, A.indptr), shape=A.shape)
+        data = np.bincount(self._ppdiag, np.take(diag, self.structure.order), minlength=nnz)
+        data += np.bincount(self._ppos1, off, minlength=nnz)
+        data += np.bincount(self._ppos2, off, minlength=nnz)
+        return sp.csc_matrix((data, self._Ap.indices, self._Ap.indptr), shape=self._Ap.shape)

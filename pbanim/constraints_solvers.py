@@ -127,7 +127,7 @@ def _linear(cset, asm, r: np.ndarray):
     """Baraff's leaves-first elimination: tridiagonal (dptsv), banded Cholesky, or zero-fill sparse LDLᵀ."""
     st = cset.structure
     order = st.order
-    rp = r[order]
+    rp = r[::-1] if st.reversed else np.take(r, order)
     if st.kind == "chain" and st.bandwidth == 0:  # uncoupled rows: A is diagonal
         d = cset.bands(asm)[0]
         if d.min() < _PIVOT * d.max():
@@ -154,16 +154,17 @@ def _linear(cset, asm, r: np.ndarray):
                   options={"SymmetricMode": True})
         if x is None:
             return None
+    if st.reversed:
+        return x[::-1]
     lam = np.empty_like(x)
     lam[order] = x
     return lam
 
 
-def _cg(J, W, r, tol, max_iter, x0=None):
+def _cg(J, JT, W, r, tol, max_iter, x0=None):
     m = J.shape[0]
     if not np.any(r):
         return np.zeros(m), 0, 0.0
-    JT = J.T.tocsr()
     op = spla.LinearOperator((m, m), matvec=lambda y: J @ (W * (JT @ y)), dtype=float)
     it = [0]
 
@@ -220,19 +221,20 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         kind = "general" if cset is None else cset.structure.kind
         raise ValueError(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds; "
                          f"this set's structure is {kind!r}; use 'auto', 'witkin-sparse' or 'kkt'")
+    JT = asm.JT if (asm is not None and asm.JT is not None) else J.T.tocsr()
     r = c - J @ (W * Q)
     it, deficient = 0, False
     if solver == "kkt":
-        K = sp.bmat([[sp.diags(1.0 / W), -J.T], [J, None]], format="csc")
+        K = sp.bmat([[sp.diags(1.0 / W), -JT], [J, None]], format="csc")
         rhs = np.concatenate([Q, c])
         z = _splu(K, rhs)
         if z is not None:
             qdd, lam = z[: len(Q)], z[len(Q):]
-            Q_C = J.T @ lam
+            Q_C = JT @ lam
             return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
         lam, deficient = None, True
     elif solver == "witkin-cg":
-        lam, it, res = _cg(J, W, r, tol, max_iter or 10 * m + 100)
+        lam, it, res = _cg(J, JT, W, r, tol, max_iter or 10 * m + 100)
     else:
         if A is None and solver != "linear":
             A = cset.matrix(asm) if (cset is not None and asm is not None) else (J @ sp.diags(W) @ J.T).tocsr()
@@ -247,7 +249,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         if A is None:
             A = (J @ sp.diags(W) @ J.T).tocsr()
         lam = min_norm_lambda(A, r)
-    Q_C = J.T @ lam
+    Q_C = JT @ lam
     qdd = W * (Q + Q_C)
     return ConstraintSolution(lam, Q_C, qdd, solver, it, deficient, res if solver == "witkin-cg" else None,
                               (J, W, r))

@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -79,16 +78,33 @@ def make_contacts(a, b, point, normal, depth=None):
     normal = np.array(normal, dtype=float, ndmin=2)
     depth = np.zeros(a.size) if depth is None else np.atleast_1d(np.asarray(depth, dtype=float))
     if point.shape[1] == 3:
-        for mod in ("collision", "collision_shapes"):  # the collision chapter's struct-of-arrays
-            Contacts = getattr(importlib.import_module(f"pbanim.{mod}"), "Contacts", None)
-            if Contacts is not None:
-                return Contacts(a=a, b=b, point=point, normal=normal, depth=depth)
+        cls = _contacts_class()
+        if cls is not None:
+            return cls(a=a, b=b, point=point, normal=normal, depth=depth)
     return _Contacts(a, b, point, normal, depth)
+
+
+_CONTACTS_CLASS: list = []
+
+
+def _contacts_class():
+    """The collision chapter's struct-of-arrays ``Contacts`` (looked up once)."""
+    if not _CONTACTS_CLASS:
+        cls = None
+        for mod in ("collision", "collision_shapes"):
+            try:
+                cls = getattr(importlib.import_module(f"pbanim.{mod}"), "Contacts", None)
+            except ImportError:
+                cls = None
+            if cls is not None:
+                break
+        _CONTACTS_CLASS.append(cls)
+    return _CONTACTS_CLASS[0]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise a × b for (m, 3) arrays (np.cross has a large per-call overhead on small arrays)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
     out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
     out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
     out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
@@ -163,6 +179,7 @@ class ContactProblem:
     rows: ContactRows
     Wb: np.ndarray
     force_rows: ContactRows | None = None
+    u: np.ndarray | None = None   # padded generalized velocities (n_pad, d) at assembly, when known
 
     @property
     def J(self) -> sp.csr_matrix:
@@ -237,11 +254,17 @@ def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
     S = rigid_state(bodies, y)
     a, bb = _padded(contacts, N)
     p, n = np.asarray(contacts.point, dtype=float), np.asarray(contacts.normal, dtype=float)
-    rows = rigid_rows(S, a, bb, p, n)
-    ra, rb = p - S["x"][a], p - S["x"][bb]
-    va, wa, vb, wb = S["v"][a], S["omega"][a], S["v"][bb], S["omega"][bb]
-    pdot_rel = (va + _cross(wa, ra)) - (vb + _cross(wb, rb))
-    mu = np.broadcast_to(np.asarray(friction, dtype=float), (a.size,))
+    m = a.size
+    # both ends at once: rows 0..m-1 are body a, m..2m-1 body b
+    ends = np.concatenate([a, bb])
+    r = np.vstack([p, p]) - S["x"][ends]
+    v, w = S["v"][ends], S["omega"][ends]
+    nn = np.vstack([n, n])
+    rxn = _cross(r, nn)
+    rows = ContactRows(a, bb, np.hstack([n, rxn[:m]]), np.hstack([n, rxn[m:]]), N + 1)
+    pdot = v + _cross(w, r)
+    pdot_rel = pdot[:m] - pdot[m:]
+    mu = np.broadcast_to(np.asarray(friction, dtype=float), (m,))
     force_rows = None
     if np.any(mu > 0):
         vt = pdot_rel - np.einsum("ij,ij->i", pdot_rel, n)[:, None] * n
@@ -254,11 +277,10 @@ def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
         A = rows.gram(rows, S["Wb"])
         A = 0.5 * (A + A.T)
     vdot, wdot = _free_accel(S, Q)
-    acc_a = vdot[a] + _cross(wdot[a], ra) + _cross(wa, _cross(wa, ra))
-    acc_b = vdot[bb] + _cross(wdot[bb], rb) + _cross(wb, _cross(wb, rb))
-    ndot = _cross(wb, n)
-    b = np.einsum("ij,ij->i", n, acc_a - acc_b) + 2.0 * np.einsum("ij,ij->i", ndot, pdot_rel)
-    return ContactProblem(A=A, b=b, rows=rows, Wb=S["Wb"], force_rows=force_rows)
+    acc = vdot[ends] + _cross(wdot[ends], r) + _cross(w, pdot - v)
+    ndot = _cross(w[m:], n)
+    b = np.einsum("ij,ij->i", n, acc[:m] - acc[m:]) + 2.0 * np.einsum("ij,ij->i", ndot, pdot_rel)
+    return ContactProblem(A=A, b=b, rows=rows, Wb=S["Wb"], force_rows=force_rows, u=np.hstack([S["v"], S["omega"]]))
 
 
 def assemble_rigid_loop(bodies, y: np.ndarray, contacts, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -325,7 +347,7 @@ def assemble_particles(system, y: np.ndarray, contacts, Q: np.ndarray) -> Contac
     dist = np.where(pair, np.linalg.norm(xp[a] - xp[bb], axis=1), 1.0)
     dv_perp = dv - np.einsum("ij,ij->i", dv, n)[:, None] * n
     b = np.einsum("ij,ij->i", n, accp[a] - accp[bb]) + np.where(pair, np.einsum("ij,ij->i", dv_perp, dv_perp) / dist, 0.0)
-    return ContactProblem(A=0.5 * (A + A.T), b=b, rows=rows, Wb=Wb)
+    return ContactProblem(A=0.5 * (A + A.T), b=b, rows=rows, Wb=Wb, u=vp)
 
 
 def assemble_particles_loop(system, y: np.ndarray, contacts, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

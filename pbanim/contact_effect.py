@@ -31,6 +31,7 @@ import numpy as np
 
 from .contact_assembly import assemble_particles, assemble_rigid
 from .contact_lcp import LCP_SOLVERS, solve_lcp
+from .errors import InconsistentContact, InfeasibleContact
 from .scene import Effect
 
 __all__ = ["RestingContact"]
@@ -58,6 +59,11 @@ class RestingContact(Effect):
         Extra options for the solver (``max_iter``, ``backend``, ...).
     warm_start : bool
         Pass the previous forces as warm start when the contact count is unchanged.
+    friction : float
+        Coulomb μ for *sliding* rigid contacts (force direction n − μ t̂, Baraff 1994); A is then not
+        symmetric, so ``solver`` must be "lemke" or "dantzig". An LCP without solution (Painlevé) raises
+        :class:`~pbanim.errors.InconsistentContact`. Sticking contacts stay frictionless here: use the
+        velocity-level :class:`~pbanim.contact_friction.TimeStepping` for stick/slip.
 
     Examples
     --------
@@ -70,7 +76,7 @@ class RestingContact(Effect):
     >>> scene.pipeline
     ('gravity', 'resting_contact', 'integrate')
     >>> res = scene.simulate(1.0, 0.01)
-    >>> abs(res.y[1, -1]) < 1e-15, float(res.diagnostics["contact_force_total"][-1])   # f = m g
+    >>> bool(abs(res.y[1, -1]) < 1e-15), float(res.diagnostics["contact_force_total"][-1])   # f = m g
     (True, 19.62)
     """
 
@@ -80,7 +86,7 @@ class RestingContact(Effect):
     def __init__(self, detect: Callable[[np.ndarray], Any], solver: str = "qp", *,
                  stabilization: str = "baumgarte", stiffness: float = 400.0, damping: float = 40.0,
                  tol: float = 1e-10, fallback: str | None = None, solver_options: dict | None = None,
-                 warm_start: bool = True) -> None:
+                 warm_start: bool = True, friction: float = 0.0) -> None:
         if not callable(detect):
             raise ValueError(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         if solver not in LCP_SOLVERS:
@@ -94,6 +100,11 @@ class RestingContact(Effect):
         self.ks, self.kd, self.tol, self.fallback = float(stiffness), float(damping), float(tol), fallback
         self.solver_options = dict(solver_options or {})
         self.warm_start = bool(warm_start)
+        if not (np.isfinite(friction) and friction >= 0):
+            raise ValueError(f"friction must be a finite number ≥ 0, got {friction}")
+        if friction > 0 and solver not in ("lemke", "dantzig"):
+            raise ValueError(f"solver must be 'lemke' or 'dantzig' with friction (A is not symmetric), got {solver!r}")
+        self.friction = float(friction)
         self.last = None          # the last ContactSolution
         self.last_contacts = None
         self.solves = 0
@@ -101,6 +112,8 @@ class RestingContact(Effect):
     def bind(self, system) -> None:
         if hasattr(system, "inv_I_body"):
             self._assemble, self._N = assemble_rigid, system.N
+        elif self.friction > 0:
+            raise ValueError("friction in RestingContact needs a RigidBodies system; use TimeStepping for particles")
         elif hasattr(system, "W") and hasattr(system, "dim"):
             self._assemble, self._N = assemble_particles, system.N
         else:
@@ -122,16 +135,26 @@ class RestingContact(Effect):
         if contacts is None or len(contacts.a) == 0:
             self.last, self.last_contacts = None, contacts
             return None
-        prob = self._assemble(self.system, y, contacts, Q)
+        if self.friction > 0:
+            prob = assemble_rigid(self.system, y, contacts, Q, friction=self.friction)
+        else:
+            prob = self._assemble(self.system, y, contacts, Q)
         b = prob.b
         if self.stabilization == "baumgarte":
-            ddot = prob.rows.matvec(self._generalized_velocity(y))
+            u = prob.u if prob.u is not None else self._generalized_velocity(y)
+            ddot = prob.rows.matvec(u)
             b = b + self.kd * ddot - self.ks * np.asarray(contacts.depth, dtype=float)
         ws = None
         if self.warm_start and self.last is not None and self.last.f.size == b.size:
             ws = self.last.f
-        sol = solve_lcp(prob.A, b, self.solver, tol=self.tol, fallback=self.fallback, warm_start=ws,
-                        **self.solver_options)
+        try:
+            sol = solve_lcp(prob.A, b, self.solver, tol=self.tol, fallback=self.fallback, warm_start=ws,
+                            validate=False, **self.solver_options)
+        except InfeasibleContact as exc:
+            if self.friction > 0:   # Painlevé: no forces satisfy the sliding-friction LCP
+                raise InconsistentContact(f"t = {t:.6g}: {exc.solver} status {exc.status}, residual "
+                                          f"{exc.residual:.3e}, min A_ii = {np.diag(prob.A).min():.3g}") from exc
+            raise
         self.last, self.last_contacts = sol, contacts
         self.solves += 1
         return sol, prob, contacts

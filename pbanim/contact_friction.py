@@ -133,6 +133,11 @@ class TimeStepping:
         fully used as look-ahead (the contact may close, not overshoot).
     tangent : array (3,), optional
         Reference direction for the first friction direction t₁.
+    accept_unconverged : bool
+        For iterative solvers (PGS with a sweep budget, as game engines run it): keep stepping with the
+        best iterate when the LCP is not solved to ``tol`` instead of raising
+        :class:`~pbanim.errors.InfeasibleContact`. Never silent: the step's residual and an
+        ``lcp_unconverged`` flag are recorded in the diagnostics.
 
     Examples
     --------
@@ -148,7 +153,7 @@ class TimeStepping:
 
     def __init__(self, system, detect: Callable, forces: Sequence[Any] = (), *, friction=0.0, facets: int = 4,
                  solver: str = "lemke", erp: float = 0.2, tol: float = 1e-10, tangent=None,
-                 solver_options: dict | None = None) -> None:
+                 solver_options: dict | None = None, accept_unconverged: bool = False) -> None:
         if not callable(detect):
             raise ValueError(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         mu = np.asarray(friction, dtype=float)
@@ -167,6 +172,7 @@ class TimeStepping:
             e.bind(system)
         self.mu, self.facets, self.solver, self.erp, self.tol = mu, int(facets), solver, float(erp), float(tol)
         self.tangent, self.solver_options = tangent, dict(solver_options or {})
+        self.accept_unconverged = bool(accept_unconverged)
         self.last: ContactSolution | None = None
         self.last_info: dict = {}
 
@@ -214,7 +220,8 @@ class TimeStepping:
                 rd = rows(np.repeat(a, k), np.repeat(b, k), np.repeat(contacts.point, k, axis=0), d.reshape(-1, 3))
             A, bb = velocity_lcp(rn, rd, Wb, mu, u, bias, k)
             ws = self.last.f if (self.last is not None and self.last.f.size == bb.size) else None
-            sol = solve_lcp(A, bb, self.solver, tol=self.tol, warm_start=ws, **self.solver_options)
+            sol = solve_lcp(A, bb, self.solver, tol=self.tol, warm_start=ws,
+                            raise_on_failure=not self.accept_unconverged, **self.solver_options)
             self.last = sol
             pn = sol.f[:m]
             imp = rn.rmatvec(pn)
@@ -253,8 +260,11 @@ class TimeStepping:
         n_steps = max(1, int(round(t_end / h)))
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         ts, ys = [0.0], [y.copy()]
-        keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time")
-        diag: dict[str, list] = {k: [np.nan] for k in keys}
+        keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time",
+                "lcp_unconverged")
+        c0 = self.detect(y)
+        diag: dict[str, list] = {k: [0.0] for k in keys}
+        diag["max_penetration"][0] = float(np.max(c0.depth, initial=0.0)) if c0 is not None else 0.0
         start = time.perf_counter()
         for k in range(n_steps):
             y = self.step(k * h, y, h)
@@ -266,9 +276,10 @@ class TimeStepping:
                 sol = self.last
                 diag["contact_count"].append(0 if sol is None else len(self.last_info["contacts"].a))
                 diag["contact_residual"].append(0.0 if sol is None else sol.residual)
-                diag["max_penetration"].append(float(np.max(c.depth, initial=0.0)) if c is not None else 0.0)
+                diag["max_penetration"].append(max(0.0, float(np.max(c.depth, initial=0.0))) if c is not None else 0.0)
                 diag["normal_impulse_total"].append(0.0 if sol is None else float(np.sum(self.last_info["normal_impulse"])))
                 diag["lcp_time"].append(0.0 if sol is None else sol.time)
+                diag["lcp_unconverged"].append(0.0 if sol is None else float(not sol.success))
         wall = time.perf_counter() - start
         return SimResult(t=np.array(ts), y=np.array(ys).T, status=0, wall_time=wall, method="velocity-level",
                          nsteps=n_steps, diagnostics={k: np.array(v, dtype=float) for k, v in diag.items()})

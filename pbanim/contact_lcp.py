@@ -52,8 +52,10 @@ LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs")
 
 
 def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
-    A = np.array(A, dtype=float, ndmin=2)
-    b = np.array(b, dtype=float, ndmin=1)
+    A = np.asarray(A, dtype=float)
+    b = np.asarray(b, dtype=float)
+    A = A.reshape(1, 1) if A.ndim == 0 else A
+    b = b.reshape(1) if b.ndim == 0 else b
     if b.ndim != 1:
         raise ValueError(f"b must be a vector, got shape {b.shape}")
     m = b.size
@@ -325,7 +327,7 @@ _IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp}
 
 
 def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure: bool = True,
-              fallback: str | None = None, warm_start=None, **opts: Any) -> ContactSolution:
+              fallback: str | None = None, warm_start=None, validate: bool = True, **opts: Any) -> ContactSolution:
     """Solve the LCP  w = A f + b ≥ 0, f ≥ 0, fᵀw = 0  and certify the answer.
 
     Parameters
@@ -342,6 +344,9 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         Raise :class:`~pbanim.errors.InfeasibleContact` on failure (default) or return ``success=False``.
     fallback : str, optional
         Another solver to try when this one fails (explicit; recorded in ``extra["fallback_from"]``).
+    validate : bool
+        Check that A is symmetric PSD for ``"qp"`` (an eigenvalue computation); callers that assemble
+        A = J W Jᵀ themselves (the scene effect) skip it.
     warm_start : array_like, optional
         A previous answer: PGS starts from it, the QP uses it as initial guess, and the pivoting
         methods first try its support as the active set (kept only if it certifies).
@@ -372,7 +377,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         raise ValueError(f"tol must be a positive finite number, got {tol}")
     A, b = _check(A, b)
     m = b.size
-    if solver == "qp":
+    if solver == "qp" and validate:
         asym = np.max(np.abs(A - A.T)) if m else 0.0
         if asym > 1e-12 * max(1.0, np.max(np.abs(A))):
             raise ValueError(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "

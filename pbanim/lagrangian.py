@@ -15,8 +15,12 @@ Two derivation routes, giving the same equations (``tests/test_lagrangian.py`` c
 * **kinematic** (default for point masses rᵢ(u, t)): Jᵢ = ∂rᵢ/∂u, M = Σ Jᵢᵀ mᵢ Jᵢ and c = Σ Jᵢᵀ mᵢ bᵢ with
   bᵢ = J̇ᵢu̇ + 2∂Jᵢ/∂t u̇ + ∂²rᵢ/∂t² — the reduced-coordinate equation (JᵀMJ)ü + (JᵀMJ̇)u̇ = JᵀQ of
   :mod:`pbanim.reduced`, derived symbolically. Only derivatives of small expressions are taken
-  (Jᵢ entries, whose free symbols are known), never of the whole Lagrangian: an n-link chain costs
-  O(n³) small terms, and common-subexpression elimination (CSE) shares them at compile time.
+  (monomials of Jᵢ, by the coordinates they contain), never of the whole Lagrangian. The products
+  are multiplied out monomial by monomial and equal monomials are collected by summing their numeric
+  coefficients in a dict (no ``simplify``): a chain's M_jk keeps O(1) terms and c_j O(n) terms.
+  Compilation (:mod:`pbanim.lagrangian_codegen`) evaluates the distinct monomial factors once (sympy
+  ``lambdify`` with CSE) and every entry of M and f as a coefficient-weighted sum of their products
+  (one ``np.bincount``).
 * **energy** (any T(u, u̇, t), e.g. a rigid link's ½Iθ̇²): M = Hessian of T in u̇, c from the formula above.
 
 Notation
@@ -46,6 +50,8 @@ Limiting cases
 
 This module imports sympy at its top and is therefore **not** imported by ``import pbanim``; use
 ``import pbanim.lagrangian``. Derived and compiled models are cached per process (:func:`lagrangian_system`).
+The symbolic matrices ``M``, ``velocity_terms``, ``potential_gradient`` are assembled from the collected
+terms on first access (the numeric path never needs them).
 
 References
 ----------
@@ -68,43 +74,73 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Callable, Sequence
+from fractions import Fraction
+from functools import cached_property
+from typing import Any, Sequence
 
 import numpy as np
 import sympy
 
-from .errors import SingularChartError
-from .reduced_chart import ChartGuard, point_kinematics, validate_coords
+from .lagrangian_codegen import LagrangianSystem, compile_equations
+from .reduced_chart import point_kinematics, validate_coords
 
 __all__ = ["EulerLagrangeEquations", "LagrangianSystem", "derive_equations", "compile_equations",
-           "lagrangian_system", "clear_cache", "cache_info", "energy_rate"]
+           "lagrangian_system", "clear_cache", "cache_info", "energy_rate", "speeds_for"]
+
+
+def _num(c):
+    """A sympy number as an exact Python number (int/Fraction) or a float, for fast accumulation."""
+    if c.is_Integer:
+        return int(c)
+    if c.is_Rational:
+        return Fraction(int(c.p), int(c.q))
+    if c.is_number and c.is_real:
+        return float(c)
+    raise ValueError(f"coefficients must be real numbers, got {c!r}; substitute numbers for parameters")
+
+
+def _sym(v):
+    return sympy.Rational(v.numerator, v.denominator) if isinstance(v, Fraction) else sympy.sympify(v)
 
 
 @dataclass
 class EulerLagrangeEquations:
-    """Symbolic Euler–Lagrange equations M(u) ü = f(u, u̇, t), f = Q_nc − c − ∂V/∂u.
+    """Euler–Lagrange equations M(u) ü = f(u, u̇, t), f = Q_nc − c − ∂V/∂u, in collected-term form.
 
     Attributes
     ----------
     coords, speeds : tuple of sympy.Symbol
     t : sympy.Symbol or None
         The time symbol of a rheonomic (time-dependent) model.
-    M : sympy.Matrix (n, n)
-    velocity_terms, potential_gradient, forces : sympy.Matrix (n, 1)
-    T, V : sympy.Expr
-        Kinetic and potential energy; ``T0`` is T at u̇ = 0 (non-zero only for moving frames).
+    M_terms : dict (j, k) → {(r₁, r₂): coefficient}, j ≤ k
+        M_jk = Σ coefficient · r₁ · r₂ (kinematic route).
+    c_terms : list of {(r₁, r₂): coefficient}
+        Velocity-product terms c_j, same form.
+    G_terms : list of {r: coefficient}
+        Gravity's part of ∂V/∂u_j = Σ coefficient · r.
+    M_extra, c_extra, G_extra : sympy.Matrix or None
+        Parts given as whole expressions (energy route, extra T, user V).
+    forces : sympy.Matrix (n, 1)
+        Generalized non-conservative forces Q_nc.
+    T, V, T0 : sympy.Expr
+        Kinetic and potential energy; T0 is T at u̇ = 0 (non-zero only for moving charts).
     route : str
-        "kinematic" or "energy".
     derivation_time : float
         Seconds spent deriving (not compiling).
+
+    The properties ``M``, ``velocity_terms``, ``potential_gradient`` and ``forcing`` return sympy
+    matrices (assembled on first access).
     """
 
     coords: tuple
     speeds: tuple
     t: Any
-    M: Any
-    velocity_terms: Any
-    potential_gradient: Any
+    M_terms: dict
+    c_terms: list
+    G_terms: list
+    M_extra: Any
+    c_extra: Any
+    G_extra: Any
     forces: Any
     T: Any
     V: Any
@@ -116,28 +152,51 @@ class EulerLagrangeEquations:
     def n(self) -> int:
         return len(self.coords)
 
+    @cached_property
+    def M(self):
+        """Generalized mass M(u) (sympy, symmetric)."""
+        n = self.n
+        M = sympy.zeros(n, n)
+        for (j, k), acc in self.M_terms.items():
+            M[j, k] = M[k, j] = sympy.Add(*[_sym(v) * a * b for (a, b), v in acc.items() if v != 0])
+        return M + self.M_extra if self.M_extra is not None else M
+
+    @cached_property
+    def velocity_terms(self):
+        """c(u, u̇, t) (sympy column)."""
+        c = sympy.Matrix([sympy.Add(*[_sym(v) * a * b for (a, b), v in acc.items() if v != 0])
+                          for acc in self.c_terms]) if self.c_terms else sympy.zeros(self.n, 1)
+        return c + self.c_extra if self.c_extra is not None else c
+
+    @cached_property
+    def potential_gradient(self):
+        """∂V/∂u (sympy column)."""
+        G = sympy.Matrix([sympy.Add(*[_sym(v) * a for a, v in acc.items() if v != 0]) for acc in self.G_terms]) \
+            if self.G_terms else sympy.zeros(self.n, 1)
+        return G + self.G_extra if self.G_extra is not None else G
+
     @property
     def forcing(self):
-        """f = Q_nc − c − ∂V/∂u as a sympy column."""
+        """f = Q_nc − c − ∂V/∂u (sympy column)."""
         return self.forces - self.velocity_terms - self.potential_gradient
 
 
-def _validate_points(points, dim_hint=None) -> list:
-    out, dim = [], dim_hint
+def _validate_points(points) -> list:
+    out, dim = [], None
     for k, item in enumerate(points):
         if not (isinstance(item, (list, tuple)) and len(item) == 2):
             raise ValueError(f"points[{k}] must be a pair (mass, position), got {item!r}")
         m, r = item
-        r = sympy.Matrix(list(r) if not isinstance(r, sympy.MatrixBase) else list(r))
+        r = list(r) if not isinstance(r, sympy.MatrixBase) else list(r)
         if dim is None:
-            dim = r.shape[0]
-        if r.shape[0] != dim or dim not in (1, 2, 3):
+            dim = len(r)
+        if len(r) != dim or dim not in (1, 2, 3):
             raise ValueError(f"points[{k}] position must have {dim} components (all points share one "
-                             f"dimension, 1–3), got shape {r.shape}")
+                             f"dimension, 1–3), got {len(r)}")
         m = sympy.sympify(m)
-        if m.is_number and not m > 0:
+        if not (m.is_number and m > 0):
             raise ValueError(f"mass must be positive, got {m} for points[{k}]")
-        out.append((m, r))
+        out.append((m, [sympy.sympify(e) for e in r]))
     return out
 
 
@@ -150,13 +209,13 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     coords : list of sympy.Symbol
         Generalized coordinates u (plain symbols).
     points : list of (mass, position), optional
-        Point masses with positions rᵢ(u, t) (sequences of 1–3 sympy expressions).
+        Point masses (positive numbers) with positions rᵢ(u, t) (sequences of 1–3 sympy expressions).
     T : sympy expression, optional
-        Extra kinetic energy in u, u̇ (the symbols ``speeds`` are named ``<coord>_dot``; obtain them
-        with :func:`speeds_for`), added to the points' ½Σmᵢ|ṙᵢ|².
+        Extra kinetic energy in u, u̇ (rates named ``<coord>_dot``: :func:`speeds_for`), added to the
+        points' ½Σmᵢ|ṙᵢ|².
     V : sympy expression
-        Potential energy in u (and t).
-    gravity : sequence of float, optional
+        Extra potential energy in u (and t).
+    gravity : sequence of numbers, optional
         Uniform g (shape (dim,)) acting on the points: V += −Σ mᵢ g·rᵢ.
     forces : sequence of n sympy expressions, optional
         Generalized non-conservative forces Q_nc(u, u̇, t).
@@ -184,46 +243,71 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
         raise ValueError("give points (point masses and their positions) or T (a kinetic energy), got neither")
     pts = _validate_points(points or [])
     n = len(coords)
-    dim = pts[0][1].shape[0] if pts else 0
-    Vx = sympy.sympify(V)
+    dim = len(pts[0][1]) if pts else 0
+    g = None
     if gravity is not None:
         g = [sympy.sympify(x) for x in gravity]
         if len(g) != dim:
             raise ValueError(f"gravity must have {dim} components (the points' dimension), got {len(g)}")
-        Vx = Vx - sympy.Add(*[m * g[d] * r[d] for m, r in pts for d in range(dim)])
+        g = [_num(x) for x in g]
     kin = point_kinematics([r[d] for _, r in pts for d in range(dim)], coords, t)
     speeds = kin.speeds
-    masses = [m for m, _ in pts for _ in range(dim)]
-    T_pts = sympy.Add(*[m * v * v for m, v in zip(masses, kin.qdot)]) / 2
-    M = sympy.zeros(n, n)
-    c = sympy.zeros(n, 1)
-    Tx = sympy.sympify(T) if T is not None else sympy.S.Zero
-    if route == "kinematic":
-        # M = Σ Jᵢᵀ mᵢ Jᵢ and c = Σ Jᵢᵀ mᵢ bᵢ, term lists summed once (sympy Add of many args)
-        Mt = {(j, k): [] for j in range(n) for k in range(j, n)}
-        ct: list[list] = [[] for _ in range(n)]
-        for m, row, b in zip(masses, kin.J, kin.b):
-            nz = [j for j in range(n) if row[j] != 0]
-            for a, j in enumerate(nz):
+    masses = [_num(m) for m, _ in pts for _ in range(dim)]
+    gd = [g[d] for _ in pts for d in range(dim)] if g is not None else None
+    Vx = sympy.sympify(V)
+    if g is not None:
+        Vx = Vx - sympy.Add(*[_sym(m * gg) * e for m, gg, e in
+                              zip(masses, gd, [r[d] for _, r in pts for d in range(dim)]) if gg != 0])
+    T_pts = sympy.Add(*[_sym(m) * v * v for m, v in zip(masses, kin.qdot)]) / 2
+    split: dict = {}
+
+    def cm(x):
+        r = split.get(x)
+        if r is None:
+            c, rest = x.as_coeff_Mul()
+            r = split[x] = (_num(c), rest)
+        return r
+
+    Macc: dict = {(j, k): {} for j in range(n) for k in range(j, n)}
+    cacc: list[dict] = [{} for _ in range(n)]
+    Gacc: list[dict] = [{} for _ in range(n)]
+    for row_i, (m, Jt, bt) in enumerate(zip(masses, kin.J_terms, kin.b_terms)):
+        nz = [j for j in range(n) if Jt[j]]
+        gg = gd[row_i] if gd is not None else 0
+        for a, j in enumerate(nz):
+            for x in Jt[j]:
+                cx, rx = cm(x)
+                if gg != 0:  # ∂V/∂u_j = −Σ m g_d J_dj
+                    Gacc[j][rx] = Gacc[j].get(rx, 0) - m * gg * cx
+                if route != "kinematic":
+                    continue
+                mcx = m * cx
                 for k in nz[a:]:
-                    Mt[(j, k)].append(m * row[j] * row[k])
-                if b != 0:
-                    ct[j].append(m * row[j] * b)
-        for (j, k), terms in Mt.items():
-            M[j, k] = M[k, j] = sympy.Add(*terms)
-        c = sympy.Matrix([sympy.Add(*terms) for terms in ct])
-    else:
+                    accM = Macc[(j, k)]
+                    for z in Jt[k]:
+                        cz, rz = cm(z)
+                        key = (rx, rz) if (j != k or hash(rx) <= hash(rz)) else (rz, rx)
+                        accM[key] = accM.get(key, 0) + mcx * cz
+                accc = cacc[j]
+                for z in bt:
+                    cz, rz = cm(z)
+                    accc[(rx, rz)] = accc.get((rx, rz), 0) + mcx * cz
+    Tx = sympy.sympify(T) if T is not None else sympy.S.Zero
+    if route == "energy":
         Tx = Tx + T_pts
+    M_extra = c_extra = None
     if Tx != 0:  # energy route (or an extra T): M = ∂²T/∂u̇², c = (∂p/∂u)u̇ + ∂p/∂t − ∂T/∂u
         p = [Tx.diff(s) for s in speeds]
+        M_extra, c_extra = sympy.zeros(n, n), sympy.zeros(n, 1)
         for j in range(n):
             for k in range(j, n):
-                M[j, k] = M[k, j] = M[j, k] + p[j].diff(speeds[k])
+                M_extra[j, k] = M_extra[k, j] = p[j].diff(speeds[k])
             extra = sympy.Add(*[p[j].diff(coords[k]) * speeds[k] for k in range(n)])
             if t is not None:
                 extra += p[j].diff(t)
-            c[j] = c[j] + extra - Tx.diff(coords[j])
-    G = sympy.Matrix([Vx.diff(q) for q in coords])
+            c_extra[j] = extra - Tx.diff(coords[j])
+    Vu = sympy.sympify(V)
+    G_extra = sympy.Matrix([Vu.diff(q) for q in coords]) if Vu != 0 else None
     if forces is None:
         Qnc = sympy.zeros(n, 1)
     else:
@@ -233,13 +317,14 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
         Qnc = sympy.Matrix([sympy.sympify(f) for f in fl])
     Ttot = Tx + T_pts if route == "kinematic" else Tx
     T0 = Ttot.subs({s: 0 for s in speeds}) if t is not None else sympy.S.Zero
-    stray = (M.free_symbols | c.free_symbols | G.free_symbols | Qnc.free_symbols | Ttot.free_symbols) \
-        - set(coords) - set(speeds) - {t}
+    free = Qnc.free_symbols | Vu.free_symbols | Tx.free_symbols
+    stray = free - set(coords) - set(speeds) - {t}
     if stray:
         raise ValueError(f"the model has symbols that are neither coordinates, speeds nor t: "
                          f"{sorted(map(str, stray))}; substitute numbers for parameters first")
-    return EulerLagrangeEquations(coords, speeds, t, M, c, G, Qnc, Ttot, Vx, T0, route,
-                                  time.perf_counter() - t0)
+    return EulerLagrangeEquations(coords, speeds, t, Macc if route == "kinematic" else {},
+                                  cacc if route == "kinematic" else [], Gacc, M_extra, c_extra, G_extra, Qnc,
+                                  Ttot, Vx, T0, route, time.perf_counter() - t0)
 
 
 def speeds_for(coords: Sequence) -> tuple:
@@ -249,125 +334,19 @@ def speeds_for(coords: Sequence) -> tuple:
     >>> speeds_for(sp.symbols("x theta"))
     (x_dot, theta_dot)
     """
-    return tuple(sympy.Symbol(f"{c.name}_dot") for c in coords)
+    return tuple(sympy.Symbol(f"{c.name}_dot") for c in validate_coords(list(coords)))
 
 
 def energy_rate(eqs: EulerLagrangeEquations):
     """Symbolic dE/dt along the equations, E = T + V (scleronomic, Q_nc = 0 ⇒ it simplifies to 0).
 
-    dE/dt = u̇ᵀMü + ½u̇ᵀṀu̇ + ∂V/∂u·u̇ with ü replaced by M⁻¹f: u̇ᵀ(f + ∂V/∂u) + ½u̇ᵀṀu̇ = ½u̇ᵀṀu̇ − u̇ᵀc
-    (for Q_nc = 0), computed without inverting M.
+    dE/dt = u̇ᵀMü + ½u̇ᵀṀu̇ + ∂V/∂u·u̇ with Mü = f: u̇ᵀ(Q_nc − c) + ½u̇ᵀṀu̇ (no inverse of M needed).
     """
     ud = sympy.Matrix(eqs.speeds)
     Mdot = sympy.zeros(eqs.n, eqs.n)
     for k, q in enumerate(eqs.coords):
         Mdot += eqs.M.diff(q) * eqs.speeds[k]
-    return ((ud.T * Mdot * ud)[0] / 2 - (ud.T * eqs.velocity_terms)[0] + (ud.T * eqs.forces)[0])
-
-
-@dataclass
-class LagrangianSystem:
-    """Compiled equations M(u) ü = f(u, u̇, t): a numeric rhs, mass matrix and energies.
-
-    Attributes
-    ----------
-    equations : EulerLagrangeEquations
-    n : int
-        Number of generalized coordinates.
-    compile_time : float
-        Seconds to generate and compile the numeric functions (CSE + lambdify).
-    guard : ChartGuard
-        Condition-number check of M(u) (raises SingularChartError near a singular chart).
-    """
-
-    equations: EulerLagrangeEquations
-    n: int
-    compile_time: float
-    _eom: Callable = field(repr=False)
-    _energy: Callable = field(repr=False)
-    guard: ChartGuard = field(repr=False, default_factory=ChartGuard)
-    nfev: int = 0
-
-    def __post_init__(self) -> None:
-        n = self.n
-        iu = np.triu_indices(n)
-        pos = np.empty((n, n), dtype=np.intp)
-        pos[iu] = np.arange(len(iu[0]))
-        pos.T[iu] = pos[iu]
-        self._sym_index, self._ntri = pos, len(iu[0])
-
-    @property
-    def derivation_time(self) -> float:
-        return self.equations.derivation_time
-
-    def _args(self, t, y):
-        y = np.asarray(y, dtype=float)
-        if y.shape != (2 * self.n,):
-            raise ValueError(f"y must have shape ({2 * self.n},) = [u, u̇], got {y.shape}")
-        a = y.tolist()
-        a.insert(0, float(t))
-        return a
-
-    def mass_and_forcing(self, t: float, y) -> tuple[np.ndarray, np.ndarray]:
-        """M(u) (n, n) and f(u, u̇, t) (n,) at a state y = [u, u̇]."""
-        args = self._args(t, y)
-        try:
-            out = np.array(self._eom(*args))
-        except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
-            raise SingularChartError(np.inf, args[1: self.n + 1], f"the equations cannot be evaluated "
-                                     f"({exc}); outside the chart's domain") from None
-        return out[self._sym_index], out[self._ntri:]
-
-    def mass_matrix(self, u, t: float = 0.0) -> np.ndarray:
-        """M(u) at coordinates u (any u̇)."""
-        return self.mass_and_forcing(t, np.concatenate([np.asarray(u, float), np.zeros(self.n)]))[0]
-
-    def accelerations(self, t: float, y) -> np.ndarray:
-        """ü = M⁻¹f, with the chart check of :class:`pbanim.reduced.ChartGuard`."""
-        M, f = self.mass_and_forcing(t, y)
-        return self.guard.solve(M, f, np.asarray(y)[: self.n])
-
-    def rhs(self, t: float, y) -> np.ndarray:
-        """dy/dt = [u̇, ü] for the integrators of :mod:`pbanim.ode`."""
-        self.nfev += 1
-        y = np.asarray(y, dtype=float)
-        out = np.empty(2 * self.n)
-        out[: self.n] = y[self.n:]
-        out[self.n:] = self.accelerations(t, y)
-        return out
-
-    def energies(self, y, t: float = 0.0) -> dict[str, float]:
-        """T, V, E = T + V and the Jacobi integral h = T − 2T₀ + ... (see :meth:`jacobi_integral`)."""
-        T, V, T0, T1 = self._energy(*self._args(t, y))
-        return {"kinetic": T, "potential": V, "energy": T + V, "jacobi": T - T1 - 2 * T0 + V}
-
-    def energy(self, y, t: float = 0.0) -> float:
-        """E = T + V at state y (conserved for scleronomic conservative models)."""
-        T, V, _, _ = self._energy(*self._args(t, y))
-        return float(T + V)
-
-    def jacobi_integral(self, y, t: float = 0.0) -> float:
-        """h = Σ pⱼu̇ⱼ − L = T₂ − T₀ + V, conserved when L has no explicit t (bead on a rotating hoop)."""
-        return float(self.energies(y, t)["jacobi"])
-
-
-def compile_equations(eqs: EulerLagrangeEquations, *, cse: bool = True) -> LagrangianSystem:
-    """Compile M (upper triangle), f and the energies into scalar Python code (sympy.lambdify, CSE).
-
-    Scalar ``math`` code with common subexpressions shared beats numpy ufunc calls on scalars by ~10×
-    for these small dense models.
-    """
-    t0 = time.perf_counter()
-    tsym = eqs.t if eqs.t is not None else sympy.Symbol("_t")
-    args = [tsym, *eqs.coords, *eqs.speeds]
-    n = eqs.n
-    f = eqs.forcing
-    outs = [eqs.M[j, k] for j in range(n) for k in range(j, n)] + [f[j] for j in range(n)]
-    eom = sympy.lambdify(args, outs, modules="math", cse=cse)
-    T2 = (sympy.Matrix(eqs.speeds).T * eqs.M * sympy.Matrix(eqs.speeds))[0] / 2
-    T1 = (eqs.T - T2 - eqs.T0) if eqs.t is not None else sympy.S.Zero
-    en = sympy.lambdify(args, [eqs.T, eqs.V, eqs.T0, T1], modules="math", cse=cse)
-    return LagrangianSystem(eqs, n, time.perf_counter() - t0, eom, en)
+    return (ud.T * Mdot * ud)[0] / 2 - (ud.T * eqs.velocity_terms)[0] + (ud.T * eqs.forces)[0]
 
 
 _CACHE: dict[Any, LagrangianSystem] = {}
@@ -397,8 +376,7 @@ def lagrangian_system(coords: Sequence, points: Sequence | None = None, *, key: 
         _STATS["hits"] += 1
         return hit
     _STATS["misses"] += 1
-    cse = kwargs.pop("cse", True)
-    sysl = compile_equations(derive_equations(coords, points, **kwargs), cse=cse)
+    sysl = compile_equations(derive_equations(coords, points, **kwargs))
     _CACHE[key] = sysl
     return sysl
 

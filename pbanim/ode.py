@@ -19,6 +19,7 @@ name                   order  symplectic  one step
 ``verlet``             2      yes         v½ = v₀ + h/2 a(q₀); q₁ = q₀ + h v½; v₁ = v½ + h/2 a(q₁)
 ``implicit_euler``     1      no          y₁ = y₀ + h f(y₁)   (Newton; L-stable)
 ``implicit_midpoint``  2      yes         y₁ = y₀ + h f((y₀ + y₁)/2)   (Newton; also non-separable H)
+``exponential_euler``  2      no          y₁ = y₀ + h φ₁(hJ) f(y₀)   (exact for linear springs)
 ``dopri5``             5      no          Dormand–Prince 5(4), embedded error estimate, adaptive h
 =====================  =====  ==========  ========================================================
 
@@ -46,14 +47,17 @@ Euler: spirals out for every h), 1/(1 + y²) (implicit Euler: numerical damping)
 ½v² + ½ω²(1 − y²/4)x²: bounded, never drifting, stable iff hω < 2. RK4 is stable iff hω ≤ 2√2. A stiff
 spring (k = 10⁶, ω = 10³) therefore forces h < 2 ms on every explicit method; implicit Euler takes any h.
 Baraff & Witkin's linearized implicit step (I − hJ)Δy = h f(y₀) is the first Newton iteration of implicit
-Euler, exact for linear forces.
+Euler, exact for linear forces. The exponential integrator goes further: for a linear spring it *is* the
+exact flow e^(hJ), at any step.
 
 References
 ----------
 Witkin & Baraff, *Physically Based Modeling*, SIGGRAPH course notes ("Differential equation basics",
 "Implicit methods"); Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998; Hairer, Nørsett &
 Wanner, *Solving ODEs I*, §II.1–II.5 (Runge–Kutta, Dormand–Prince, step-size control); Hairer, Lubich &
-Wanner, *Geometric Numerical Integration*, §I.1, §VI (symplectic methods, modified energy).
+Wanner, *Geometric Numerical Integration*, §I.1, §VI (symplectic methods, modified energy); Hochbruck &
+Ostermann, "Exponential integrators", Acta Numerica 2010; Michels, Sobottka & Weber, "Exponential
+integrators for stiff elastodynamic problems", ACM TOG 2014.
 
 Examples
 --------
@@ -68,10 +72,12 @@ from __future__ import annotations
 import numpy as np  # noqa: F401  (doctest namespace)
 
 from .ode_methods import (METHODS, TABLEAUX, Method, Tableau, dopri5_step, euler_step, explicit_rk_step,
-                          get_method, implicit_euler_step, implicit_midpoint_step, midpoint_step, newton_solve,
+                          exponential_euler_step, get_method, implicit_euler_step, implicit_midpoint_step,
+                          midpoint_step, newton_solve,
                           rk4_step, symplectic_euler_step, verlet_step)
 from .ode_solve import SCIPY_METHODS, solve
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "SCIPY_METHODS", "get_method", "solve",
            "explicit_rk_step", "euler_step", "midpoint_step", "rk4_step", "symplectic_euler_step",
-           "verlet_step", "implicit_euler_step", "implicit_midpoint_step", "dopri5_step", "newton_solve"]
+           "verlet_step", "implicit_euler_step", "implicit_midpoint_step", "exponential_euler_step", "dopri5_step",
+           "newton_solve"]

@@ -290,8 +290,6 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
                     te = t_eval[ie]
                     ts.append(te), Ys.append(y1 if te == t1 else partial(te - t))
                     ie += 1
-                if stop is not None:
-                    ts.append(t1), Ys.append(y1)
             t, y = t1, y1
             if stop is not None:
                 status, message = 1, "A termination event occurred."
@@ -436,8 +434,6 @@ def _solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps
                         ts.append(te), Ys.append(y1.copy() if te == t1 else partial(te - t))
                         nfev += 0 if te == t1 else 7
                         ie += 1
-                    if stop is not None:
-                        ts.append(t1), Ys.append(y1)
             if t_eval is None:
                 ts.append(t1), Ys.append(y1)
             t = t1

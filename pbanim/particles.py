@@ -15,10 +15,20 @@ force                      Qᵢ contribution and potential V
 :class:`Gravity`           Qᵢ += mᵢ g                         V = −Σ mᵢ g·xᵢ
 :class:`Drag`              Qᵢ += −k_d,ᵢ vᵢ                     (dissipative)
 :class:`DampedSprings`     Q_a += f, Q_b −= f with f = −[k_s(l − r) + k_d l̇] d̂     V = ½ Σ k_s (l − r)²
+:class:`AnchorSprings`     Qᵢ += −k_s (xᵢ − pᵢ) − k_d vᵢ        V = ½ Σ k_s |xᵢ − pᵢ|²  (pins to fixed points)
 :class:`UserForce`         Q += F(t, x, v)                     V given by the user, if any
 =========================  ==========================================================================
 
 with d = x_a − x_b, l = |d|, d̂ = d/l, l̇ = (v_a − v_b)·d̂ and r the rest length.
+
+Every force here (and a :class:`UserForce` given a ``jacobian``) provides ``jacobian(t, y)`` →
+:class:`ForceJacobian` (sparse ∂Q/∂x, ∂Q/∂v), so :meth:`pbanim.scene.Scene.jac` can hand implicit methods
+the exact state Jacobian. Gravity and drag also provide ``affine()`` (Q = c + d v per particle), which
+lets :meth:`pbanim.scene.Scene.step` fold them into a single update v₁ = α v₀ + β.
+
+User forces: pass ``UserForce(force)`` with ``force(t, x, v) -> (N, dim)`` (optionally ``potential(x)``
+and ``jacobian(t, x, v)``), or subclass :class:`pbanim.scene.Effect` with ``name``, ``phase = "force"``,
+``bind(system)`` and ``apply(t, y, Q)`` adding into Q in place (``system.unpack(y)`` gives x, v).
 
 Notation
 --------
@@ -273,8 +283,13 @@ class Drag(Effect):
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         _, v = self.system.unpack(y)
-        Qf = Q.reshape(-1)
-        Qf -= (self._k0 * v.reshape(-1)) if self._scalar else (self._kdflat * v.reshape(-1))
+        if self._scalar:
+            Q -= self._k0 * v
+        elif Q.flags.c_contiguous and v.flags.c_contiguous:   # flat operands: long numpy loops
+            Qf = Q.reshape(-1)
+            Qf -= self._kdflat * v.reshape(-1)
+        else:
+            Q -= self.kd[:, None] * v
 
     def affine(self) -> tuple[None, np.ndarray]:
         """Q = c + d v with c = 0, d = −k_d (lets :class:`pbanim.scene.Scene` fold it into one update)."""

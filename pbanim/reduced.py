@@ -104,6 +104,13 @@ class ReducedSystem:
             if not callable(f):
                 raise ValueError(f"{nm} must be a callable of u, got {type(f).__name__}")
 
+        u_chk = np.atleast_1d(np.asarray(u0, dtype=float)) if u0 is not None else None
+        if u_chk is not None:  # shapes first, with messages, before any product
+            nq, k = np.asarray(q(u_chk), float).size, u_chk.size
+            sJ = np.shape(J(u_chk))
+            if sJ != (nq, k):
+                raise ValueError(f"J(u) must have shape (len(q), len(u)) = ({nq}, {k}), got {sJ}")
+
         def kin(t, u, ud):
             qq = np.asarray(q(u), float).reshape(-1)
             JJ = np.asarray(J(u), float)
@@ -231,16 +238,15 @@ class ReducedSystem:
         if y.shape != (2 * self.k,):
             raise ValueError(f"y must have shape ({2 * self.k},) = [u, u̇], got {y.shape}")
         u, ud = y[: self.k], y[self.k:]
-        with np.errstate(all="ignore"):
-            try:
-                q, qd, J, b = self._kin(t, u, ud)
-            except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
-                raise SingularChartError(np.inf, u.tolist(), f"the chart cannot be evaluated ({exc}); "
-                                         "outside its domain") from None
-            Q = self._forces(t, q, qd)
-            mJ = self.m[:, None] * J
-            A = J.T @ mJ
-            r = J.T @ Q - mJ.T @ b
+        try:
+            q, qd, J, b = self._kin(t, u, ud)
+        except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
+            raise SingularChartError(np.inf, u.tolist(), f"the chart cannot be evaluated ({exc}); "
+                                     "outside its domain") from None
+        Q = self._forces(t, q, qd)
+        mJ = self.m[:, None] * J
+        A = J.T @ mJ
+        r = J.T @ (Q - self.m * b)
         udd = self.guard.solve(A, r, u)
         return udd, q, qd, J, b, Q
 

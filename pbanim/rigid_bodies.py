@@ -1,7 +1,18 @@
 """The :class:`RigidBodies` system: Baraff's state for many bodies in one set of arrays (chapter 05).
 
-See :mod:`pbanim.rigid` for the lecture (equations, notation, references). This file holds the system:
-state layout, derived quantities, the vectorized derivative, impulses and diagnostics.
+Per body i, y holds (xᵢ, qᵢ, Pᵢ, Lᵢ); derived: Rᵢ = R(qᵢ/|qᵢ|), vᵢ = Wᵢ Pᵢ, ωᵢ = Rᵢ I⁻¹_body,i Rᵢᵀ Lᵢ, and
+
+    ẋ = v,   q̇ = ½ (0, ω) ⊗ q,   Ṗ = F,   L̇ = τ,       T = ½ P·v + ½ L·ω.
+
+Flat layout y = [x.ravel() (3N), q.ravel() (4N), P.ravel() (3N), L.ravel() (3N)], split = 7N; Q (N, 6) =
+[F, τ about xᵢ] in world axes. A point p moving with body i has ṗ = vᵢ + ωᵢ × (p − xᵢ); an impulse j at p
+changes Pᵢ += j, Lᵢ += (p − xᵢ) × j. Body index −1 is the static world: per-body arrays are padded with one
+row of W = 0, I⁻¹ = 0, x = 0, R = E, so every formula treats it like any body.
+
+Every array operation runs over all N bodies at once (``einsum`` on (N, 3, 3) stacks, column arithmetic
+on quaternions, ``np.add.at`` for impulses); :meth:`RigidBodies.derivative_readable` is the per-body loop
+of Baraff's notes, kept for teaching and tested against the vectorized :meth:`RigidBodies.derivative`.
+See :mod:`pbanim.rigid` for the full lecture, notation table and references (Baraff 1997 §§2–5).
 """
 
 from __future__ import annotations

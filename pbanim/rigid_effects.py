@@ -62,14 +62,14 @@ class RigidGravity(Effect):
         if self.g.shape != (3,) or not np.all(np.isfinite(self.g)):
             raise ValueError(f"g must be a finite 3-vector, got {g}")
 
-    def bind(self, system) -> None:
+    def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
         self._mg = np.concatenate([system._mass_finite[:, None] * self.g, np.zeros((system.N, 3))], axis=1)
 
-    def apply(self, t, y, Q) -> None:
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         Q += self._mg
 
-    def potential_energy(self, y) -> float:
+    def potential_energy(self, y: np.ndarray) -> float:
         return float(-np.sum(self._mg[:, :3] * self.system.unpack(y)[0]))
 
 
@@ -93,14 +93,14 @@ class PointForce(Effect):
                              f"got {len(self.points)}")
         self.force = force if callable(force) else np.broadcast_to(np.asarray(force, float), self.points.shape)
 
-    def bind(self, system) -> None:
+    def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
         if self.bodies.size and (self.bodies.min() < 0 or self.bodies.max() >= system.N):
             raise ValueError(f"bodies must lie in [0, {system.N - 1}] (forces on the world do nothing), "
                              f"got {self.bodies}")
         self._idx = self.bodies
 
-    def apply(self, t, y, Q) -> None:
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         rb = self.system
         f = np.asarray(self.force(t, y) if callable(self.force) else self.force, dtype=float).reshape(-1, 3)
         x, q, _, _ = rb.unpack(y)
@@ -141,7 +141,7 @@ class RigidSprings(Effect):
                 raise ValueError(f"{name} must be finite and >= 0, got {val}")
         self.rest_in = rest_length
 
-    def bind(self, system) -> None:
+    def bind(self, system: RigidBodies) -> None:
         self.system = rb = _require_rigid(self, system)
         self._ia, self._ib = rb._index(self.a), rb._index(self.b)
         if self.rest_in is None:
@@ -159,7 +159,7 @@ class RigidSprings(Effect):
         Rp = np.concatenate([rb.quat_to_matrix(q), np.eye(3)[None]])
         return xp[self._ia] + _matvec(Rp[self._ia], self.ra), xp[self._ib] + _matvec(Rp[self._ib], self.rb)
 
-    def apply(self, t, y, Q) -> None:
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         rb = self.system
         pa, pb = self._points(y)
         d = pa - pb
@@ -174,11 +174,11 @@ class RigidSprings(Effect):
         r = np.concatenate([pa - x[self._ia], pb - x[self._ib]])
         _accumulate(Q, rb.N, idx, F, _cross(r, F))
 
-    def potential_energy(self, y) -> float:
+    def potential_energy(self, y: np.ndarray) -> float:
         pa, pb = self._points(y)
         return float(0.5 * np.sum(self.ks * (np.linalg.norm(pa - pb, axis=1) - self.rest) ** 2))
 
-    def diagnostics(self, t, y) -> dict:
+    def diagnostics(self, t: float, y: np.ndarray) -> dict:
         pa, pb = self._points(y)
         return {"spring_length": np.linalg.norm(pa - pb, axis=1)}
 
@@ -189,7 +189,7 @@ class _Drag(Effect):
     def __init__(self, coefficient) -> None:
         self.c_in = coefficient
 
-    def bind(self, system) -> None:
+    def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
         c = np.asarray(self.c_in, dtype=float)
         try:
@@ -205,7 +205,7 @@ class LinearDrag(_Drag):
 
     name = "linear_drag"
 
-    def apply(self, t, y, Q) -> None:
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         v, _ = self.system.velocities(y)
         Q[:, :3] -= self.c[:, None] * v
 
@@ -215,7 +215,7 @@ class AngularDrag(_Drag):
 
     name = "angular_drag"
 
-    def apply(self, t, y, Q) -> None:
+    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         _, w = self.system.velocities(y)
         Q[:, 3:] -= self.c[:, None] * w
 
@@ -226,10 +226,10 @@ class QuaternionRenormalize(Effect):
     name = "renormalize"
     phase = "post_step"
 
-    def bind(self, system) -> None:
+    def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
 
-    def post_step(self, t, y, h) -> np.ndarray:
+    def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         q = self.system.unpack(y)[1]
         q /= np.sqrt(np.sum(q * q, axis=1, keepdims=True))
         return y

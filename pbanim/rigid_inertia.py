@@ -243,22 +243,28 @@ def validate_inertia(inertia, name: str = "inertia") -> np.ndarray:
     if I.shape[-2:] != (3, 3):
         raise ValueError(f"{name} must have shape (3, 3) or (N, 3, 3), got {I.shape}")
     flat = I.reshape(-1, 3, 3)
-    for k, Ik in enumerate(flat):  # validation at construction only, not a hot path
-        label = name if flat.shape[0] == 1 else f"{name}[{k}]"
-        if not np.all(np.isfinite(Ik)):
-            raise ValueError(f"{label} must be finite, got {Ik.tolist()}")
-        scale = max(np.abs(Ik).max(), np.finfo(float).tiny)
-        asym = np.abs(Ik - Ik.T).max()
-        if asym > _REL_TOL * scale:
-            raise ValueError(f"{label} must be symmetric, got {Ik.tolist()} (max |I - I^T| = {asym:.3g})")
-        w = np.linalg.eigvalsh(Ik)
-        if w[0] <= 0:
-            raise ValueError(f"{label} must be positive definite, got principal moments {w}; "
-                             "every moment of a solid body is > 0")
-        if w[0] + w[1] < w[2] * (1 - _REL_TOL):
-            raise ValueError(f"{label} violates the triangle inequality I1 + I2 >= I3: principal moments "
-                             f"{w} ({w[0]:.6g} + {w[1]:.6g} < {w[2]:.6g}); no mass distribution has these "
-                             "moments — check the axes or units")
+    label = lambda k: name if flat.shape[0] == 1 else f"{name}[{k}]"  # noqa: E731
+    finite = np.all(np.isfinite(flat), axis=(1, 2))
+    if not finite.all():
+        k = int(np.flatnonzero(~finite)[0])
+        raise ValueError(f"{label(k)} must be finite, got {flat[k].tolist()}")
+    scale = np.maximum(np.abs(flat).max(axis=(1, 2)), np.finfo(float).tiny)
+    asym = np.abs(flat - np.swapaxes(flat, 1, 2)).max(axis=(1, 2))
+    if np.any(asym > _REL_TOL * scale):
+        k = int(np.flatnonzero(asym > _REL_TOL * scale)[0])
+        raise ValueError(f"{label(k)} must be symmetric, got {flat[k].tolist()} (max |I - I^T| = {asym[k]:.3g})")
+    w = np.linalg.eigvalsh(flat)                      # all bodies at once, ascending
+    if np.any(w[:, 0] <= 0):
+        k = int(np.flatnonzero(w[:, 0] <= 0)[0])
+        raise ValueError(f"{label(k)} must be positive definite, got principal moments {w[k]}; "
+                         "every moment of a solid body is > 0")
+    bad = w[:, 0] + w[:, 1] < w[:, 2] * (1 - _REL_TOL)
+    if np.any(bad):
+        k = int(np.flatnonzero(bad)[0])
+        a, b, c = w[k]
+        raise ValueError(f"{label(k)} violates the triangle inequality I1 + I2 >= I3: principal moments "
+                         f"{w[k]} ({a:.6g} + {b:.6g} < {c:.6g}); no mass distribution has these "
+                         "moments — check the axes or units")
     return I
 
 

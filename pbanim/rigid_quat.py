@@ -103,7 +103,10 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_quat(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion (w ≥ 0) of rotation matrices R (..., 3, 3) (Shepperd's stable branch choice).
+    """Unit quaternion (w ≥ 0) of rotation matrices R (..., 3, 3), vectorized.
+
+    Of the four expressions 4w² = 1 + tr R, 4x² = 1 + 2R₀₀ − tr R, ... the largest is used for the
+    square root and the others follow from off-diagonal sums/differences (no cancellation; Shepperd 1978).
 
     >>> q = quat_from_axis_angle([1.0, 2.0, 2.0], 0.7)
     >>> np.allclose(matrix_to_quat(quat_to_matrix(q)), q)
@@ -112,27 +115,19 @@ def matrix_to_quat(R: np.ndarray) -> np.ndarray:
     R = np.asarray(R, dtype=float)
     shape = R.shape[:-2]
     R = R.reshape(-1, 3, 3)
-    tr = np.trace(R, axis1=1, axis2=2)
-    diag = np.stack([R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], axis=1)
-    # the largest of 4w², 4x², 4y², 4z² picks the branch with no cancellation
-    cand = np.column_stack([1 + tr, 1 + 2 * diag - tr[:, None]])
+    r00, r11, r22 = R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]
+    tr = r00 + r11 + r22
+    cand = np.stack([1 + tr, 1 + 2 * r00 - tr, 1 + 2 * r11 - tr, 1 + 2 * r22 - tr], axis=1)  # 4w², 4x², 4y², 4z²
     k = np.argmax(cand, axis=1)
-    q = np.empty((R.shape[0], 4))
-    r = np.sqrt(np.maximum(cand[np.arange(len(k)), k], 0.0)) * 2  # = 4|component|
-    a = [(2, 1), (0, 2), (1, 0)]
-    for i in range(R.shape[0]):  # readable branch per matrix; not a hot path
-        ki, Ri, ri = k[i], R[i], r[i]
-        if ki == 0:
-            q[i] = [ri / 4, (Ri[2, 1] - Ri[1, 2]) / ri, (Ri[0, 2] - Ri[2, 0]) / ri, (Ri[1, 0] - Ri[0, 1]) / ri]
-        else:
-            j = ki - 1
-            o1, o2 = (j + 1) % 3, (j + 2) % 3
-            v = np.empty(3)
-            v[j] = ri / 4
-            v[o1] = (Ri[o1, j] + Ri[j, o1]) / ri
-            v[o2] = (Ri[o2, j] + Ri[j, o2]) / ri
-            w = (Ri[a[j][0], a[j][1]] - Ri[a[j][1], a[j][0]]) / ri
-            q[i] = [w, *v]
+    d21, d02, d10 = R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]   # 4w·(x, y, z)
+    s01, s02, s12 = R[:, 0, 1] + R[:, 1, 0], R[:, 0, 2] + R[:, 2, 0], R[:, 1, 2] + R[:, 2, 1]   # 4xy, 4xz, 4yz
+    # row j: 4·c_j·(w, x, y, z) for the branch c_j ∈ (w, x, y, z)
+    rows = np.stack([np.stack([cand[:, 0], d21, d02, d10], axis=1),
+                     np.stack([d21, cand[:, 1], s01, s02], axis=1),
+                     np.stack([d02, s01, cand[:, 2], s12], axis=1),
+                     np.stack([d10, s02, s12, cand[:, 3]], axis=1)], axis=1)
+    idx = np.arange(len(k))
+    q = rows[idx, k] / (2.0 * np.sqrt(np.maximum(cand[idx, k], np.finfo(float).tiny)))[:, None]
     q *= np.where(q[:, :1] < 0, -1.0, 1.0)
     return q.reshape(shape + (4,))
 

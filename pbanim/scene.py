@@ -220,7 +220,13 @@ class Scene:
 
     # -- stepping -------------------------------------------------------------------------------
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
-        """One step of the pipeline: integrate the continuous part, then the post-step stages."""
+        """One step of the pipeline: integrate the continuous part, then the post-step stages.
+
+        Returns a new state (``y`` is not modified). Symplectic Euler on a particle system without
+        constraint effects takes the lean path (one force evaluation, preallocated buffers, affine
+        forces folded; see the module docstring); implicit methods get :meth:`jac` when
+        :attr:`has_jacobian`.
+        """
         if method == "symplectic_euler" and self._lean:
             y = self._lean_step(t, y, h)
         else:
@@ -235,10 +241,19 @@ class Scene:
 
     def _lean_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """Symplectic Euler with one force evaluation into preallocated buffers (see module docstring)."""
-        sysm = self.system
         out = np.empty_like(y)
         if self._affine and self.fold_affine:
-            return self._affine_step(y, h, out)
+            fold = self._fold
+            if fold is None or fold[0] != h:
+                fold = self._fold = self._fold_affine(h)
+            for sx, sv, alpha, beta, tmp in fold[1]:
+                v1 = out[sv]
+                np.multiply(y[sv], alpha, out=v1)
+                np.add(v1, beta, out=v1)
+                np.multiply(v1, h, out=tmp)
+                np.add(y[sx], tmp, out=out[sx])
+            return out
+        sysm = self.system
         if self._Qbuf is None or self._Qbuf.shape != (sysm.N, sysm.dim):
             self._Qbuf = sysm.zero_forces()
         Q = self._Qbuf
@@ -247,43 +262,39 @@ class Scene:
             e.apply(t, y, Q)
         return sysm.kick_drift(y, Q, h, out, 0, sysm.N)
 
-    def _affine_step(self, y: np.ndarray, h: float, out: np.ndarray) -> np.ndarray:
-        """v₁ = α v₀ + β, x₁ = x₀ + h v₁ for affine per-particle forces Q = c + d v, in blocks."""
+    def _fold_affine(self, h: float) -> tuple:
+        """Fold affine per-particle forces Q = c + d v into v₁ = α v₀ + β (α = 1 + h W d, β = h W c).
+
+        Returns (h, blocks) with, per block of particles, the slices of x and v in y and the α, β and
+        scratch operands, all flat and contiguous (a broadcast (n, 1) or (1, dim) operand makes numpy
+        loop over rows of length dim, several times slower). Folded once per step size: rebuild the
+        scene after changing an effect's parameters.
+        """
         sysm = self.system
         N, dim, s = sysm.N, sysm.dim, sysm.split
-        if self._fold is None or self._fold[0] != h:
-            c = np.zeros((1, dim))
-            d = np.zeros(1)
-            for e in self._force:
-                ce, de = e.affine()
-                if ce is not None:
-                    c = c + np.asarray(ce, float)
-                if de is not None:
-                    d = d + np.asarray(de, float)
-            W = sysm.W
-            alpha = 1.0 + h * W * d                                   # (N,) or (1,)
-            beta = h * (W[:, None] * c)                               # (N, dim)
-            B = min(N, self._BLOCK)
-            # flat, contiguous operands (a broadcast (n, 1) or (1, dim) operand makes numpy loop over
-            # rows of length dim, several times slower): a uniform α is a scalar, a uniform β (gravity:
-            # W m g = g up to an ulp) is tiled once over a block, otherwise they are repeated per component
-            alpha = float(alpha[0]) if np.all(alpha == alpha[0]) else np.repeat(alpha, dim)
-            if np.allclose(beta, beta[0], rtol=1e-15, atol=0.0):
-                beta, uniform = np.tile(beta[0], B), True
-            else:
-                beta, uniform = beta.ravel(), False
-            self._fold = (h, alpha, beta, uniform, B, np.empty(B * dim))
-        _, alpha, beta, uniform, B, tmp = self._fold
-        scalar = isinstance(alpha, float)
+        c = np.zeros((1, dim))
+        d = np.zeros(1)
+        for e in self._force:
+            ce, de = e.affine()
+            if ce is not None:
+                c = c + np.asarray(ce, float)
+            if de is not None:
+                d = d + np.asarray(de, float)
+        W = sysm.W
+        alpha = 1.0 + h * W * d                                   # (N,) (or (1,) with no drag)
+        beta = h * (W[:, None] * c)                               # (N, dim) (or (1, dim))
+        B = min(N, self._BLOCK)
+        # a uniform α is a scalar; a uniform β (gravity alone: W m g = g up to an ulp) is tiled over one block
+        alpha = float(alpha[0]) if np.all(alpha == alpha[0]) else np.repeat(alpha, dim)
+        uniform = bool(np.allclose(beta, beta[0], rtol=1e-15, atol=0.0))
+        beta = np.tile(beta[0], B) if uniform else np.ascontiguousarray(np.broadcast_to(beta, (N, dim))).ravel()
+        tmp = np.empty(B * dim)
+        blocks = []
         for lo in range(0, N, B):
-            hi = min(N, lo + B)
-            i, j = lo * dim, hi * dim
-            v1 = out[s + i: s + j]
-            np.multiply(y[s + i: s + j], alpha if scalar else alpha[i:j], out=v1)
-            np.add(v1, beta[: j - i] if uniform else beta[i:j], out=v1)
-            dx = np.multiply(v1, h, out=tmp[: j - i])
-            np.add(y[i:j], dx, out=out[i:j])
-        return out
+            i, j = lo * dim, min(N, lo + B) * dim
+            blocks.append((slice(i, j), slice(s + i, s + j), alpha if isinstance(alpha, float) else alpha[i:j],
+                           beta[: j - i] if uniform else beta[i:j], tmp[: j - i]))
+        return h, blocks
 
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
                  y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
@@ -319,6 +330,9 @@ class Scene:
                 return self.jac(t, yy)
         n_steps = max(1, int(round((t_end - t0) / h)))
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
+        if y0 is not None and y.shape != np.shape(self.system.state()):
+            raise ValueError(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
+                             f"got {y.shape}")
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
         counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations

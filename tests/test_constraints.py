@@ -282,3 +282,152 @@ def test_a_scene_without_constraints_never_assembles_J(monkeypatch):
     scene = Scene(mod.system, [Gravity(mod.g)])
     scene.simulate(0.1, 0.01, "rk4")
     assert calls == [] and scene.pipeline == ("gravity", "integrate")
+
+
+# -- constraint kinds: J and J̇q̇ against finite differences ----------------------------------------------
+def test_every_kind_passes_check_constraint_and_a_wrong_jdot_fails():
+    from pbanim.constraints import Angle2D, LinearCombination, OnLine, UserConstraint, check_constraint
+
+    rng = np.random.default_rng(7)
+    x2, v2 = rng.normal(size=(4, 2)), rng.normal(size=(4, 2))
+    x3, v3 = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    kinds2 = [Distance([[0, 1], [2, -1]], lengths=1.0, anchors=[0.3, 0.1]), FixedPoint([1, 3], points=[0.0, 1.0]),
+              OnCircle([0, 2], [0.5, 0.0], 2.0), OnLine([1], [0.0, 1.0], [1.0, 1.0]),
+              OnPlane([3], [0.0, 0.0], [1.0, 2.0]),
+              LinearCombination([[0, 1]], [[0, 1]], [[2.0, -1.0]], [0.5]), Angle2D([[0, 1, 2], [1, 2, 3]], 0.4)]
+    for c in kinds2:
+        chk = check_constraint(c, x2, v2)
+        assert chk.ok, (c.kind, chk)  # FD agreement ~1e-9 (centred differences, ε = 1e-6)
+    for c in [Distance([[0, 1], [1, 2]], lengths=0.5), OnLine([2], [0.0, 0.0, 1.0], [0.0, 1.0, 1.0]),
+              OnCircle([3], [0.0, 0.0, 0.0], 1.0)]:
+        assert check_constraint(c, x3, v3).ok, c.kind
+    # a student's constraint with the wrong J̇q̇ (sign error) is caught
+    good = UserConstraint(lambda x: [0.5 * (x[0] @ x[0] - 1)], lambda x: np.r_[x[0], np.zeros(x.size - 2)][None, :],
+                          lambda x, v: [v[0] @ v[0]], m=1)
+    bad = UserConstraint(good.C_fun, good.J_fun, lambda x, v: [-(v[0] @ v[0])], m=1)
+    assert check_constraint(good, x2, v2).ok
+    chk = check_constraint(bad, x2, v2)
+    assert not chk.ok and chk.Jdot_error > 0.5 and chk.J_error < 1e-8
+
+
+def test_user_constraint_in_a_scene_matches_the_built_in_kind():
+    # the same circle written by hand (generic sparse assembly) and as OnCircle: same λ every step (B1)
+    from pbanim.constraints import UserConstraint
+
+    mod = bead_on_circle(theta0=1.0, omega0=1.0)
+    user = UserConstraint(lambda x: [0.5 * (x[0] @ x[0] - 1)], lambda x: x[0][None, :], lambda x, v: [v[0] @ v[0]], m=1)
+    a = Scene(mod.system, [Gravity(mod.g), Constraints([user])]).simulate(0.5, 1e-2, "rk4")
+    b = Scene(mod.system, [Gravity(mod.g), Constraints(mod.constraints)]).simulate(0.5, 1e-2, "rk4")
+    assert np.abs(a.y - b.y).max() < 1e-13 and np.abs(a.diagnostics["lam"] - b.diagnostics["lam"]).max() < 1e-12
+
+
+def test_vectorized_jacobian_matches_per_constraint_assembly():
+    # the set's J (patterns compiled once, values refilled per step) equals the stack of each kind's own J
+    import scipy.sparse as sp
+
+    mod = cloth_patch(5, 4, jitter=0.1)
+    ps = mod.system
+    cs = ConstraintSet(mod.constraints, ps.N, ps.dim, ps.W, ps.x0)
+    x, v = ps.unpack(ps.state())
+    asm = cs.assemble(x, v)
+    J_ref = sp.vstack([c.jacobian(x) for c in mod.constraints]).toarray()
+    assert np.array_equal(asm.J.toarray(), J_ref)
+    A_ref = J_ref @ np.diag(cs.Wq) @ J_ref.T
+    assert np.abs(cs.matrix(asm).toarray() - A_ref).max() <= 1e-14 * np.abs(A_ref).max()
+
+
+# -- gains and engine conversions ------------------------------------------------------------------------
+def test_box2d_hertz_is_the_oscillation_frequency_of_the_error():
+    # Box2D (f = 2 Hz, ζ = 0): the error of a linear constraint oscillates with period 1/f = 0.5 s
+    from pbanim.constraints import gains_from_box2d
+
+    g = gains_from_box2d(2.0, 0.0)
+    ps = ParticleSystem([[0.0, 0.01]], masses=1.0)
+    eff = Constraints([OnPlane([0], [0.0, 0.0], [0.0, 1.0])], stabilization="baumgarte", ks=g.ks, kd=g.kd)
+    res = Scene(ps, [eff]).simulate(2.0, 1e-3, "rk4")
+    C = res.y[1]
+    up = np.flatnonzero((C[:-1] < 0) & (C[1:] >= 0))
+    t_cross = res.t[up] - C[up] * (res.t[up + 1] - res.t[up]) / (C[up + 1] - C[up])
+    assert abs(np.mean(np.diff(t_cross)) - 0.5) < 1e-6  # measured ~1e-9
+
+
+def test_mujoco_and_erp_conversions_follow_their_definitions():
+    from pbanim.constraints import baumgarte_gains, gains_from_erp_cfm, gains_from_mujoco
+
+    g = gains_from_mujoco(0.02, 0.5)  # ω = 1/(τζ) = 100 rad/s, k_d = 2ζω = 2/τ
+    assert g.natural_frequency == pytest.approx(100.0) and g.damping_ratio == pytest.approx(0.5)
+    # ERP/CFM: the slow mode Ċ = −(k_s/k_d)C stepped by implicit Euler removes the fraction ERP per step
+    h, erp = 0.01, 0.2
+    e = gains_from_erp_cfm(erp, 1e-9, h)
+    assert 1 / (1 + h * e.ks / e.kd) == pytest.approx(1 - erp, rel=1e-6)
+    assert baumgarte_gains(3.0, 0.5).kd == pytest.approx(3.0)
+    with pytest.raises(ValueError, match=r"erp must be in \(0, 1\), got 1.5"):
+        gains_from_erp_cfm(1.5, 0.1, h)
+    with pytest.raises(ValueError, match=r"natural_frequency must be a finite number >= 0, got -3"):
+        baumgarte_gains(-3.0)
+
+
+# -- chapter 03 figures (their returned data) ----------------------------------------------------------
+def test_figure_bead_tension(figure_data):
+    d = figure_data("ch03_bead_tension")  # ORACLES B1
+    assert d["rel_err_formula"] < 1e-10  # measured ~4e-16
+    assert d["rel_err_energy"] < 1e-5  # RK4 h = 2e-3 against 3mg cos θ; measured ~2e-8
+    assert abs(d["T_max"] / (3 * d["mg"]) - 1) < 1e-3  # sampled maximum ≈ 3mg
+
+
+def test_figure_drift(figure_data):
+    d = figure_data("ch03_drift")  # ORACLES B2
+    assert d["max_projection"] < 1e-12
+    assert d["final_baumgarte"] < d["final_none"]
+    assert d["max_none"] > 1e3 * d["max_projection"]
+
+
+def test_figure_baumgarte_stability(figure_data):
+    d = figure_data("ch03_baumgarte_stability")  # ORACLES B2: eigenvalues predict the simulations
+    for method in ("symplectic_euler", "rk4"):
+        assert d[method]["agreement"] == 1.0
+        assert np.all(d[method]["rho"][:, 0] < 1.0 + 1e-12)  # tiny ω_b h is stable for every ζ
+    assert abs(d["symplectic_euler"]["limit_zeta1"] - (2 * np.sqrt(2) - 2)) < 1e-9
+
+
+def test_figure_chain_tension(figure_data):
+    d = figure_data("ch03_chain_tension")  # ORACLES B3
+    for s in ("linear", "witkin-sparse", "kkt"):
+        assert d[f"rel_err_{s}"] < 1e-8  # measured 2.5e-10 (linear), 8e-11 (sparse), 1e-14 (kkt)
+
+
+def test_figure_swinging_chain(figure_data):
+    d = figure_data("ch03_swinging_chain")
+    assert d["C_max"] < 1e-12 and d["solver"] == "linear"
+    assert np.allclose(d["lengths_final"], d["link_length"], rtol=1e-10)
+    assert d["energy_change"] < 1e-3  # projection never adds energy beyond RK4's error; measured < 0
+
+
+def test_figure_cloth(figure_data):
+    d = figure_data("ch03_cloth")
+    assert d["C_max"] < 1e-12 and d["pin_shift"] < 1e-12
+    assert d["z_min"] < -0.3  # it fell
+    assert d["energy_change"] < 1e-3
+
+
+def test_figure_solver_cost(figure_data):
+    d = figure_data("ch03_solver_cost")
+    costs = d["costs"]
+    assert all(np.all(np.isfinite(costs[s])) for s in ("linear", "witkin-sparse", "kkt"))
+    assert costs["linear"][-1] < costs["witkin-sparse"][-1]  # the O(n) solve beats the generic LU
+
+
+def test_figure_work_precision(figure_data):
+    rows = figure_data("ch03_work_precision")["rows"]
+    assert all(r["drift"] < 1e-12 for r in rows if r["stabilization"] == "projection")
+    none = sorted((r["h"], r["drift"]) for r in rows if r["method"] == "rk4" and r["stabilization"] == "none")
+    assert none[0][1] < none[-1][1]  # smaller h, smaller drift
+
+
+def test_bench_smoke():
+    from pbanim.bench.constraints import run
+
+    rep = run(quick=True)
+    assert {g.id for g in rep.goals} >= {"constraints-linear-1e4", "constraints-linear-slope",
+                                         "constraints-linear-vs-sparse-lu"}
+    assert all(np.isfinite(g.measured) for g in rep.goals)

@@ -12,6 +12,10 @@ Measured in one run, so both sides of every ratio share the machine's load:
    (:meth:`DampedSprings.apply`, scatter by ``np.bincount``) against the same spring forces scattered by
    the scipy.sparse incidence product Q = Bᵀ f, and ``np.add.at`` for reference.
 
+3. For reference (no goal): one implicit Euler step of a stiff hanging net with the analytic sparse
+   Jacobian (:meth:`pbanim.scene.Scene.jac`) against the finite-difference Jacobian the solver builds
+   without it.
+
 Goals (issue 2, point 4): step ≤ 1.2× the numpy step at every N; ≤ 2.5× the copy at N = 10⁶;
 springs ≤ 1.5× the sparse scatter.
 """
@@ -25,6 +29,19 @@ from . import Goal, Report, Table, median_time
 __all__ = ["run"]
 
 
+def _interleaved(fns: dict, repeats: int, min_time: float) -> dict:
+    """Median time of each callable, measured in alternation (one round of every candidate per repeat).
+
+    The machine's load drifts; timing the candidates in turn within each round makes their ratios
+    share it (the medians are those of :func:`pbanim.bench.median_time` per round).
+    """
+    times: dict = {k: [] for k in fns}
+    for _ in range(max(1, repeats)):
+        for k, fn in fns.items():
+            times[k].append(median_time(fn, 1, min_time))
+    return {k: float(np.median(v)) for k, v in times.items()}
+
+
 def _gravity_drag(N: int, rng: np.random.Generator):
     from ..particles import Drag, Gravity, ParticleSystem
     from ..scene import Scene
@@ -35,6 +52,8 @@ def _gravity_drag(N: int, rng: np.random.Generator):
 
 def step_table(sizes, repeats: int, rng: np.random.Generator):
     """Rows (N, scene, numpy, copy, ratios) for one gravity + drag step."""
+    from ..scene import Scene
+
     h, kd = 1e-3, 0.3
     rows = []
     for N in sizes:
@@ -69,14 +88,18 @@ def step_table(sizes, repeats: int, rng: np.random.Generator):
         err = 0.0
         for x1, v1 in (numpy_step(), numpy_flat()):
             err = max(err, float(np.max(np.abs(y1 - np.concatenate([x1.ravel(), v1.ravel()])))))
-        min_time = 0.05 if N < 10**5 else 0.0
-        t_scene = median_time(lambda: scene.step(0.0, y, h), repeats, min_time)
-        t_numpy = median_time(numpy_step, repeats, min_time)
-        t_flat = median_time(numpy_flat, repeats, min_time)
-        t_copy = median_time(lambda: np.copyto(buf, y), repeats, min_time)
-        t_alloc = median_time(lambda: y.copy(), repeats, min_time)
+        min_time = 0.02 if N < 10**5 else 0.0
+        unfolded = Scene(ps, scene.effects)
+        unfolded.fold_affine = False  # the force phase effect by effect (zero Q, gravity, drag, kick-drift)
+        err = max(err, float(np.max(np.abs(unfolded.step(0.0, y, h) - y1))))
+        T = _interleaved({"scene": lambda: scene.step(0.0, y, h), "effects": lambda: unfolded.step(0.0, y, h),
+                          "numpy": numpy_step, "flat": numpy_flat, "copy": lambda: np.copyto(buf, y),
+                          "alloc": lambda: y.copy()}, repeats, min_time)
+        t_scene, t_effects, t_numpy, t_flat, t_copy, t_alloc = (T[k] for k in ("scene", "effects", "numpy", "flat",
+                                                                               "copy", "alloc"))
         best = min(t_numpy, t_flat)
-        rows.append([N, t_scene, t_numpy, t_flat, t_copy, t_alloc, t_scene / best, t_scene / t_copy, err])
+        rows.append([N, t_scene, t_effects, t_numpy, t_flat, t_copy, t_alloc, t_scene / best, t_effects / best,
+                     t_scene / t_copy, err])
     return rows
 
 
@@ -112,12 +135,29 @@ def spring_table(S: int, N: int, repeats: int, rng: np.random.Generator):
     Qa = Q.copy()
     sparse_apply()
     err = float(np.max(np.abs(Q - Qa)))
-    t_p = median_time(pbanim_apply, repeats, 0.05)
-    t_s = median_time(sparse_apply, repeats, 0.05)
-    t_a = median_time(add_at_apply, repeats, 0.05)
-    t_f = median_time(forces_only, repeats, 0.05)
+    T = _interleaved({"p": pbanim_apply, "s": sparse_apply, "a": add_at_apply, "f": forces_only}, repeats, 0.02)
+    t_p, t_s, t_a, t_f = T["p"], T["s"], T["a"], T["f"]
     return [["pbanim (bincount scatter)", t_p, t_p / t_s, err], ["scipy.sparse Bᵀf", t_s, 1.0, 0.0],
             ["np.add.at", t_a, t_a / t_s, 0.0], ["spring forces f only (no scatter)", t_f, t_f / t_s, 0.0]], t_p / t_s
+
+
+def implicit_table(n: int, repeats: int):
+    """One implicit Euler step of an n × n stiff hanging net: analytic sparse Jacobian vs finite differences."""
+    from ..models.particles import hanging_net
+    from ..ode import get_method
+
+    net = hanging_net(n, n, spacing=0.1, mass=0.01, stiffness=1e4)
+    scene = net.scene()
+    y = net.system.state()
+    y[1::3] -= 1e-3  # off equilibrium, so Newton has work to do
+    step = get_method("implicit_euler").step
+    ya = step(scene.rhs, 0.0, y, 1e-2, jac=scene.jac)
+    yf = step(scene.rhs, 0.0, y, 1e-2)
+    T = _interleaved({"a": lambda: step(scene.rhs, 0.0, y, 1e-2, jac=scene.jac),
+                      "f": lambda: step(scene.rhs, 0.0, y, 1e-2)}, repeats, 0.0)
+    diff = float(np.max(np.abs(ya - yf)))
+    return [[f"analytic sparse Scene.jac (n = {y.size})", T["a"], 1.0, diff],
+            ["finite-difference dense Jacobian", T["f"], T["f"] / T["a"], 0.0]]
 
 
 def run(quick: bool = False) -> Report:
@@ -128,22 +168,27 @@ def run(quick: bool = False) -> Report:
     rows = step_table(sizes, repeats, rng)
     rep = Report("particles")
     rep.tables.append(Table("one scene step, gravity + drag (symplectic Euler, 3-D), median seconds",
-                            ["N", "scene.step", "numpy (N,3)", "numpy flat", "copyto(buf, y)", "y.copy()",
-                             "scene/best numpy", "scene/copyto", "max |Δy|"], rows))
+                            ["N", "scene.step", "unfolded", "numpy (N,3)", "numpy flat", "copyto(buf, y)",
+                             "y.copy()", "scene/numpy", "unfolded/numpy", "scene/copyto", "max |Δy|"], rows))
     S, Ns = (10**4, 2000) if quick else (10**5, 2 * 10**4)
     srows, ratio = spring_table(S, Ns, repeats, rng)
     rep.tables.append(Table(f"damped springs: force accumulation, S = {S} springs, N = {Ns}, median seconds",
                             ["variant", "time", "/ sparse", "max |ΔQ|"], srows))
+    n = 6 if quick else 12
+    rep.tables.append(Table(f"one implicit Euler step, {n}×{n} stiff hanging net (k_s = 1e4, h = 0.01), median seconds",
+                            ["Jacobian", "time", "/ analytic", "max |Δy|"], implicit_table(n, 3 if quick else 5)))
     for r in rows:
-        rep.goals.append(Goal(f"particles-step-vs-numpy-N{r[0]:.0e}".replace("+0", ""), r[6], 1.2, "<=", "x",
+        rep.goals.append(Goal(f"particles-step-vs-numpy-N{r[0]:.0e}".replace("+0", ""), r[7], 1.2, "<=", "x",
                               "scene.step / faster of the two hand-written numpy steps"))
     big = rows[-1]
-    rep.goals.append(Goal("particles-step-vs-bandwidth", big[7], 2.5, "<=", "x",
+    rep.goals.append(Goal("particles-step-vs-bandwidth", big[9], 2.5, "<=", "x",
                           f"scene.step / np.copyto of the state into a preallocated array at N = {big[0]:.0e}"
                           + ("" if big[0] == 10**6 else " (quick mode; the goal is at N = 1e6)")))
     rep.goals.append(Goal("particles-springs-vs-sparse", ratio, 1.5, "<=", "x",
                           f"DampedSprings.apply / sparse incidence scatter at S = {S}"))
     rep.notes.append("ratios < 1 are faster than the baseline; all timings share one run")
     rep.notes.append("scene.step folds the affine per-particle forces (gravity, drag) into v1 = alpha v0 + beta "
-                     "per step size and sweeps cache-sized blocks (Scene.fold_affine; see pbanim.scene)")
+                     "per step size and sweeps cache-sized blocks (Scene.fold_affine; see pbanim.scene); 'unfolded' is the "
+                     "same step with fold_affine = False: zero Q, gravity.apply, drag.apply, one kick-drift, "
+                     "in preallocated buffers")
     return rep

@@ -97,12 +97,16 @@ def hanging_chain(n: int, link_length: float = 1.0, masses=1.0, mass_ratio: floa
 
 
 def cloth_patch(nx: int = 6, ny: int = 6, spacing: float = 0.1, mass: float = 0.01, shear: bool = False,
-                jitter: float = 0.0, seed: int = 0) -> ConstrainedModel:
-    """A 3-D cloth of nx × ny particles in the horizontal plane z = 0, rods on the grid edges (and
-    diagonals if ``shear``), nailed at the two corners of the edge y = 0; gravity −z.
+                jitter: float = 0.0, sag: float = 0.1, seed: int = 0) -> ConstrainedModel:
+    """A 3-D cloth of nx × ny particles near the horizontal plane z = 0, rods on the grid edges (and
+    diagonals if ``shear``) at their initial lengths, nailed at the two corners of the edge y = 0; gravity −z.
 
-    >>> mod = cloth_patch(3, 3); [c.m for c in mod.constraints]
-    [12, 6]
+    The patch starts sagging along x, z = −sag·width·sin(πi/(nx − 1)): a *taut* straight row of rods between
+    two nails would be redundant (the nails fix the sum of its lengths), so the row between the pins is
+    given slack. ``jitter`` adds random offsets (in units of the spacing).
+
+    >>> mod = cloth_patch(3, 3); mod.constraints[0].m, mod.info["pins"]
+    (12, [0, 6])
     """
     if nx < 2 or ny < 2:
         raise ValueError(f"nx and ny must be >= 2, got {nx}, {ny}")
@@ -110,6 +114,7 @@ def cloth_patch(nx: int = 6, ny: int = 6, spacing: float = 0.1, mass: float = 0.
     I, Jg = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     idx = I * ny + Jg
     x = np.stack([I.ravel() * spacing, Jg.ravel() * spacing, np.zeros(nx * ny)], axis=1)
+    x[:, 2] = -sag * spacing * (nx - 1) * np.sin(np.pi * I.ravel() / (nx - 1))
     x += jitter * spacing * rng.normal(size=x.shape)
     pairs = [np.stack([idx[:-1, :].ravel(), idx[1:, :].ravel()], 1), np.stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()], 1)]
     if shear:

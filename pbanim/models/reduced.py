@@ -36,7 +36,7 @@ _REDUCED: dict = {}
 def pendulum_period(theta0: Any, length: float = 1.0, g: float = 9.81) -> Any:
     """T = 4√(L/g) K(m) with the parameter m = sin²(θ₀/2) (ORACLES A5; ``ellipk`` takes m, not k).
 
-    >>> round(pendulum_period(np.pi / 2) / (2 * np.pi / np.sqrt(9.81)), 5)   # 90°: 2K(½)/π, 18% longer
+    >>> round(float(pendulum_period(np.pi / 2) / (2 * np.pi / np.sqrt(9.81))), 5)   # 90°: 2K(½)/π, 18% longer
     1.18034
     """
     th = np.asarray(theta0, dtype=float)

@@ -15,7 +15,8 @@ The phase u₀ = F(φ₀ | m) (``ellipkinc``) with am u₀ = φ₀ = atan2(s ω�
 roles of axes 1 and 3 swap: the relabelling (I₃, I₂, I₁), (ω₃, −ω₂, ω₁) maps Euler's equations onto
 themselves (the sign keeps the cyclic orientation), so the same formulas apply with I₃ − I₂ < 0, which
 flips the sign of the sn term: ω₂' = −s A₂ sn u. ω has period 4K(m)/λ;
-at M² = 2T I₂ (m = 1, the separatrix) the period is infinite.
+at M² = 2T I₂ (m = 1, the separatrix) the period is infinite. An exact spin about one principal axis
+(two components of ω(0) zero) is a relative equilibrium: ω(t) = ω(0) (case "steady").
 
 ==============  ====================  =======
 symbol          code                  shape
@@ -86,11 +87,15 @@ class TorqueFreeBody:
     @property
     def period(self) -> float:
         """Period of ω(t): 4K(m)/λ (inf on the separatrix)."""
+        if self.case == "steady":
+            return np.inf
         return float(4 * ellipk(self.m) / self.rate) if self.m < 1 and self.rate > 0 else np.inf
 
     def omega(self, t) -> np.ndarray:
         """Body-frame angular velocity ω(t), shape (len(t), 3)."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
+        if self.case == "steady":           # spin about one principal axis: a relative equilibrium
+            return np.tile(self.omega0, (len(t), 1))
         A1, A2, A3, lam, m, (s, s2), u0 = self._p
         sn, cn, dn, _ = ellipj(lam * t + u0, m)
         w = np.stack([A1 * cn, s2 * A2 * sn, s * A3 * dn], axis=1)
@@ -127,6 +132,9 @@ def torque_free_body(moments, omega0) -> TorqueFreeBody:
     if w0.shape != (3,) or not np.all(np.isfinite(w0)) or not np.any(w0):
         raise ValueError(f"omega0 must be a finite non-zero 3-vector, got {omega0}")
     E2, M2 = float(np.sum(I * w0 * w0)), float(np.sum(I * I * w0 * w0))
+    if np.count_nonzero(w0) == 1:      # exact principal-axis spin (also the unstable middle one): ω constant
+        return TorqueFreeBody(moments=I, omega0=w0, energy=0.5 * E2, L2=M2, m=0.0 if w0[1] == 0 else 1.0,
+                              rate=0.0, case="steady", _p=())
     if M2 >= E2 * I[1]:
         case, p = "M2>2TI2", _case_a(I, w0)
     else:

@@ -1,0 +1,147 @@
+"""``pbanim bench constraints``: cost of λ per step vs chain length for every solver, and work-precision of
+the stabilizations (chapter 03).
+
+Per-step cost = assembly (C, J, J̇q̇, and JWJᵀ or its bands) + the λ solve, for a hanging chain of n links,
+median of repeats, all solvers in one run. "witkin-sparse" is the generic sparse LU (SuperLU with its
+COLAMD ordering) of the same JWJᵀ; "linear" is Baraff's leaves-first elimination (tridiagonal for a chain).
+The dense solve is skipped past n = 2000 (O(n³): ~8 s at n = 10⁴) and CG past n = 10⁴ (its iteration
+count grows like n on a chain, cond(JWJᵀ) ~ n²).
+
+Work-precision: a swinging chain (released horizontal, 1 s); for each integrator (RK4, symplectic Euler)
+and stabilization (none, Baumgarte at ω_b ∈ {10, 30, 100} rad/s with ζ = 1, projection) a sweep over
+h; errors are the constraint drift max|C| (units of C = ½(|d|² − L²), m²) and the energy error
+max|E − E₀| / (M g L_chain); wall times are medians (``pbanim.accuracy.sweep``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..accuracy import sweep
+from ..constraints import Constraints, ConstraintSet, solve_lambda
+from ..errors import ConvergenceError, SimulationDiverged
+from ..models.constrained import hanging_chain
+from ..particles import Gravity
+from ..scene import Scene
+from . import Goal, Report, Table, median_time
+
+SOLVER_LIST = ["linear", "witkin-sparse", "kkt", "witkin-cg", "witkin-dense"]
+DENSE_MAX, CG_MAX = 2000, 10_000
+
+
+def chain_step(n: int, solver: str):
+    """A closure doing one step's assembly + λ solve for a hanging chain of n links (tilted 0.3 rad)."""
+    mod = hanging_chain(n, link_length=1.0 / n, angle=0.3)
+    ps = mod.system
+    cs = ConstraintSet(mod.constraints, ps.N, ps.dim, ps.W, ps.x0)
+    x, v = ps.unpack(ps.state())
+    Qf = (ps.m[:, None] * mod.g).ravel()
+    pairs = solver not in ("kkt", "witkin-cg")
+    kw = {"tol": 1e-8, "max_iter": 4 * n + 100} if solver == "witkin-cg" else {}
+
+    def step():
+        asm = cs.assemble(x, v, pairs=pairs)
+        return solve_lambda(asm.J, cs.Wq, Qf, -asm.Jdv, solver, cset=cs, asm=asm, **kw)
+
+    return step
+
+
+def step_costs(ns, solvers=SOLVER_LIST, repeats: int = 5) -> dict:
+    """{solver: [seconds per step or nan (skipped / failed)]} over ``ns``."""
+    out = {s: [] for s in solvers}
+    for n in ns:
+        for s in solvers:
+            if (s == "witkin-dense" and n > DENSE_MAX) or (s == "witkin-cg" and n > CG_MAX):
+                out[s].append(float("nan"))
+                continue
+            fn = chain_step(n, s)
+            try:
+                fn()  # warm up (and check it converges)
+            except ConvergenceError:
+                out[s].append(float("nan"))
+                continue
+            reps = repeats if n <= 10_000 else max(3, repeats // 2)
+            out[s].append(median_time(fn, repeats=reps, min_time=0.02 if n <= 1000 else 0.0))
+    return out
+
+
+def loglog_slope(ns, ts) -> float:
+    ns, ts = np.asarray(ns, float), np.asarray(ts, float)
+    ok = np.isfinite(ts)
+    return float(np.polyfit(np.log(ns[ok]), np.log(ts[ok]), 1)[0]) if ok.sum() >= 2 else float("nan")
+
+
+STABS = [("none", {}), ("baumgarte ω=10", {"natural_frequency": 10.0}),
+         ("baumgarte ω=30", {"natural_frequency": 30.0}), ("baumgarte ω=100", {"natural_frequency": 100.0}),
+         ("projection", {})]
+
+
+def work_precision(quick: bool = False, links: int | None = None) -> dict:
+    """Rows (variant, h, drift, energy error, wall time) for the swinging chain; see the module docstring."""
+    n = links or (4 if quick else 8)
+    t_end = 0.5 if quick else 1.0
+    hs = [0.01, 0.004] if quick else [0.01, 0.005, 0.0025, 0.00125]
+    mod = hanging_chain(n, link_length=1.0 / n, angle=np.pi / 2)
+    scale = float(mod.system.m.sum() * 9.81 * 1.0)
+    energy_err: dict = {}
+
+    def run(variant, h):
+        method, (label, kw) = variant
+        stab = label.split()[0]
+        eff = Constraints(mod.constraints, stabilization=stab, max_violation=1.0, **kw)
+        scene = Scene(mod.system, [Gravity(mod.g), eff])
+        try:
+            res = scene.simulate(t_end, h, method)
+        except SimulationDiverged:
+            energy_err[(method, label, h)] = float("inf")
+            return {"drift": float("inf")}, 0
+        E = res.diagnostics["energy"]
+        energy_err[(method, label, h)] = float(np.max(np.abs(E - E[0])) / scale)
+        return {"drift": float(res.diagnostics["C_max"].max())}, res.nfev
+
+    variants = [(m, s) for m in ("rk4", "symplectic_euler") for s in STABS]
+    rows = sweep(run, variants, hs, lambda val: val["drift"], repeats=1)
+    out = []
+    for r in rows:
+        method, (label, _) = r.variant
+        out.append({"method": method, "stabilization": label, "h": r.param, "drift": r.error,
+                    "energy_error": energy_err[(method, label, r.param)], "wall_time": r.wall_time, "nfev": r.nfev})
+    return {"rows": out, "links": n, "t_end": t_end, "hs": hs}
+
+
+def run(quick: bool = False) -> Report:
+    ns = [10, 100, 1000, 10_000] if quick else [10, 100, 1000, 10_000, 100_000]
+    solvers = SOLVER_LIST if not quick else ["linear", "witkin-sparse", "kkt", "witkin-dense"]
+    costs = step_costs(ns if not quick else ns[:3], solvers, repeats=3 if quick else 5)
+    if quick:  # the n = 10⁴ goal points: linear and sparse LU only
+        for s in solvers:
+            costs[s].append(median_time(chain_step(10_000, s), repeats=3) if s in ("linear", "witkin-sparse")
+                            else float("nan"))
+    rep = Report("constraints")
+    tab = Table("per-step cost (assembly + λ solve), hanging chain, ms", ["n"] + solvers)
+    for i, n in enumerate(ns):
+        tab.rows.append([n] + [costs[s][i] * 1e3 for s in solvers])
+    rep.tables.append(tab)
+    lin, lu = dict(zip(ns, costs["linear"])), dict(zip(ns, costs["witkin-sparse"]))
+    big = [n for n in ns if n >= 1000]
+    slope = loglog_slope(big, [lin[n] for n in big])
+    wp = work_precision(quick)
+    t2 = Table(f"work-precision, swinging chain of {wp['links']} links over {wp['t_end']} s",
+               ["method", "stabilization", "h", "max|C|", "energy err", "wall s"])
+    for r in wp["rows"]:
+        t2.rows.append([r["method"], r["stabilization"], r["h"], r["drift"], r["energy_error"], r["wall_time"]])
+    rep.tables.append(t2)
+    rep.notes.append(f"witkin-dense skipped past n = {DENSE_MAX} (O(n³)); witkin-cg past n = {CG_MAX} and "
+                     "reported nan where it does not reach tol 1e-8 in 4n + 100 iterations")
+    if quick:
+        rep.notes.append("quick mode: n ≤ 10⁴, kkt/dense only to 10³; the slope is fitted on 10³…10⁴")
+    proj = max(r["drift"] for r in wp["rows"] if r["stabilization"] == "projection")
+    rep.goals += [
+        Goal("constraints-linear-1e4", lin[10_000] * 1e3, 1.0, "<=", " ms", "linear-time solver, n = 10⁴"),
+        Goal("constraints-linear-slope", slope, 1.15, "<=", "",
+             f"log-log slope of the linear solver, n = {big[0]}…{big[-1]}"),
+        Goal("constraints-linear-vs-sparse-lu", lu[10_000] / lin[10_000], 10.0, ">=", "x",
+             "speed-up over the generic sparse LU at n = 10⁴"),
+        Goal("constraints-projection-drift", proj, 1e-12, "<=", "", "max|C| with projection, all runs"),
+    ]
+    return rep
