@@ -5,8 +5,6 @@ Each figure computes, plots and returns its data (checked in tests/test_ode_figu
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from pbanim.models.ode import damped_oscillator, kepler

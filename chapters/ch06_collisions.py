@@ -59,7 +59,7 @@ def newtons_cradle_fig(ctx):
     ax.bar(np.arange(3) + w, out["simultaneous"], w, label="simultaneous (LCP): (−1, 2, 2) v₀/3")
     ax.axhline(0, color="k", lw=0.8)
     ax.set_xticks(range(3), ["ball 1", "ball 2", "ball 3"])
-    ax.set_ylabel("velocity after impact (m/s)")
+    ax.set_ylabel("x-velocity (m/s)")
     ax.set_ylim(-0.5, 1.6)
     ax.legend(loc="upper center", ncol=1)
     ctx.save(fig)

@@ -36,8 +36,10 @@ an infinite mass (the world, a static body) receives the impulse and does not mo
 tangential velocities unchanged; μ → ∞ makes every impact stick.
 
 Parts: :mod:`pbanim.collision_shapes` (shapes, ``Contacts``), :mod:`pbanim.collision_narrow`,
-:mod:`pbanim.collision_broad`, :mod:`pbanim.collision_impulse`, :mod:`pbanim.collision_scene` (the
-``Collisions`` post-step effect and the event-located driver ``simulate_collisions``).
+:mod:`pbanim.collision_broad`, :mod:`pbanim.collision_lcp` (small LCPs: Lemke, enumeration),
+:mod:`pbanim.collision_impulse`, :mod:`pbanim.collision_scene` (the
+``Collisions`` post-step effect), :mod:`pbanim.collision_toi` (the driver ``simulate_collisions``,
+event location vs fixed-step detection).
 
 References: Witkin & Baraff, *Physically Based Modeling* SIGGRAPH course notes (Baraff: Rigid body
 simulation, §8 collisions); Baraff 1989 (analytical methods for dynamic non-penetrating rigid bodies);
@@ -52,9 +54,13 @@ from .collision_narrow import *  # noqa: F401,F403
 from .collision_narrow import __all__ as _narrow
 from .collision_broad import *  # noqa: F401,F403
 from .collision_broad import __all__ as _broad
+from .collision_lcp import *  # noqa: F401,F403
+from .collision_lcp import __all__ as _lcp
 from .collision_impulse import *  # noqa: F401,F403
 from .collision_impulse import __all__ as _impulse
 from .collision_scene import *  # noqa: F401,F403
 from .collision_scene import __all__ as _scene
+from .collision_toi import *  # noqa: F401,F403
+from .collision_toi import __all__ as _toi
 
-__all__ = list(_shapes) + list(_narrow) + list(_broad) + list(_impulse) + list(_scene)
+__all__ = list(_shapes) + list(_narrow) + list(_broad) + list(_lcp) + list(_impulse) + list(_scene) + list(_toi)

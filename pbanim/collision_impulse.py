@@ -27,9 +27,14 @@ Several contacts.
 - ``"simultaneous"``: one impulse vector f for all contacts at once, from the linear complementarity
   problem w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 with A = J W Jᵀ (W = M⁻¹), b = v⁻ + ε min(v⁻, 0) (Newton's law
   applied to every contact together, as for a rigid chain): (v₀, 0, 0) → (−v₀/3, 2v₀/3, 2v₀/3). Solved by
-  Lemke's complementary pivoting (or by enumerating active sets, the readable check). Friction is
-  then applied contact by contact from the 2 × 2 tangential system K_tt J_t = −u_t, clamped to μ f
-  (a staggered scheme, documented as such).
+  Lemke's complementary pivoting (or by enumerating active sets, the readable check). Friction, by
+  ``friction_model``: ``"staggered"`` (default) applies it contact by contact after the normal impulses,
+  from the 2 × 2 tangential system K_tt J_t = −u_t clamped to μ f; ``"lcp"`` solves normal and
+  friction impulses in one LCP with a pyramidal cone of 8 edges (Stewart & Trinkle 1996; sliding
+  speeds λ as the extra unknowns), exact when the slip direction is a cone edge. Its Lemke pivoting
+  has no anti-cycling rule: on degenerate multi-contact configurations (resting stacks, redundant
+  corners) it may stop with :class:`~pbanim.errors.InfeasibleContact` or
+  :class:`~pbanim.errors.ConvergenceError` — never a wrong answer; "staggered" always returns.
 
 Both conserve linear momentum exactly; with ε = 1 both conserve energy on Newton's cradle.
 
@@ -53,15 +58,15 @@ Linear Complementarity Problem* (Lemke's method); Glocker, *Set-valued force law
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from itertools import combinations
 
 import numpy as np
 
+from .collision_lcp import _friction_lcp, _normal_lcp, solve_lcp_small
 from .collision_shapes import Contacts, check_friction, check_restitution
-from .errors import ConvergenceError, InfeasibleContact
+from .errors import ConvergenceError
 
 __all__ = ["ImpulseBodies", "ImpulseResult", "collision_matrix", "contact_velocity", "contact_impulse",
-           "apply_impulses", "resolve_collisions", "solve_lcp_small"]
+           "apply_impulses", "resolve_collisions"]
 
 
 def _skew(r: np.ndarray) -> np.ndarray:
@@ -245,90 +250,16 @@ def _tangent_friction(K: np.ndarray, u: np.ndarray, n: np.ndarray, jn: float, mu
     return T @ (-mu * jn * ut / np.linalg.norm(ut)), False
 
 
-def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, tol: float = 1e-12):
-    """Solve w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 for a small dense A (collision impulses).
-
-    ``"lemke"``: Lemke's complementary pivoting on the tableau [𝟙, −A, −e | b] (terminates for the
-    positive semidefinite A = J W Jᵀ of a feasible contact problem). ``"enumerate"``: try every active
-    set S, f_S = −A_SS⁺ b_S (least squares), the readable O(2ᵐ) check for m ≤ 12.
-    Returns ``(f, iterations)``; raises :class:`InfeasibleContact` on ray termination.
-
-    >>> f, it = solve_lcp_small(np.array([[2.0, -1.0], [-1.0, 2.0]]), np.array([-2.0, 0.0]))
-    >>> f.round(12)
-    array([1.33333333, 0.66666667])
-    """
-    A, b = np.asarray(A, float), np.asarray(b, float)
-    m = len(b)
-    if m == 0 or np.all(b >= 0):
-        return np.zeros(m), 0
-    scale = max(1.0, float(np.abs(A).max()), float(np.abs(b).max()))
-    if method == "enumerate":
-        if m > 12:
-            raise ValueError(f"method='enumerate' is for m <= 12 contacts, got m = {m}; use 'lemke'")
-        for k in range(1, m + 1):
-            for S in combinations(range(m), k):
-                S = list(S)
-                f = np.zeros(m)
-                f[S] = np.linalg.lstsq(A[np.ix_(S, S)], -b[S], rcond=None)[0]
-                w = A @ f + b
-                if f.min() >= -tol * scale and w.min() >= -1e-9 * scale:
-                    return np.maximum(f, 0.0), k
-        raise InfeasibleContact("enumerate", "no active set", detail="no complementary solution found")
-    if method != "lemke":
-        raise ValueError(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
-    T = np.hstack([np.eye(m), -A, -np.ones((m, 1)), b[:, None]])
-    basis = list(range(m))
-    z0 = 2 * m
-
-    def pivot(r: int, col: int) -> None:
-        T[r] /= T[r, col]
-        others = np.arange(m) != r
-        T[others] -= np.outer(T[others, col], T[r])
-
-    r = int(np.argmin(b))
-    pivot(r, z0)
-    leaving, basis[r] = basis[r], z0
-    for it in range(1, (max_iter or 50 * (m + 1)) + 1):
-        entering = leaving + m if leaving < m else leaving - m
-        col = T[:, entering]
-        ok = col > tol * scale
-        if not ok.any():
-            raise InfeasibleContact("lemke", "ray termination", detail=f"after {it} pivots")
-        ratios = np.where(ok, T[:, -1] / np.where(ok, col, 1.0), np.inf)
-        rmin = ratios.min()
-        ties = np.flatnonzero(ratios <= rmin + 1e-12 * max(1.0, abs(rmin)))
-        r = next((int(i) for i in ties if basis[i] == z0), int(ties[0]))   # let z0 leave when it can
-        pivot(r, entering)
-        leaving, basis[r] = basis[r], entering
-        if leaving == z0:
-            f = np.zeros(m)
-            for i, var in enumerate(basis):
-                if m <= var < 2 * m:
-                    f[var - m] = max(T[i, -1], 0.0)
-            return f, it
-    raise ConvergenceError("lemke", it, float("nan"), tol, detail="pivot cap reached (cycling?)")
-
-
-def _normal_lcp(bodies: ImpulseBodies, c: Contacts):
-    """A = [n_iᵀ K_ij n_j] for all contact pairs sharing a body (the Delassus matrix J W Jᵀ)."""
-    ra, rb = _lever(bodies, c)
-    n = c.normal
-    ends = [(c.a, n, np.cross(ra, n)), (c.b, -n, -np.cross(rb, n))]
-    A = np.zeros((c.m, c.m))
-    for bi, li, ai in ends:
-        for bj, lj, aj in ends:
-            same = (bi[:, None] == bj[None, :]) & (bodies.inv_mass[bi][:, None] + np.abs(bodies.inv_I[bi]).sum((1, 2))[:, None] > 0)
-            lin = bodies.inv_mass[bi][:, None] * (li @ lj.T)
-            ang = np.einsum("ik,ikl,jl->ij", ai, bodies.inv_I[bi], aj)
-            A += np.where(same, lin + ang, 0.0)
-    return A
-
-
-def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float, lcp: str):
-    """All normal impulses at once from the LCP (ε per contact), then staggered friction; in place."""
+def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float, lcp: str,
+                  friction_model: str = "staggered"):
+    """All normal impulses at once from the LCP (ε per contact), with friction; in place."""
     u0n = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-    A = _normal_lcp(bodies, c)
     b = u0n + e_i * np.minimum(u0n, 0.0)
+    if mu > 0 and friction_model == "lcp":
+        f, J, sticking, its, residual = _friction_lcp(bodies, c, contact_velocity(bodies, c), b, mu, lcp)
+        apply_impulses(bodies, c, J)
+        return f, J - f[:, None] * c.normal, sticking, its, residual
+    A = _normal_lcp(bodies, c)
     f, its = solve_lcp_small(A, b, method=lcp)
     apply_impulses(bodies, c, f[:, None] * c.normal)
     w = A @ f + b
@@ -346,7 +277,8 @@ def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float
 
 def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: float = 1.0,
                        friction: float = 0.0, mode: str = "sequential", rest_velocity: float = 0.0,
-                       max_iter: int = 1000, tol: float = 1e-12, lcp: str = "lemke") -> ImpulseResult:
+                       max_iter: int = 1000, tol: float = 1e-12, lcp: str = "lemke",
+                       friction_model: str = "staggered") -> ImpulseResult:
     """Apply collision impulses to ``bodies`` (in place) so no contact approaches; see the module docstring.
 
     Contacts approaching slower than ``rest_velocity`` get ε = 0 (resting contact: stopped, not bounced).
@@ -365,6 +297,8 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
     eps, mu = check_restitution(restitution), check_friction(friction)
     if mode not in ("sequential", "simultaneous"):
         raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
+    if friction_model not in ("staggered", "lcp"):
+        raise ValueError(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
     if rest_velocity < 0:
         raise ValueError(f"rest_velocity must be >= 0, got {rest_velocity}")
     c = contacts
@@ -396,12 +330,12 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
         # what still approaches is resting contact: stopped together (ε = 0), as Baraff hands it to ch07
         vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
         if np.any(vn < -tol * scale):
-            f, Jt, st, _, residual = _simultaneous(bodies, c, np.zeros(m), mu, lcp)
+            f, Jt, st, _, residual = _simultaneous(bodies, c, np.zeros(m), mu, lcp, friction_model)
             impulse += f[:, None] * c.normal + Jt
             sticking |= st
     elif m:
         e_i = np.where(-u0n > rest_velocity, eps, 0.0)
-        f, Jt, sticking, its, residual = _simultaneous(bodies, c, e_i, mu, lcp)
+        f, Jt, sticking, its, residual = _simultaneous(bodies, c, e_i, mu, lcp, friction_model)
         impulse += f[:, None] * c.normal + Jt
     bodies.v[-1] = 0.0
     bodies.omega[-1] = 0.0

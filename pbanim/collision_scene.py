@@ -1,22 +1,16 @@
-"""Collisions in scenes: the post-step effect and the time-of-impact driver (chapter 06).
+"""Collisions in scenes: the post-step effect for particle and rigid scenes (chapter 06).
 
 :class:`Collisions` is a post-step effect for particle scenes (``ParticleSystem``: point particles or
 spheres of a given radius) and rigid scenes (``RigidBodies`` with one shape per body). After each step it
-detects contacts, applies impulses (:func:`pbanim.collision_impulse.resolve_collisions`) and projects the
-remaining penetration away (each body moved along the normal of its deepest contact, shared by inverse
-mass). That is *fixed-step detection*: the collision is noticed after the step, when the bodies already
-overlap, so the impact happens up to h late.
+detects contacts (broad phase on bounding spheres, then the narrow phase), applies impulses
+(:func:`pbanim.collision_impulse.resolve_collisions`) and projects the remaining penetration away (each
+body moved along the normal of its deepest contact, shared by inverse mass). That is *fixed-step
+detection*: the collision is noticed after the step, when the bodies already overlap, so the impact
+happens up to h late; :func:`pbanim.collision_toi.simulate_collisions` locates it instead.
 
-:func:`simulate_collisions` chooses the time of impact by name:
-
-``toi="fixed"``  the plain step and the post-step effect (what ``Scene.simulate`` does);
-``toi="event"``  the signed distances g(y) of the pairs that are apart at the step's start are an event
-                 of :func:`pbanim.solve` (terminal, direction −1, bracketing root finder): the step is
-                 split at g = 0, the impulse applied there, and the solver restarted for the rest of the
-                 step. Contacts that start the step touching (resting ones) go to the post-step effect.
-
-Signed distances are exact for sphere/particle–plane, sphere–sphere and box/capsule–plane (vertices and
-end spheres); box–box and capsule–sphere pairs are handled by the post-step detection only.
+Limits: the projection moves each body by its deepest contact only, so long-lived resting stacks jiggle
+(resting contact forces are chapter 07, :mod:`pbanim.contact`); capsule–capsule and capsule–box pairs
+have no narrow-phase test (rejected when the effect is bound).
 
 Restitution threshold (ORACLES D10): a contact approaching slower than ``rest_velocity`` gets ε = 0.
 Gravity adds g·h of approach speed per step to a body lying on the ground, so a threshold below g·h
@@ -26,7 +20,6 @@ m/s² unless given) stops it: a resting body never rises.
 
 from __future__ import annotations
 
-import time
 from typing import Any, Sequence
 
 import numpy as np
@@ -35,11 +28,9 @@ from .collision_broad import grid_pairs
 from .collision_impulse import ImpulseBodies, ImpulseResult, resolve_collisions
 from .collision_narrow import collide, sphere_plane, sphere_sphere
 from .collision_shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
-from .ode import get_method
-from .results import SimResult
-from .scene import Effect, check_finite
+from .scene import Effect
 
-__all__ = ["Collisions", "simulate_collisions"]
+__all__ = ["Collisions"]
 
 
 class Collisions(Effect):
@@ -61,6 +52,8 @@ class Collisions(Effect):
         Restitution threshold (m/s); default 3·gravity·h at each step.
     project : bool
         Remove the remaining penetration after the impulses (default True).
+    friction_model : {"staggered", "lcp"}
+        Friction in the simultaneous solve (see :mod:`pbanim.collision_impulse`).
 
     Examples
     --------
@@ -80,14 +73,18 @@ class Collisions(Effect):
 
     def __init__(self, shapes=None, obstacles: Sequence = (), radius=0.0, restitution: float = 1.0,
                  friction: float = 0.0, mode: str = "sequential", rest_velocity: float | None = None,
-                 gravity: float = 9.81, project: bool = True, max_iter: int = 1000) -> None:
+                 gravity: float = 9.81, project: bool = True, max_iter: int = 1000,
+                 friction_model: str = "staggered") -> None:
         self.restitution = check_restitution(restitution)
         self.friction = check_friction(friction)
         if mode not in ("sequential", "simultaneous"):
             raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
         if rest_velocity is not None and not (np.isfinite(rest_velocity) and rest_velocity >= 0):
             raise ValueError(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
+        if friction_model not in ("staggered", "lcp"):
+            raise ValueError(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
         self.mode, self.rest_velocity, self.gravity = mode, rest_velocity, float(gravity)
+        self.friction_model = friction_model
         self.project, self.max_iter = bool(project), int(max_iter)
         self.planes, self.spheres = [], []
         for ob in obstacles:
@@ -112,6 +109,14 @@ class Collisions(Effect):
             if len(sh) != N or not all(isinstance(s, (Sphere, Box, Capsule)) for s in sh):
                 raise ValueError(f"shapes must be one Sphere/Box/Capsule per body ({N} bodies), got {self.shapes_in!r}")
             self.shapes = sh
+            kinds = sorted({type(x).__name__ for x in sh})
+            ok = {("Box", "Box"), ("Box", "Sphere"), ("Sphere", "Sphere"), ("Capsule", "Sphere")}
+            names = [type(x).__name__ for x in sh]
+            bad = [(k1, k2) for i, k1 in enumerate(kinds) for k2 in kinds[i:]
+                   if (k1, k2) not in ok and (k1 != k2 or names.count(k1) > 1)]
+            if bad:
+                raise ValueError(f"shapes: no narrow-phase test between bodies of kinds {bad}; supported body "
+                                 f"pairs are {sorted(ok)} (every shape meets planes)")
             self.radius = np.array([s.radius if isinstance(s, (Sphere, Capsule)) else 0.0 for s in sh])
             self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
             self.inv_mass = system.inv_mass
@@ -207,9 +212,9 @@ class Collisions(Effect):
                         out.append(pl.distance(x[i:i + 1]) - s.radius)
             else:
                 out.append(pl.distance(x) - self.radius)
-        if not self.rigid:
-            for shape, centre in self.spheres:
-                out.append(np.linalg.norm(x - centre, axis=1) - self.radius - shape.radius)
+        for shape, centre in self.spheres:        # point particles, spheres (rigid: sphere bodies only)
+            sel = self.is_sphere if self.rigid else np.ones(len(x), bool)
+            out.append(np.linalg.norm(x[sel] - centre, axis=1) - self.radius[sel] - shape.radius)
         if pairs is not None and len(pairs):
             d = x[pairs[:, 0]] - x[pairs[:, 1]]
             out.append(np.linalg.norm(d, axis=1) - self.radius[pairs[:, 0]] - self.radius[pairs[:, 1]])
@@ -237,7 +242,8 @@ class Collisions(Effect):
         rest = self.threshold(h)
         vn_before = np.einsum("ij,ij->i", bodies.v[c.a] - bodies.v[c.b], c.normal)
         eps = 0.0 if plastic else self.restitution
-        res = resolve_collisions(bodies, c, eps, self.friction, self.mode, rest, self.max_iter)
+        res = resolve_collisions(bodies, c, eps, self.friction, self.mode, rest, self.max_iter,
+                                 friction_model=self.friction_model)
         self.last = res
         if np.any(res.normal_impulse > 0):
             self.log.append({"t": t, "contacts": c.m, "impulse": float(res.normal_impulse.sum()),
@@ -296,128 +302,3 @@ class Collisions(Effect):
         res = self.last
         return {"contacts": 0 if res is None else len(res.normal_impulse),
                 "collision_impulse": 0.0 if res is None else float(res.normal_impulse.sum())}
-
-
-def _solve_segment(fun, t0, y0, t1, method, events, split):
-    """One (partial) step from t0 to t1 with terminal events; pbanim.solve when it has events."""
-    from . import ode
-
-    solve = getattr(ode, "solve", None)
-    if solve is not None:
-        try:
-            res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
-        except ValueError as exc:   # pbanim.solve in progress: empty y_events could not be reshaped
-            if "reshape" not in str(exc):
-                raise
-            res = None
-        if res is not None:
-            if res.status == 1 and res.t_events is not None and len(res.t_events[0]):
-                return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
-            return t1, np.asarray(res.y[:, -1]), False
-    # fallback (pbanim.solve absent or failing): bracket the sign change, Brent on partial steps
-    from scipy.optimize import brentq
-
-    step = get_method(method).step
-    y1 = step(fun, t0, y0, t1 - t0, split=split)
-    g0, g1 = events[0](t0, y0), events[0](t1, y1)
-    if not (g0 > 0 and g1 <= 0):
-        return t1, y1, False
-    tc = brentq(lambda s: events[0](t0 + s, step(fun, t0, y0, s, split=split)), 0.0, t1 - t0,
-                xtol=1e-15, rtol=1e-15)
-    return t0 + tc, step(fun, t0, y0, tc, split=split), True
-
-
-def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi: str = "event", *,
-                        t0: float = 0.0, y0: np.ndarray | None = None, record_every: int = 1,
-                        max_events_per_step: int = 100, gap_tol: float = 1e-12) -> SimResult:
-    """Simulate a scene holding one :class:`Collisions` effect, with the time of impact chosen by ``toi``.
-
-    Returns a :class:`~pbanim.results.SimResult` whose ``t_events[0]`` are the located impact times and
-    ``y_events[0]`` the states just after the impulses (``toi="event"``), and ``diagnostics`` as in
-    ``Scene.simulate``.
-
-    >>> from pbanim.particles import ParticleSystem, Gravity
-    >>> from pbanim.scene import Scene
-    >>> ps = ParticleSystem([[0.0, 1.0]])
-    >>> scene = Scene(ps, [Gravity([0, -10.0]), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
-    >>> res = simulate_collisions(scene, 0.6, 0.01, toi="event")
-    >>> bool(abs(res.t_events[0][0] - np.sqrt(0.2)) < 1e-12)    # √(2h₀/g)
-    True
-    """
-    if toi not in ("event", "fixed"):
-        raise ValueError(f"toi must be 'event' or 'fixed', got {toi!r}")
-    h = float(h)
-    if not np.isfinite(h) or h <= 0:
-        raise ValueError(f"h must be a positive finite step, got {h}")
-    if not np.isfinite(t_end) or t_end <= t0:
-        raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
-    coll = [e for e in scene.effects if isinstance(e, Collisions)]
-    if len(coll) != 1:
-        raise ValueError(f"scene must hold exactly one Collisions effect, found {len(coll)}")
-    col = coll[0]
-    others = [e for e in scene.effects if e.phase == "post_step" and e is not col]
-    m = get_method(method)
-    split = scene.system.split
-    n_steps = max(1, int(round((t_end - t0) / h)))
-    y = np.array(scene.system.state() if y0 is None else y0, dtype=float, copy=True)
-    check_finite(y, t0, 0, "initial state")
-    ts, ys, diags = [t0], [y.copy()], [scene.diagnostics(t0, y)]
-    impact_t, impact_y = [], []
-    nfev = [0]
-
-    def fun(t, yy):
-        nfev[0] += 1
-        return scene.rhs(t, yy)
-
-    start = time.perf_counter()
-    for k in range(n_steps):
-        t, t1 = t0 + k * h, t0 + (k + 1) * h
-        if toi == "fixed":
-            y = m.step(fun, t, y, h, split=split)
-        else:
-            vrest = col.threshold(h)
-            for _ in range(max_events_per_step):
-                vmax = float(np.abs(y[split:]).max()) if y.size > split else 0.0
-                pairs = col.sphere_pairs(y, margin=2 * (vmax + col.gravity * h) * h + gap_tol)
-                g = col.gaps(y, pairs)
-                # rate of each gap along the flow (one rhs call): near and slow features are resting
-                # contacts, left to the post-step stage; far or fast ones are located as events
-                f0 = fun(t, y)
-                dlt = 1e-7 * max(1.0, float(np.abs(y[:split]).max())) / max(float(np.abs(f0[:split]).max()), 1.0)
-                gdot = (col.gaps(y + dlt * f0, pairs) - g) / dlt
-                active = (g > gap_tol) & ~((g < vrest * h) & (-gdot < vrest))
-                if not active.any():
-                    y = m.step(fun, t, y, t1 - t, split=split)
-                    break
-
-                def event(tt, yy, active=active, pairs=pairs):
-                    return float(np.min(col.gaps(yy, pairs)[active]))
-
-                event.terminal, event.direction = True, -1
-                tc, yc, hit = _solve_segment(fun, t, y, t1, method, [event], split)
-                if not hit:
-                    y = yc
-                    break
-                g_c = abs(event(tc, yc))
-                y = col.respond(tc, yc, h, margin=max(10 * gap_tol, 2 * g_c))
-                impact_t.append(tc)
-                impact_y.append(y.copy())
-                t = tc
-                if t1 - t <= 1e-14 * max(1.0, abs(t1)):
-                    break
-            else:   # too many impacts in one step: finish it plainly, the post-step stage takes over
-                y = m.step(fun, t, y, t1 - t, split=split)
-        for e in others:
-            y = e.post_step(t1, y, h)
-        # after event location every fast impact has been located: what still touches is resting (ε = 0)
-        y = col.respond(t1, y, h, plastic=(toi == "event"))
-        check_finite(y, t1 - h, k)
-        if (k + 1) % record_every == 0 or k + 1 == n_steps:
-            ts.append(t1)
-            ys.append(y.copy())
-            diags.append(scene.diagnostics(t1, y))
-    wall = time.perf_counter() - start
-    diag_arrays = {key: np.array([d[key] for d in diags]) for key in diags[0]}
-    return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], status=0, wall_time=wall,
-                     method=f"{method}+{toi}", nsteps=n_steps, diagnostics=diag_arrays,
-                     t_events=[np.array(impact_t)], y_events=[np.array(impact_y).reshape(len(impact_t), y.size)])

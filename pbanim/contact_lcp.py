@@ -46,7 +46,7 @@ import numpy as np
 from .errors import InfeasibleContact
 from .results import ContactSolution, natural_map_residual
 
-__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "pgs", "qp", "residual_threshold"]
+__all__ = ["solve_lcp", "LCP_SOLVERS", "residual_threshold"]  # lemke, dantzig, pgs, qp: via this module
 
 LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs")
 
@@ -286,8 +286,10 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
     With ``backend="proxqp"`` and ``native_box=True`` (default) proxsuite's dense ProxQP is called with
     its own box constraints ``l_box = 0`` (qpsolvers would turn the bound into a dense inequality
     block); ``native_box=False`` goes through ``qpsolvers.solve_problem`` with ``lb = 0``. Needs a
-    symmetric positive semidefinite A. ``polish`` re-solves on the support (like OSQP's polishing)
-    when that lowers the natural-map residual; ``extra["polished"]`` says whether it did.
+    symmetric positive semidefinite A. ``polish`` re-solves on the active set {fᵢ > wᵢ} (like OSQP's
+    polishing) and keeps the result only when that lowers the natural-map residual: with the default
+    ``eps_abs = 1e-9`` this reaches the 1e-10 certificate at a fraction of the iterations that
+    ``eps_abs = 1e-12`` alone needs (which can stall on 1:1000 stacks).
     """
     import qpsolvers  # lazy: never imported unless a QP is solved
 
@@ -302,7 +304,6 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
         res = proxsuite.proxqp.dense.solve(A, b, None, None, None, None, None, l_box=np.zeros(m),
                                            u_box=np.full(m, np.inf), x=x0, eps_abs=eps_abs, eps_rel=0.0,
                                            max_iter=max_iter or 10000, **opts)
-        found = res.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
         f, status, iters = np.asarray(res.x, dtype=float).copy(), str(res.info.status).split(".")[-1], int(res.info.iter)
     else:
         kw = dict(opts)
@@ -310,15 +311,14 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
             kw.update(eps_abs=eps_abs, eps_rel=0.0, max_iter=max_iter or 10000)
         prob = qpsolvers.Problem(A, b, lb=np.zeros(m))
         sol = qpsolvers.solve_problem(prob, solver=backend, initvals=x0, **kw)
-        found = bool(sol.found)
         f = np.zeros(m) if sol.x is None else np.asarray(sol.x, dtype=float).copy()
         info = sol.extras.get("info") if isinstance(sol.extras, dict) else None
-        status = str(getattr(info, "status", "found" if found else "not_found")).split(".")[-1]
+        status = str(getattr(info, "status", "found" if sol.found else "not_found")).split(".")[-1]
         iters = int(getattr(info, "iter", 0))
-    if not found or not np.all(np.isfinite(f)):
+    if not np.all(np.isfinite(f)):
         return np.where(np.isfinite(f), f, 0.0), status, iters
     f = np.maximum(f, 0.0)
-    if polish:
+    if polish:  # also after a max-iteration stop: the certificate, not the status, decides success
         f = _polish(A, b, f, tol)
     return f, status, iters
 

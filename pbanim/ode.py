@@ -50,6 +50,10 @@ Baraff & Witkin's linearized implicit step (I − hJ)Δy = h f(y₀) is the firs
 Euler, exact for linear forces. The exponential integrator goes further: for a linear spring it *is* the
 exact flow e^(hJ), at any step.
 
+Code map: :mod:`pbanim.ode_methods` (tableaux, step functions, the registry), :mod:`pbanim.ode_solve`
+(``solve``: validation, fixed-step loops, scipy delegation), :mod:`pbanim.ode_adaptive` (Dormand–Prince
+error control), :mod:`pbanim.ode_events` (event location, results).
+
 References
 ----------
 Witkin & Baraff, *Physically Based Modeling*, SIGGRAPH course notes ("Differential equation basics",

@@ -5,12 +5,8 @@ See :mod:`pbanim.ode` for the lecture. This module holds the loops:
 * fixed-step loop: N = ⌈(t_f − t₀)/h⌉ steps of the chosen method (the last one shortened to land on
   t_f); a lean path (no events, no t_eval, explicit method) stores the states into one preallocated
   array and checks finiteness once per block of 64 steps (then names the first bad step exactly);
-* adaptive loop (``dopri5``): embedded error estimate err = ‖h Σ eᵢkᵢ / (atol + rtol·max(|y₀|, |y₁|))‖_RMS,
-  accept iff err ≤ 1, new step h·min(10, max(0.2, 0.9 err^(−1/5))) (Hairer–Nørsett–Wanner I, §II.4);
-  a step below 10ε|t| is a *step-size underflow* and returns status −1 with a message;
-* events: after each step every event g(t, y) is checked for a sign change (respecting ``direction``);
-  the crossing is located by Brent's method on τ ↦ g(t + τ, step(y, τ)), i.e. on the method's own partial
-  step, to |Δt| ≤ 1e-14·max(1, |t|). ``t_eval`` points are reached by the same partial steps.
+* the adaptive loop (``dopri5``) is in :mod:`pbanim.ode_adaptive`, event location in
+  :mod:`pbanim.ode_events`; ``method="scipy:<name>"`` hands the same call to ``scipy.integrate.solve_ivp``.
 """
 
 from __future__ import annotations
@@ -19,17 +15,17 @@ import time
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import SimulationDiverged
-from .ode_methods import TABLEAUX, Method, _RK_STEPS, get_method
+from .ode_adaptive import solve_adaptive
+from .ode_events import OK_MESSAGE, TERMINATED, crossings, diverged, handle_events, make_events, make_result
+from .ode_methods import Method, get_method
 from .results import SimResult
 
 __all__ = ["solve", "SCIPY_METHODS"]
 
 SCIPY_METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 _BLOCK = 64
-_OK = "The solver successfully reached the end of the integration interval."
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -82,29 +78,6 @@ def _check_f0(fun, t0, y):
     if not np.all(np.isfinite(f0)):
         raise SimulationDiverged(t0, 0, "derivative f(t0, y0)", "fun returned a non-finite value at the start")
     return f0
-
-
-class _Event:
-    __slots__ = ("fn", "terminal", "direction", "count", "times", "states")
-
-    def __init__(self, fn):
-        if not callable(fn):
-            raise ValueError(f"events must be callables event(t, y), got {type(fn).__name__}")
-        self.fn = fn
-        term = getattr(fn, "terminal", False)
-        self.terminal = int(term) if not isinstance(term, bool) else (1 if term else 0)
-        self.direction = float(getattr(fn, "direction", 0.0))
-        self.count = 0
-        self.times: list = []
-        self.states: list = []
-
-
-def _events(events):
-    if events is None:
-        return []
-    if callable(events):
-        events = [events]
-    return [_Event(e) for e in events]
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -164,7 +137,7 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
     True
     """
     t0, tf, y, h, t_eval = _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval)
-    evs = _events(events)
+    evs = make_events(events)
     if isinstance(method, str) and method.startswith("scipy:"):
         return _solve_scipy(fun, t0, tf, y, method[6:], h, rtol, atol, jac, t_eval, events)
     m = get_method(method)
@@ -173,59 +146,10 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
                          "initial conditions or drop events")
     f0 = _check_f0(fun, t0, y)
     if m.adaptive:
-        return _solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split)
+        return solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split)
     if h is None:
         raise ValueError(f"h must be given for the fixed-step method {m.name!r} (e.g. h=1e-3), got None")
     return _solve_fixed(fun, t0, tf, y, m, h, jac, t_eval, evs, int(max_steps), split)
-
-
-# ---------------------------------------------------------------------------------------------------
-# shared pieces: output, events, divergence
-# ---------------------------------------------------------------------------------------------------
-def _result(ts, Y, nfev, njev, status, message, wall, m, evs, nsteps, nrej=0, nlu=0) -> SimResult:
-    Y = np.asarray(Y)
-    y = np.ascontiguousarray(np.moveaxis(Y, 0, -1)) if Y.size else Y
-    return SimResult(t=np.asarray(ts, dtype=float), y=y, nfev=int(nfev), njev=int(njev), nlu=int(nlu),
-                     status=status, message=message, wall_time=wall, method=m,
-                     t_events=[np.array(e.times, dtype=float) for e in evs] if evs else None,
-                     y_events=[np.array(e.states).reshape(len(e.times), -1) for e in evs] if evs else None,
-                     nsteps=int(nsteps), nrejected=int(nrej))
-
-
-def _diverged(t, k, y, quantity="state y"):
-    flat = np.ravel(y)
-    bad = np.flatnonzero(~np.isfinite(flat))
-    return SimulationDiverged(t, k, quantity, f"first non-finite component {int(bad[0])}" if bad.size else "")
-
-
-def _crossings(evs, g_old, t, y, t1, y1, hk, partial):
-    """Events crossed in [t, t1]: list of (t*, y*, event, g_new) sorted in time (located by brentq)."""
-    found = []
-    for e, g0 in zip(evs, g_old):
-        g1 = float(e.fn(t1, y1))
-        up = g0 < 0.0 <= g1
-        down = g0 > 0.0 >= g1
-        if (up and e.direction >= 0) or (down and e.direction <= 0):
-            if g1 == 0.0:
-                tau = hk
-            else:
-                tau = brentq(lambda s: float(e.fn(t + s, partial(s))), 0.0, hk,
-                             xtol=1e-14 * max(1.0, abs(t)), rtol=4 * np.finfo(float).eps, maxiter=200)
-            ys = y1 if tau == hk else partial(tau)
-            found.append((t + tau, ys, e))
-    found.sort(key=lambda x: x[0] * np.sign(hk))
-    return found
-
-
-def _handle_events(evs, found):
-    """Record crossings; return (t*, y*) of the first terminal one that fires, else None."""
-    for ts, ys, e in found:
-        e.times.append(ts)
-        e.states.append(np.array(ys, copy=True))
-        e.count += 1
-        if e.terminal and e.count >= e.terminal:
-            return ts, ys
-    return None
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -265,7 +189,7 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
             ts.append(t0), Ys.append(y.copy())
             ie += 1
     g_old = [float(e.fn(t0, y)) for e in evs]
-    status, message = 0, _OK
+    status, message = 0, OK_MESSAGE
     start = time.perf_counter()
     t = t0
     with np.errstate(over="ignore", invalid="ignore"):
@@ -274,12 +198,12 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
             t1 = t0 + (k + 1) * hs if k < N - 1 else tf
             y1 = step(f, t, y, hk, split, jf)
             if not np.all(np.isfinite(y1)):
-                raise _diverged(t, k, y1)
+                raise diverged(t, k, y1)
             partial = lambda s, t=t, y=y: step(f, t, y, s, split, jf)  # noqa: E731
             stop = None
             if evs:
-                found = _crossings(evs, g_old, t, y, t1, y1, hk, partial)
-                stop = _handle_events(evs, found) if found else None
+                found = crossings(evs, g_old, t, y, t1, y1, hk, partial)
+                stop = handle_events(evs, found) if found else None
                 if stop is not None:
                     t1, y1 = stop
                 g_old = [float(e.fn(t1, y1)) for e in evs]
@@ -292,11 +216,11 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
                     ie += 1
             t, y = t1, y1
             if stop is not None:
-                status, message = 1, "A termination event occurred."
+                status, message = 1, TERMINATED
                 break
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0,) + y.shape)
-    return _result(ts, Y, counter[0], counter[1], status, message, wall, m.name, evs, k + 1)
+    return make_result(ts, Y, counter[0], counter[1], status, message, wall, m.name, evs, k + 1)
 
 
 def _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per) -> SimResult:
@@ -323,133 +247,14 @@ def _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per) -> SimResult:
     wall = time.perf_counter() - start
     ts = t0 + hs * np.arange(N + 1)
     ts[-1] = tf
-    return _result(ts, Y, 1 + per * N, 0, 0, _OK, wall, m.name, [], N)
+    return make_result(ts, Y, 1 + per * N, 0, 0, OK_MESSAGE, wall, m.name, [], N)
 
 
 def _raise_first_bad(Y, k0, k1, t0, hs):
     seg = Y[k0 + 1:k1 + 1].reshape(k1 - k0, -1)
     i = int(np.flatnonzero(~np.isfinite(seg).all(axis=1))[0])
     k = k0 + i  # the step that went from Y[k] (finite) to Y[k + 1] (not)
-    raise _diverged(t0 + k * hs, k, Y[k + 1])
-
-
-# ---------------------------------------------------------------------------------------------------
-# adaptive Dormand–Prince 5(4)
-# ---------------------------------------------------------------------------------------------------
-_DP = TABLEAUX["dopri5"]
-_DP_ROWS = [_DP.A[i, :i].copy() for i in range(7)]
-_DP_C = _DP.C
-_DP_E = _DP.E
-
-
-def _initial_step(fun, t0, y, f0, direction, rtol, atol, order=5):
-    """Starting step from the sizes of y, f and a difference quotient of f (Hairer–Nørsett–Wanner I, §II.4)."""
-    sc = atol + rtol * np.abs(y)
-    d0 = np.sqrt(np.mean((y / sc) ** 2))
-    d1 = np.sqrt(np.mean((f0 / sc) ** 2))
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    f1 = fun(t0 + direction * h0, y + direction * h0 * f0)
-    d2 = np.sqrt(np.mean(((f1 - f0) / sc) ** 2)) / h0
-    h1 = max(1e-6, h0 * 1e-3) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    return min(100 * h0, h1)
-
-
-def _solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split) -> SimResult:
-    direction = 1.0 if tf > t0 else -1.0
-    shape = y.shape
-    batch = y.ndim == 2
-    nfev = 1
-    if h is None:
-        h = _initial_step(fun, t0, y, f0, direction, rtol, atol)
-        nfev += 1
-    h = min(abs(h), abs(tf - t0))
-    rows, C, E = _DP_ROWS, _DP_C, _DP_E
-    B = rows[6]
-    size = y.size
-    Kf = np.empty((7, size))
-    Kf[0] = f0.ravel()
-    step5 = _RK_STEPS["dopri5"]
-    ts, Ys = ([], []) if t_eval is not None else ([t0], [y.copy()])
-    ie = 0
-    if t_eval is not None:
-        while ie < len(t_eval) and t_eval[ie] == t0:
-            ts.append(t0), Ys.append(y.copy())
-            ie += 1
-    g_old = [float(e.fn(t0, y)) for e in evs]
-    t = t0
-    status, message = 0, _OK
-    nacc = nrej = 0
-    last_rejected = False
-    eps10 = 10 * np.finfo(float).eps
-    yf = y.ravel()
-    start = time.perf_counter()
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        while (tf - t) * direction > 0:
-            if nacc + nrej >= max_steps:
-                status, message = -1, (f"failed: max_steps = {max_steps} steps reached at t = {t:.6g} before "
-                                       f"t_end = {tf:.6g}; raise max_steps or loosen rtol/atol")
-                break
-            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                status, message = -1, (f"failed: step size underflow at t = {t:.6g} (h = {h:.3e} < 10ε|t|); "
-                                       "the solution may blow up or the problem is stiff: try an implicit "
-                                       "method or scipy:Radau")
-                break
-            if (t + direction * h - tf) * direction > 0:
-                h = abs(tf - t)
-            hd = direction * h
-            for i in range(1, 7):
-                yi = yf + np.dot(hd * rows[i][:i], Kf[:i])
-                Kf[i] = fun(t + C[i] * hd, yi.reshape(shape)).ravel()
-            y1f = yi  # FSAL: the 7th stage point is the fifth-order solution
-            nfev += 6
-            sc = atol + rtol * np.maximum(np.abs(yf), np.abs(y1f))
-            ee = np.dot(hd * E, Kf) / sc
-            if batch:
-                err = float(np.sqrt(np.max(np.mean((ee.reshape(shape)) ** 2, axis=1))))
-            else:
-                err = float(np.sqrt(np.dot(ee, ee) / size))
-            if not err <= 1.0:  # also catches NaN: reject and shrink
-                fac = 0.2 if not np.isfinite(err) else max(0.2, 0.9 * err ** -0.2)
-                h *= fac
-                nrej += 1
-                last_rejected = True
-                continue
-            t1 = t + hd
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
-                t1 = tf
-            y1 = y1f.reshape(shape)
-            nacc += 1
-            stop = None
-            if evs or t_eval is not None:
-                partial = lambda s, t=t, y=yf.reshape(shape): step5(fun, t, y, s)  # noqa: E731
-                if evs:
-                    found = _crossings(evs, g_old, t, yf.reshape(shape), t1, y1, hd, partial)
-                    stop = _handle_events(evs, found) if found else None
-                    if stop is not None:
-                        t1, y1 = stop
-                    g_old = [float(e.fn(t1, y1)) for e in evs]
-                if t_eval is not None:
-                    while ie < len(t_eval) and (t_eval[ie] - t1) * direction <= 0:
-                        te = t_eval[ie]
-                        ts.append(te), Ys.append(y1.copy() if te == t1 else partial(te - t))
-                        nfev += 0 if te == t1 else 7
-                        ie += 1
-            if t_eval is None:
-                ts.append(t1), Ys.append(y1)
-            t = t1
-            if stop is not None:
-                status, message = 1, "A termination event occurred."
-                break
-            yf = y1f
-            Kf[0] = Kf[6]
-            fac = 10.0 if err == 0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
-            if last_rejected:
-                fac = min(1.0, fac)
-            last_rejected = False
-            h *= fac
-    wall = time.perf_counter() - start
-    Y = np.array(Ys) if Ys else np.empty((0,) + shape)
-    return _result(ts, Y, nfev, 0, status, message, wall, m.name, evs, nacc, nrej)
+    raise diverged(t0 + k * hs, k, Y[k + 1])
 
 
 # ---------------------------------------------------------------------------------------------------

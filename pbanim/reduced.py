@@ -68,8 +68,7 @@ import numpy as np
 from .reduced_chart import ChartCheck, ChartGuard, check_chart, point_kinematics, simulate_fixed
 from .errors import SingularChartError
 
-__all__ = ["ReducedSystem", "ChartGuard", "ChartCheck", "check_chart", "point_kinematics", "simulate_fixed",
-           "SingularChartError"]
+__all__ = ["ReducedSystem", "ChartGuard", "ChartCheck", "check_chart", "point_kinematics", "simulate_fixed"]
 
 
 class ReducedSystem:
@@ -93,8 +92,10 @@ class ReducedSystem:
     max_cond : float
         Largest accepted condition number of JᵀMJ (relative to the reference), see :class:`ChartGuard`.
 
-    Use :meth:`from_sympy` to derive J and J̇u̇ from sympy expressions (compiled once, with CSE), which
-    also allows a time-dependent chart q(u, t).
+    The callables describe a time-independent chart. Use :meth:`from_sympy` to derive J and J̇u̇ from
+    sympy expressions (compiled once, with CSE), which also allows a time-dependent chart q(u, t).
+    Errors: ``ValueError`` for bad shapes or inputs (checked at construction, at u0);
+    :class:`pbanim.errors.SingularChartError` from :meth:`rhs` near a singular chart.
     """
 
     def __init__(self, q: Callable, J: Callable, Jdot_udot: Callable, masses: Any = 1.0, dim: int = 2,

@@ -46,7 +46,7 @@ class ChartGuard:
     >>> g.solve(np.diag([2.0, 8e-7]), np.array([2.0, 8.0]), u=[0.0, 1e-4])
     Traceback (most recent call last):
     ...
-    pbanim.errors.SingularChartError: reduced coordinates are near a singular chart: cond(JᵀMJ) = 1.000e+07 at u = [0.0, 0.0001]; above max_cond = 1.0e+06; switch to another chart or to maximal coordinates
+    pbanim.errors.SingularChartError: reduced coordinates are near a singular chart: cond(JᵀMJ) = 1.000e+07 ...
     """
 
     def __init__(self, max_cond: float = 1e8) -> None:

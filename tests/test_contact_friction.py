@@ -176,3 +176,30 @@ def test_painleve_scene_effect_raises_inconsistent():
     ok_scene.simulate(0.01, H)                                                              # and it runs
     with pytest.raises(ValueError, match="solver must be 'lemke' or 'dantzig' with friction"):
         RestingContact(sc.detect, "qp", friction=0.5)
+
+
+def test_models_and_effects_reject_bad_input():
+    # G3: the remaining rejected inputs of the models and the effects, type and message
+    from pbanim.contact import RestingContact
+    from pbanim.models.contact import box_on_plane, box_stack, murty_lcp, sphere_pour
+
+    with pytest.raises(ValueError, match="n must be a positive integer, got 0"):
+        murty_lcp(0)
+    with pytest.raises(ValueError, match="mass must be positive, got -1.0"):
+        box_on_plane(-1.0)
+    with pytest.raises(ValueError, match="n must be a positive integer, got 0"):
+        box_stack(0)
+    with pytest.raises(ValueError, match="n must be a positive integer, got 2.5"):
+        sphere_pour(2.5)
+    with pytest.raises(ValueError, match="mass must be positive, got 0.0"):
+        painleve_rod(mass=0.0)
+    sc = box_on_plane()
+    with pytest.raises(ValueError, match="friction must be a finite number ≥ 0, got -1"):
+        RestingContact(sc.detect, "lemke", friction=-1.0)
+    ps2 = ParticleSystem([[0.0, 0.0]])
+    with pytest.raises(ValueError, match="friction in RestingContact needs a RigidBodies system"):
+        RestingContact(sc.detect, "lemke", friction=0.5).bind(ps2)
+    with pytest.raises(ValueError, match="TimeStepping needs 3-D particles, got dim = 2"):
+        TimeStepping(ps2, sc.detect)
+    with pytest.raises(ValueError, match="tangent must not be parallel to a contact normal"):
+        friction_directions([[0.0, 0.0, 1.0]], 4, tangent=[0.0, 0.0, 2.0])

@@ -182,6 +182,21 @@ def test_long_run_energy_implicit_midpoint_bounded_rk4_drifts():
     assert_order(hs, rates, 5.0, tol=0.3)
 
 
+def test_symplectic_euler_is_not_symplectic_when_mass_matrix_varies():
+    # ORACLES B7 note: kick-drift on y = [u, u̇] is symplectic only for constant M (it treats u̇ as the
+    # momentum). Simple pendulum (M = mL²): energy error bounded (window ratio 1.00). Cart-pendulum (M(u)):
+    # secular loss, window ratio 3.8, E falls by 16% of |E₀| in 20 s at h = 0.01
+    ratios = {}
+    for mod in (simple_pendulum(theta0=1.0), cart_pendulum(theta0=1.0)):
+        sysl = mod.lagrangian()
+        res = simulate_fixed(sysl.rhs, mod.state(), 20.0, 0.01, "symplectic_euler", energy=sysl.energy,
+                             record_every=5)
+        E = res.diagnostics["energy"]
+        ratios[mod.name] = (drift_ratio(E), (E[-1] - E[0]) / abs(E[0]))
+    assert ratios["simple pendulum"][0] < 1.5
+    assert ratios["cart pendulum"][0] > 2.0 and ratios["cart pendulum"][1] < -0.05
+
+
 def test_bad_inputs_get_named_errors():
     q, J, Jd = n_link_chart([1.0, 1.0])
     with pytest.raises(ValueError, match="J must be a callable of u, got ndarray"):
@@ -225,3 +240,60 @@ def test_time_dependent_chart_matches_lagrangian():
     red, lag = mod.reduced(), mod.lagrangian()
     for t, y in [(0.0, [0.3, 1.0]), (0.7, [1.2, -2.0]), (2.1, [2.5, 0.4])]:
         np.testing.assert_allclose(red.rhs(t, y), lag.rhs(t, y), atol=1e-14)  # measured 8.9e-16
+
+
+# ---- chapter 04 figures (quick mode data, via the shared figure_data fixture) --------------------------
+def test_figure_period_amplitude(figure_data):
+    # ORACLES A5 over amplitudes 10°…179°: measured max rel error 5.7e-8 (at 179°), bound 5e-7;
+    # T grows monotonically from the small-angle 2π√(L/g) and T(179°)/T₀ = 2K(m)/π ≈ 3.9
+    d = figure_data("ch04_period_amplitude")
+    assert np.max(d["rel_err"]) < 5e-7
+    assert np.all(np.diff(d["T_sim"]) > 0) and d["T_sim"][0] > d["T_small"]
+    assert 3.5 < d["T_sim"][-1] / d["T_small"] < 4.2
+
+
+def test_figure_double_pendulum_formulations(figure_data):
+    # ORACLES G1: the three formulations overlay (measured 7.6e-11 m and 2.6e-15 m, bounds 5e-10, 1e-13)
+    d = figure_data("ch04_double_pendulum_formulations")
+    assert d["max_diff_maximal_reduced"] < 5e-10
+    assert d["max_diff_reduced_lagrangian"] < 1e-13
+    L = np.hypot(*d["tip_reduced"])
+    assert L.max() <= 2.0 + 1e-9  # tip within reach of two 1 m rods
+
+
+def test_figure_energy_error(figure_data):
+    # h = 0.02 s, 5 s: RK4 (order 4) ≪ implicit midpoint (order 2, bounded) ≪ symplectic Euler (order 1, not
+    # symplectic for M(u) ≠ const) in reduced coordinates; reduced and Lagrangian are one ODE (same numbers)
+    d = figure_data("ch04_energy_error")
+    assert d["reduced_rk4"] < 1e-6                 # measured 6.4e-8
+    assert d["reduced_implicit_midpoint"] < 5e-5   # measured 8.0e-6
+    assert d["reduced_symplectic_euler"] > 1e-3    # measured 1.3e-2
+    for m in ("rk4", "implicit_midpoint", "symplectic_euler"):
+        assert abs(d[f"reduced_{m}"] - d[f"lagrangian_{m}"]) <= 2e-8 * d[f"reduced_{m}"]  # measured 2.5e-9 rel
+    assert d["maximal_rk4"] < 1e-4                 # measured 1.1e-5 (no stabilization: constraint drift)
+
+
+def test_figure_cost_vs_n(figure_data):
+    # equal accuracy: every formulation reached tip error ≤ tol with a finite cost
+    d = figure_data("ch04_cost_vs_n")
+    for f in ("maximal", "reduced", "lagrangian"):
+        assert np.all(d[f"err_{f}"] <= d["tol"]) and np.all(np.isfinite(d[f"cost_{f}"]))
+        assert np.all(d[f"cost_{f}"] > 0)
+
+
+def test_figure_derivation_time(figure_data):
+    # the three derivations are the same physics: ü from pbanim equals sympy's Kane and Lagrange to roundoff
+    d = figure_data("ch04_derivation_time")
+    assert all(np.all(np.isfinite(d[f"time_{k}"])) for k in ("pbanim", "kane", "lagrange"))
+    np.testing.assert_allclose(d["rhs_pbanim"], d["rhs_kane"], atol=1e-12)   # measured 1e-15
+    np.testing.assert_allclose(d["rhs_pbanim"], d["rhs_lagrange"], atol=1e-12)
+
+
+def test_bench_smoke():
+    # `pbanim bench reduced --quick` runs and every goal has a finite measurement (no timing asserts)
+    from pbanim.bench.reduced import run
+
+    rep = run(quick=True)
+    assert {g.id for g in rep.goals} == {"reduced-derive-vs-kane", "reduced-rhs-vs-kane"}
+    assert all(np.isfinite(g.measured) and g.measured > 0 for g in rep.goals)
+    assert all(len(t.rows) > 0 for t in rep.tables)

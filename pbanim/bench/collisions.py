@@ -25,7 +25,7 @@ def _spheres(N: int, rng) -> tuple[np.ndarray, float]:
 
 def run(quick: bool = False) -> Report:
     from ..collision_broad import all_pairs, grid_pairs
-    from ..collision_scene import simulate_collisions
+    from ..collision_toi import simulate_collisions
     from ..models.collision import bouncing_ball
 
     rng = np.random.default_rng(2024)
@@ -41,7 +41,7 @@ def run(quick: bool = False) -> Report:
         if not np.array_equal(g.pairs, a.pairs):
             raise AssertionError(f"grid and all-pairs disagree at N = {N}")
         reps = 3 if quick else 5
-        t_grid = median_time(lambda: grid_pairs(c, r), repeats=reps, min_time=0.02)
+        t_grid = median_time(lambda: grid_pairs(c, r), repeats=reps + 2, min_time=0.05)
         t_all = median_time(lambda: all_pairs(c, r, block=128), repeats=1 if N >= 3000 else reps)
         tg.append(t_grid)
         broad.rows.append([N, len(g.pairs), g.tested, t_grid, a.tested, t_all, t_all / t_grid])
