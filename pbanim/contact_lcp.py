@@ -82,9 +82,11 @@ def residual_threshold(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) 
 
 
 def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int = 4) -> np.ndarray:
-    """Re-solve A_CC f_C = −b_C on the active set C = {fᵢ > wᵢ} (least squares: redundant
-    contacts make A_CC singular but consistent), dropping indices that come out negative; a few
-    rounds, keeping the best answer by natural-map residual (never a worse one)."""
+    """Refine f on the active set C = {fᵢ > wᵢ}: set f = 0 off C and correct f_C by the minimum-norm
+    least-squares step Δ with A_CC Δ = −(A_CC f_C + b_C) (redundant contacts make A_CC singular but
+    consistent; the minimum-norm *correction* stays next to f, where an absolute least-squares solve
+    could jump along the null space to negative forces). Indices that come out negative are dropped;
+    a few rounds, keeping the best answer by natural-map residual (never a worse one)."""
     best, best_r = f, natural_map_residual(f, A @ f + b)
     g = f
     for _ in range(rounds):
@@ -92,18 +94,18 @@ def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int
         C = np.flatnonzero(g > w)  # the natural active-set guess (includes violated wᵢ < 0 at fᵢ = 0)
         if C.size == 0:
             break
-        gC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
-        for _drop in range(3):
-            if np.all(gC >= 0) or not np.any(gC > 0):
+        for drop in range(4):
+            ACC = A[np.ix_(C, C)]
+            gC = g[C] + np.linalg.lstsq(ACC, -(ACC @ g[C] + b[C]), rcond=None)[0]
+            if np.all(gC >= 0) or not np.any(gC > 0) or drop == 3:
                 break
             C = C[gC > 0]
-            gC = np.linalg.lstsq(A[np.ix_(C, C)], -b[C], rcond=None)[0]
         g = np.zeros_like(f)
         g[C] = np.maximum(gC, 0.0)
         r = natural_map_residual(g, A @ g + b)
         if r < best_r:
             best, best_r = g, r
-        else:
+        elif r >= best_r:
             break
     return best
 
