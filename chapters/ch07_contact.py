@@ -223,6 +223,7 @@ def sphere_pile(ctx):
     ax2.semilogy(res.t, np.maximum(ke, 1e-16), label="kinetic energy (J)")
     ax2.semilogy(res.t, np.maximum(res.diagnostics["max_penetration"], 1e-16), label="max penetration (m)")
     ax2.set_xlabel("time (s)")
+    ax2.set_ylabel("kinetic energy (J), max penetration (m)")
     ax2.legend()
     ctx.save(fig2)
     z = res.y[2:3 * n:3, -1]

@@ -50,7 +50,8 @@ Baraff & Witkin's linearized implicit step (I − hJ)Δy = h f(y₀) is the firs
 Euler, exact for linear forces. The exponential integrator goes further: for a linear spring it *is* the
 exact flow e^(hJ), at any step.
 
-Code map: :mod:`pbanim.ode_methods` (tableaux, step functions, the registry), :mod:`pbanim.ode_solve`
+Code map: :mod:`pbanim.ode_methods` (tableaux, explicit and split steps, the registry),
+:mod:`pbanim.ode_implicit` (Newton, implicit and exponential steps), :mod:`pbanim.ode_solve`
 (``solve``: validation, fixed-step loops, scipy delegation), :mod:`pbanim.ode_adaptive` (Dormand–Prince
 error control), :mod:`pbanim.ode_events` (event location, results).
 
@@ -76,12 +77,12 @@ from __future__ import annotations
 import numpy as np  # noqa: F401  (doctest namespace)
 
 from .ode_methods import (METHODS, TABLEAUX, Method, Tableau, dopri5_step, euler_step, explicit_rk_step,
-                          exponential_euler_step, get_method, implicit_euler_step, implicit_midpoint_step,
-                          midpoint_step, newton_solve,
+                          expm_small, exponential_euler_step, get_method, implicit_euler_step,
+                          implicit_midpoint_step, midpoint_step, newton_solve,
                           rk4_step, symplectic_euler_step, verlet_step)
 from .ode_solve import SCIPY_METHODS, solve
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "SCIPY_METHODS", "get_method", "solve",
            "explicit_rk_step", "euler_step", "midpoint_step", "rk4_step", "symplectic_euler_step",
            "verlet_step", "implicit_euler_step", "implicit_midpoint_step", "exponential_euler_step", "dopri5_step",
-           "newton_solve"]
+           "newton_solve", "expm_small"]
