@@ -26,7 +26,7 @@ import time
 import numpy as np
 
 from .collision_scene import Collisions
-from .ode import get_method
+from .ode import get_method, solve
 from .results import SimResult
 from .scene import check_finite
 
@@ -34,32 +34,14 @@ __all__ = ["simulate_collisions"]
 
 
 def _solve_segment(fun, t0, y0, t1, method, events, split):
-    """One (partial) step from t0 to t1 with terminal events; pbanim.solve when it has events."""
-    from . import ode
+    """One (partial) step from t0 to t1 with terminal events, by :func:`pbanim.solve`'s event location.
 
-    solve = getattr(ode, "solve", None)
-    if solve is not None:
-        try:
-            res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
-        except ValueError as exc:   # pbanim.solve in progress: empty y_events could not be reshaped
-            if "reshape" not in str(exc):
-                raise
-            res = None
-        if res is not None:
-            if res.status == 1 and res.t_events is not None and len(res.t_events[0]):
-                return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
-            return t1, np.asarray(res.y[:, -1]), False
-    # fallback (pbanim.solve absent or failing): bracket the sign change, Brent on partial steps
-    from scipy.optimize import brentq
-
-    step = get_method(method).step
-    y1 = step(fun, t0, y0, t1 - t0, split=split)
-    g0, g1 = events[0](t0, y0), events[0](t1, y1)
-    if not (g0 > 0 and g1 <= 0):
-        return t1, y1, False
-    tc = brentq(lambda s: events[0](t0 + s, step(fun, t0, y0, s, split=split)), 0.0, t1 - t0,
-                xtol=1e-15, rtol=1e-15)
-    return t0 + tc, step(fun, t0, y0, tc, split=split), True
+    Returns (t, y, hit): the event time and state when an event fired inside the step, else (t1, y(t1)).
+    """
+    res = solve(fun, (t0, t1), y0, method=method, h=t1 - t0, events=events, split=split)
+    if res.status == 1 and len(res.t_events[0]):
+        return float(res.t_events[0][0]), np.asarray(res.y_events[0][0]), True
+    return t1, np.asarray(res.y[:, -1]), False
 
 
 def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi: str = "event", *,

@@ -59,7 +59,7 @@ def make_result(ts, Y, nfev, njev, status, message, wall, m, evs, nsteps, nrej=0
     return SimResult(t=np.asarray(ts, dtype=float), y=y, nfev=int(nfev), njev=int(njev), nlu=int(nlu),
                      status=status, message=message, wall_time=wall, method=m,
                      t_events=[np.array(e.times, dtype=float) for e in evs] if evs else None,
-                     y_events=[np.array(e.states).reshape(len(e.times), -1) for e in evs] if evs else None,
+                     y_events=[np.array(e.states, dtype=float).reshape(len(e.times), Y.shape[-1]) for e in evs] if evs else None,
                      nsteps=int(nsteps), nrejected=int(nrej))
 
 

@@ -304,3 +304,12 @@ def test_bench_ode_smoke():
                                          "ode-stiff-levels", "ode-rk4-overhead", "ode-batch-vs-loop"]
     assert all(np.isfinite(g.measured) for g in rep.goals)
     assert "goal ode-rk4-overhead:" in format_report(rep)
+
+
+def test_event_that_never_fires_gives_empty_arrays():
+    # an event that never crosses zero: scipy's shapes, t_events[0] of shape (0,), y_events[0] of shape (0, n)
+    from pbanim import solve
+
+    res = solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="rk4", h=0.1, events=[lambda t, y: y[0] + 5.0])
+    assert res.status == 0
+    assert res.t_events[0].shape == (0,) and res.y_events[0].shape == (0, 2)
