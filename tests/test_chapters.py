@@ -5,6 +5,7 @@ fixture (one run per session, shared); here we check what holds for every figure
 goes unchecked.
 """
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,8 @@ def _numbers(value):
     if isinstance(value, dict):
         for v in value.values():
             yield from _numbers(v)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        yield from _numbers(dataclasses.asdict(value))
     elif isinstance(value, (list, tuple)):
         for v in value:
             yield from _numbers(v)
