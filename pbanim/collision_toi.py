@@ -28,7 +28,7 @@ import numpy as np
 from .collision_scene import Collisions
 from .ode import get_method, solve
 from .results import SimResult
-from .scene import check_finite
+from .scene import check_finite, fixed_steps
 
 __all__ = ["simulate_collisions"]
 
@@ -64,11 +64,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     """
     if toi not in ("event", "fixed"):
         raise ValueError(f"toi must be 'event' or 'fixed', got {toi!r}")
-    h = float(h)
-    if not np.isfinite(h) or h <= 0:
-        raise ValueError(f"h must be a positive finite step, got {h}")
-    if not np.isfinite(t_end) or t_end <= t0:
-        raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
+    h, n_steps = fixed_steps(t0, t_end, h, record_every)
     coll = [e for e in scene.effects if isinstance(e, Collisions)]
     if len(coll) != 1:
         raise ValueError(f"scene must hold exactly one Collisions effect, found {len(coll)}")
@@ -76,7 +72,6 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     others = [e for e in scene.effects if e.phase == "post_step" and e is not col]
     m = get_method(method)
     split = scene.system.split
-    n_steps = max(1, int(round((t_end - t0) / h)))
     y = np.array(scene.system.state() if y0 is None else y0, dtype=float, copy=True)
     check_finite(y, t0, 0, "initial state")
     ts, ys, diags = [t0], [y.copy()], [scene.diagnostics(t0, y)]

@@ -56,7 +56,7 @@ from .contact_assembly import ContactRows, assemble_rigid, particle_blocks, part
 from .contact_lcp import solve_lcp
 from .errors import InconsistentContact, InfeasibleContact
 from .results import ContactSolution, SimResult
-from .scene import check_finite
+from .scene import check_finite, fixed_steps
 
 __all__ = ["friction_directions", "velocity_lcp", "TimeStepping", "acceleration_lcp_check"]
 
@@ -252,12 +252,7 @@ class TimeStepping:
 
     def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1) -> SimResult:
         """Fixed steps from 0 to ``t_end``; diagnostics: contact count, residual, max penetration, impulses."""
-        h = float(h)
-        if not np.isfinite(h) or h <= 0:
-            raise ValueError(f"h must be a positive finite step, got {h}")
-        if not np.isfinite(t_end) or t_end <= 0:
-            raise ValueError(f"t_end must be a positive finite time, got {t_end}")
-        n_steps = max(1, int(round(t_end / h)))
+        h, n_steps = fixed_steps(0.0, t_end, h, record_every)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         ts, ys = [0.0], [y.copy()]
         keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time",

@@ -249,16 +249,11 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
     """
     from .ode import get_method
     from .results import SimResult
-    from .scene import check_finite
+    from .scene import check_finite, fixed_steps
 
-    h = float(h)
-    if not (np.isfinite(h) and h > 0):
-        raise ValueError(f"h must be a positive finite step, got {h}")
-    if not (np.isfinite(t_end) and t_end > 0):
-        raise ValueError(f"t_end must be a positive finite time, got {t_end}")
+    h, nsteps = fixed_steps(0.0, t_end, h)
     m = get_method(method)
     y = np.array(y0, dtype=float)
-    nsteps = max(1, int(round(t_end / h)))
     split = y.size // 2 if split is None else split
     ts, ys, es = [0.0], [y.copy()], ([energy(y, 0.0)] if energy else [])
     nfev = [0]

@@ -35,7 +35,7 @@ from .results import SimResult
 from .rigid_bodies import RigidBodies, _cross
 from .rigid_effects import QuaternionRenormalize
 from .rigid_quat import quat_exp, quat_multiply
-from .scene import Effect, Scene, check_finite
+from .scene import Effect, Scene, check_finite, fixed_steps
 
 __all__ = ["RigidScene", "exp_map_step", "dexpinv"]
 
@@ -162,15 +162,8 @@ class RigidScene(Scene):
         if self.quaternions != "exponential":
             return super().simulate(t_end, h, method, t0=t0, y0=y0, record_every=record_every,
                                     diagnostics=diagnostics, check_every=check_every)
-        h = float(h)
-        if not np.isfinite(h) or h <= 0:
-            raise ValueError(f"h must be a positive finite step, got {h}")
-        if not np.isfinite(t_end) or t_end <= t0:
-            raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
-        if record_every < 1:
-            raise ValueError(f"record_every must be a positive integer, got {record_every}")
+        h, n_steps = fixed_steps(t0, t_end, h, record_every)
         get_method(method)
-        n_steps = max(1, int(round((t_end - t0) / h)))
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []

@@ -59,7 +59,7 @@ from .errors import SimulationDiverged
 from .ode import get_method
 from .results import SimResult
 
-__all__ = ["Effect", "Scene", "check_finite"]
+__all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
 
 _PHASES = ("force", "constraint", "post_step")
 
@@ -92,6 +92,25 @@ def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") ->
         bad = np.flatnonzero(~np.isfinite(flat))
         detail = f"first bad component {int(bad[0])}" if bad.size else "norm overflowed"
         raise SimulationDiverged(t, step, quantity, detail)
+
+
+def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tuple[float, int]:
+    """Validate a fixed-step run from ``t0`` to ``t_end`` and return (h, number of steps).
+
+    The one place every fixed-step driver (scenes, collisions, contact time stepping, reduced
+    coordinates) checks its arguments, so each rejects bad input with the same message.
+
+    >>> fixed_steps(0.0, 1.0, 0.1)
+    (0.1, 10)
+    """
+    h = float(h)
+    if not np.isfinite(h) or h <= 0:
+        raise ValueError(f"h must be a positive finite step, got {h}")
+    if not np.isfinite(t_end) or t_end <= t0:
+        raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
+    if record_every < 1:
+        raise ValueError(f"record_every must be a positive integer, got {record_every}")
+    return h, max(1, int(round((t_end - t0) / h)))
 
 
 class Scene:
@@ -314,13 +333,7 @@ class Scene:
         check_every : int
             Check for non-finite states every this many steps (raises :class:`SimulationDiverged`).
         """
-        h = float(h)
-        if not np.isfinite(h) or h <= 0:
-            raise ValueError(f"h must be a positive finite step, got {h}")
-        if not np.isfinite(t_end) or t_end <= t0:
-            raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
-        if record_every < 1:
-            raise ValueError(f"record_every must be a positive integer, got {record_every}")
+        h, n_steps = fixed_steps(t0, t_end, h, record_every)
         m = get_method(method)
         lean = method == "symplectic_euler" and self._lean
         jac_fn = None
@@ -328,7 +341,6 @@ class Scene:
             def jac_fn(t, yy):
                 counter[1] += 1
                 return self.jac(t, yy)
-        n_steps = max(1, int(round((t_end - t0) / h)))
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         if y0 is not None and y.shape != np.shape(self.system.state()):
             raise ValueError(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
