@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from .ode_events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_result
+from .ode_events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_result, start_output
 from .ode_methods import TABLEAUX, _RK_STEPS
 from .results import SimResult
 
@@ -54,12 +54,7 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     Kf = np.empty((7, size))
     Kf[0] = f0.ravel()
     step5 = _RK_STEPS["dopri5"]
-    ts, Ys = ([], []) if t_eval is not None else ([t0], [y.copy()])
-    ie = 0
-    if t_eval is not None:
-        while ie < len(t_eval) and t_eval[ie] == t0:
-            ts.append(t0), Ys.append(y.copy())
-            ie += 1
+    ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
     t = t0
     status, message = 0, OK_MESSAGE

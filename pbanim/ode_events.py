@@ -52,6 +52,20 @@ def make_events(events) -> list[Event]:
     return [Event(e) for e in events]
 
 
+def start_output(t0: float, y: np.ndarray, t_eval) -> tuple[list, list, int]:
+    """Output lists at the start of a run: (times, states, index of the next ``t_eval`` point).
+
+    Without ``t_eval`` every step is recorded, starting with (t0, y0); with it, only the requested times.
+    """
+    ts, Ys, ie = ([], [], 0) if t_eval is not None else ([t0], [y.copy()], 0)
+    if t_eval is not None:
+        while ie < len(t_eval) and t_eval[ie] == t0:
+            ts.append(t0)
+            Ys.append(y.copy())
+            ie += 1
+    return ts, Ys, ie
+
+
 def make_result(ts, Y, nfev, njev, status, message, wall, m, evs, nsteps, nrej=0, nlu=0) -> SimResult:
     """The :class:`SimResult` of a run: states stacked along time → y of shape (n, n_points) or (K, n, n_points)."""
     Y = np.asarray(Y)

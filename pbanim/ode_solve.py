@@ -18,7 +18,7 @@ import numpy as np
 
 from .errors import SimulationDiverged
 from .ode_adaptive import solve_adaptive
-from .ode_events import OK_MESSAGE, TERMINATED, crossings, diverged, handle_events, make_events, make_result
+from .ode_events import OK_MESSAGE, TERMINATED, crossings, diverged, handle_events, make_events, make_result, start_output
 from .ode_methods import Method, get_method
 from .results import SimResult
 
@@ -182,12 +182,7 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
         def jf(t, yy):
             counter[1] += 1
             return jac(t, yy)
-    ts, Ys = ([], []) if t_eval is not None else ([t0], [y.copy()])
-    ie = 0
-    if t_eval is not None:
-        while ie < len(t_eval) and t_eval[ie] == t0:
-            ts.append(t0), Ys.append(y.copy())
-            ie += 1
+    ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
     status, message = 0, OK_MESSAGE
     start = time.perf_counter()
