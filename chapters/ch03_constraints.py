@@ -101,7 +101,7 @@ def baumgarte_stability(ctx):
         WH, Z = np.meshgrid(whs, zetas)
         rho = baumgarte_spectral_radius(method, WH, Z)
         im = ax.pcolormesh(WH, Z, np.log10(rho), cmap="RdBu_r", vmin=-1, vmax=1, shading="auto")
-        ax.contour(WH, Z, rho, levels=[1.0], colors="k", linewidths=1.5)
+        ax.contour(WH, Z, rho, levels=[1.0 + 1e-9], colors="k", linewidths=1.5)  # ζ = 0 symplectic: ρ ≡ 1
         pts = []
         for wh in np.linspace(0.15, wmax - 0.1, sims[0]):
             for z in np.linspace(0.1, 1.9, sims[1]):

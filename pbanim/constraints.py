@@ -28,7 +28,8 @@ Q_C = Jᵀλ  ``ConstraintSolution.Q_C``       (n,)
 k_s, k_d   ``ks``, ``kd``                   scalars, 1/s² and 1/s
 =========  ==============================  =================================
 
-Parts: :mod:`pbanim.constraints_kinds` (C, J, J̇q̇ of each kind, ``check_constraint``),
+Parts: :mod:`pbanim.constraints_kinds` (C, J, J̇q̇ of each kind), :mod:`pbanim.constraints_check`
+(``UserConstraint``, ``check_constraint``),
 :mod:`pbanim.constraints_assembly` (J and JWJᵀ patterns, chain/tree structure),
 :mod:`pbanim.constraints_solvers` (witkin-dense, witkin-sparse, witkin-cg, kkt, linear; min-norm λ for
 redundant rows), :mod:`pbanim.constraints_effect` (the scene effect, projection, gains, stability).
@@ -91,13 +92,16 @@ from .constraints_effect import (STABILIZATIONS, BaumgarteGains, ConstraintProje
                                  baumgarte_feedback_map, baumgarte_gains, baumgarte_spectral_radius,
                                  baumgarte_stability_limit, gains_from_box2d, gains_from_erp_cfm,
                                  gains_from_mujoco, solve_multipliers)
-from .constraints_kinds import (Angle2D, Constraint, ConstraintCheck, Distance, FixedPoint, LinearCombination,
-                                OnCircle, OnLine, OnPlane, UserConstraint, check_constraint)
-from .constraints_solvers import SOLVERS, ConstraintSolution, min_norm_lambda, solve_lambda
+from .constraints_check import ConstraintCheck, UserConstraint, check_constraint
+from .constraints_kinds import (Angle2D, Constraint, Distance, FixedPoint, LinearCombination, OnCircle, OnLine,
+                                OnPlane)
+from .constraints_solvers import (SOLVERS, ConstraintSolution, EliminationResult, eliminate_readable,
+                                  min_norm_lambda, solve_lambda)
 
 __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
            "Angle2D", "UserConstraint", "check_constraint", "ConstraintCheck", "ConstraintSet", "Assembly",
-           "Structure", "ConstraintSolution", "SOLVERS", "solve_lambda", "min_norm_lambda",
+           "Structure", "ConstraintSolution", "SOLVERS", "solve_lambda", "min_norm_lambda", "eliminate_readable",
+           "EliminationResult",
            "solve_multipliers", "Constraints", "ConstraintProjection", "STABILIZATIONS", "BaumgarteGains",
            "baumgarte_gains", "gains_from_box2d", "gains_from_mujoco", "gains_from_erp_cfm",
            "baumgarte_feedback_map", "baumgarte_spectral_radius", "baumgarte_stability_limit"]

@@ -26,7 +26,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
-from .constraints_kinds import Constraint, UserConstraint, _dot
+from .constraints_check import UserConstraint
+from .constraints_kinds import Constraint, _dot
 
 __all__ = ["ConstraintSet", "Assembly", "Structure"]
 
@@ -129,11 +130,11 @@ class ConstraintSet:
         dim, m = self.dim, self.m
         rows, parts, sel = [], [], []
         for c, off in zip(self.constraints, self.offsets):
-            k = c.slots.shape[1]
-            flat = np.flatnonzero(c.slots.ravel() >= 0)
+            st = c.slots.T.ravel()  # slot-major, like G (k, m, dim)
+            flat = np.flatnonzero(st >= 0)
             sel.append(None if len(flat) == c.slots.size else flat)
-            rows.append(off + flat // k)
-            parts.append(c.slots.ravel()[flat])
+            rows.append(off + flat % c.m)
+            parts.append(st[flat])
         self._sel = sel
         er, ep = np.concatenate(rows), np.concatenate(parts)
         E = len(er)
@@ -233,9 +234,9 @@ class ConstraintSet:
                 diags = []
                 for o, Ws in zip(out, self._Wslots):
                     G = o[1]
-                    dk = Ws[:, 0] * _dot(G[:, 0], G[:, 0])
-                    for j in range(1, G.shape[1]):
-                        dk += Ws[:, j] * _dot(G[:, j], G[:, j])
+                    dk = Ws[:, 0] * _dot(G[0], G[0])
+                    for j in range(1, G.shape[0]):
+                        dk += Ws[:, j] * _dot(G[j], G[j])
                     diags.append(dk)
                 diag = diags[0] if len(diags) == 1 else np.concatenate(diags)
                 off = _dot(np.take(Gf, self._ei, axis=0), np.take(Gf, self._ej, axis=0))

@@ -3,7 +3,8 @@
 Every kind holds *many* constraints of one type (a whole chain, a whole cloth) and evaluates all of them
 with array operations, never a Python loop per constraint. A kind describes its rows by *slots*: row r
 touches particles ``slots[r, 0..k-1]`` (``-1`` = a fixed point of the world, which has W = 0), and its
-Jacobian row is made of one ``dim``-vector per slot, ``G[r, s] = ∂C_r/∂x_{slots[r, s]}``. From these blocks
+Jacobian row is made of one ``dim``-vector per slot, ``G[s, r] = ∂C_r/∂x_{slots[r, s]}`` (slot-major, so
+each slot's blocks are one contiguous (m, dim) array). From these blocks
 :mod:`pbanim.constraints_assembly` builds J (scipy.sparse) and JWJᵀ with a sparsity pattern computed once.
 
 =================  ==========================  ===================================  =====================
@@ -24,14 +25,11 @@ the rod tension is T = −λ L (negative λ pulls the ends together), the bead's
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 import scipy.sparse as sp
 
 __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
-           "Angle2D", "UserConstraint", "check_constraint", "ConstraintCheck"]
+           "Angle2D"]
 
 
 def _as_index(a, name: str, k: int | None = None) -> np.ndarray:
@@ -63,7 +61,7 @@ class Constraint:
         self.dim = dim
 
     def evaluate(self, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(C (m,), G (m, k, dim), J̇q̇ (m,)) at positions x and velocities v of shape (N, dim)."""
+        """(C (m,), G (k, m, dim), J̇q̇ (m,)) at positions x and velocities v of shape (N, dim)."""
         raise NotImplementedError
 
     # -- per-constraint views for students (not used in the hot path) ---------------------------------
@@ -78,9 +76,9 @@ class Constraint:
         N, dim = x.shape
         _, G, _ = self.evaluate(x, np.zeros_like(x))
         k = self.slots.shape[1]
-        rows = np.repeat(np.arange(self.m), k * dim)
-        cols = (self.slots[:, :, None] * dim + np.arange(dim)).ravel()
-        keep = np.repeat(self.slots.ravel() >= 0, dim)
+        rows = np.tile(np.repeat(np.arange(self.m), dim), k)
+        cols = (self.slots.T[:, :, None] * dim + np.arange(dim)).ravel()
+        keep = np.repeat(self.slots.T.ravel() >= 0, dim)
         return sp.csr_matrix((G.ravel()[keep], (rows[keep], cols[keep])), shape=(self.m, N * dim))
 
     def jdot_qdot(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -164,23 +162,25 @@ class Distance(Constraint):
         else:
             self.lengths = self.lengths_in
         self._L2 = self.lengths ** 2
-        # fixed ends index padded rows N + r holding the anchor of row r (W = 0 there): no branch per step
+        # rows with a fixed end: d is computed with index 0 in its place, then those (few) rows are redone
         fixed = self.slots < 0
-        self._pad = self.anchors[np.any(fixed, axis=1)]
-        padidx = np.where(fixed, N + np.cumsum(np.any(fixed, axis=1))[:, None] - 1, self.slots)
-        self._ia, self._ib = padidx[:, 0].copy(), padidx[:, 1].copy()
-        self._fixed = bool(fixed.any())
+        self._frows = np.flatnonzero(fixed.any(axis=1))
+        self._fp = np.where(fixed[self._frows, 0], self.slots[self._frows, 1], self.slots[self._frows, 0])
+        self._fsign = np.where(fixed[self._frows, 0], 1.0, -1.0)[:, None]  # d = ±(x_p − anchor)
+        self._fanchor = self.anchors[self._frows]
+        clip = np.maximum(self.slots, 0)
+        self._ia, self._ib = clip[:, 0].copy(), clip[:, 1].copy()
 
     def evaluate(self, x, v):
-        if self._fixed:
-            x = np.concatenate([x, self._pad])
-            v = np.concatenate([v, np.zeros_like(self._pad)])
         d = _take(x, self._ib) - _take(x, self._ia)
         w = _take(v, self._ib) - _take(v, self._ia)
+        if len(self._frows):
+            d[self._frows] = self._fsign * (x[self._fp] - self._fanchor)
+            w[self._frows] = self._fsign * v[self._fp]
         C = 0.5 * (_dot(d, d) - self._L2)
-        G = np.empty((len(d), 2, d.shape[1]))
-        G[:, 0] = -d
-        G[:, 1] = d
+        G = np.empty((2,) + d.shape)
+        np.negative(d, out=G[0])
+        G[1] = d
         return C, G, _dot(w, w)
 
     def tension(self, x: np.ndarray, lam: np.ndarray) -> np.ndarray:
@@ -218,7 +218,7 @@ class FixedPoint(Constraint):
             pts = np.broadcast_to(np.asarray(self.points_in, float), (len(self.particles), dim))
         self.points = np.array(pts, float).ravel()
         self._axis = np.tile(np.arange(dim), len(self.particles))
-        self._G = np.eye(dim)[self._axis][:, None, :]
+        self._G = np.eye(dim)[self._axis][None]
 
     def evaluate(self, x, v):
         C = x[self.particles].ravel() - self.points
@@ -252,7 +252,7 @@ class OnCircle(Constraint):
         r = _take(x, self._p) - self.center
         vv = _take(v, self._p)
         C = 0.5 * (_dot(r, r) - self.radius ** 2)
-        return C, r[:, None, :], _dot(vv, vv)
+        return C, r[None], _dot(vv, vv)
 
 
 class _Affine(Constraint):
@@ -265,7 +265,7 @@ class _Affine(Constraint):
 
     def evaluate(self, x, v):
         C = _dot(_take(x, self.slots[:, 0]), self._n) - self._d
-        return C, self._n[:, None, :], np.zeros(self.m)
+        return C, self._n[None], np.zeros(self.m)
 
 
 def _unit(a, name: str) -> np.ndarray:
@@ -346,7 +346,7 @@ class LinearCombination(Constraint):
         super().bind(N, dim)
         if np.any((self.axes < 0) | (self.axes >= dim)):
             raise ValueError(f"axes must be in [0, {dim - 1}], got {self.axes[(self.axes < 0) | (self.axes >= dim)][0]}")
-        self._G = self.coef[:, :, None] * np.eye(dim)[self.axes]
+        self._G = np.ascontiguousarray((self.coef[:, :, None] * np.eye(dim)[self.axes]).transpose(1, 0, 2))
 
     def evaluate(self, x, v):
         C = np.sum(self.coef * x[self.slots, self.axes], axis=1) - self.offsets
@@ -385,88 +385,8 @@ class Angle2D(Constraint):
         th = np.arctan2(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0], np.einsum("ij,ij->i", u, w))
         C = np.angle(np.exp(1j * (th - self.angles)))
         ga, gc = -_perp(u) / uu[:, None], _perp(w) / ww[:, None]
-        G = np.stack([ga, -ga - gc, gc], axis=1)
+        G = np.stack([ga, -ga - gc, gc])
         up, wp = _perp(u), _perp(w)
         jd = (2 * np.einsum("ij,ij->i", up, du) * np.einsum("ij,ij->i", u, du) / uu ** 2
               - 2 * np.einsum("ij,ij->i", wp, dw) * np.einsum("ij,ij->i", w, dw) / ww ** 2)
         return C, G, jd
-
-
-class UserConstraint(Constraint):
-    """Constraints from your own callables, for students writing their own C, J and J̇q̇.
-
-    Parameters
-    ----------
-    C : callable x -> (m,)
-    J : callable x -> (m, N·dim) dense or sparse
-    Jdot_qdot : callable (x, v) -> (m,)
-    m : int
-        Number of rows.
-
-    x and v are (N, dim) arrays. Check your J and J̇q̇ with :func:`check_constraint` first. Scenes with
-    user constraints use the generic sparse assembly (no linear-time solver).
-    """
-
-    kind = "user"
-
-    def __init__(self, C: Callable, J: Callable, Jdot_qdot: Callable, m: int) -> None:
-        if int(m) < 1:
-            raise ValueError(f"m must be a positive number of rows, got {m}")
-        self.C_fun, self.J_fun, self.Jd_fun = C, J, Jdot_qdot
-        self.slots = np.zeros((int(m), 0), dtype=np.int64)
-
-    def value(self, x):
-        return np.asarray(self.C_fun(np.asarray(x, float)), float).reshape(self.m)
-
-    def jacobian(self, x):
-        J = self.J_fun(np.asarray(x, float))
-        return sp.csr_matrix(J).reshape(self.m, np.size(x))
-
-    def jdot_qdot(self, x, v):
-        return np.asarray(self.Jd_fun(np.asarray(x, float), np.asarray(v, float)), float).reshape(self.m)
-
-
-@dataclass
-class ConstraintCheck:
-    """Outcome of :func:`check_constraint`: worst relative errors of J and J̇q̇ against finite differences."""
-
-    J_error: float
-    Jdot_error: float
-    tol: float
-
-    @property
-    def ok(self) -> bool:
-        return self.J_error <= self.tol and self.Jdot_error <= self.tol
-
-
-def check_constraint(c: Constraint, q, qd, eps: float = 1e-6, tol: float = 1e-6) -> ConstraintCheck:
-    """Compare a constraint's J and J̇q̇ with centred finite differences at (q, q̇).
-
-    J is checked column by column against (C(q + εe_j) − C(q − εe_j))/2ε; J̇q̇ against
-    (J(q + εq̇) − J(q − εq̇))q̇/2ε (the derivative of J along the motion). Errors are relative to the
-    largest entry (or 1).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> c = Distance([[0, 1]], lengths=1.0); c.bind(2, 2)
-    >>> rng = np.random.default_rng(0)
-    >>> check_constraint(c, rng.normal(size=(2, 2)), rng.normal(size=(2, 2))).ok
-    True
-    """
-    x = np.array(q, float)
-    v = np.array(qd, float).reshape(x.shape)
-    if not hasattr(c, "dim"):
-        c.bind(x.shape[0], x.shape[1], x0=x)
-    J = c.jacobian(x).toarray()
-    Jfd = np.empty_like(J)
-    flat = x.ravel()
-    for j in range(flat.size):
-        dx = np.zeros_like(flat)
-        dx[j] = eps
-        Jfd[:, j] = (c.value((flat + dx).reshape(x.shape)) - c.value((flat - dx).reshape(x.shape))) / (2 * eps)
-    Jd = c.jdot_qdot(x, v)
-    Jdfd = (c.jacobian(x + eps * v).toarray() - c.jacobian(x - eps * v).toarray()) @ v.ravel() / (2 * eps)
-    eJ = float(np.max(np.abs(J - Jfd), initial=0.0) / max(1.0, np.max(np.abs(J), initial=0.0)))
-    eD = float(np.max(np.abs(Jd - Jdfd), initial=0.0) / max(1.0, np.max(np.abs(Jd), initial=0.0)))
-    return ConstraintCheck(eJ, eD, tol)
