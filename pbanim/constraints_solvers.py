@@ -101,7 +101,8 @@ def min_norm_lambda(A, r: np.ndarray, tol: float = 1e-9) -> np.ndarray:
     return U[:, big] @ (coef[big] / ev[big])
 
 
-def _cho_dense(A: np.ndarray, r: np.ndarray):
+def _cho_dense(A: np.ndarray):
+    """Cholesky factor of a dense A, returned as a solve function r ↦ A⁻¹r (None if a pivot vanishes)."""
     try:
         c, low = sla.cho_factor(A, lower=True, check_finite=False)
     except np.linalg.LinAlgError:
@@ -109,16 +110,17 @@ def _cho_dense(A: np.ndarray, r: np.ndarray):
     d = np.diag(c) ** 2
     if np.any(d < _PIVOT * np.diag(A)):  # pivot vs its own row: scale-free (masses, lengths)
         return None
-    return sla.cho_solve((c, low), r, check_finite=False)
+    return lambda r: sla.cho_solve((c, low), r, check_finite=False)
 
 
-def _splu(A, r: np.ndarray, scale: np.ndarray | None = None, **kw):
-    """Sparse LU solve; with ``scale`` = D, factor D A D (unit-sized pivots for a non-singular system, so
-    a vanishing pivot means dependent rows whatever the masses and lengths) and return D·(DAD)⁻¹D r."""
+def _splu(A, scale: np.ndarray | None = None, **kw):
+    """Sparse LU factor as a solve function; with ``scale`` = D it factors D A D (unit-sized pivots for a
+    non-singular system, so a vanishing pivot means dependent rows whatever the masses and lengths) and
+    solves by r ↦ D·(DAD)⁻¹D r. None when a pivot vanishes."""
     A = sp.csc_matrix(A)
     if scale is not None:
         Ds = sp.diags(scale)
-        A, r = (Ds @ A @ Ds).tocsc(), scale * r
+        A = (Ds @ A @ Ds).tocsc()
     try:
         lu = spla.splu(A, **kw)
     except RuntimeError:  # "Factor is exactly singular"
@@ -126,32 +128,43 @@ def _splu(A, r: np.ndarray, scale: np.ndarray | None = None, **kw):
     u = np.abs(lu.U.diagonal())
     if u.min() < _PIVOT * u.max():
         return None
-    z = lu.solve(r)
-    return z if scale is None else scale * z
+    return lu.solve if scale is None else (lambda r: scale * lu.solve(scale * r))
+
+
+def _refined(solve, r: np.ndarray, J, JT, W: np.ndarray) -> np.ndarray:
+    """λ = A⁻¹r plus one step of iterative refinement, the residual taken in factored form r − J(W(Jᵀλ)).
+
+    Forming A = JWJᵀ rounds away the structure that makes a hanging chain's statics well conditioned
+    (its rows sum to ~0, so κ(A) reaches 1e9 at masses 1:1000); the factored residual keeps it, and one
+    fixed-precision refinement step (Skeel 1980) brings the tensions from ~κε down to a few ε (ORACLES B3).
+    """
+    lam = solve(r)
+    return lam + solve(r - J @ (W * (JT @ lam)))
 
 
 def _jacobi(diag: np.ndarray) -> np.ndarray:
     return 1.0 / np.sqrt(np.where(diag > 0, diag, 1.0))
 
 
-def _linear(cset, asm, r: np.ndarray):
-    """Baraff's leaves-first elimination: tridiagonal (dptsv), banded Cholesky, or zero-fill sparse LDLᵀ."""
+def _linear(cset, asm):
+    """Baraff's leaves-first elimination as a solve function r ↦ λ: tridiagonal LDLᵀ (dpttrf/dpttrs),
+    banded Cholesky, or zero-fill sparse LDLᵀ in the leaves-first order. None when a pivot vanishes."""
     st = cset.structure
     order = st.order
-    rp = r[::-1] if st.reversed else np.take(r, order)
     if st.kind == "chain" and st.bandwidth == 0:  # uncoupled rows: A is diagonal
         d = cset.bands(asm)[0]
         if np.any(d <= 0) or d.min() < _PIVOT * d.max():
             return None
-        x = rp / d
+        core = lambda rp: rp / d  # noqa: E731
     elif st.kind == "chain":
         ab = cset.bands(asm)
         d, e = ab[0], ab[1, :-1]
         thr = _PIVOT * d
-        D, _, x, info = sla.lapack.dptsv(d, e, rp, overwrite_d=1, overwrite_e=1, overwrite_b=1)
-        # dptsv factors A = L D Lᵀ: a vanishing pivot D_i means dependent rows (redundant constraints)
+        D, E, info = sla.lapack.dpttrf(d, e)
+        # dpttrf factors A = L D Lᵀ: a vanishing pivot D_i means dependent rows (redundant constraints)
         if info != 0 or np.any(D < thr):
             return None
+        core = lambda rp: sla.lapack.dpttrs(D, E, rp)[0]  # noqa: E731
     elif st.kind == "banded":
         ab = cset.bands(asm)
         try:
@@ -160,18 +173,22 @@ def _linear(cset, asm, r: np.ndarray):
             return None
         if np.any(cb[0] ** 2 < _PIVOT * ab[0]):
             return None
-        x = sla.cho_solve_banded((cb, True), rp, check_finite=False)
+        core = lambda rp: sla.cho_solve_banded((cb, True), rp, check_finite=False)  # noqa: E731
     else:
         Ap = cset.permuted_matrix(asm)
-        x = _splu(Ap, rp, _jacobi(Ap.diagonal()), permc_spec="NATURAL", diag_pivot_thresh=0.0,
-                  options={"SymmetricMode": True})
-        if x is None:
+        core = _splu(Ap, _jacobi(Ap.diagonal()), permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                     options={"SymmetricMode": True})
+        if core is None:
             return None
     if st.reversed:
-        return x[::-1]
-    lam = np.empty_like(x)
-    lam[order] = x
-    return lam
+        return lambda r: core(r[::-1])[::-1]
+
+    def solve(r):
+        lam = np.empty_like(r)
+        lam[order] = core(np.take(r, order))
+        return lam
+
+    return solve
 
 
 def _cg(J, JT, W, r, tol, max_iter, x0=None):
@@ -287,8 +304,9 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         K = sp.bmat([[sp.diags(1.0 / W), -JT], [J, None]], format="csc")
         rhs = np.concatenate([Q, c])
         # scaled by D = diag(W^½, 1/√(JWJᵀ)_rr): the M block becomes I, the Schur block has unit diagonal
-        z = _splu(K, rhs, np.concatenate([np.sqrt(W), _jacobi(J.multiply(J) @ W)]))
-        if z is not None:
+        kkt = _splu(K, np.concatenate([np.sqrt(W), _jacobi(J.multiply(J) @ W)]))
+        if kkt is not None:
+            z = kkt(rhs)
             qdd, lam = z[: len(Q)], z[len(Q):]
             Q_C = JT @ lam
             return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
@@ -299,11 +317,12 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         if A is None and solver != "linear":
             A = cset.matrix(asm) if (cset is not None and asm is not None) else (J @ sp.diags(W) @ J.T).tocsr()
         if solver == "witkin-dense":
-            lam = _cho_dense(A.toarray() if sp.issparse(A) else A, r)
+            solve = _cho_dense(A.toarray() if sp.issparse(A) else A)
         elif solver == "witkin-sparse":
-            lam = _splu(A, r, _jacobi(A.diagonal()))
+            solve = _splu(A, _jacobi(A.diagonal()))
         else:
-            lam = _linear(cset, asm, r)
+            solve = _linear(cset, asm)
+        lam = None if solve is None else _refined(solve, r, J, JT, W)
         deficient = lam is None
     if lam is None:
         if A is None:
