@@ -169,7 +169,8 @@ def write_index(specs: dict[str, FigureSpec], out_dir: Path, files: dict[str, li
     for key, spec in specs.items():
         fl = files.get(key) or []
         links = ", ".join(f"[{p.name}]({p.name})" for p in fl) or "—"
-        lines.append(f"| {spec.chapter} | {links} | {spec.title} |")
+        title = spec.title.replace("|", "\\|")  # a pipe inside a cell would split the table
+        lines.append(f"| {spec.chapter} | {links} | {title} |")
     path = out_dir / "README.md"
     path.write_text("\n".join(lines) + "\n")
     return path
