@@ -60,6 +60,7 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     last_rejected = False
+    nonfinite_at = None  # time of the last step rejected because a stage or the error estimate was not finite
     eps10 = 10 * np.finfo(float).eps
     yf = y.ravel()
     start = time.perf_counter()
@@ -70,9 +71,11 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
                                        f"t_end = {tf:.6g}; raise max_steps or loosen rtol/atol")
                 break
             if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                status, message = -1, (f"failed: step size underflow at t = {t:.6g} (h = {h:.3e} < 10ε|t|); "
-                                       "the solution may blow up or the problem is stiff: try an implicit "
-                                       "method or scipy:Radau")
+                cause = ("fun returned non-finite values (NaN or inf) for every trial step from t = "
+                         f"{nonfinite_at:.6g}: the solution blows up there or fun is undefined at the stage "
+                         "points" if nonfinite_at is not None else
+                         "the solution may blow up or the problem is stiff: try an implicit method or scipy:Radau")
+                status, message = -1, f"failed: step size underflow at t = {t:.6g} (h = {h:.3e} < 10ε|t|); {cause}"
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
@@ -89,7 +92,10 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
             else:
                 err = float(np.sqrt(np.dot(ee, ee) / size))
             if not err <= 1.0:  # also catches NaN: reject and shrink
-                fac = 0.2 if not np.isfinite(err) else max(0.2, 0.9 * err ** -0.2)
+                if not np.isfinite(err):
+                    fac, nonfinite_at = 0.2, t
+                else:
+                    fac, nonfinite_at = max(0.2, 0.9 * err ** -0.2), None
                 h *= fac
                 nrej += 1
                 last_rejected = True

@@ -121,6 +121,23 @@ def test_adaptive_step_size_underflow_fails_cleanly():
     assert r.status == -1 and "max_steps = 5" in r.message
 
 
+def test_adaptive_nonfinite_fun_names_the_time():
+    # fun undefined past t = 0.5 (sqrt of a negative number): every trial step across it is rejected, the step
+    # underflows at the boundary and the message says fun went non-finite there (nothing returned as NaN)
+    def fun(t, y):
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(np.array([0.5 - t]))
+
+    r = pbanim.solve(fun, (0.0, 1.0), [0.0], method="dopri5", rtol=1e-8, atol=1e-10)
+    assert r.status == -1 and "non-finite" in r.message
+    assert abs(r.t[-1] - 0.5) < 1e-6 and np.all(np.isfinite(r.y))
+    # the exact solution y = (0.5^1.5 - (0.5 - t)^1.5) / 1.5 is reached up to the singular end point
+    assert abs(r.y[0, -1] - 0.5**1.5 / 1.5) < 1e-6
+    # a blow-up with finite stages keeps the stiff/blow-up hint instead
+    r = pbanim.solve(lambda t, y: y**2, (0.0, 2.0), [1.0], method="dopri5")
+    assert "non-finite" not in r.message and "blow up" in r.message
+
+
 # --------------------------------------------------------------------------------------------------
 # A7: linear momentum of an internal-force system
 # --------------------------------------------------------------------------------------------------
