@@ -38,38 +38,45 @@ def _fd_jacobian(fun, t, z, f0):
     return J
 
 
+def _newton_matrix(fun, t, z, f, theta_h, jac, batch):
+    """A solver for (I − θh J) Δ = r with J = ∂f/∂y at z (from ``jac`` or forward differences)."""
+    if jac is None:
+        J = _fd_jacobian(fun, t, z, f)
+    else:
+        J = jac(t, z) if callable(jac) else jac
+    n = z.shape[-1]
+    if sp.issparse(J):
+        if batch:
+            raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
+        lu = sp.linalg.splu(sp.csc_matrix(sp.identity(n, format="csc") - theta_h * J))
+        return lu.solve
+    M = np.eye(n) - theta_h * np.asarray(J, dtype=float)
+    if batch:
+        return lambda r: np.linalg.solve(M, r[..., None])[..., 0]
+    lu = sla.lu_factor(M, check_finite=False)
+    return lambda r: sla.lu_solve(lu, r, check_finite=False)
+
+
 def newton_solve(fun: Callable, t: float, y0: np.ndarray, theta_h: float, jac=None, tol: float = 1e-12,
                  max_iter: int = 20) -> np.ndarray:
-    """Solve z = y₀ + θh f(t, z) by (simplified) Newton from z⁰ = y₀, with M = I − θh J frozen at y₀.
+    """Solve z = y₀ + θh f(t, z) by simplified Newton from z⁰ = y₀, with M = I − θh J frozen at y₀.
 
     ``jac(t, y)`` (dense or scipy.sparse, or a constant matrix) gives J = ∂f/∂y; without it a
     forward-difference Jacobian is used. For a linear f the first iterate is exact: it is Baraff's
     linearized implicit step Δy = (I − θhJ)⁻¹ θh f(y₀); the second iteration only confirms it.
+    When the frozen matrix contracts slowly (a correction more than a tenth of the previous one, as on a
+    hanging spring net without shear springs, where it contracts by only ~1/3 per iteration) J is
+    re-evaluated at the current iterate and refactored, so Newton converges fast again (the contraction
+    test follows Hairer & Wanner, *Solving ODEs II*, §IV.8).
     Converged when ‖Δz‖∞ ≤ tol·(1 + ‖z‖∞) (per trajectory in batch mode), or when the corrections stop
     shrinking once below 1e-8 relative (roundoff of an ill-conditioned I − θhJ); raises
     :class:`ConvergenceError` otherwise after ``max_iter`` iterations.
     """
     z = np.array(y0, dtype=float, copy=True)
     f = fun(t, z)
-    if jac is None:
-        J = _fd_jacobian(fun, t, z, f)
-    else:
-        J = jac(t, z) if callable(jac) else jac
     batch = z.ndim == 2
-    n = z.shape[-1]
-    if sp.issparse(J):
-        if batch:
-            raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
-        lu = sp.linalg.splu(sp.csc_matrix(sp.identity(n, format="csc") - theta_h * J))
-        solve = lu.solve
-    else:
-        J = np.asarray(J, dtype=float)
-        M = np.eye(n) - theta_h * J
-        if batch:
-            solve = lambda r: np.linalg.solve(M, r[..., None])[..., 0]  # noqa: E731
-        else:
-            lu = sla.lu_factor(M, check_finite=False)
-            solve = lambda r: sla.lu_solve(lu, r, check_finite=False)  # noqa: E731
+    solve = _newton_matrix(fun, t, z, f, theta_h, jac, batch)
+    constant_J = jac is not None and not callable(jac)
     res = prev = np.inf
     for it in range(1, max_iter + 1):
         dz = solve(y0 + theta_h * f - z)
@@ -82,8 +89,11 @@ def newton_solve(fun: Callable, t: float, y0: np.ndarray, theta_h: float, jac=No
             break
         if res <= tol or (res <= 1e-8 and res >= prev):  # converged, or no progress at roundoff level
             return z
+        slow = res > 0.1 * prev
         prev = res
         f = fun(t, z)
+        if slow and not constant_J:
+            solve = _newton_matrix(fun, t, z, f, theta_h, jac, batch)
     raise ConvergenceError("Newton (implicit step)", it, res, tol,
                            f"at t = {t:.6g}, θh = {theta_h:.3g}; reduce the step h")
 

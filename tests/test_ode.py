@@ -258,9 +258,16 @@ def test_expm_small_matches_high_precision(A):
 
 
 def test_newton_failure_raises_convergence_error():
-    # simplified Newton with a frozen Jacobian cannot converge on y' = −y³ at h = 100 from y = 10
+    # implicit Euler on y' = y² from y = 10 at h = 1 asks for z = 10 + z², which has no real root
     with pytest.raises(ConvergenceError, match="Newton \\(implicit step\\) did not converge.*reduce the step h"):
-        METHODS["implicit_euler"].step(lambda t, y: -y**3, 0.0, np.array([10.0]), 100.0)
+        METHODS["implicit_euler"].step(lambda t, y: y**2, 0.0, np.array([10.0]), 1.0)
+
+
+def test_newton_refreshes_jacobian_when_frozen_one_stalls():
+    # y' = −y³ at h = 100 from y = 10: J frozen at y = 10 contracts far too slowly (it used to raise);
+    # refreshing J makes it converge to the root of z + 100 z³ = 10
+    z = METHODS["implicit_euler"].step(lambda t, y: -y**3, 0.0, np.array([10.0]), 100.0)
+    assert abs(z[0] + 100 * z[0] ** 3 - 10.0) < 1e-12 * 10
 
 
 # --------------------------------------------------------------------------------------------------
