@@ -16,6 +16,7 @@ from pbanim.models.contact import (box_on_incline, box_stack, incline_expected, 
                                    sphere_pour)
 from pbanim.bench import median_time
 from pbanim.plotting import figure
+from pbanim.scene import Scene
 
 SOLVER_STYLE = {"qp": ("o", "C0"), "lemke": ("s", "C1"), "dantzig": ("^", "C2"), "pgs": ("x", "C3")}
 
@@ -25,10 +26,7 @@ def stack_forces(ctx):
     sc = box_stack(10, 100.0)
     bodies = sc.system
     y = bodies.state()
-    Q = bodies.zero_forces()
-    for e in sc.forces:
-        e.bind(bodies)
-        e.apply(0.0, y, Q)
+    Q = Scene(bodies, sc.forces).forces(0.0, y)
     c = sc.detect(y)
     prob = assemble_rigid(bodies, y, c, Q)
     W = sc.exact["weights_above"]

@@ -8,6 +8,7 @@ from pbanim.contact import (TimeStepping, acceleration_lcp_check, assemble_rigid
 from pbanim.errors import InconsistentContact
 from pbanim.models.contact import box_on_incline, incline_expected, painleve_B, painleve_rod
 from pbanim.particles import Gravity, ParticleSystem
+from pbanim.scene import Scene
 
 H = 1e-3
 
@@ -94,10 +95,7 @@ def test_painleve_acceleration_lcp_is_B_over_m(mu, theta):
     sc = painleve_rod(theta, mu, mass=2.0)
     bodies = sc.system
     y = bodies.state()
-    Q = bodies.zero_forces()
-    for e in sc.forces:
-        e.bind(bodies)
-        e.apply(0.0, y, Q)
+    Q = Scene(bodies, sc.forces).forces(0.0, y)
     prob = assemble_rigid(bodies, y, sc.detect(y), Q, friction=mu)
     assert abs(prob.A[0, 0] - painleve_B(theta, mu) / 2.0) < 1e-12
     assert abs(prob.b[0] + 9.81) < 1e-12
@@ -151,10 +149,7 @@ def test_timestepping_rejects_bad_input():
 
 
 def _gravity(sc, y):
-    Q = sc.system.zero_forces()
-    for e in sc.forces:
-        e.apply(0.0, y, Q)
-    return Q
+    return Scene(sc.system, sc.forces).forces(0.0, y)
 
 
 def test_painleve_scene_effect_raises_inconsistent():
