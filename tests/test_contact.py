@@ -287,12 +287,47 @@ def test_figure_gifs(figure_data):
 
 
 def test_bench_smoke():
-    # the benchmark runs in quick mode and every goal has a finite measurement (no timing asserts)
+    # the benchmark runs in quick mode; every goal is measured (the PyBullet cost goal only when pybullet is
+    # installed, else "not measured") and the accuracy goals are met (no timing asserts)
     from pbanim.bench.contact import run
+    from pbanim.bench.contact_peers import have
 
     rep = run(quick=True)
-    assert len(rep.goals) == 4 and all(np.isfinite(g.measured) for g in rep.goals)
-    assert any("pybullet not installed" in n for n in rep.notes)
+    assert len(rep.goals) == 5 and all(np.isfinite(g.measured) or g.skipped for g in rep.goals)
+    assert all(g.met for g in rep.goals if g.id != "contact-stack-cost-vs-pybullet")
+    assert any("pybullet not installed" in n for n in rep.notes) == (not have("pybullet"))
+    assert any("mujoco not installed" in n for n in rep.notes) == (not have("mujoco"))
+
+
+def test_symplectic_euler_solves_resting_contact_once_per_step():
+    # the drift of symplectic Euler needs no forces: with RestingContact the scene solves once per step
+    # (at the kick) and the trajectory equals the generic two-evaluation step's (a particle sliding
+    # on the ground next to one falling freely, and a 3-box stack at rest).  measured 0 difference, bound 1e-12
+    ps = ParticleSystem([[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[0.7, -0.2, 0.0], [0.0, 0.0, 0.0]], masses=2.0)
+
+    def ground(y):   # particle 0 only
+        return make_contacts([0], [-1], [y[:3]], [[0.0, 0.0, 1.0]], [max(0.0, -y[2])])
+
+    sc = box_stack(3, 10.0)
+    fast_runs = []
+    for system, detect, forces in ((ps, ground, [Gravity(np.array([0.0, 0.0, -9.81]))]),
+                                   (sc.system, sc.detect, sc.forces)):
+        runs = []
+        for drift_free in (True, False):
+            eff = RestingContact(detect, "lemke")
+            eff.drift_free = drift_free
+            res = Scene(system, forces + [eff]).simulate(0.05, 1e-3, record_every=10)
+            runs.append((res, eff.solves))
+        (fast, n_fast), (generic, n_generic) = runs
+        assert n_fast == fast.nsteps == 50 and n_generic == 2 * generic.nsteps
+        assert fast.nfev == 50 and generic.nfev == 100
+        np.testing.assert_allclose(fast.y, generic.y, rtol=0, atol=1e-12)
+        fast_runs.append(fast)
+    part, stack = fast_runs
+    assert part.y[0, -1] > 0.03 and abs(stack.y[0, -1]) < 1e-12          # the particle slid; the stack stays
+    # the falling particle: the drift uses v₁, so z after k steps is 1 − g h² k (k + 1) / 2
+    k = np.round(part.t / 1e-3)
+    np.testing.assert_allclose(part.y[5], 1.0 - 9.81 * 1e-6 * k * (k + 1) / 2, rtol=0, atol=1e-13)
 
 
 def test_with_collision_chapter_manifolds():

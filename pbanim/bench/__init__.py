@@ -4,6 +4,7 @@ Each family is a module ``pbanim/bench/NAME.py`` with ``run(quick: bool) -> Repo
 tables (medians of repeats, baselines measured *in the same run*) and goals, printed last, one line each:
 
     goal <id>: <measured> (target <target>) met|missed
+    goal <id>: not measured (<reason>) (target <target>)       (an optional peer baseline is missing)
 
 Benchmarks never run inside the test suite except as a tiny smoke run (``quick=True``) that checks they
 execute and print their goal lines.
@@ -33,16 +34,19 @@ class Goal:
     sense: str = "<="          # "<=" (lower is better) or ">="
     unit: str = "x"
     note: str = ""
+    skipped: str = ""          # why it was not measured (e.g. an optional peer is not installed); never met
 
     @property
     def met(self) -> bool:
-        if not np.isfinite(self.measured):
+        if self.skipped or not np.isfinite(self.measured):
             return False
         return self.measured <= self.target if self.sense == "<=" else self.measured >= self.target
 
     def line(self) -> str:
         fmt = lambda v: f"{v:.3g}{self.unit}"  # noqa: E731
         note = f" — {self.note}" if self.note else ""
+        if self.skipped:
+            return f"goal {self.id}: not measured ({self.skipped}) (target {self.sense} {fmt(self.target)}){note}"
         return (f"goal {self.id}: {fmt(self.measured)} (target {self.sense} {fmt(self.target)}) "
                 f"{'met' if self.met else 'missed'}{note}")
 
@@ -78,7 +82,7 @@ class Report:
         return {"name": self.name,
                 "tables": [{"title": t.title, "header": t.header, "rows": t.rows} for t in self.tables],
                 "goals": [{"id": g.id, "measured": g.measured, "target": g.target, "sense": g.sense,
-                           "unit": g.unit, "met": g.met, "line": g.line()} for g in self.goals],
+                           "unit": g.unit, "met": g.met, "skipped": g.skipped, "line": g.line()} for g in self.goals],
                 "notes": self.notes}
 
 
@@ -97,10 +101,15 @@ def median_time(fn: Callable[[], Any], repeats: int = 5, min_time: float = 0.0) 
     return float(np.median(times))
 
 
+# modules of this package that help a family but are not one (no ``run``)
+HELPERS = frozenset({"contact_peers"})
+
+
 def available() -> list[str]:
     import pbanim.bench as pkg
 
-    return sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if not m.name.startswith("_"))
+    return sorted(m.name for m in pkgutil.iter_modules(pkg.__path__)
+                  if not m.name.startswith("_") and m.name not in HELPERS)
 
 
 def run_bench(name: str, quick: bool = False) -> Report:

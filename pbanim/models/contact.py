@@ -183,21 +183,23 @@ def box_stack(n: int = 10, mass_ratio: float = 100.0, pattern: str = "alternatin
     bottom = _corners(h, True)
 
     def detect(y):
-        ground = _plane_corners(bodies, y, h, up, 0.0, margin, bodies_idx=[0], bottom_only=True)
-        if n == 1:
-            return ground
+        # one pass (rotations once, one Contacts): the bottom corners of box 0 against the ground, then
+        # the bottom corners of box k ≥ 1 against the top face of box k − 1
         x = bodies.unpack(y)[0]
         R = bodies.rotations(y)
-        pts = x[1:, None, :] + np.einsum("nij,kj->nki", R[1:], bottom)           # (n-1, 4, 3)
+        pts = x[:, None, :] + np.einsum("nij,kj->nki", R, bottom)                 # (n, 4, 3) bottom corners
+        sep0 = pts[0] @ up                                                         # ground z = 0
+        keep0 = sep0 <= margin
         nrm = R[:-1, :, 2]                                                         # top-face normals
         top = x[:-1] + h[2] * nrm
-        sep = np.einsum("nkj,nj->nk", pts - top[:, None, :], nrm)
+        sep = np.einsum("nkj,nj->nk", pts[1:] - top[:, None, :], nrm)
         keep = sep <= margin
         a = np.broadcast_to(k[1:, None], sep.shape)[keep]
-        stack = make_contacts(a, a - 1, pts[keep], np.broadcast_to(nrm[:, None, :], pts.shape)[keep], -sep[keep])
-        return make_contacts(np.concatenate([ground.a, stack.a]), np.concatenate([ground.b, stack.b]),
-                             np.vstack([ground.point, stack.point]), np.vstack([ground.normal, stack.normal]),
-                             np.concatenate([ground.depth, stack.depth]))
+        m0 = int(keep0.sum())
+        normals = np.broadcast_to(nrm[:, None, :], sep.shape + (3,))[keep]
+        return make_contacts(np.concatenate([np.zeros(m0, int), a]), np.concatenate([-np.ones(m0, int), a - 1]),
+                             np.vstack([pts[0][keep0], pts[1:][keep]]), np.vstack([np.tile(up, (m0, 1)), normals]),
+                             -np.concatenate([sep0[keep0], sep[keep]]))
 
     weights = g * np.cumsum(masses[::-1])[::-1]
     return ContactScene(bodies, detect, [RigidGravity((0.0, 0.0, -g))],
