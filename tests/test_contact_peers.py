@@ -61,6 +61,12 @@ def test_bench_without_peers_skips_with_notes_and_no_fake_goal(monkeypatch):
     assert js["met"] is False and js["skipped"] == "pybullet not installed"
     # the other goals are measured as before
     assert all(np.isfinite(g.measured) and g.met for g in rep.goals if g.id != COST_GOAL)
+    # the step sweep: an exact acceleration-level solve holds the stack still at every step up to one frame
+    steps = _table(rep, "10-box stack at rest for 0.1 s: cost per simulated second vs step h")
+    assert {(r[0], r[1]) for r in steps.rows} == {(s, h) for s in bench.DIRECT for h in bench.STACK_STEPS}
+    for r in steps.rows:
+        row = dict(zip(steps.header, r))
+        assert row["top drift (m)"] <= 1e-9 and row["max penetration (m)"] <= 1e-9 and row["counts"] == "yes"
 
 
 @pytest.fixture(scope="module")
@@ -83,12 +89,19 @@ def test_bench_with_peers_has_rows_and_the_cost_goal(peer_report):
     mj = pour["MuJoCo (peer)"]
     assert mj["cost per step (ms)"] > 0 and mj["status"] == "ok"
     assert mj["steps"] == pour["pbanim (velocity level, pgs)"]["steps"]
-    # the goal is the ratio of the table's numbers, measured in this run
+    # the goal is the ratio of the table's numbers, measured in this run: the cheapest direct run of the step
+    # sweep that kept drift and penetration <= 1e-9 m over PyBullet at h = 1/1000
     goal = next(g for g in rep.goals if g.id == COST_GOAL)
-    direct = [r for r in _table(rep, "10-box stack").rows if r[0] == "acceleration" and r[1] in bench.DIRECT]
-    cheapest = min(r[3] for r in direct)
+    sweep = _table(rep, "10-box stack at rest for 0.1 s: cost per simulated second vs step h")
+    counted = [dict(zip(sweep.header, r)) for r in sweep.rows if r[-1] == "yes"]
+    assert all(r["top drift (m)"] <= 1e-9 and r["max penetration (m)"] <= 1e-9 for r in counted)
+    cheapest = min(r["cost per sim. second (s)"] for r in counted)
     assert not goal.skipped and np.isfinite(goal.measured)
     assert goal.measured == pytest.approx(cheapest / stack["PyBullet (peer)"]["cost per sim. second (s)"], rel=1e-12)
+    # PyBullet at the same steps is in the sweep too, never counted
+    peer_rows = [r for r in sweep.rows if r[0] == "PyBullet (peer)"]
+    assert [r[1] for r in peer_rows] == list(bench.STACK_STEPS) and all(r[-1] == "peer" for r in peer_rows)
+    assert any(n.startswith("at equal steps (h = 1/1000)") for n in rep.notes)
     assert not any("not installed" in n for n in rep.notes)
     json.dumps(rep.to_json(), default=float)           # the peer rows serialize for --json
 
