@@ -73,7 +73,7 @@ array([ 0.  , -9.81])
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from functools import cached_property
 from typing import Any, Sequence

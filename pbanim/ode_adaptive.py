@@ -49,7 +49,6 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
         nfev += 1
     h = min(abs(h), abs(tf - t0))
     rows, C, E = _DP_ROWS, _DP_C, _DP_E
-    B = rows[6]
     size = y.size
     Kf = np.empty((7, size))
     Kf[0] = f0.ravel()

@@ -9,7 +9,7 @@ import sympy as sp
 import pbanim
 from pbanim.constraints import Constraints, Distance, solve_multipliers
 from pbanim.errors import SingularChartError
-from pbanim.models.reduced import (bead_x_chart, cart_pendulum, chain_rod_tensions, double_pendulum,
+from pbanim.models.reduced import (bead_x_chart, cart_pendulum, chain_rod_tensions,
                                    maximal_chain, n_link_chart, n_link_pendulum, pendulum_period,
                                    simple_pendulum, spherical_pendulum)
 from pbanim.particles import Drag, Gravity, ParticleSystem
