@@ -31,6 +31,7 @@ k_s, k_d   ``ks``, ``kd``                   scalars, 1/s² and 1/s
 Parts: :mod:`pbanim.constraints_kinds` (C, J, J̇q̇ of each kind), :mod:`pbanim.constraints_check`
 (``UserConstraint``, ``check_constraint``),
 :mod:`pbanim.constraints_assembly` (J and JWJᵀ patterns, chain/tree structure),
+:mod:`pbanim.constraints_rows` (row gathers, slices and dot products of the kinds and the assembly),
 :mod:`pbanim.constraints_solvers` (witkin-dense, witkin-sparse, witkin-cg, kkt, linear; min-norm λ for
 redundant rows), :mod:`pbanim.constraints_effect` (the scene effect, projection, gains, stability).
 

@@ -27,7 +27,8 @@ import scipy.sparse as sp
 from scipy.sparse import csgraph
 
 from .constraints_check import UserConstraint
-from .constraints_kinds import Constraint, _dot
+from .constraints_kinds import Constraint
+from .constraints_rows import _dot, _span
 
 __all__ = ["ConstraintSet", "Assembly", "Structure"]
 
@@ -35,12 +36,13 @@ __all__ = ["ConstraintSet", "Assembly", "Structure"]
 @dataclass
 class Structure:
     """The constraint graph's shape: ``kind`` "chain" (tridiagonal in ``order``), "banded", "tree", or
-    "general" (has loops, or user constraints); ``order`` is the leaves-first row order (None if general)."""
+    "general" (has loops, or user constraints); ``order`` is the leaves-first row order (None if general);
+    a chain numbered from its root keeps 0, …, m−1 (``natural``: its row 0 hangs from the world, a leaf)."""
 
     kind: str
     bandwidth: int = -1
     order: np.ndarray | None = None
-    reversed: bool = False  # order is m−1, …, 0 (a chain numbered from its root): slices, not gathers
+    natural: bool = False  # order is 0, …, m−1 (a chain numbered along itself): no gathers
 
     @property
     def linear(self) -> bool:
@@ -128,15 +130,17 @@ class ConstraintSet:
     # -- topology, once ----------------------------------------------------------------------------
     def _compile(self) -> None:
         dim, m = self.dim, self.m
-        rows, parts, sel = [], [], []
+        rows, parts, blocks, goff = [], [], [], 0
         for c, off in zip(self.constraints, self.offsets):
             st = c.slots.T.ravel()  # slot-major, like G (k, m, dim)
             flat = np.flatnonzero(st >= 0)
-            sel.append(None if len(flat) == c.slots.size else flat)
             rows.append(off + flat % c.m)
             parts.append(st[flat])
-        self._sel = sel
-        er, ep = np.concatenate(rows), np.concatenate(parts)
+            blocks.append(goff + flat)
+            goff += c.slots.size
+        # entry e (a block at a particle, fixed points left out) is row gb[e] of all kinds' G stacked
+        # (k·m, dim): every gather below indexes that stack directly, so no block is copied twice
+        er, ep, gb = np.concatenate(rows), np.concatenate(parts), np.concatenate(blocks)
         E = len(er)
         # J pattern (CSR) and where each block component lands in J.data
         jr = np.repeat(er, dim)
@@ -144,15 +148,24 @@ class ConstraintSet:
         order = np.lexsort((jc, jr))
         indptr = np.concatenate([[0], np.cumsum(np.bincount(jr, minlength=m))])
         self._J = sp.csr_matrix((np.zeros(E * dim), jc[order], indptr), shape=(m, self.n))
-        self._Jperm = order
+        gflat = (gb[:, None] * dim + np.arange(dim)).ravel()  # entry component → stacked G, flattened
+        self._Jperm = gflat[order]
+        # when each row touches a particle at most once, a row's dim columns per block are adjacent in J:
+        # J.data is then a gather of whole blocks (rows of G), not of single numbers
+        bperm = order[::dim] // dim
+        same = np.array_equal(order, (bperm[:, None] * dim + np.arange(dim)).ravel())
+        self._Jblocks = gb[bperm] if same else None
         # Jᵀ as its own CSR pattern: Q_C = Jᵀλ is then a plain CSR mat-vec (no transpose per step)
         orderT = np.lexsort((jr, jc))
         indptrT = np.concatenate([[0], np.cumsum(np.bincount(jc, minlength=self.n))])
         self._JT = sp.csr_matrix((np.zeros(E * dim), jr[orderT], indptrT), shape=(self.n, m))
-        self._JTperm = orderT
+        self._JTperm = gflat[orderT]
         # diagonal of A: A_rr = Σ_e∈r W_e|G_e|², summed per row (entries are sorted by row)
         Wpad = np.r_[self.W, 0.0]  # index −1 (a fixed point) has W = 0
-        self._Wslots = [Wpad[c.slots] for c in self.constraints]
+        # per kind, W of each slot as (k, m); a kind with opposite blocks needs |G|² once: (W_a + W_b) |G_0|²
+        self._Wslots = [np.ascontiguousarray(Wpad[c.slots].T) for c in self.constraints]
+        self._Wslots = [Ws.sum(axis=0, keepdims=True) if c.opposite else Ws
+                        for c, Ws in zip(self.constraints, self._Wslots)]
         # off-diagonal: pairs (i < j) of distinct blocks at a common particle, all pairs in each group
         s = np.argsort(ep, kind="stable")
         ps = ep[s]
@@ -164,6 +177,10 @@ class ConstraintSet:
         self._ei, self._ej = s[i_idx], s[j_idx]
         self._pw = self.W[ep[self._ei]]
         r1, r2 = er[self._ei], er[self._ej]
+        # a chain numbered along itself pairs rows r, r + 1 at their common particle for every r: the
+        # pairs' blocks are two runs of consecutive rows of G, read as slices, not gathers
+        self._gi, self._gj = gb[self._ei], gb[self._ej]
+        self._gis, self._gjs = _span(self._gi), _span(self._gj)
         rows_all = np.arange(m)
         self._A, pos1, pos2 = _pattern(np.r_[rows_all, r1], np.r_[rows_all, r2], m)
         self._pdiag, self._pos1, self._pos2 = pos1[:m], pos1[m:], pos2[m:]
@@ -198,21 +215,28 @@ class ConstraintSet:
         inv[order] = np.arange(m)
         a, b = inv[r1], inv[r2]
         bw = int(np.max(np.abs(a - b), initial=0))
+        if bw <= 1 and np.array_equal(order, np.arange(m)[::-1]):
+            # a path has a leaf at each end, and A stays tridiagonal in the reversed order: eliminating
+            # from the far end (row 0 hangs from the world, so it is a leaf too) is as free of fill
+            order = order[::-1].copy()
+            inv[order] = np.arange(m)
+            a, b = inv[r1], inv[r2]
         lo, hi = np.maximum(a, b), np.minimum(a, b)
         self._band_pos = (lo - hi) * m + hi          # lower band storage ab[i - j, j]
         self._band_mult = np.where(a == b, 2.0, 1.0)  # two blocks of one row at one particle
         self._inv = inv
+        self._e_src = False  # chain: how e (the sub-diagonal) is read off the pair values
         if bw <= 1:
             kind = "chain"
+            if len(hi) == m - 1 and np.all(lo - hi == 1) and len(np.unique(hi)) == m - 1:
+                self._e_src = None if np.array_equal(hi, np.arange(m - 1)) else np.argsort(hi)
         elif bw <= 16:
             kind = "banded"
         else:
             kind = "tree"
             self._Ap, pp1, pp2 = _pattern(np.r_[np.arange(m), a], np.r_[np.arange(m), b], m)
             self._ppdiag, self._ppos1, self._ppos2 = pp1[:m], pp1[m:], pp2[m:]
-        st = Structure(kind, bw, order)
-        st.reversed = bool(np.array_equal(order, np.arange(m)[::-1]))
-        return st
+        return Structure(kind, bw, order, natural=bool(np.array_equal(order, np.arange(m))))
 
     # -- per step ----------------------------------------------------------------------------------
     def assemble(self, x: np.ndarray, v: np.ndarray, pairs: bool = True) -> Assembly:
@@ -220,26 +244,29 @@ class ConstraintSet:
         self.assemblies += 1
         out = [c.evaluate(x, v) if not isinstance(c, UserConstraint) else None for c in self.constraints]
         if self.blocks:
-            C = np.concatenate([o[0] for o in out])
-            Jdv = np.concatenate([o[2] for o in out])
+            one = len(out) == 1  # a single kind: its (fresh) arrays are used as they are
+            C = out[0][0] if one else np.concatenate([o[0] for o in out])
+            Jdv = out[0][2] if one else np.concatenate([o[2] for o in out])
             Gs = [o[1].reshape(-1, self.dim) for o in out]
-            Gs = [G if sel is None else np.take(G, sel, axis=0) for G, sel in zip(Gs, self._sel)]
-            Gf = Gs[0] if len(Gs) == 1 else np.concatenate(Gs)
+            Gf = Gs[0] if one else np.concatenate(Gs)  # all kinds' blocks, fixed points included
             J, JT = self._J, self._JT
             gflat = Gf.ravel()
-            J.data = np.take(gflat, self._Jperm)
+            J.data = np.take(gflat, self._Jperm) if self._Jblocks is None else \
+                np.take(Gf, self._Jblocks, axis=0).ravel()
             JT.data = np.take(gflat, self._JTperm)
             vals = None
             if pairs:
                 diags = []
-                for o, Ws in zip(out, self._Wslots):
+                for o, Ws in zip(out, self._Wslots):  # A_rr = Σ_slots W_p |G_{r,p}|²
                     G = o[1]
-                    dk = Ws[:, 0] * _dot(G[0], G[0])
-                    for j in range(1, G.shape[0]):
-                        dk += Ws[:, j] * _dot(G[j], G[j])
+                    dk = Ws[0] * _dot(G[0], G[0])
+                    for j in range(1, len(Ws)):
+                        dk += Ws[j] * _dot(G[j], G[j])
                     diags.append(dk)
-                diag = diags[0] if len(diags) == 1 else np.concatenate(diags)
-                off = _dot(np.take(Gf, self._ei, axis=0), np.take(Gf, self._ej, axis=0))
+                diag = diags[0] if one else np.concatenate(diags)
+                Gi = Gf[self._gis] if self._gis is not None else np.take(Gf, self._gi, axis=0)
+                Gj = Gf[self._gjs] if self._gjs is not None else np.take(Gf, self._gj, axis=0)
+                off = _dot(Gi, Gj)
                 off *= self._pw
                 vals = (diag, off)
         else:
@@ -277,8 +304,19 @@ class ConstraintSet:
         diag, off = asm.vals
         ab = np.bincount(self._band_pos, off * self._band_mult, minlength=(b + 1) * m) if len(off) else \
             np.zeros((b + 1) * m)
-        ab[:m] += diag[::-1] if self.structure.reversed else np.take(diag, self.structure.order)
+        ab[:m] += diag if self.structure.natural else np.take(diag, self.structure.order)
         return ab.reshape(b + 1, m)
+
+    def tridiagonal(self, asm: Assembly) -> tuple[np.ndarray, np.ndarray]:
+        """A chain's A in the leaves-first order as its diagonal (m,) and sub-diagonal (m − 1,); when each
+        sub-diagonal entry is one pair value W_p G_{r,p}·G_{s,p}, these are read off without a bincount
+        (read only: they may be the assembly's own arrays)."""
+        if self._e_src is False:
+            ab = self.bands(asm)
+            return ab[0], ab[1, :-1]
+        diag, off = asm.vals
+        d = diag if self.structure.natural else np.take(diag, self.structure.order)
+        return d, (off if self._e_src is None else np.take(off, self._e_src))
 
     def permuted_matrix(self, asm: Assembly) -> sp.csc_matrix:
         """A in the leaves-first order (tree structure), CSC (A is symmetric)."""

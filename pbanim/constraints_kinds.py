@@ -28,6 +28,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from .constraints_rows import _dot, _gather, _span, _take
+
 __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
            "Angle2D"]
 
@@ -48,6 +50,7 @@ class Constraint:
 
     kind = "constraint"
     slots: np.ndarray
+    opposite = False  # two slots with equal and opposite blocks, G[1] = −G[0] (a rod): |G[0]|² serves both
 
     @property
     def m(self) -> int:
@@ -86,29 +89,6 @@ class Constraint:
         return self.evaluate(np.asarray(x, float), np.asarray(v, float))[2]
 
 
-def _gather(x: np.ndarray, idx: np.ndarray, fixed: np.ndarray) -> np.ndarray:
-    """x[idx] with rows where idx == -1 taken from ``fixed`` (world points); readable, not hot."""
-    out = x[idx]
-    neg = idx < 0
-    if neg.any():
-        out[neg] = fixed[neg]
-    return out
-
-
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (m, dim) arrays, column by column: much faster than sum(axis=1) or einsum
-    for dim ≤ 3, and no BLAS call (whose threads stall on a busy machine)."""
-    out = a[:, 0] * b[:, 0]
-    for k in range(1, a.shape[1]):
-        out += a[:, k] * b[:, k]
-    return out
-
-
-def _take(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Rows x[idx] (np.take is several times faster than fancy indexing for (N, dim) arrays)."""
-    return np.take(x, idx, axis=0)
-
-
 class Distance(Constraint):
     """Rods: C = ½(|x_b − x_a|² − L²) for each pair (a, b); b = −1 ties a to the fixed point ``anchors[r]``.
 
@@ -133,6 +113,7 @@ class Distance(Constraint):
     """
 
     kind = "distance"
+    opposite = True
 
     def __init__(self, pairs, lengths=None, anchors=None) -> None:
         self.slots = _as_index(pairs, "pairs", 2)
@@ -170,17 +151,30 @@ class Distance(Constraint):
         self._fanchor = self.anchors[self._frows]
         clip = np.maximum(self.slots, 0)
         self._ia, self._ib = clip[:, 0].copy(), clip[:, 1].copy()
+        # a chain numbered along itself: the rows between particles are one block of rows whose ends are
+        # consecutive particles, so d = x_b − x_a is a difference of two slices (no gathers)
+        free = np.flatnonzero(~fixed.any(axis=1))
+        self._spans = None
+        if len(free) and free[-1] - free[0] + 1 == len(free):
+            sa, sb = _span(self.slots[free, 0]), _span(self.slots[free, 1])
+            if sa is not None and sb is not None:
+                self._spans = (slice(int(free[0]), int(free[-1]) + 1), sa, sb)
 
     def evaluate(self, x, v):
-        d = _take(x, self._ib) - _take(x, self._ia)
-        w = _take(v, self._ib) - _take(v, self._ia)
+        G = np.empty((2, self.m, x.shape[1]))
+        d, w = G[1], np.empty((self.m, x.shape[1]))  # G = (−d, d): d is written in place
+        if self._spans is not None:  # the other rows have a fixed end, filled below
+            rows, sa, sb = self._spans
+            np.subtract(x[sb], x[sa], out=d[rows])
+            np.subtract(v[sb], v[sa], out=w[rows])
+        else:
+            np.subtract(_take(x, self._ib), _take(x, self._ia), out=d)
+            np.subtract(_take(v, self._ib), _take(v, self._ia), out=w)
         if len(self._frows):
             d[self._frows] = self._fsign * (x[self._fp] - self._fanchor)
             w[self._frows] = self._fsign * v[self._fp]
         C = 0.5 * (_dot(d, d) - self._L2)
-        G = np.empty((2,) + d.shape)
         np.negative(d, out=G[0])
-        G[1] = d
         return C, G, _dot(w, w)
 
     def tension(self, x: np.ndarray, lam: np.ndarray) -> np.ndarray:

@@ -138,8 +138,11 @@ def _refined(solve, r: np.ndarray, J, JT, W: np.ndarray) -> np.ndarray:
     (its rows sum to ~0, so κ(A) reaches 1e9 at masses 1:1000); the factored residual keeps it, and one
     fixed-precision refinement step (Skeel 1980) brings the tensions from ~κε down to a few ε (ORACLES B3).
     """
-    lam = solve(r)
-    return lam + solve(r - J @ (W * (JT @ lam)))
+    lam = solve(r)  # a fresh array (every solve function returns one)
+    WQ_C = JT @ lam
+    WQ_C *= W
+    lam += solve(r - J @ WQ_C)
+    return lam
 
 
 def _jacobi(diag: np.ndarray) -> np.ndarray:
@@ -157,10 +160,9 @@ def _linear(cset, asm):
             return None
         core = lambda rp: rp / d  # noqa: E731
     elif st.kind == "chain":
-        ab = cset.bands(asm)
-        d, e = ab[0], ab[1, :-1]
+        d, e = cset.tridiagonal(asm)
         thr = _PIVOT * d
-        D, E, info = sla.lapack.dpttrf(d, e)
+        D, E, info = sla.lapack.dpttrf(d, e)  # copies d and e (they may be the assembly's arrays)
         # dpttrf factors A = L D Lᵀ: a vanishing pivot D_i means dependent rows (redundant constraints)
         if info != 0 or np.any(D < thr):
             return None
@@ -180,8 +182,8 @@ def _linear(cset, asm):
                      options={"SymmetricMode": True})
         if core is None:
             return None
-    if st.reversed:
-        return lambda r: core(r[::-1])[::-1]
+    if st.natural:
+        return core
 
     def solve(r):
         lam = np.empty_like(r)
@@ -329,6 +331,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
             A = (J @ sp.diags(W) @ J.T).tocsr()
         lam = min_norm_lambda(A, r)
     Q_C = JT @ lam
-    qdd = W * (Q + Q_C)
+    qdd = Q + Q_C
+    qdd *= W
     return ConstraintSolution(lam, Q_C, qdd, solver, it, deficient, res if solver == "witkin-cg" else None,
                               (J, W, r))

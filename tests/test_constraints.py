@@ -211,6 +211,28 @@ def test_hanging_chain_tension_is_the_weight_below(solver, link_length):
     assert np.abs(sol.qdd).max() < 1e-6
 
 
+def test_linear_solver_on_a_chain_in_either_numbering_matches_the_dense_one():
+    # a chain numbered from its root is eliminated in its own row order 0…m−1 (a path has a leaf at each
+    # end; no gathers); numbered from its free end (row 0 there, the rest shuffled), in the leaves-first
+    # order (gathers). Both give witkin-dense's λ and q̈ at masses 1 : 1000, where κ(JWJᵀ) ≈ 1e9
+    mod = hanging_chain(1000, link_length=0.01, mass_ratio=1000.0, angle=0.3)
+    N = mod.system.N
+    pairs = np.stack([np.arange(N), np.arange(-1, N - 1)], axis=1)
+    rest = np.random.default_rng(7).permutation(N - 1)
+    flipped = np.where(pairs >= 0, N - 1 - pairs, -1)[np.r_[N - 1, rest]]  # row 0 = rod (0, 1)
+    x0, m = mod.system.x0, mod.system.m
+    for rows, ps, natural in ((pairs, mod.system, True), (flipped, ParticleSystem(x0[::-1], 0 * x0, m[::-1]), False)):
+        cs = ConstraintSet([Distance(rows, lengths=0.01, anchors=np.zeros(2))], N, 2, ps.W, ps.x0)
+        assert cs.structure.kind == "chain" and cs.structure.natural == natural
+        Q = ps.m[:, None] * mod.g
+        lin = solve_multipliers(cs, ps, ps.state(), Q, solver="linear")
+        ref = solve_multipliers(cs, ps, ps.state(), Q, solver="witkin-dense")
+        assert np.abs(lin.lam - ref.lam).max() <= 1e-10 * np.abs(ref.lam).max()  # measured 6e-15
+        # Q_C = Jᵀλ sums rod forces of ~5e6 N that cancel to the weight: q̈'s roundoff unit is ε·W|J|ᵀ|λ|
+        J = cs.assemble(*ps.unpack(ps.state())).J
+        assert np.abs(lin.qdd - ref.qdd).max() <= 1e-10 * np.max(cs.Wq * (abs(J).T @ np.abs(ref.lam)))
+
+
 def test_banded_and_sparse_solves_equal_the_dense_one_in_relative_residual():
     # ORACLES B3: every solver's λ has a relative residual < 1e-10 in the dense system, measured as the
     # normwise backward error ‖Aλ − r‖/(‖A‖‖λ‖ + ‖r‖): r is tiny here (only the top row is loaded through
