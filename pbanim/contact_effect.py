@@ -82,9 +82,8 @@ class RestingContact(Effect):
 
     name = "resting_contact"
     phase = "constraint"
-    # symplectic Euler's drift needs no forces: the scene then solves once per step, at (q₀, v₀), and
-    # ``last`` (warm start, diagnostics) is that solve's answer (see pbanim.scene)
-    drift_free = True
+    # (drift_free, inherited: under symplectic Euler the scene solves once per step, at (q₀, v₀), and
+    # ``last`` (warm start, diagnostics) is that solve's answer; see pbanim.scene)
 
     def __init__(self, detect: Callable[[np.ndarray], Any], solver: str = "qp", *,
                  stabilization: str = "baumgarte", stiffness: float = 400.0, damping: float = 40.0,

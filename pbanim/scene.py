@@ -47,11 +47,11 @@ run the force phase effect by effect instead.
 
 Symplectic Euler needs forces only for its kick, v₁ = v₀ + h a(q₀, v₀); the drift q₁ = q₀ + h q̇(q₀, v₁)
 uses the position rates, which never depend on Q. The generic step still evaluates the whole right-hand
-side at (q₀, v₁) and discards its forces; a scene whose constraint effects all set ``drift_free = True``
-(their answer at that evaluation is unused and nothing they keep must see it, e.g. resting contact)
-skips that second force evaluation and takes q̇ from ``system.derivative(y₁, zero_forces())``: the same
-step, one constraint solve per step instead of two (``nfev`` counts one per step). Only what the effect
-keeps between steps changes: its warm start now comes from the kick's solve (roundoff-level differences).
+side at (q₀, v₁) and discards its forces. A scene skips that second force evaluation and takes q̇ from
+``system.derivative(y₁, zero_forces())``: the same step, one force (and constraint) evaluation per step
+instead of two (``nfev`` counts one per step). Only what an effect keeps between steps can notice (a
+warm start now comes from the kick's solve: roundoff-level differences); an effect that must see the
+second evaluation sets ``drift_free = False`` and the scene falls back to the generic step.
 """
 
 from __future__ import annotations
@@ -77,6 +77,9 @@ class Effect:
 
     name: str = "effect"
     phase: str = "force"
+    # symplectic Euler evaluates this effect once per step, at (q₀, v₀) (see the module docstring); an effect
+    # whose kept state must also see the discarded drift evaluation at (q₀, v₁) sets False
+    drift_free: bool = True
 
     def bind(self, system: Any) -> None:
         """Validate against ``system`` and precompute; called once by :class:`Scene`."""
@@ -161,8 +164,8 @@ class Scene:
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
         self._affine = self._lean and all(callable(getattr(e, "affine", None)) for e in self._force)
         # symplectic Euler with one force evaluation per step (see the module docstring)
-        self._kick_only = (not self._lean and bool(self._constraint)
-                           and all(getattr(e, "drift_free", False) for e in self._constraint))
+        self._kick_only = (not self._lean
+                           and all(getattr(e, "drift_free", True) for e in self._force + self._constraint))
         self.fold_affine = True
         self._Qbuf: np.ndarray | None = None
         self._fold: tuple | None = None
