@@ -163,9 +163,8 @@ class ConstraintSet:
         # diagonal of A: A_rr = Σ_e∈r W_e|G_e|², summed per row (entries are sorted by row)
         Wpad = np.r_[self.W, 0.0]  # index −1 (a fixed point) has W = 0
         # per kind, W of each slot as (k, m); a kind with opposite blocks needs |G|² once: (W_a + W_b) |G_0|²
-        self._Wslots = [np.ascontiguousarray(Wpad[c.slots].T) for c in self.constraints]
-        self._Wslots = [Ws.sum(axis=0, keepdims=True) if c.opposite else Ws
-                        for c, Ws in zip(self.constraints, self._Wslots)]
+        self._Wslots = [Wpad[c.slots].T.sum(axis=0, keepdims=True) if c.opposite
+                        else np.ascontiguousarray(Wpad[c.slots].T) for c in self.constraints]
         # off-diagonal: pairs (i < j) of distinct blocks at a common particle, all pairs in each group
         s = np.argsort(ep, kind="stable")
         ps = ep[s]

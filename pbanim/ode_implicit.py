@@ -38,16 +38,22 @@ def _fd_jacobian(fun, t, z, f0):
     return J
 
 
+def _jacobian(fun, t, z, f, jac):
+    """J = ∂f/∂y at z: ``jac(t, z)``, a constant ``jac``, or forward differences; a sparse J only outside
+    batch mode."""
+    if jac is None:
+        return _fd_jacobian(fun, t, z, f)
+    J = jac(t, z) if callable(jac) else jac
+    if sp.issparse(J) and z.ndim != 1:
+        raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
+    return J
+
+
 def _newton_matrix(fun, t, z, f, theta_h, jac, batch):
     """A solver for (I − θh J) Δ = r with J = ∂f/∂y at z (from ``jac`` or forward differences)."""
-    if jac is None:
-        J = _fd_jacobian(fun, t, z, f)
-    else:
-        J = jac(t, z) if callable(jac) else jac
+    J = _jacobian(fun, t, z, f, jac)
     n = z.shape[-1]
     if sp.issparse(J):
-        if batch:
-            raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
         lu = sp.linalg.splu(sp.csc_matrix(sp.identity(n, format="csc") - theta_h * J))
         return lu.solve
     M = np.eye(n) - theta_h * np.asarray(J, dtype=float)
@@ -192,11 +198,9 @@ def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spl
     True
     """
     f = fun(t, y)
-    J = (jac(t, y) if callable(jac) else jac) if jac is not None else _fd_jacobian(fun, t, y, f)
+    J = _jacobian(fun, t, y, f, jac)
     n = y.shape[-1]
     if sp.issparse(J):
-        if y.ndim != 1:
-            raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
         from scipy.sparse.linalg import expm_multiply
 
         aug = sp.bmat([[h * J, sp.csc_matrix((h * f)[:, None])], [None, sp.csc_matrix((1, 1))]], format="csc")
