@@ -45,13 +45,10 @@ per step size into v₁ = α v₀ + β (α = 1 + h W d, β = h W c) and sweeps t
 blocks, so a step costs about one read and one write of the state. Set ``scene.fold_affine = False`` to
 run the force phase effect by effect instead.
 
-Symplectic Euler needs forces only for its kick, v₁ = v₀ + h a(q₀, v₀); the drift q₁ = q₀ + h q̇(q₀, v₁)
-uses the position rates, which never depend on Q. The generic step still evaluates the whole right-hand
-side at (q₀, v₁) and discards its forces. A scene skips that second force evaluation and takes q̇ from
-``system.derivative(y₁, zero_forces())``: the same step, one force (and constraint) evaluation per step
-instead of two (``nfev`` counts one per step). Only what an effect keeps between steps can notice (a
-warm start now comes from the kick's solve: roundoff-level differences); an effect that must see the
-second evaluation sets ``drift_free = False`` and the scene falls back to the generic step.
+Symplectic Euler's drift q₁ = q₀ + h q̇(q₀, v₁) takes q̇ from ``system.derivative(y₁, zero_forces())``
+(position rates never depend on Q): one force/constraint evaluation per step, bit for bit the generic
+two-evaluation step for stateless effects (a warm start comes from the kick's solve); an effect that
+must see the discarded second evaluation sets ``drift_free = False`` (the generic step then runs).
 """
 
 from __future__ import annotations
@@ -77,8 +74,7 @@ class Effect:
 
     name: str = "effect"
     phase: str = "force"
-    # symplectic Euler evaluates this effect once per step, at (q₀, v₀) (see the module docstring); an effect
-    # whose kept state must also see the discarded drift evaluation at (q₀, v₁) sets False
+    # False: symplectic Euler must also evaluate it at (q₀, v₁) (see the module docstring)
     drift_free: bool = True
 
     def bind(self, system: Any) -> None:
@@ -164,8 +160,7 @@ class Scene:
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
         self._affine = self._lean and all(callable(getattr(e, "affine", None)) for e in self._force)
         # symplectic Euler with one force evaluation per step (see the module docstring)
-        self._kick_only = (not self._lean
-                           and all(getattr(e, "drift_free", True) for e in self._force + self._constraint))
+        self._kick_only = not self._lean and all(getattr(e, "drift_free", True) for e in self.effects)
         self.fold_affine = True
         self._Qbuf: np.ndarray | None = None
         self._fold: tuple | None = None
