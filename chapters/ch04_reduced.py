@@ -10,7 +10,7 @@ Figures:
   (RK4 drifts, implicit midpoint stays bounded; symplectic Euler is not symplectic for M(u) ≠ const).
 * ``cost_vs_n``: wall time per simulated second at equal accuracy (RK4, tip error ≤ 1e-8 m) for the
   n-link pendulum in maximal, reduced and Lagrangian form.
-* ``derivation_time``: deriving and compiling the n-link pendulum's equations: pbanim.lagrangian vs
+* ``derivation_time``: deriving and compiling the n-link pendulum's equations: pbanim.reduced.lagrangian vs
   sympy.physics.mechanics (KanesMethod, LagrangesMethod), each in a fresh process.
 """
 
@@ -177,7 +177,7 @@ def derivation_time(ctx):
             values[k] = np.array(r["rhs_value"])
     fig, ax = ctx.subplots()
     for k, mk in zip(kinds, "osd"):
-        label = {"pbanim": "pbanim.lagrangian (kinematic route + CSE)", "kane": "sympy KanesMethod + lambdify",
+        label = {"pbanim": "pbanim.reduced.lagrangian (kinematic route + CSE)", "kane": "sympy KanesMethod + lambdify",
                  "lagrange": "sympy LagrangesMethod + lambdify"}[k]
         ax.semilogy(ns, times[k], mk + "-", label=label)
     ax.set(xlabel="number of links n", ylabel="derivation + compilation (s)", xticks=ns,

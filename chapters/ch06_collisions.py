@@ -150,7 +150,7 @@ def toi_accuracy(ctx):
 @figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)")
 def boxes_tumbling(ctx):
     from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
-    from pbanim.rigid_quat import quat_from_axis_angle
+    from pbanim.rigid.quat import quat_from_axis_angle
     from scipy.spatial import ConvexHull
 
     rng = ctx.rng

@@ -6,7 +6,7 @@ the first time a function or scene needs them.
 Chapters and modules
 --------------------
 ch01 particles ``pbanim.particles`` · ch02 ODE solvers ``pbanim.ode`` · ch03 constraints
-``pbanim.constraints`` · ch04 reduced coordinates ``pbanim.reduced``, ``pbanim.lagrangian`` · ch05 rigid
+``pbanim.constraints`` · ch04 reduced coordinates ``pbanim.reduced``, ``pbanim.reduced.lagrangian`` · ch05 rigid
 bodies ``pbanim.rigid`` · ch06 collisions ``pbanim.collision`` · ch07 resting contact ``pbanim.contact``.
 """
 
@@ -16,9 +16,9 @@ from .errors import *  # noqa: F401,F403
 from .results import *  # noqa: F401,F403
 from .ode import *  # noqa: F401,F403
 from .scene import *  # noqa: F401,F403
-from .particles import *  # noqa: F401,F403
+from .particles.system import *  # noqa: F401,F403
 from .constraints import *  # noqa: F401,F403
-from .reduced import *  # noqa: F401,F403
+from .reduced.system import *  # noqa: F401,F403
 from .rigid import *  # noqa: F401,F403
 from .collision import *  # noqa: F401,F403
 from .contact import *  # noqa: F401,F403

@@ -9,10 +9,10 @@ from pbanim.collision import (Box, Capsule, Collisions, Contacts, ImpulseBodies,
                               box_box, box_plane, broad_phase, sphere_box, capsule_plane, capsule_sphere, collide,
                               collision_matrix, contact_impulse, grid_pairs, resolve_collisions,
                               simulate_collisions, solve_lcp_small, sphere_plane, sphere_sphere)
-from pbanim.collision_lcp import _normal_lcp
+from pbanim.collision.lcp import _normal_lcp
 from pbanim.errors import ConvergenceError
 from pbanim.models.collision import bouncing_ball, falling_rod, newtons_cradle, oblique_spheres, spinning_ball
-from pbanim.rigid_quat import quat_from_axis_angle, quat_to_matrix
+from pbanim.rigid.quat import quat_from_axis_angle, quat_to_matrix
 
 
 def rot(axis, angle):
@@ -346,7 +346,7 @@ def test_rod_impulse_through_the_rigid_scene_effect():
     # ORACLES D3 through Collisions + RigidBodies.apply_impulses: a thin capsule hitting the ground at one
     # end receives j = −(1+ε) v_rel·n / (1/m + (r×n)·I⁻¹(r×n)); L about the contact point is unchanged
     from pbanim.rigid import RigidBodies
-    from pbanim.rigid_quat import matrix_to_quat
+    from pbanim.rigid.quat import matrix_to_quat
     rod = falling_rod(mass=2.0, length=1.0, angle=0.5, v=(0.3, 0.1, -2.0), omega=(0.2, 0.7, 0.0), restitution=0.5)
     R = rod.rotation() @ rot([0, 1, 0], np.pi / 2)          # capsule axis (body z) along the rod
     rho = 1e-3
@@ -378,7 +378,7 @@ def test_rod_impulse_through_the_rigid_scene_effect():
 def test_capsule_dropped_flat_rests_on_its_two_end_spheres():
     # a capsule falling flat (ε = 0.2): two symmetric contacts, simultaneous impulses, rest at z = radius
     from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
-    from pbanim.rigid_quat import matrix_to_quat
+    from pbanim.rigid.quat import matrix_to_quat
     cap = Capsule(0.1, 0.4)
     R = rot([0, 1, 0], np.pi / 2)
     rb = RigidBodies(1.0, cap.inertia(1.0), positions=[[0, 0, 0.5]], orientations=[matrix_to_quat(R[None])[0]])

@@ -10,8 +10,8 @@ from pbanim.contact import (RestingContact, assemble_particles, assemble_particl
                             assemble_rigid_loop, make_contacts, solve_lcp)
 from pbanim.models.contact import box_on_plane, box_stack
 from pbanim.particles import Gravity, ParticleSystem
-from pbanim.rigid_bodies import RigidBodies
-from pbanim.rigid_quat import quat_exp
+from pbanim.rigid.bodies import RigidBodies
+from pbanim.rigid.quat import quat_exp
 from pbanim.scene import Scene
 
 
@@ -335,7 +335,7 @@ def test_with_collision_chapter_manifolds():
     # resting-contact LCP directly; two stacked boxes (1 kg on 100 kg): interface forces = weights above
     # (ORACLES D5), for every direct solver.  measured ≤ 3.1e-14 rel. (dantzig), bound 1e-8
     from pbanim.collision import Plane, box_box, box_plane
-    from pbanim.collision_shapes import Contacts
+    from pbanim.collision.shapes import Contacts
 
     sc = box_stack(2, 100.0, pattern="light_top")
     bodies, h = sc.system, sc.half_extents

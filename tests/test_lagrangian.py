@@ -1,4 +1,4 @@
-"""Tests of pbanim.lagrangian: symbolic Euler–Lagrange equations and their compiled numeric form (ch04).
+"""Tests of pbanim.reduced.lagrangian: symbolic Euler–Lagrange equations and their compiled numeric form (ch04).
 
 Oracles: ORACLES B7 (dE/dt = 0 along the EOM, M symmetric positive definite), textbook closed forms of
 the double pendulum, the bead on a rotating hoop and the cart-pendulum (small oscillations, invariants).
@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import pbanim
-import pbanim.lagrangian as lg
+import pbanim.reduced.lagrangian as lg
 from pbanim.errors import SingularChartError
 from pbanim.models.reduced import (bead_on_rotating_hoop, cart_pendulum, double_pendulum, n_link_pendulum,
                                    simple_pendulum, spherical_pendulum)

@@ -245,7 +245,7 @@ def test_expm_small_matches_high_precision(A):
     import mpmath as mp
     import scipy.linalg as sla
 
-    from pbanim.ode_implicit import expm_small
+    from pbanim.ode.implicit import expm_small
 
     with mp.workdps(50):
         ex = np.array(mp.expm(mp.matrix(A.tolist())).tolist(), dtype=float)

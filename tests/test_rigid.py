@@ -450,7 +450,7 @@ def test_spring_to_world_gives_harmonic_oscillation():
 def test_springs_to_particles_match_the_particle_system():
     # particles as point bodies on rigid springs move exactly like pbanim.particles with DampedSprings
     from pbanim.particles import ParticleSystem
-    from pbanim.particles_springs import DampedSprings
+    from pbanim.particles.springs import DampedSprings
 
     x0 = np.array([[0.0, 0, 0], [1.2, 0.1, 0], [0.3, 1.1, 0.2]])
     v0 = np.array([[0.0, 0.1, 0], [0.0, 0, 0.3], [-0.2, 0, 0]])

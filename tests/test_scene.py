@@ -8,7 +8,7 @@ import pytest
 
 from pbanim.ode import get_method
 from pbanim.particles import DampedSprings, Drag, Gravity, ParticleSystem, UserForce
-from pbanim.particles_springs import DampedSprings as _Springs
+from pbanim.particles.springs import DampedSprings as _Springs
 from pbanim.results import SimResult
 from pbanim.scene import Scene
 from pbanim.testing import check_grad

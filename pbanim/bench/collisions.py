@@ -24,8 +24,8 @@ def _spheres(N: int, rng) -> tuple[np.ndarray, float]:
 
 
 def run(quick: bool = False) -> Report:
-    from ..collision_broad import all_pairs, grid_pairs
-    from ..collision_toi import simulate_collisions
+    from ..collision.broad import all_pairs, grid_pairs
+    from ..collision.toi import simulate_collisions
     from ..models.collision import bouncing_ball
 
     rng = np.random.default_rng(2024)

@@ -22,7 +22,7 @@ from ..accuracy import sweep
 from ..constraints import Constraints, ConstraintSet, solve_lambda
 from ..errors import ConvergenceError, SimulationDiverged
 from ..models.constrained import hanging_chain
-from ..particles import Gravity
+from ..particles.system import Gravity
 from ..scene import Scene
 from . import Goal, Report, Table, median_time
 

@@ -37,7 +37,7 @@ STACK_STEPS = (1e-3, 1 / 240, 1 / 60)   # PyBullet's reference step, its default
 
 
 def _stack_run(solver: str, t_end: float, h: float):
-    from ..contact_effect import RestingContact
+    from ..contact.effect import RestingContact
     from ..models.contact import box_stack
     from ..scene import Scene
 
@@ -88,7 +88,7 @@ def _stack_steps(quick: bool, rep: Report) -> tuple[float, str]:
 def _stack_table(quick: bool, rep: Report) -> tuple[float, float, float, float]:
     """Rows of the stack table; returns (worst drift, worst penetration, cheapest direct cost per simulated
     second at h = 1 ms, PyBullet's cost per simulated second or NaN when pybullet is not installed)."""
-    from ..contact_friction import TimeStepping
+    from ..contact.friction import TimeStepping
     from ..models.contact import box_stack
 
     t_end, h = (0.1 if quick else 2.0), 1e-3
@@ -150,7 +150,7 @@ def _stack_table(quick: bool, rep: Report) -> tuple[float, float, float, float]:
 
 
 def _solver_table(quick: bool, rep: Report) -> float:
-    from ..contact_lcp import solve_lcp
+    from ..lcp.solve import solve_lcp
     from ..models.contact import random_contact_lcp
 
     ms = [10, 30, 60] if quick else [10, 30, 100, 300, 1000]
@@ -180,7 +180,7 @@ def _solver_table(quick: bool, rep: Report) -> float:
 
 
 def _pour(quick: bool, rep: Report) -> float:
-    from ..contact_friction import TimeStepping
+    from ..contact.friction import TimeStepping
     from ..models.contact import sphere_pour
 
     n, t_end, h = (20, 0.2, 4e-3) if quick else (100, 1.2, 4e-3)

@@ -43,7 +43,7 @@ def _interleaved(fns: dict, repeats: int, min_time: float) -> dict:
 
 
 def _gravity_drag(N: int, rng: np.random.Generator):
-    from ..particles import Drag, Gravity, ParticleSystem
+    from ..particles.system import Drag, Gravity, ParticleSystem
     from ..scene import Scene
 
     ps = ParticleSystem(rng.normal(size=(N, 3)), rng.normal(size=(N, 3)), rng.uniform(0.5, 2.0, N))
@@ -104,7 +104,7 @@ def step_table(sizes, repeats: int, rng: np.random.Generator):
 
 
 def spring_table(S: int, N: int, repeats: int, rng: np.random.Generator):
-    from ..particles import DampedSprings, ParticleSystem
+    from ..particles.system import DampedSprings, ParticleSystem
     from ..scene import Scene
 
     ps = ParticleSystem(rng.normal(size=(N, 3)), rng.normal(size=(N, 3)), 1.0)

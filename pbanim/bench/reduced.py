@@ -3,7 +3,7 @@
 Measured in one run, so both sides of every ratio share the machine's load:
 
 1. **Derivation + compilation** of the planar n-link pendulum (n = 2, 5, 10, 20; quick: 2, 3):
-   :mod:`pbanim.lagrangian` (kinematic route, CSE-compiled) against sympy.physics.mechanics'
+   :mod:`pbanim.reduced.lagrangian` (kinematic route, CSE-compiled) against sympy.physics.mechanics'
    ``KanesMethod`` and ``LagrangesMethod`` (equations, then ``lambdify`` of ``mass_matrix_full`` and
    ``forcing_full``, the way their documentation simulates). Every side runs in a fresh subprocess (cold
    sympy caches, same start) capped at ``CAP`` = 60 s; a capped run is reported as ">60 s (cap)".
@@ -70,12 +70,12 @@ def _mechanics_chain(n: int, method: str, L: float = 1.0, m: float = 1.0, g: flo
 def derive_worker(kind: str, n: int, rhs_calls: int = 0) -> dict:
     """Run in a subprocess: time model building, derivation and compilation (and optionally the rhs).
 
-    Imports (sympy, sympy.physics.mechanics, pbanim.lagrangian) happen before the clock starts.
+    Imports (sympy, sympy.physics.mechanics, pbanim.reduced.lagrangian) happen before the clock starts.
     """
     import sympy as sm
     import sympy.physics.mechanics  # noqa: F401
 
-    from ..lagrangian import compile_equations, derive_equations
+    from ..reduced.lagrangian import compile_equations, derive_equations
     from ..models.reduced import n_link_pendulum
 
     t0 = time.perf_counter()
@@ -142,7 +142,7 @@ def derivation_times(ns, kinds=("pbanim", "kane", "lagrange"), cap: float = CAP)
 
 
 def _tip_error(rhs, y0, tip, h, t_end, ref_tip, method="rk4"):
-    from ..reduced import simulate_fixed
+    from ..reduced.system import simulate_fixed
 
     res = simulate_fixed(rhs, y0, t_end, h, method, record_every=10 ** 9)
     return float(np.linalg.norm(tip(res.y[:, -1]) - ref_tip)), res.wall_time / t_end

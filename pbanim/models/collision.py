@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..collision_shapes import Plane, check_friction, check_restitution
+from ..collision.shapes import Plane, check_friction, check_restitution
 
 __all__ = ["BouncingBall", "bouncing_ball", "NewtonsCradle", "newtons_cradle", "ObliqueSpheres",
            "oblique_spheres", "FallingRod", "falling_rod", "SpinningBall", "spinning_ball"]
@@ -70,8 +70,8 @@ class BouncingBall:
 
     def scene(self, rest_velocity: float | None = None, mode: str = "sequential"):
         """A particle scene: ParticleSystem, Gravity and Collisions with the ground plane."""
-        from ..collision_scene import Collisions
-        from ..particles import Gravity, ParticleSystem
+        from ..collision.scene import Collisions
+        from ..particles.system import Gravity, ParticleSystem
         from ..scene import Scene
 
         ps = ParticleSystem([[0.0, self.h0]], [[0.0, 0.0]], masses=1.0)

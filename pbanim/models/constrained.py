@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..constraints import Distance, FixedPoint, LinearCombination, OnCircle
-from ..particles import ParticleSystem
+from ..particles.system import ParticleSystem
 
 __all__ = ["ConstrainedModel", "bead_on_circle", "hanging_chain", "cloth_patch", "random_chain", "random_tree",
            "redundant_rod", "redundant_xy", "inconsistent_x"]

@@ -19,7 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..contact_assembly import make_contacts
+from ..contact.assembly import make_contacts
 
 __all__ = ["LCPCase", "psd_nonunique_lcp", "murty_lcp", "infeasible_lcp", "trivial_lcp", "random_contact_lcp",
            "ContactScene", "box_on_plane", "box_stack", "box_on_incline", "incline_expected", "painleve_B",
@@ -134,9 +134,9 @@ def box_on_plane(mass: float = 1.0, half_extents=(0.5, 0.25, 0.125), g: float = 
     >>> c = sc.detect(sc.system.state()); len(c.a), float(abs(c.depth).max()), sc.exact["total_force"]
     (4, 0.0, 19.62)
     """
-    from ..rigid_bodies import RigidBodies
-    from ..rigid_effects import RigidGravity
-    from ..rigid_inertia import box_inertia
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import box_inertia
 
     mass = _check_mass("mass", mass)
     h = np.asarray(half_extents, dtype=float)
@@ -160,9 +160,9 @@ def box_stack(n: int = 10, mass_ratio: float = 100.0, pattern: str = "alternatin
     >>> sc.system.mass.tolist(), sc.exact["weights_above"].round(6).tolist()
     ([1.0, 100.0, 1.0], [1000.62, 990.81, 9.81])
     """
-    from ..rigid_bodies import RigidBodies
-    from ..rigid_effects import RigidGravity
-    from ..rigid_inertia import box_inertia
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import box_inertia
 
     if int(n) != n or n < 1:
         raise ValueError(f"n must be a positive integer, got {n}")
@@ -226,10 +226,10 @@ def box_on_incline(angle: float, friction: float, mass: float = 1.0, half_extent
     pyramid is weaker by cos(π/4) along its diagonals). ``exact`` is :func:`incline_expected`;
     ``exact["downhill"]`` is the unit downhill direction.
     """
-    from ..rigid_bodies import RigidBodies
-    from ..rigid_effects import RigidGravity
-    from ..rigid_inertia import box_inertia
-    from ..rigid_quat import quat_from_axis_angle, quat_multiply
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import box_inertia
+    from ..rigid.quat import quat_from_axis_angle, quat_multiply
 
     mass = _check_mass("mass", mass)
     if not (0 <= angle < np.pi / 2):
@@ -269,9 +269,9 @@ def painleve_rod(theta: float = np.arctan(2.0), friction: float = 2.0, mass: flo
 
     ``exact``: B, the acceleration-level coefficient A = B/m, b = −g.
     """
-    from ..rigid_bodies import RigidBodies
-    from ..rigid_effects import RigidGravity
-    from ..rigid_quat import quat_from_axis_angle
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.quat import quat_from_axis_angle
 
     mass = _check_mass("mass", mass)
     l = float(half_length)
@@ -304,7 +304,7 @@ def sphere_pour(n: int = 100, radius: float = 0.05, box_half: float = 0.3, seed:
     ``detect`` returns sphere–wall and sphere–sphere contacts with separation ≤ ``margin`` (default r/2);
     ``exact["radius"]`` for penetration checks.
     """
-    from ..particles import Gravity, ParticleSystem
+    from ..particles.system import Gravity, ParticleSystem
 
     if int(n) != n or n < 1:
         raise ValueError(f"n must be a positive integer, got {n}")

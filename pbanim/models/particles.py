@@ -24,7 +24,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..particles import AnchorSprings, DampedSprings, Drag, Gravity, ParticleSystem
+from ..particles.system import AnchorSprings, DampedSprings, Drag, Gravity, ParticleSystem
 from ..scene import Scene
 
 __all__ = ["ParticleModel", "projectile_drag_model", "two_body_spring_model", "hanging_net"]

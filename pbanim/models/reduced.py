@@ -86,8 +86,8 @@ class ReducedModel:
         return np.concatenate([self.u0, self.udot0])
 
     def lagrangian(self, route: str = "kinematic"):
-        """The compiled Euler–Lagrange equations (:func:`pbanim.lagrangian.lagrangian_system`, cached)."""
-        from ..lagrangian import lagrangian_system
+        """The compiled Euler–Lagrange equations (:func:`pbanim.reduced.lagrangian.lagrangian_system`, cached)."""
+        from ..reduced.lagrangian import lagrangian_system
 
         coords, pos, t = self.build()
         pts = list(zip(self.masses.tolist(), pos))
@@ -99,8 +99,8 @@ class ReducedModel:
 
     def reduced(self, max_cond: float = 1e8):
         """A :class:`pbanim.reduced.ReducedSystem` with gravity (J, J̇u̇ from sympy; cached)."""
-        from ..particles import Gravity
-        from ..reduced import ReducedSystem
+        from ..particles.system import Gravity
+        from ..reduced.system import ReducedSystem
 
         k = self.key + (max_cond,)
         if k not in _REDUCED:
@@ -325,7 +325,7 @@ def maximal_chain(model: ReducedModel, solver: str = "auto", stabilization: str 
     multiplier λₖ of C = ½(|Δx|² − L²) gives the tension −λₖLₖ (compare :func:`chain_rod_tensions`).
     """
     from ..constraints import Constraints, Distance
-    from ..particles import Gravity, ParticleSystem
+    from ..particles.system import Gravity, ParticleSystem
     from ..scene import Scene
 
     if "lengths" not in model.info:

@@ -36,9 +36,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.special import ellipj, ellipk, ellipkinc
 
-from ..rigid_bodies import RigidBodies
-from ..rigid_inertia import cylinder_inertia, parallel_axis, validate_inertia
-from ..rigid_quat import quat_normalize, quat_to_matrix
+from ..rigid.bodies import RigidBodies
+from ..rigid.inertia import cylinder_inertia, parallel_axis, validate_inertia
+from ..rigid.quat import quat_normalize, quat_to_matrix
 
 __all__ = ["TorqueFreeBody", "torque_free_body", "THandle", "t_handle"]
 

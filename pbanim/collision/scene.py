@@ -1,0 +1,304 @@
+"""Collisions in scenes: the post-step effect for particle and rigid scenes (chapter 06).
+
+:class:`Collisions` is a post-step effect for particle scenes (``ParticleSystem``: point particles or
+spheres of a given radius) and rigid scenes (``RigidBodies`` with one shape per body). After each step it
+detects contacts (broad phase on bounding spheres, then the narrow phase), applies impulses
+(:func:`pbanim.collision.impulse.resolve_collisions`) and projects the remaining penetration away (each
+body moved along the normal of its deepest contact, shared by inverse mass). That is *fixed-step
+detection*: the collision is noticed after the step, when the bodies already overlap, so the impact
+happens up to h late; :func:`pbanim.collision.toi.simulate_collisions` locates it instead.
+
+Limits: the projection moves each body by its deepest contact only, so long-lived resting stacks jiggle
+(resting contact forces are chapter 07, :mod:`pbanim.contact`); capsule–capsule and capsule–box pairs
+have no narrow-phase test (rejected when the effect is bound).
+
+Restitution threshold (ORACLES D10): a contact approaching slower than ``rest_velocity`` gets ε = 0.
+Gravity adds g·h of approach speed per step to a body lying on the ground, so a threshold below g·h
+bounces a resting body every step (jitter); the default ``rest_velocity = 3·g·h`` (``gravity`` = 9.81
+m/s² unless given) stops it: a resting body never rises.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+
+from .broad import grid_pairs
+from .impulse import ImpulseBodies, ImpulseResult, resolve_collisions
+from .narrow import collide, sphere_plane, sphere_sphere
+from .shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
+from ..scene import Effect
+
+__all__ = ["Collisions"]
+
+
+class Collisions(Effect):
+    """Post-step collision response (detection → impulses → projection) for particle and rigid scenes.
+
+    Parameters
+    ----------
+    shapes : Shape or sequence of Shape, optional
+        Rigid scenes: one ``Sphere``/``Box``/``Capsule`` per body (or one for all).
+    obstacles : sequence
+        Static world geometry: ``Plane`` objects, or ``(Sphere, centre)`` pairs.
+    radius : float or (N,) array
+        Particle scenes: particle radii (0 = points, which only meet obstacles).
+    restitution, friction : float
+        ε ∈ [0, 1] and μ ≥ 0.
+    mode : {"sequential", "simultaneous"}
+        See :mod:`pbanim.collision.impulse`.
+    rest_velocity : float, optional
+        Restitution threshold (m/s); default 3·gravity·h at each step.
+    project : bool
+        Remove the remaining penetration after the impulses (default True).
+    friction_model : {"staggered", "lcp"}
+        Friction in the simultaneous solve (see :mod:`pbanim.collision.impulse`).
+
+    Examples
+    --------
+    >>> from pbanim.particles import ParticleSystem, Gravity
+    >>> from pbanim.scene import Scene
+    >>> ps = ParticleSystem([[0.0, 1.0]], [[0.0, 0.0]])
+    >>> scene = Scene(ps, [Gravity(), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
+    >>> scene.pipeline
+    ('gravity', 'integrate', 'collisions')
+    >>> y = scene.simulate(1.5, 4e-3).y[:, -1]
+    >>> bool(abs(y[1]) < 1e-12 and y[3] == 0.0)       # at rest on the ground
+    True
+    """
+
+    name = "collisions"
+    phase = "post_step"
+
+    def __init__(self, shapes=None, obstacles: Sequence = (), radius=0.0, restitution: float = 1.0,
+                 friction: float = 0.0, mode: str = "sequential", rest_velocity: float | None = None,
+                 gravity: float = 9.81, project: bool = True, max_iter: int = 1000,
+                 friction_model: str = "staggered") -> None:
+        self.restitution = check_restitution(restitution)
+        self.friction = check_friction(friction)
+        if mode not in ("sequential", "simultaneous"):
+            raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
+        if rest_velocity is not None and not (np.isfinite(rest_velocity) and rest_velocity >= 0):
+            raise ValueError(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
+        if friction_model not in ("staggered", "lcp"):
+            raise ValueError(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
+        self.mode, self.rest_velocity, self.gravity = mode, rest_velocity, float(gravity)
+        self.friction_model = friction_model
+        self.project, self.max_iter = bool(project), int(max_iter)
+        self.planes, self.spheres = [], []
+        for ob in obstacles:
+            if isinstance(ob, Plane):
+                self.planes.append(ob)
+            elif isinstance(ob, tuple) and len(ob) == 2 and isinstance(ob[0], Sphere):
+                self.spheres.append((ob[0], np.append(np.asarray(ob[1], float), [0.0] * (3 - len(ob[1])))))
+            else:
+                raise ValueError(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
+        self.shapes_in, self.radius_in = shapes, radius
+        self.log: list[dict] = []
+        self.last: ImpulseResult | None = None
+
+    # -- binding ------------------------------------------------------------------------------------
+    def bind(self, system) -> None:
+        self.system = system
+        self.rigid = hasattr(system, "inv_I_body")
+        N = system.N
+        if self.rigid:
+            sh = self.shapes_in
+            sh = [sh] * N if not isinstance(sh, (list, tuple)) else list(sh)
+            if len(sh) != N or not all(isinstance(s, (Sphere, Box, Capsule)) for s in sh):
+                raise ValueError(f"shapes must be one Sphere/Box/Capsule per body ({N} bodies), got {self.shapes_in!r}")
+            self.shapes = sh
+            kinds = sorted({type(x).__name__ for x in sh})
+            ok = {("Box", "Box"), ("Box", "Sphere"), ("Sphere", "Sphere"), ("Capsule", "Sphere")}
+            names = [type(x).__name__ for x in sh]
+            bad = [(k1, k2) for i, k1 in enumerate(kinds) for k2 in kinds[i:]
+                   if (k1, k2) not in ok and (k1 != k2 or names.count(k1) > 1)]
+            if bad:
+                raise ValueError(f"shapes: no narrow-phase test between bodies of kinds {bad}; supported body "
+                                 f"pairs are {sorted(ok)} (every shape meets planes)")
+            self.radius = np.array([s.radius if isinstance(s, (Sphere, Capsule)) else 0.0 for s in sh])
+            self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
+            self.inv_mass = system.inv_mass
+        else:
+            r = np.broadcast_to(np.asarray(self.radius_in, float), (N,)).copy()
+            if not np.all(np.isfinite(r)) or np.any(r < 0):
+                raise ValueError(f"radius must be >= 0 for every particle, got {self.radius_in}")
+            self.radius, self.is_sphere, self.dim = r, r > 0, system.dim
+            self.inv_mass = system.W
+
+    # -- state access ---------------------------------------------------------------------------
+    def _poses(self, y):
+        if self.rigid:
+            x = self.system.unpack(y)[0]
+            return x, self.system.rotations(y)
+        x = self.system.unpack(y)[0]
+        x3 = np.zeros((self.system.N, 3))
+        x3[:, : self.dim] = x
+        return x3, None
+
+    def bodies(self, y) -> ImpulseBodies:
+        """The bodies' velocities and inverse masses at y, with the world row (for the impulse solver)."""
+        x, _ = self._poses(y)
+        if self.rigid:
+            v, w = self.system.velocities(y)
+            return ImpulseBodies.make(x, v, self.system.inv_mass, w, self.system.inv_inertia_world(y))
+        v3 = np.zeros((self.system.N, 3))
+        v3[:, : self.dim] = self.system.unpack(y)[1]
+        return ImpulseBodies.make(x, v3, self.system.W)
+
+    # -- detection ------------------------------------------------------------------------------
+    def contacts(self, y, margin: float = 0.0) -> Contacts:
+        """All contacts at state y (bodies against obstacles and against each other)."""
+        x, R = self._poses(y)
+        N = len(x)
+        parts = []
+        sph = np.flatnonzero(self.is_sphere) if self.rigid else np.arange(N)
+        for pl in self.planes:
+            parts.append(sphere_plane(x[sph], self.radius[sph], pl, a=sph, margin=margin))
+            if self.rigid:
+                for i in np.flatnonzero(~self.is_sphere):
+                    parts.append(collide(self.shapes[i], x[i], R[i], pl, None, None, i, -1, margin))
+        for shape, centre in self.spheres:
+            if not self.rigid:
+                parts.append(sphere_sphere(x, self.radius, centre, shape.radius, np.arange(N), -1, margin))
+                continue
+            for i in range(N):
+                parts.append(collide(self.shapes[i], x[i], R[i], shape, centre, np.eye(3), i, -1, margin))
+        parts.append(self._pair_contacts(x, R, margin))
+        return Contacts.concatenate(parts)
+
+    def _pairs(self, x, margin):
+        """Broad phase on bounding spheres (uniform grid)."""
+        if self.rigid:
+            bound = np.array([s.radius if isinstance(s, Sphere) else
+                              (s.radius + s.half_length if isinstance(s, Capsule) else np.linalg.norm(s.half_extents))
+                              for s in self.shapes])
+        else:
+            bound = self.radius
+        if len(x) < 2 or not np.any(bound > 0):
+            return np.zeros((0, 2), np.intp)
+        return grid_pairs(x, bound, margin=margin).pairs
+
+    def _pair_contacts(self, x, R, margin) -> Contacts:
+        pairs = self._pairs(x, margin)
+        if not len(pairs):
+            return Contacts.empty()
+        i, j = pairs[:, 1], pairs[:, 0]
+        if not self.rigid:
+            keep = (self.radius[i] > 0) & (self.radius[j] > 0)
+            return sphere_sphere(x[i[keep]], self.radius[i[keep]], x[j[keep]], self.radius[j[keep]], i[keep], j[keep], margin)
+        both = self.is_sphere[i] & self.is_sphere[j]
+        parts = [sphere_sphere(x[i[both]], self.radius[i[both]], x[j[both]], self.radius[j[both]], i[both], j[both], margin)]
+        for a, b in zip(i[~both], j[~both]):
+            if (self.inv_mass[a] == 0 and self.inv_mass[b] == 0):
+                continue
+            parts.append(collide(self.shapes[a], x[a], R[a], self.shapes[b], x[b], R[b], a, b, margin))
+        return Contacts.concatenate(parts)
+
+    def gaps(self, y, pairs=None) -> np.ndarray:
+        """Signed distances (> 0 apart) of every body–plane feature and of ``pairs`` of spheres."""
+        x, R = self._poses(y)
+        out = []
+        for pl in self.planes:
+            if self.rigid:
+                for i, s in enumerate(self.shapes):
+                    if isinstance(s, Box):
+                        out.append(pl.distance(x[i] + (R[i] @ s.vertices().T).T))
+                    elif isinstance(s, Capsule):
+                        ends = x[i] + np.outer([-s.half_length, s.half_length], R[i][:, 2])
+                        out.append(pl.distance(ends) - s.radius)
+                    else:
+                        out.append(pl.distance(x[i:i + 1]) - s.radius)
+            else:
+                out.append(pl.distance(x) - self.radius)
+        for shape, centre in self.spheres:        # point particles, spheres (rigid: sphere bodies only)
+            sel = self.is_sphere if self.rigid else np.ones(len(x), bool)
+            out.append(np.linalg.norm(x[sel] - centre, axis=1) - self.radius[sel] - shape.radius)
+        if pairs is not None and len(pairs):
+            d = x[pairs[:, 0]] - x[pairs[:, 1]]
+            out.append(np.linalg.norm(d, axis=1) - self.radius[pairs[:, 0]] - self.radius[pairs[:, 1]])
+        return np.concatenate(out) if out else np.zeros(0)
+
+    def sphere_pairs(self, y, margin: float) -> np.ndarray:
+        """Candidate sphere pairs (both spheres) within ``margin`` — the pairs whose gap is an event."""
+        x, _ = self._poses(y)
+        p = self._pairs(x, margin)
+        if len(p):
+            p = p[self.is_sphere[p[:, 0]] & self.is_sphere[p[:, 1]]]
+        return p
+
+    # -- response -------------------------------------------------------------------------------
+    def respond(self, t: float, y: np.ndarray, h: float, margin: float = 0.0, plastic: bool = False) -> np.ndarray:
+        """Impulses for the contacts at y (and projection of the penetration); returns the new state.
+
+        ``plastic=True`` uses ε = 0 for every contact (the resting contacts left after event location).
+        """
+        c = self.contacts(y, margin)
+        if c.m == 0:
+            self.last = None
+            return y
+        bodies = self.bodies(y)
+        rest = self.threshold(h)
+        vn_before = np.einsum("ij,ij->i", bodies.v[c.a] - bodies.v[c.b], c.normal)
+        eps = 0.0 if plastic else self.restitution
+        res = resolve_collisions(bodies, c, eps, self.friction, self.mode, rest, self.max_iter,
+                                 friction_model=self.friction_model)
+        self.last = res
+        if np.any(res.normal_impulse > 0):
+            self.log.append({"t": t, "contacts": c.m, "impulse": float(res.normal_impulse.sum()),
+                             "vn_min": float(vn_before.min())})
+        y = self._apply(y, c, res.impulse)
+        if self.project:
+            y = self._project(y, c)
+        return y
+
+    def _apply(self, y, c: Contacts, J) -> np.ndarray:
+        if self.rigid:
+            idx = np.concatenate([c.a, c.b])
+            return self.system.apply_impulses(y, idx, np.concatenate([c.point, c.point]), np.concatenate([J, -J]))
+        y = np.array(y, dtype=float, copy=True)
+        N, dim = self.system.N, self.dim
+        dv = np.zeros((N + 1, 3))
+        W = np.append(self.system.W, 0.0)
+        np.add.at(dv, c.a, W[c.a, None] * J)
+        np.add.at(dv, c.b, -W[c.b, None] * J)
+        y[self.system.split:] += dv[:N, :dim].ravel()
+        return y
+
+    def _project(self, y, c: Contacts) -> np.ndarray:
+        """Move each body along the normal of its deepest contact by its inverse-mass share of the depth."""
+        deep = c.depth > 0
+        if not deep.any():
+            return y
+        c = c.select(deep)
+        W = np.append(self.inv_mass, 0.0)
+        wsum = W[c.a] + W[c.b]
+        share = np.where(wsum > 0, c.depth / np.where(wsum > 0, wsum, 1.0), 0.0)
+        N = len(self.inv_mass)
+        best = np.zeros(N + 1)
+        moves = [(c.a, share * W[c.a], 1.0), (c.b, share * W[c.b], -1.0)]
+        for idx, move, _ in moves:
+            np.maximum.at(best, idx, move)
+        dx = np.zeros((N + 1, 3))
+        for idx, move, sign in moves:      # the largest correction per body (ties: any of them)
+            pick = (move > 0) & (move >= best[idx])
+            dx[idx[pick]] = sign * move[pick, None] * c.normal[pick]
+        y = np.array(y, dtype=float, copy=True)
+        if self.rigid:
+            self.system.unpack(y)[0][...] += dx[:N]
+        else:
+            self.system.unpack(y)[0][...] += dx[:N, : self.dim]
+        return y
+
+    def threshold(self, h: float) -> float:
+        """The restitution threshold (m/s) at step h: ``rest_velocity``, or 3·gravity·h by default."""
+        return self.rest_velocity if self.rest_velocity is not None else 3.0 * self.gravity * h
+
+    def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        return self.respond(t, y, h)
+
+    def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
+        res = self.last
+        return {"contacts": 0 if res is None else len(res.normal_impulse),
+                "collision_impulse": 0.0 if res is None else float(res.normal_impulse.sum())}

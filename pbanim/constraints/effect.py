@@ -1,0 +1,326 @@
+"""The ``Constraints`` scene effect: λ each force evaluation, Baumgarte feedback or post-step projection.
+
+Stages. ``Constraints(...)`` is an effect of phase "constraint": at every right-hand-side evaluation it
+assembles C, J, J̇q̇ at (q, q̇), solves JWJᵀλ = −J̇q̇ − JWQ − k_s C − k_d Ċ with the chosen solver and
+returns Q + Jᵀλ. With ``stabilization="projection"`` it also contributes a post-step stage
+("constraint-projection") that moves the state back onto C = 0 (Gauss–Newton steps δq = −WJᵀ(JWJᵀ)⁻¹C,
+the mass-weighted closest point) and then removes Ċ (q̇ ← q̇ − WJᵀ(JWJᵀ)⁻¹Jq̇).
+
+Baumgarte feedback turns the constraint error into a damped oscillator C̈ + k_d Ċ + k_s C = 0: with
+k_s = ω_b², k_d = 2ζω_b the error decays at rate ω_b (critically for ζ = 1). It is a stiff spring with
+its own step limit: see :func:`baumgarte_spectral_radius` / :func:`baumgarte_stability_limit`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .assembly import ConstraintSet
+from .kinds import Constraint
+from .solvers import SOLVERS, ConstraintSolution, solve_lambda
+from ..errors import SimulationDiverged, SingularConstraintError
+from ..scene import Effect
+
+__all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multipliers", "BaumgarteGains",
+           "baumgarte_gains", "gains_from_box2d", "gains_from_mujoco", "gains_from_erp_cfm",
+           "baumgarte_feedback_map", "baumgarte_spectral_radius", "baumgarte_stability_limit"]
+
+STABILIZATIONS = ("none", "baumgarte", "projection")
+
+
+@dataclass(frozen=True)
+class BaumgarteGains:
+    """Baumgarte gains (k_s in 1/s², k_d in 1/s) and the oscillator they make: ω_b = √k_s, ζ = k_d/2ω_b."""
+
+    ks: float
+    kd: float
+
+    @property
+    def natural_frequency(self) -> float:
+        return float(np.sqrt(self.ks))
+
+    @property
+    def damping_ratio(self) -> float:
+        return float(self.kd / (2 * np.sqrt(self.ks))) if self.ks > 0 else float("inf")
+
+
+def _nonneg(value, name: str) -> float:
+    v = float(value)
+    if not np.isfinite(v) or v < 0:
+        raise ValueError(f"{name} must be a finite number >= 0, got {value}; Baumgarte gains are non-negative")
+    return v
+
+
+def baumgarte_gains(natural_frequency: float, damping_ratio: float = 1.0) -> BaumgarteGains:
+    """k_s = ω², k_d = 2ζω.
+
+    >>> baumgarte_gains(10.0, 1.0)
+    BaumgarteGains(ks=100.0, kd=20.0)
+    """
+    w = _nonneg(natural_frequency, "natural_frequency")
+    z = _nonneg(damping_ratio, "damping_ratio")
+    return BaumgarteGains(w * w, 2 * z * w)
+
+
+def gains_from_box2d(hertz: float, damping_ratio: float) -> BaumgarteGains:
+    """Box2D soft constraints (hertz f, damping ratio ζ): ω = 2πf, so k_s = (2πf)², k_d = 2ζ(2πf).
+
+    >>> g = gains_from_box2d(1.0, 0.5); round(g.ks, 6), round(g.kd, 6)
+    (39.478418, 6.283185)
+    """
+    return baumgarte_gains(2 * np.pi * _nonneg(hertz, "hertz"), damping_ratio)
+
+
+def gains_from_mujoco(timeconst: float, dampratio: float) -> BaumgarteGains:
+    """MuJoCo solref (timeconst τ, dampratio ζ), impedance d → 1: k_s = 1/(τ²ζ²), k_d = 2/τ.
+
+    >>> gains_from_mujoco(0.02, 1.0)
+    BaumgarteGains(ks=2500.0, kd=100.0)
+    """
+    tau = _nonneg(timeconst, "timeconst")
+    z = _nonneg(dampratio, "dampratio")
+    if tau == 0 or z == 0:
+        raise ValueError(f"timeconst and dampratio must be > 0, got {timeconst}, {dampratio}")
+    return BaumgarteGains(1.0 / (tau * tau * z * z), 2.0 / tau)
+
+
+def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float = 1.0) -> BaumgarteGains:
+    """Bullet/ODE (ERP, CFM) at step h: spring k_p = ERP/(h·CFM), damper c = (1 − ERP)/CFM, per unit of the
+    row's effective mass m_eff = 1/(JWJᵀ): k_s = k_p/m_eff, k_d = c/m_eff (needs CFM > 0).
+
+    >>> g = gains_from_erp_cfm(0.2, 0.01, 0.01); round(g.ks, 9), round(g.kd, 9)
+    (2000.0, 80.0)
+    """
+    erp, cfm, h = float(erp), float(cfm), float(h)
+    if not 0 < erp < 1:
+        raise ValueError(f"erp must be in (0, 1), got {erp}")
+    if not cfm > 0:
+        raise ValueError(f"cfm must be > 0 for finite gains, got {cfm}; CFM = 0 is the hard limit k_s, k_d → ∞")
+    if not h > 0 or not effective_mass > 0:
+        raise ValueError(f"h and effective_mass must be > 0, got {h}, {effective_mass}")
+    return BaumgarteGains(erp / (h * cfm) / effective_mass, (1 - erp) / cfm / effective_mass)
+
+
+def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system, y, Q=None, *,
+                      solver: str = "auto", ks: float = 0.0, kd: float = 0.0, tol: float = 1e-12,
+                      max_iter: int | None = None) -> ConstraintSolution:
+    """λ, Q_C = Jᵀλ and q̈ for a particle system at state y under applied force Q (default zero).
+
+    Examples
+    --------
+    >>> from pbanim.particles import ParticleSystem
+    >>> from pbanim.constraints.kinds import OnCircle
+    >>> ps = ParticleSystem([[0.0, -1.0]], [[2.0, 0.0]], masses=1.0)
+    >>> sol = solve_multipliers([OnCircle([0], [0.0, 0.0], 1.0)], ps, ps.state(), [[0.0, -9.81]])
+    >>> round(-float(sol.lam[0]), 10)   # bead tension m(v²/R + g cos θ) at the bottom = 4 + 9.81
+    13.81
+    """
+    cset = constraints if isinstance(constraints, ConstraintSet) else ConstraintSet(
+        constraints, system.N, system.dim, system.W, system.x0)
+    x, v = system.unpack(np.asarray(y, float))
+    Qf = np.zeros(cset.n) if Q is None else np.asarray(Q, float).ravel()
+    asm = cset.assemble(x, v, pairs=cset.blocks)
+    c = -asm.Jdv - ks * asm.C - kd * asm.Cdot
+    return solve_lambda(asm.J, cset.Wq, Qf, c, solver, cset=cset, asm=asm, tol=tol, max_iter=max_iter)
+
+
+class Constraints(Effect):
+    """Constraint forces for a particle scene (phase "constraint"; a projection stage if asked).
+
+    Parameters
+    ----------
+    constraints : sequence of Constraint
+    solver : str
+        One of "auto", "witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear". "auto" picks
+        "linear" for chains and trees, else dense below 64 rows, else sparse.
+    stabilization : {"none", "baumgarte", "projection"}
+    ks, kd : float, optional
+        Baumgarte gains (1/s², 1/s). Or give ``natural_frequency`` (rad/s) and ``damping_ratio``.
+    tol, max_iter : CG settings.
+    projection_tol : float
+        Stop the projection when max|C| ≤ this (units of C).
+    max_violation : float, optional
+        Raise :class:`SimulationDiverged` when max|C| exceeds it (a blown-up feedback loop).
+
+    Examples
+    --------
+    >>> from pbanim.particles import ParticleSystem, Gravity
+    >>> from pbanim.scene import Scene
+    >>> from pbanim.constraints.kinds import Distance
+    >>> ps = ParticleSystem([[1.0, 0.0]], masses=1.0)
+    >>> eff = Constraints([Distance([[0, -1]], anchors=[0.0, 0.0])], stabilization="projection")
+    >>> scene = Scene(ps, [Gravity(), eff])
+    >>> scene.pipeline
+    ('gravity', 'constraints', 'integrate', 'constraint-projection')
+    >>> res = scene.simulate(0.5, 0.01, "symplectic_euler")
+    >>> bool(res.diagnostics["C_max"].max() < 1e-12)
+    True
+    """
+
+    name = "constraints"
+    phase = "constraint"
+
+    def __init__(self, constraints: Sequence[Constraint], solver: str = "auto", stabilization: str = "none",
+                 ks: float | None = None, kd: float | None = None, *, natural_frequency: float | None = None,
+                 damping_ratio: float = 1.0, tol: float = 1e-12, max_iter: int | None = None,
+                 projection_tol: float = 1e-13, projection_max_iter: int = 20,
+                 max_violation: float | None = None) -> None:
+        if solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
+        if stabilization not in STABILIZATIONS:
+            raise ValueError(f"stabilization must be one of {list(STABILIZATIONS)}, got {stabilization!r}")
+        if ks is not None:
+            _nonneg(ks, "ks")
+        if kd is not None:
+            _nonneg(kd, "kd")
+        if stabilization == "baumgarte":
+            if natural_frequency is not None:
+                g = baumgarte_gains(natural_frequency, damping_ratio)
+                ks, kd = g.ks, g.kd
+            elif ks is None and kd is None:
+                raise ValueError("stabilization='baumgarte' needs ks and kd, or natural_frequency "
+                                 "(and damping_ratio)")
+        elif (ks or kd or natural_frequency):
+            raise ValueError(f"ks, kd and natural_frequency only apply to stabilization='baumgarte', "
+                             f"got stabilization={stabilization!r}")
+        self.constraints = list(constraints)
+        self.solver, self.stabilization = solver, stabilization
+        self.ks, self.kd = float(ks or 0.0), float(kd or 0.0)
+        self.tol, self.max_iter = tol, max_iter
+        self.projection_tol, self.projection_max_iter = float(projection_tol), int(projection_max_iter)
+        self.max_violation = max_violation
+        self.last: ConstraintSolution | None = None
+        self._Q_last = None
+
+    def stages(self) -> list[Effect]:
+        """The stages this effect adds to a scene: itself, plus the projection when asked."""
+        return [self, ConstraintProjection(self)] if self.stabilization == "projection" else [self]
+
+    def bind(self, system) -> None:
+        self.system = system
+        self.cset = ConstraintSet(self.constraints, system.N, system.dim, system.W, system.x0)
+
+    def _solve(self, x, v, Qf, ks, kd, t=0.0) -> tuple[ConstraintSolution, object]:
+        cset = self.cset
+        asm = cset.assemble(x, v, pairs=cset.blocks and self.solver not in ("kkt", "witkin-cg"))
+        if self.max_violation is not None:
+            cmax = float(np.max(np.abs(asm.C), initial=0.0))
+            if not cmax <= self.max_violation:
+                raise SimulationDiverged(t, -1, "constraint violation C",
+                                         f"max|C| = {cmax:.3e} > max_violation = {self.max_violation:.3e}")
+        c = -asm.Jdv - ks * asm.C - kd * asm.Cdot
+        sol = solve_lambda(asm.J, cset.Wq, Qf, c, self.solver, cset=cset, asm=asm, tol=self.tol,
+                           max_iter=self.max_iter)
+        return sol, asm
+
+    def constrain(self, t, y, Q):
+        x, v = self.system.unpack(y)
+        self._Q_last = np.array(Q, float).ravel()
+        sol, _ = self._solve(x, v, self._Q_last, self.ks, self.kd, t)
+        self.last = sol
+        return Q + sol.Q_C.reshape(Q.shape)
+
+    def diagnostics(self, t, y) -> dict:
+        """C_max, Cdot_max, and λ at (t, y) with the applied force of the most recent evaluation
+        (exact for state-independent forces such as gravity)."""
+        x, v = self.system.unpack(y)
+        Qf = self._Q_last if self._Q_last is not None else np.zeros(self.cset.n)
+        sol, asm = self._solve(x, v, Qf, self.ks, self.kd, t)
+        return {"C_max": float(np.max(np.abs(asm.C), initial=0.0)),
+                "Cdot_max": float(np.max(np.abs(asm.Cdot), initial=0.0)), "lam": sol.lam}
+
+    def project(self, y: np.ndarray) -> np.ndarray:
+        """Project y onto C = 0 (mass-weighted Gauss–Newton), then onto Ċ = 0; returns a new state."""
+        y = np.array(y, float)
+        x, v = self.system.unpack(y)
+        zero = np.zeros(self.cset.n)
+        cmax = np.inf
+        for _ in range(self.projection_max_iter):
+            asm = self.cset.assemble(x, v, pairs=self.cset.blocks and self.solver not in ("kkt", "witkin-cg"))
+            cmax = float(np.max(np.abs(asm.C), initial=0.0))
+            if cmax <= self.projection_tol:
+                break
+            # J δq = −C with the smallest mass-weighted δq: the Witkin/KKT system with Q = 0, c = −C
+            sol = solve_lambda(asm.J, self.cset.Wq, zero, -asm.C, self.solver, cset=self.cset, asm=asm,
+                               tol=self.tol, max_iter=self.max_iter)
+            x += sol.qdd.reshape(x.shape)
+        else:
+            asm = self.cset.assemble(x, v, pairs=False)
+            cmax = float(np.max(np.abs(asm.C), initial=0.0))
+            if cmax > self.projection_tol:
+                bad = np.flatnonzero(np.abs(asm.C) > self.projection_tol)
+                raise SingularConstraintError(bad[:20], cmax, f"position projection did not reach "
+                                              f"|C| <= {self.projection_tol:g} in {self.projection_max_iter} steps")
+        asm = self.cset.assemble(x, v, pairs=self.cset.blocks and self.solver not in ("kkt", "witkin-cg"))
+        sol = solve_lambda(asm.J, self.cset.Wq, zero, -asm.Cdot, self.solver, cset=self.cset, asm=asm,
+                           tol=self.tol, max_iter=self.max_iter)
+        v += sol.qdd.reshape(v.shape)
+        return y
+
+
+class ConstraintProjection(Effect):
+    """Post-step stage of :class:`Constraints` with ``stabilization="projection"``."""
+
+    name = "constraint-projection"
+    phase = "post_step"
+
+    def __init__(self, owner: Constraints) -> None:
+        self.owner = owner
+
+    def post_step(self, t, y, h):
+        return self.owner.project(y)
+
+
+# -- the discrete feedback map (stability of Baumgarte itself) ---------------------------------------
+def baumgarte_feedback_map(method: str, omega_h: float, zeta: float) -> np.ndarray:
+    """The 2×2 one-step map of (C, Ċ·h) for C̈ = −k_s C − k_d Ċ integrated by ``method`` with step h,
+    as a function of ω_b h and ζ only (time measured in steps). Exact for constraints linear in q
+    (J constant), and the linearization of the error dynamics otherwise.
+
+    >>> M = baumgarte_feedback_map("symplectic_euler", 0.5, 1.0)
+    >>> round(float(np.linalg.det(M)), 12)   # symplectic Euler: det = 1 − h k_d
+    0.0
+    """
+    from ..ode import get_method
+
+    meth = get_method(method)
+    if meth.adaptive:
+        raise ValueError(f"method must be a fixed-step method, got adaptive {method!r}")
+    wh, z = float(omega_h), float(zeta)
+    A = np.array([[0.0, 1.0], [-wh * wh, -2 * z * wh]])
+    fun = lambda t, y: y @ A.T  # noqa: E731  (works on (2,) and batches)
+    cols = [np.asarray(meth.step(fun, 0.0, e, 1.0, split=1, jac=lambda t, y: A), float) for e in np.eye(2)]
+    return np.array(cols).T
+
+
+def baumgarte_spectral_radius(method: str, omega_h, zeta) -> np.ndarray:
+    """ρ(map) over arrays of ω_b h and ζ (≤ 1: the feedback is stable with this integrator and step)."""
+    wh, z = np.broadcast_arrays(np.asarray(omega_h, float), np.asarray(zeta, float))
+    out = np.empty(wh.shape)
+    for idx in np.ndindex(wh.shape):
+        out[idx] = np.max(np.abs(np.linalg.eigvals(baumgarte_feedback_map(method, wh[idx], z[idx]))))
+    return out
+
+
+def baumgarte_stability_limit(method: str, zeta: float, upper: float = 20.0) -> float:
+    """The largest ω_b h below which ρ ≤ 1 for all smaller ω_b h (bisection to 1e-10), for damping ratio ζ.
+
+    >>> round(baumgarte_stability_limit("symplectic_euler", 1.0), 6)   # (ωh)² + 4ωh = 4: 2√2 − 2
+    0.828427
+    """
+    grid = np.linspace(1e-3, upper, 2000)
+    rho = baumgarte_spectral_radius(method, grid, zeta)
+    bad = np.flatnonzero(rho > 1 + 1e-12)
+    if not bad.size:
+        return float("inf")
+    lo, hi = (grid[bad[0] - 1] if bad[0] else 0.0), grid[bad[0]]
+    while hi - lo > 1e-10:
+        mid = 0.5 * (lo + hi)
+        if baumgarte_spectral_radius(method, mid, zeta) > 1 + 1e-12:
+            hi = mid
+        else:
+            lo = mid
+    return float(0.5 * (lo + hi))

@@ -1,0 +1,275 @@
+"""``pbanim.solve``: the integration driver (fixed steps, adaptive Dormand–Prince, events, batch, scipy).
+
+See :mod:`pbanim.ode` for the lecture. This module holds the loops:
+
+* fixed-step loop: N = ⌈(t_f − t₀)/h⌉ steps of the chosen method (the last one shortened to land on
+  t_f); a lean path (no events, no t_eval, explicit method) stores the states into one preallocated
+  array and checks finiteness once per block of 64 steps (then names the first bad step exactly);
+* the adaptive loop (``dopri5``) is in :mod:`pbanim.ode.adaptive`, event location in
+  :mod:`pbanim.ode.events`; ``method="scipy:<name>"`` hands the same call to ``scipy.integrate.solve_ivp``.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..errors import SimulationDiverged
+from .adaptive import solve_adaptive
+from .events import OK_MESSAGE, TERMINATED, crossings, diverged, handle_events, make_events, make_result, start_output
+from .methods import Method, get_method
+from ..results import SimResult
+
+__all__ = ["solve", "SCIPY_METHODS"]
+
+SCIPY_METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
+_BLOCK = 64
+
+
+# ---------------------------------------------------------------------------------------------------
+# validation
+# ---------------------------------------------------------------------------------------------------
+def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
+    if not callable(fun):
+        raise ValueError(f"fun must be a callable fun(t, y) -> dy/dt, got {type(fun).__name__}")
+    try:
+        t0, tf = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise ValueError(f"t_span must be a pair (t0, t_end) of numbers, got {t_span!r}") from None
+    if not (np.isfinite(t0) and np.isfinite(tf)) or t0 == tf:
+        raise ValueError(f"t_span must be two different finite times, got {t_span!r}")
+    y = np.array(y0, dtype=float, copy=True) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
+    if y.ndim not in (1, 2) or y.shape[-1] == 0:
+        raise ValueError(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
+    if not np.all(np.isfinite(y)):
+        bad = np.flatnonzero(~np.isfinite(y.ravel()))
+        raise ValueError(f"y0 must be finite, got {y.ravel()[bad[0]]} at flat index {int(bad[0])}")
+    if h is not None:
+        h = float(h)
+        if not np.isfinite(h) or h <= 0:
+            raise ValueError(f"h must be a positive finite step, got {h}; pass h > 0 (the sign of "
+                             "t_span sets the direction)")
+    if not (np.isfinite(rtol) and rtol > 0):
+        raise ValueError(f"rtol must be positive, got {rtol}")
+    if not (np.all(np.isfinite(atol)) and np.all(np.asarray(atol) >= 0)):
+        raise ValueError(f"atol must be non-negative, got {atol}")
+    if int(max_steps) != max_steps or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps}")
+    n = y.shape[-1]
+    if split is not None and not (0 <= int(split) <= n):
+        raise ValueError(f"split must be between 0 and n = {n} (number of position components), got {split}")
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float).ravel()
+        d = np.sign(tf - t0)
+        lo, hi = min(t0, tf), max(t0, tf)
+        if t_eval.size == 0 or np.any(t_eval < lo) or np.any(t_eval > hi) or np.any(d * np.diff(t_eval) < 0):
+            raise ValueError(f"t_eval must be sorted in the direction of integration and lie within t_span "
+                             f"{(t0, tf)}, got {t_eval[:5]}{'...' if t_eval.size > 5 else ''}")
+    return t0, tf, y, h, t_eval
+
+
+def _check_f0(fun, t0, y):
+    f0 = np.asarray(fun(t0, y))
+    if f0.shape != y.shape:
+        raise ValueError(f"fun(t, y) must return an array of the shape of y0 {y.shape}, got {f0.shape}"
+                         + ("; in batch mode fun receives (K, n) arrays" if y.ndim == 2 else ""))
+    if not np.all(np.isfinite(f0)):
+        raise SimulationDiverged(t0, 0, "derivative f(t0, y0)", "fun returned a non-finite value at the start")
+    return f0
+
+
+# ---------------------------------------------------------------------------------------------------
+# the public driver
+# ---------------------------------------------------------------------------------------------------
+def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h: float | None = None,
+          rtol: float = 1e-6, atol: float = 1e-9, jac=None, t_eval=None, events=None, max_steps: int = 100000,
+          split: int | None = None) -> SimResult:
+    """Integrate ẏ = f(t, y) over ``t_span`` from ``y0``, in the shape of ``scipy.integrate.solve_ivp``.
+
+    Parameters
+    ----------
+    fun : callable ``fun(t, y) -> dy/dt``
+        Same shape in and out: (n,), or (K, n) in batch mode.
+    t_span : (t0, t_end)
+    y0 : array, shape (n,) or (K, n)
+        A 2-D ``y0`` integrates K initial conditions at once (batch mode: no Python loop over K; the
+        adaptive method uses one step size for all, controlled by the worst trajectory).
+    method : str
+        A name in :data:`pbanim.ode.METHODS`, or ``"scipy:RK45"`` (any solve_ivp method) to delegate to
+        scipy (then ``h`` is passed as ``max_step``).
+    h : float
+        Step of a fixed-step method (required); first step of ``dopri5`` (optional).
+    rtol, atol : float
+        Tolerances of the adaptive method.
+    jac : callable ``jac(t, y)`` or matrix, optional
+        ∂f/∂y (dense or scipy.sparse) for the implicit methods; else finite differences.
+    t_eval : array, optional
+        Output times (reached by partial steps of the method); default: every step.
+    events : callable or list of callables ``event(t, y)``, optional
+        Attributes ``terminal`` (bool or count) and ``direction`` as in scipy. Not in batch mode.
+    max_steps : int
+        Most steps (fixed: ValueError up front; adaptive: status −1).
+    split : int, optional
+        Number of position components at the front of y for split methods (default n // 2).
+
+    Returns
+    -------
+    SimResult
+        ``t``, ``y`` (n, n_points) or (K, n, n_points), ``t_events``, ``y_events``, ``nfev``, ``status``
+        (0 done, 1 terminal event, −1 failed), ``message``, ``wall_time`` ...
+
+    Raises
+    ------
+    ValueError
+        Bad arguments (h ≤ 0, non-finite y0, wrong shapes, unknown method).
+    SimulationDiverged
+        A fixed-step run produced a non-finite state (names the time, step and quantity).
+
+    Examples
+    --------
+    >>> r = solve(lambda t, y: -y, (0.0, 1.0), [1.0], method="rk4", h=0.01)
+    >>> bool(abs(r.y[0, -1] - np.exp(-1.0)) < 1e-9), r.status
+    (True, 0)
+    >>> r = solve(lambda t, y: -y, (0.0, 1.0), [1.0], method="dopri5", rtol=1e-8, atol=1e-12)
+    >>> bool(abs(r.y[0, -1] - np.exp(-1.0)) < 1e-8)
+    True
+    """
+    t0, tf, y, h, t_eval = _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval)
+    evs = make_events(events)
+    if isinstance(method, str) and method.startswith("scipy:"):
+        return _solve_scipy(fun, t0, tf, y, method[6:], h, rtol, atol, jac, t_eval, events)
+    m = get_method(method)
+    if evs and y.ndim == 2:
+        raise ValueError("events are not supported in batch mode (y0 of shape (K, n)); loop over the "
+                         "initial conditions or drop events")
+    f0 = _check_f0(fun, t0, y)
+    if m.adaptive:
+        return solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split)
+    if h is None:
+        raise ValueError(f"h must be given for the fixed-step method {m.name!r} (e.g. h=1e-3), got None")
+    return _solve_fixed(fun, t0, tf, y, m, h, jac, t_eval, evs, int(max_steps), split)
+
+
+# ---------------------------------------------------------------------------------------------------
+# fixed-step loop
+# ---------------------------------------------------------------------------------------------------
+def _n_steps(t0, tf, h, max_steps):
+    span = abs(tf - t0)
+    N = max(1, int(np.ceil(span / h - 1e-9)))
+    if N > max_steps:
+        raise ValueError(f"h = {h:g} needs {N} steps over t_span, more than max_steps = {max_steps}; "
+                         "raise max_steps or enlarge h")
+    hs = np.copysign(h, tf - t0)
+    return N, hs, (tf - t0) - (N - 1) * hs
+
+
+def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, split) -> SimResult:
+    N, hs, h_last = _n_steps(t0, tf, h, max_steps)
+    step = m.step
+    per = getattr(step, "nfev", None)
+    if t_eval is None and not evs and per is not None:
+        return _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per)
+    counter = [1, 0]  # f(t0, y0) was evaluated by the shape check
+
+    def f(t, yy):
+        counter[0] += 1
+        return fun(t, yy)
+
+    jf = jac
+    if callable(jac):
+        def jf(t, yy):
+            counter[1] += 1
+            return jac(t, yy)
+    ts, Ys, ie = start_output(t0, y, t_eval)
+    g_old = [float(e.fn(t0, y)) for e in evs]
+    status, message = 0, OK_MESSAGE
+    start = time.perf_counter()
+    t = t0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(N):
+            hk = hs if k < N - 1 else h_last
+            t1 = t0 + (k + 1) * hs if k < N - 1 else tf
+            y1 = step(f, t, y, hk, split, jf)
+            if not np.all(np.isfinite(y1)):
+                raise diverged(t, k, y1)
+            partial = lambda s, t=t, y=y: step(f, t, y, s, split, jf)  # noqa: E731
+            stop = None
+            if evs:
+                found = crossings(evs, g_old, t, y, t1, y1, hk, partial)
+                stop = handle_events(evs, found) if found else None
+                if stop is not None:
+                    t1, y1 = stop
+                g_old = [float(e.fn(t1, y1)) for e in evs]
+            if t_eval is None:
+                ts.append(t1), Ys.append(y1)
+            else:
+                while ie < len(t_eval) and (t_eval[ie] - t1) * hs <= 0:
+                    te = t_eval[ie]
+                    ts.append(te), Ys.append(y1 if te == t1 else partial(te - t))
+                    ie += 1
+            t, y = t1, y1
+            if stop is not None:
+                status, message = 1, TERMINATED
+                break
+    wall = time.perf_counter() - start
+    Y = np.array(Ys) if Ys else np.empty((0,) + y.shape)
+    return make_result(ts, Y, counter[0], counter[1], status, message, wall, m.name, evs, k + 1)
+
+
+def _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per) -> SimResult:
+    """No events, no t_eval, explicit method: the loop does the step, the store and nothing else."""
+    step = m.step
+    block = _BLOCK
+    Y = np.empty((N + 1,) + y.shape, dtype=y.dtype)
+    Y[0] = y
+    start = time.perf_counter()
+    with np.errstate(over="ignore", invalid="ignore"):
+        k0 = 0
+        t = t0
+        for k in range(N - 1):
+            y = step(fun, t0 + k * hs, y, hs, split)
+            Y[k + 1] = y
+            if k - k0 == block:
+                if not np.isfinite(Y[k0 + 1:k + 2]).all():
+                    _raise_first_bad(Y, k0, k + 1, t0, hs)
+                k0 = k + 1
+        t = t0 + (N - 1) * hs
+        Y[N] = step(fun, t, y, h_last, split)
+        if not np.isfinite(Y[k0 + 1:]).all():
+            _raise_first_bad(Y, k0, N, t0, hs)
+    wall = time.perf_counter() - start
+    ts = t0 + hs * np.arange(N + 1)
+    ts[-1] = tf
+    return make_result(ts, Y, 1 + per * N, 0, 0, OK_MESSAGE, wall, m.name, [], N)
+
+
+def _raise_first_bad(Y, k0, k1, t0, hs):
+    seg = Y[k0 + 1:k1 + 1].reshape(k1 - k0, -1)
+    i = int(np.flatnonzero(~np.isfinite(seg).all(axis=1))[0])
+    k = k0 + i  # the step that went from Y[k] (finite) to Y[k + 1] (not)
+    raise diverged(t0 + k * hs, k, Y[k + 1])
+
+
+# ---------------------------------------------------------------------------------------------------
+# delegation to scipy
+# ---------------------------------------------------------------------------------------------------
+def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events) -> SimResult:
+    from scipy.integrate import solve_ivp
+
+    if name not in SCIPY_METHODS:
+        raise ValueError(f"method must be 'scipy:' + one of {list(SCIPY_METHODS)}, got 'scipy:{name}'")
+    if y.ndim != 1:
+        raise ValueError("batch mode (y0 of shape (K, n)) needs a pbanim method, not scipy:" + name)
+    opts = {}
+    if h is not None:
+        opts["max_step"] = h
+    if jac is not None and name in ("Radau", "BDF", "LSODA"):
+        opts["jac"] = jac
+    start = time.perf_counter()
+    r = solve_ivp(fun, (t0, tf), y, method=name, t_eval=t_eval, events=events, rtol=rtol, atol=atol, **opts)
+    wall = time.perf_counter() - start
+    return SimResult(t=r.t, y=r.y, nfev=r.nfev, njev=r.njev, nlu=r.nlu, status=r.status, message=r.message,
+                     wall_time=wall, method="scipy:" + name, t_events=r.t_events, y_events=r.y_events,
+                     nsteps=max(0, len(r.t) - 1) if t_eval is None else 0)
