@@ -8,6 +8,7 @@ result whose ``success`` is False.
 error                   raised when
 ======================  ==========================================================================
 SimulationDiverged      a state or force stops being finite, or grows past a bound, during stepping
+StepLimitExceeded       a fixed-step run would need more steps than its ``max_steps`` cap
 SingularConstraintError the constraint system JWJᵀλ = r has no solution (inconsistent rows)
 ConvergenceError        an iterative solver (CG, Newton, PGS) did not reach its tolerance
 SingularChartError      a reduced-coordinate chart loses rank (generalized mass near singular)
@@ -21,6 +22,7 @@ from __future__ import annotations
 __all__ = [
     "PbanimError",
     "SimulationDiverged",
+    "StepLimitExceeded",
     "SingularConstraintError",
     "ConvergenceError",
     "SingularChartError",
@@ -53,6 +55,25 @@ class SimulationDiverged(PbanimError, FloatingPointError):
         msg = (f"simulation diverged at t = {self.t:.6g} (step {self.step}): {quantity} is not finite"
                f"{'; ' + detail if detail else ''}; reduce the step h or use a stabler method")
         super().__init__(msg)
+
+
+class StepLimitExceeded(PbanimError, ValueError):
+    """A fixed-step run would need more steps than its cap (checked before the first step).
+
+    Attributes
+    ----------
+    h, span : float
+        The step and |t_end − t₀|.
+    n_steps : int or float
+        The number of steps the run needs (inf when span/h overflows).
+    max_steps : int
+        The cap.
+    """
+
+    def __init__(self, h: float, span: float, n_steps: float, max_steps: int) -> None:
+        self.h, self.span, self.n_steps, self.max_steps = float(h), float(span), n_steps, int(max_steps)
+        super().__init__(f"h = {self.h:g} needs {n_steps} steps over t_span, more than max_steps = "
+                         f"{self.max_steps} (|t_end − t0| = {self.span:g}); raise max_steps or enlarge h")
 
 
 class SingularConstraintError(PbanimError, ValueError):

@@ -62,6 +62,7 @@ import scipy.sparse as sp
 
 from .errors import SimulationDiverged
 from .ode import get_method
+from .ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from .results import SimResult
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
@@ -90,34 +91,17 @@ class Effect:
         raise NotImplementedError(f"{type(self).__name__} declares phase 'post_step' but has no post_step()")
 
 
-def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") -> None:
-    """Raise :class:`SimulationDiverged` if ``y`` has a NaN or Inf (one BLAS pass, no temporaries)."""
-    flat = np.ravel(y)
-    with np.errstate(over="ignore", invalid="ignore"):
-        ok = np.isfinite(flat @ flat)
-    if not ok:
-        bad = np.flatnonzero(~np.isfinite(flat))
-        detail = f"first bad component {int(bad[0])}" if bad.size else "norm overflowed"
-        raise SimulationDiverged(t, step, quantity, detail)
-
-
 def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tuple[float, int]:
-    """Validate a fixed-step run from ``t0`` to ``t_end`` and return (h, number of steps).
+    """Validate a fixed-step run and return (h, number of steps) by the driver's one step rule.
 
-    The one place every fixed-step driver (scenes, collisions, contact time stepping, reduced
-    coordinates) checks its arguments, so each rejects bad input with the same message.
+    Kept for course material that called it; new code builds a :class:`pbanim.ode.driver.StepGrid` with
+    :func:`pbanim.ode.driver.step_grid` (which also gives the shortened last step).
 
     >>> fixed_steps(0.0, 1.0, 0.1)
     (0.1, 10)
     """
-    h = float(h)
-    if not np.isfinite(h) or h <= 0:
-        raise ValueError(f"h must be a positive finite step, got {h}")
-    if not np.isfinite(t_end) or t_end <= t0:
-        raise ValueError(f"t_end must be a finite time after t0 = {t0}, got {t_end}")
-    if record_every < 1:
-        raise ValueError(f"record_every must be a positive integer, got {record_every}")
-    return h, max(1, int(round((t_end - t0) / h)))
+    grid = step_grid(t0, t_end, h, record_every=record_every)
+    return grid.h, grid.n_steps
 
 
 class Scene:
@@ -336,13 +320,14 @@ class Scene:
 
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
                  y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
-                 check_every: int = 1) -> SimResult:
-        """Fixed-step simulation from ``t0`` to ``t_end``.
+                 check_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
+        """Fixed-step simulation from ``t0`` to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`).
 
         Parameters
         ----------
         t_end, h : float
-            End time and step (h > 0). The number of steps is round((t_end − t0)/h).
+            End time and step (h > 0). N = ⌈(t_end − t0)/h⌉ steps (to within 10⁻⁹), the last one
+            shortened so that the run ends exactly at ``t_end``.
         method : str
             A name in :data:`pbanim.ode.METHODS`.
         y0 : ndarray, optional
@@ -351,16 +336,13 @@ class Scene:
             Record the state and diagnostics every this many steps (and at the end).
         check_every : int
             Check for non-finite states every this many steps (raises :class:`SimulationDiverged`).
+        max_steps : int
+            Cap on N, checked before the first step (:class:`~pbanim.errors.StepLimitExceeded`).
         """
-        h, n_steps = fixed_steps(t0, t_end, h, record_every)
+        grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
+        if int(check_every) != check_every or check_every < 1:
+            raise ValueError(f"check_every must be a positive integer, got {check_every}")
         m = get_method(method)
-        lean = method == "symplectic_euler" and self._lean
-        kick_only = method == "symplectic_euler" and self._kick_only
-        jac_fn = None
-        if m.implicit and self.has_jacobian:
-            def jac_fn(t, yy):
-                counter[1] += 1
-                return self.jac(t, yy)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         if y0 is not None and y.shape != np.shape(self.system.state()):
             raise ValueError(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
@@ -368,33 +350,51 @@ class Scene:
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
         counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations
+        advance = self._advance(m, counter)
+
+        def record(t, yy):
+            ts.append(t)
+            ys.append(yy.copy())
+            if diagnostics:
+                diags.append(self.diagnostics(t, yy))
+
+        start = time.perf_counter()
+        drive(advance, grid, y, record=record, record_every=record_every, check_every=check_every)
+        wall = time.perf_counter() - start
+        diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
+        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
+                         method=method, nsteps=grid.n_steps, diagnostics=diag_arrays)
+
+    def _advance(self, m, counter: list):
+        """The step y₁ = Φ_h(t, y) of method ``m`` followed by the post-step effects, counting evaluations."""
+        post = self._post
 
         def fun(t, yy):
             counter[0] += 1
             return self.rhs(t, yy)
 
+        jac_fn = None
+        if m.implicit and self.has_jacobian:
+            def jac_fn(t, yy):
+                counter[1] += 1
+                return self.jac(t, yy)
         split = self.system.split
-        start = time.perf_counter()
-        t = t0
-        for k in range(n_steps):
-            if lean:
+        if m.name == "symplectic_euler" and self._lean:
+            def step(t, y, h):
                 counter[0] += 1
-                y = self._lean_step(t, y, h)
-            elif kick_only:
-                y = self._kick_only_step(fun, t, y, h)
-            else:
-                y = m.step(fun, t, y, h, split=split, jac=jac_fn)
-            for e in self._post:
+                return self._lean_step(t, y, h)
+        elif m.name == "symplectic_euler" and self._kick_only:
+            def step(t, y, h):
+                return self._kick_only_step(fun, t, y, h)
+        else:
+            def step(t, y, h):
+                return m.step(fun, t, y, h, split=split, jac=jac_fn)
+        if not post:
+            return step
+
+        def advance(t, y, h):
+            y = step(t, y, h)
+            for e in post:
                 y = e.post_step(t + h, y, h)
-            t = t0 + (k + 1) * h
-            if (k + 1) % check_every == 0 or k + 1 == n_steps:
-                check_finite(y, t - h, k)
-            if (k + 1) % record_every == 0 or k + 1 == n_steps:
-                ts.append(t)
-                ys.append(y.copy())
-                if diagnostics:
-                    diags.append(self.diagnostics(t, y))
-        wall = time.perf_counter() - start
-        diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
-        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
-                         method=method, nsteps=n_steps, diagnostics=diag_arrays)
+            return y
+        return advance

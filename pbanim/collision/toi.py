@@ -28,7 +28,7 @@ import numpy as np
 from .scene import Collisions
 from ..ode import get_method, solve
 from ..results import SimResult
-from ..scene import check_finite, fixed_steps
+from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 
 __all__ = ["simulate_collisions"]
 
@@ -46,7 +46,8 @@ def _solve_segment(fun, t0, y0, t1, method, events, split):
 
 def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi: str = "event", *,
                         t0: float = 0.0, y0: np.ndarray | None = None, record_every: int = 1,
-                        max_events_per_step: int = 100, gap_tol: float = 1e-12) -> SimResult:
+                        max_events_per_step: int = 100, gap_tol: float = 1e-12,
+                        max_steps: int = MAX_STEPS) -> SimResult:
     """Simulate a scene holding one :class:`Collisions` effect, with the time of impact chosen by ``toi``.
 
     Returns a :class:`~pbanim.results.SimResult` whose ``t_events[0]`` are the located impact times and
@@ -64,7 +65,9 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     """
     if toi not in ("event", "fixed"):
         raise ValueError(f"toi must be 'event' or 'fixed', got {toi!r}")
-    h, n_steps = fixed_steps(t0, t_end, h, record_every)
+    grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
+    if int(max_events_per_step) != max_events_per_step or max_events_per_step < 1:
+        raise ValueError(f"max_events_per_step must be a positive integer, got {max_events_per_step}")
     coll = [e for e in scene.effects if isinstance(e, Collisions)]
     if len(coll) != 1:
         raise ValueError(f"scene must hold exactly one Collisions effect, found {len(coll)}")
@@ -82,55 +85,59 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
         nfev[0] += 1
         return scene.rhs(t, yy)
 
-    start = time.perf_counter()
-    for k in range(n_steps):
-        t, t1 = t0 + k * h, t0 + (k + 1) * h
-        if toi == "fixed":
-            y = m.step(fun, t, y, h, split=split)
-        else:
-            vrest = col.threshold(h)
-            for _ in range(max_events_per_step):
-                vmax = float(np.abs(y[split:]).max()) if y.size > split else 0.0
-                pairs = col.sphere_pairs(y, margin=2 * (vmax + col.gravity * h) * h + gap_tol)
-                g = col.gaps(y, pairs)
-                # rate of each gap along the flow (one rhs call): near and slow features are resting
-                # contacts, left to the post-step stage; far or fast ones are located as events
-                f0 = fun(t, y)
-                dlt = 1e-7 * max(1.0, float(np.abs(y[:split]).max())) / max(float(np.abs(f0[:split]).max()), 1.0)
-                gdot = (col.gaps(y + dlt * f0, pairs) - g) / dlt
-                active = (g > gap_tol) & ~((g < vrest * h) & (-gdot < vrest))
-                if not active.any():
-                    y = m.step(fun, t, y, t1 - t, split=split)
-                    break
+    def fixed(t, y, hk):
+        return m.step(fun, t, y, hk, split=split)
 
-                def event(tt, yy, active=active, pairs=pairs):
-                    return float(np.min(col.gaps(yy, pairs)[active]))
+    def located(t, y, hk):
+        """The step from t to t + hk, split at every located impact (at most max_events_per_step)."""
+        t1 = t + hk
+        vrest = col.threshold(hk)
+        for _ in range(max_events_per_step):
+            vmax = float(np.abs(y[split:]).max()) if y.size > split else 0.0
+            pairs = col.sphere_pairs(y, margin=2 * (vmax + col.gravity * hk) * hk + gap_tol)
+            g = col.gaps(y, pairs)
+            # rate of each gap along the flow (one rhs call): near and slow features are resting
+            # contacts, left to the post-step stage; far or fast ones are located as events
+            f0 = fun(t, y)
+            dlt = 1e-7 * max(1.0, float(np.abs(y[:split]).max())) / max(float(np.abs(f0[:split]).max()), 1.0)
+            gdot = (col.gaps(y + dlt * f0, pairs) - g) / dlt
+            active = (g > gap_tol) & ~((g < vrest * hk) & (-gdot < vrest))
+            if not active.any():
+                return m.step(fun, t, y, t1 - t, split=split)
 
-                event.terminal, event.direction = True, -1
-                tc, yc, hit = _solve_segment(fun, t, y, t1, method, [event], split)
-                if not hit:
-                    y = yc
-                    break
-                g_c = abs(event(tc, yc))
-                y = col.respond(tc, yc, h, margin=max(10 * gap_tol, 2 * g_c))
-                impact_t.append(tc)
-                impact_y.append(y.copy())
-                t = tc
-                if t1 - t <= 1e-14 * max(1.0, abs(t1)):
-                    break
-            else:   # too many impacts in one step: finish it plainly, the post-step stage takes over
-                y = m.step(fun, t, y, t1 - t, split=split)
+            def event(tt, yy, active=active, pairs=pairs):
+                return float(np.min(col.gaps(yy, pairs)[active]))
+
+            event.terminal, event.direction = True, -1
+            tc, yc, hit = _solve_segment(fun, t, y, t1, method, [event], split)
+            if not hit:
+                return yc
+            g_c = abs(event(tc, yc))
+            y = col.respond(tc, yc, hk, margin=max(10 * gap_tol, 2 * g_c))
+            impact_t.append(tc)
+            impact_y.append(y.copy())
+            t = tc
+            if t1 - t <= 1e-14 * max(1.0, abs(t1)):
+                return y
+        # too many impacts in one step: finish it plainly, the post-step stage takes over
+        return m.step(fun, t, y, t1 - t, split=split)
+
+    def between(k, t, y, t1, y1, hk):
         for e in others:
-            y = e.post_step(t1, y, h)
+            y1 = e.post_step(t1, y1, hk)
         # after event location every fast impact has been located: what still touches is resting (ε = 0)
-        y = col.respond(t1, y, h, plastic=(toi == "event"))
-        check_finite(y, t1 - h, k)
-        if (k + 1) % record_every == 0 or k + 1 == n_steps:
-            ts.append(t1)
-            ys.append(y.copy())
-            diags.append(scene.diagnostics(t1, y))
+        return t1, col.respond(t1, y1, hk, plastic=(toi == "event")), False
+
+    def record(t1, y1):
+        ts.append(t1)
+        ys.append(y1.copy())
+        diags.append(scene.diagnostics(t1, y1))
+
+    start = time.perf_counter()
+    drive(fixed if toi == "fixed" else located, grid, y, hooks=[between], record=record,
+          record_every=record_every)
     wall = time.perf_counter() - start
     diag_arrays = {key: np.array([d[key] for d in diags]) for key in diags[0]}
     return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], status=0, wall_time=wall,
-                     method=f"{method}+{toi}", nsteps=n_steps, diagnostics=diag_arrays,
+                     method=f"{method}+{toi}", nsteps=grid.n_steps, diagnostics=diag_arrays,
                      t_events=[np.array(impact_t)], y_events=[np.array(impact_y).reshape(len(impact_t), y.size)])

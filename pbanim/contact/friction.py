@@ -56,7 +56,7 @@ from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_row
 from ..lcp.solve import solve_lcp
 from ..errors import InconsistentContact, InfeasibleContact
 from ..results import ContactSolution, SimResult
-from ..scene import check_finite, fixed_steps
+from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 
 __all__ = ["friction_directions", "velocity_lcp", "TimeStepping", "acceleration_lcp_check"]
 
@@ -250,34 +250,37 @@ class TimeStepping:
         q_new = quat_multiply(quat_exp(h * w), q)
         return np.concatenate([(x + h * v).ravel(), q_new.ravel(), P_new.ravel(), L_new.ravel()])
 
-    def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1) -> SimResult:
-        """Fixed steps from 0 to ``t_end``; diagnostics: contact count, residual, max penetration, impulses."""
-        h, n_steps = fixed_steps(0.0, t_end, h, record_every)
+    def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1,
+                 max_steps: int = MAX_STEPS) -> SimResult:
+        """Fixed steps from 0 to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`, same step rule);
+        diagnostics: contact count, residual, max penetration, impulses."""
+        grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
+        check_finite(y, 0.0, 0, "initial state")
         ts, ys = [0.0], [y.copy()]
         keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time",
                 "lcp_unconverged")
         c0 = self.detect(y)
         diag: dict[str, list] = {k: [0.0] for k in keys}
         diag["max_penetration"][0] = float(np.max(c0.depth, initial=0.0)) if c0 is not None else 0.0
+
+        def record(t1, y1):
+            ts.append(t1)
+            ys.append(y1.copy())
+            c = self.detect(y1)
+            sol = self.last
+            diag["contact_count"].append(0 if sol is None else len(self.last_info["contacts"].a))
+            diag["contact_residual"].append(0.0 if sol is None else sol.residual)
+            diag["max_penetration"].append(max(0.0, float(np.max(c.depth, initial=0.0))) if c is not None else 0.0)
+            diag["normal_impulse_total"].append(0.0 if sol is None else float(np.sum(self.last_info["normal_impulse"])))
+            diag["lcp_time"].append(0.0 if sol is None else sol.time)
+            diag["lcp_unconverged"].append(0.0 if sol is None else float(not sol.success))
+
         start = time.perf_counter()
-        for k in range(n_steps):
-            y = self.step(k * h, y, h)
-            check_finite(y, k * h, k)
-            if (k + 1) % record_every == 0 or k + 1 == n_steps:
-                ts.append((k + 1) * h)
-                ys.append(y.copy())
-                c = self.detect(y)
-                sol = self.last
-                diag["contact_count"].append(0 if sol is None else len(self.last_info["contacts"].a))
-                diag["contact_residual"].append(0.0 if sol is None else sol.residual)
-                diag["max_penetration"].append(max(0.0, float(np.max(c.depth, initial=0.0))) if c is not None else 0.0)
-                diag["normal_impulse_total"].append(0.0 if sol is None else float(np.sum(self.last_info["normal_impulse"])))
-                diag["lcp_time"].append(0.0 if sol is None else sol.time)
-                diag["lcp_unconverged"].append(0.0 if sol is None else float(not sol.success))
+        drive(self.step, grid, y, record=record, record_every=record_every)
         wall = time.perf_counter() - start
         return SimResult(t=np.array(ts), y=np.array(ys).T, status=0, wall_time=wall, method="velocity-level",
-                         nsteps=n_steps, diagnostics={k: np.array(v, dtype=float) for k, v in diag.items()})
+                         nsteps=grid.n_steps, diagnostics={k: np.array(v, dtype=float) for k, v in diag.items()})
 
 
 def acceleration_lcp_check(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0, *,

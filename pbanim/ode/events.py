@@ -19,7 +19,7 @@ from scipy.optimize import brentq
 from ..errors import SimulationDiverged
 from ..results import SimResult
 
-__all__ = ["Event", "make_events", "make_result", "diverged", "crossings", "handle_events", "OK_MESSAGE",
+__all__ = ["Event", "make_events", "make_result", "crossings", "handle_events", "OK_MESSAGE",
            "TERMINATED"]
 
 OK_MESSAGE = "The solver successfully reached the end of the integration interval."
@@ -75,13 +75,6 @@ def make_result(ts, Y, nfev, njev, status, message, wall, m, evs, nsteps, nrej=0
                      t_events=[np.array(e.times, dtype=float) for e in evs] if evs else None,
                      y_events=[np.array(e.states, dtype=float).reshape(len(e.times), Y.shape[-1]) for e in evs] if evs else None,
                      nsteps=int(nsteps), nrejected=int(nrej))
-
-
-def diverged(t, k, y, quantity="state y") -> SimulationDiverged:
-    """The error for step ``k`` starting at ``t`` whose result ``y`` is not finite (names the component)."""
-    flat = np.ravel(y)
-    bad = np.flatnonzero(~np.isfinite(flat))
-    return SimulationDiverged(t, k, quantity, f"first non-finite component {int(bad[0])}" if bad.size else "")
 
 
 def crossings(evs, g_old, t, y, t1, y1, hk, partial):

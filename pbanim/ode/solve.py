@@ -2,9 +2,10 @@
 
 See :mod:`pbanim.ode` for the lecture. This module holds the loops:
 
-* fixed-step loop: N = ⌈(t_f − t₀)/h⌉ steps of the chosen method (the last one shortened to land on
-  t_f); a lean path (no events, no t_eval, explicit method) stores the states into one preallocated
-  array and checks finiteness once per block of 64 steps (then names the first bad step exactly);
+* fixed steps run through the one driver, :mod:`pbanim.ode.driver` (its step rule: N = ⌈(t_f − t₀)/h⌉
+  steps, the last one shortened to land on t_f); events and ``t_eval`` output are its hooks; with
+  neither (and an explicit method) :func:`~pbanim.ode.driver.drive_lean` stores the states into one
+  preallocated array and checks finiteness once per block of steps;
 * the adaptive loop (``dopri5``) is in :mod:`pbanim.ode.adaptive`, event location in
   :mod:`pbanim.ode.events`; ``method="scipy:<name>"`` hands the same call to ``scipy.integrate.solve_ivp``.
 """
@@ -18,14 +19,14 @@ import numpy as np
 
 from ..errors import SimulationDiverged
 from .adaptive import solve_adaptive
-from .events import OK_MESSAGE, TERMINATED, crossings, diverged, handle_events, make_events, make_result, start_output
+from .driver import drive, drive_lean, step_grid
+from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
 from .methods import Method, get_method
 from ..results import SimResult
 
 __all__ = ["solve", "SCIPY_METHODS"]
 
 SCIPY_METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
-_BLOCK = 64
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -153,24 +154,18 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
 
 
 # ---------------------------------------------------------------------------------------------------
-# fixed-step loop
+# fixed-step runs: clients of the one driver (pbanim.ode.driver)
 # ---------------------------------------------------------------------------------------------------
-def _n_steps(t0, tf, h, max_steps):
-    span = abs(tf - t0)
-    N = max(1, int(np.ceil(span / h - 1e-9)))
-    if N > max_steps:
-        raise ValueError(f"h = {h:g} needs {N} steps over t_span, more than max_steps = {max_steps}; "
-                         "raise max_steps or enlarge h")
-    hs = np.copysign(h, tf - t0)
-    return N, hs, (tf - t0) - (N - 1) * hs
-
-
 def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, split) -> SimResult:
-    N, hs, h_last = _n_steps(t0, tf, h, max_steps)
+    grid = step_grid(t0, tf, h, max_steps=max_steps, backward=True)
     step = m.step
     per = getattr(step, "nfev", None)
     if t_eval is None and not evs and per is not None:
-        return _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per)
+        start = time.perf_counter()
+        Y = drive_lean(lambda t, yy, hk: step(fun, t, yy, hk, split), grid, y)
+        wall = time.perf_counter() - start
+        return make_result(grid.times(), Y, 1 + per * grid.n_steps, 0, 0, OK_MESSAGE, wall, m.name, [],
+                           grid.n_steps)
     counter = [1, 0]  # f(t0, y0) was evaluated by the shape check
 
     def f(t, yy):
@@ -184,72 +179,39 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
             return jac(t, yy)
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
-    status, message = 0, OK_MESSAGE
+    hs = grid.h
+
+    def partial(t, yy):
+        return lambda s: step(f, t, yy, s, split, jf)
+
+    def on_events(k, t, yy, t1, y1, hk):
+        nonlocal g_old
+        found = crossings(evs, g_old, t, yy, t1, y1, hk, partial(t, yy))
+        stop = handle_events(evs, found) if found else None
+        if stop is not None:
+            t1, y1 = stop
+        g_old = [float(e.fn(t1, y1)) for e in evs]
+        return None if stop is None else (t1, y1, True)
+
+    def on_output(k, t, yy, t1, y1, hk):
+        nonlocal ie
+        if t_eval is None:
+            ts.append(t1), Ys.append(y1)
+            return None
+        while ie < len(t_eval) and (t_eval[ie] - t1) * hs <= 0:
+            te = t_eval[ie]
+            ts.append(te), Ys.append(y1 if te == t1 else partial(t, yy)(te - t))
+            ie += 1
+        return None
+
     start = time.perf_counter()
-    t = t0
     with np.errstate(over="ignore", invalid="ignore"):
-        for k in range(N):
-            hk = hs if k < N - 1 else h_last
-            t1 = t0 + (k + 1) * hs if k < N - 1 else tf
-            y1 = step(f, t, y, hk, split, jf)
-            if not np.all(np.isfinite(y1)):
-                raise diverged(t, k, y1)
-            partial = lambda s, t=t, y=y: step(f, t, y, s, split, jf)  # noqa: E731
-            stop = None
-            if evs:
-                found = crossings(evs, g_old, t, y, t1, y1, hk, partial)
-                stop = handle_events(evs, found) if found else None
-                if stop is not None:
-                    t1, y1 = stop
-                g_old = [float(e.fn(t1, y1)) for e in evs]
-            if t_eval is None:
-                ts.append(t1), Ys.append(y1)
-            else:
-                while ie < len(t_eval) and (t_eval[ie] - t1) * hs <= 0:
-                    te = t_eval[ie]
-                    ts.append(te), Ys.append(y1 if te == t1 else partial(te - t))
-                    ie += 1
-            t, y = t1, y1
-            if stop is not None:
-                status, message = 1, TERMINATED
-                break
+        _, _, steps, stopped = drive(lambda t, yy, hk: step(f, t, yy, hk, split, jf), grid, y,
+                                     hooks=([on_events] if evs else []) + [on_output], quantity="state y")
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0,) + y.shape)
-    return make_result(ts, Y, counter[0], counter[1], status, message, wall, m.name, evs, k + 1)
-
-
-def _fixed_lean(fun, t0, tf, y, m, N, hs, h_last, split, per) -> SimResult:
-    """No events, no t_eval, explicit method: the loop does the step, the store and nothing else."""
-    step = m.step
-    block = _BLOCK
-    Y = np.empty((N + 1,) + y.shape, dtype=y.dtype)
-    Y[0] = y
-    start = time.perf_counter()
-    with np.errstate(over="ignore", invalid="ignore"):
-        k0 = 0
-        t = t0
-        for k in range(N - 1):
-            y = step(fun, t0 + k * hs, y, hs, split)
-            Y[k + 1] = y
-            if k - k0 == block:
-                if not np.isfinite(Y[k0 + 1:k + 2]).all():
-                    _raise_first_bad(Y, k0, k + 1, t0, hs)
-                k0 = k + 1
-        t = t0 + (N - 1) * hs
-        Y[N] = step(fun, t, y, h_last, split)
-        if not np.isfinite(Y[k0 + 1:]).all():
-            _raise_first_bad(Y, k0, N, t0, hs)
-    wall = time.perf_counter() - start
-    ts = t0 + hs * np.arange(N + 1)
-    ts[-1] = tf
-    return make_result(ts, Y, 1 + per * N, 0, 0, OK_MESSAGE, wall, m.name, [], N)
-
-
-def _raise_first_bad(Y, k0, k1, t0, hs):
-    seg = Y[k0 + 1:k1 + 1].reshape(k1 - k0, -1)
-    i = int(np.flatnonzero(~np.isfinite(seg).all(axis=1))[0])
-    k = k0 + i  # the step that went from Y[k] (finite) to Y[k + 1] (not)
-    raise diverged(t0 + k * hs, k, Y[k + 1])
+    status, message = (1, TERMINATED) if stopped else (0, OK_MESSAGE)
+    return make_result(ts, Y, counter[0], counter[1], status, message, wall, m.name, evs, steps)
 
 
 # ---------------------------------------------------------------------------------------------------

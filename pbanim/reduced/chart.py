@@ -241,19 +241,23 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
 
 
 def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "implicit_midpoint", *,
-                   energy: Callable | None = None, record_every: int = 1, split: int | None = None):
+                   energy: Callable | None = None, record_every: int = 1, split: int | None = None,
+                   max_steps: int | None = None):
     """Fixed-step run of ``rhs`` with a method of :mod:`pbanim.ode`, recording ``energy(y, t)`` every few steps.
 
+    Runs through the one driver (:mod:`pbanim.ode.driver`: same step rule, cap and finiteness check).
     Returns a :class:`pbanim.results.SimResult` (``diagnostics["energy"]`` when ``energy`` is given).
     A :class:`SingularChartError` raised by the rhs propagates (never NaN states).
     """
     from ..ode import get_method
+    from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
     from ..results import SimResult
-    from ..scene import check_finite, fixed_steps
 
-    h, nsteps = fixed_steps(0.0, t_end, h)
+    grid = step_grid(0.0, t_end, h, max_steps=MAX_STEPS if max_steps is None else max_steps,
+                     record_every=record_every)
     m = get_method(method)
     y = np.array(y0, dtype=float)
+    check_finite(y, 0.0, 0, "initial state")
     split = y.size // 2 if split is None else split
     ts, ys, es = [0.0], [y.copy()], ([energy(y, 0.0)] if energy else [])
     nfev = [0]
@@ -262,16 +266,16 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
         nfev[0] += 1
         return rhs(t, yy)
 
+    def record(t1, y1):
+        ts.append(t1)
+        ys.append(y1.copy())
+        if energy:
+            es.append(energy(y1, t1))
+
     start = time.perf_counter()
-    for k in range(nsteps):
-        y = m.step(fun, k * h, y, h, split=split)
-        check_finite(y, k * h, k)
-        if (k + 1) % record_every == 0 or k + 1 == nsteps:
-            ts.append((k + 1) * h)
-            ys.append(y.copy())
-            if energy:
-                es.append(energy(y, (k + 1) * h))
+    drive(lambda t, yy, hk: m.step(fun, t, yy, hk, split=split), grid, y, record=record,
+          record_every=record_every)
     wall = time.perf_counter() - start
     diag = {"energy": np.array(es)} if energy else {}
     return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], wall_time=wall, method=method,
-                     nsteps=nsteps, diagnostics=diag)
+                     nsteps=grid.n_steps, diagnostics=diag)

@@ -25,7 +25,6 @@ References: H. Munthe-Kaas, Appl. Numer. Math. 29 (1999); Hairer, Lubich & Wanne
 
 from __future__ import annotations
 
-import time
 from typing import Any, Sequence
 
 import numpy as np
@@ -35,7 +34,7 @@ from ..results import SimResult
 from .bodies import RigidBodies, _cross
 from .effects import QuaternionRenormalize
 from .quat import quat_exp, quat_multiply
-from ..scene import Effect, Scene, check_finite, fixed_steps
+from ..scene import Effect, Scene
 
 __all__ = ["RigidScene", "exp_map_step", "dexpinv"]
 
@@ -155,33 +154,25 @@ class RigidScene(Scene):
             y = e.post_step(t + h, y, h)
         return y
 
-    def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
-                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
-                 check_every: int = 1) -> SimResult:
-        """Fixed-step simulation (see :meth:`pbanim.scene.Scene.simulate`)."""
+    def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", **kwargs) -> SimResult:
+        """Fixed-step simulation (see :meth:`pbanim.scene.Scene.simulate`; same driver, same step rule).
+
+        With ``quaternions="exponential"`` each step is :func:`exp_map_step` and the result's ``method``
+        reads ``"<method>+exp_map"``.
+        """
+        res = super().simulate(t_end, h, method, **kwargs)
+        if self.quaternions == "exponential":
+            res.method = f"{method}+exp_map"
+        return res
+
+    def _advance(self, m, counter: list):
         if self.quaternions != "exponential":
-            return super().simulate(t_end, h, method, t0=t0, y0=y0, record_every=record_every,
-                                    diagnostics=diagnostics, check_every=check_every)
-        h, n_steps = fixed_steps(t0, t_end, h, record_every)
-        get_method(method)
-        y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
-        check_finite(y, t0, 0, "initial state")
-        ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
-        counter = [0]
-        start = time.perf_counter()
-        for k in range(n_steps):
-            t = t0 + k * h
-            y = exp_map_step(self.system, self.forces, t, y, h, method, counter)
-            for e in self._post:
+            return super()._advance(m, counter)
+        system, forces, post, name = self.system, self.forces, self._post, m.name
+
+        def advance(t, y, h):
+            y = exp_map_step(system, forces, t, y, h, name, counter)
+            for e in post:
                 y = e.post_step(t + h, y, h)
-            if (k + 1) % check_every == 0 or k + 1 == n_steps:
-                check_finite(y, t, k)
-            if (k + 1) % record_every == 0 or k + 1 == n_steps:
-                ts.append(t + h)
-                ys.append(y.copy())
-                if diagnostics:
-                    diags.append(self.diagnostics(t + h, y))
-        wall = time.perf_counter() - start
-        diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
-        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], status=0, wall_time=wall,
-                         method=f"{method}+exp_map", nsteps=n_steps, diagnostics=diag_arrays)
+            return y
+        return advance

@@ -1,0 +1,201 @@
+"""The one fixed-step driver: every fixed-step simulation of the package runs through it (chapter 02).
+
+A fixed-step run from t₀ to t_end with step h is the loop of the lecture,
+
+    for k = 0 … N−1:   y_{k+1} = Φ_h(t_k, y_k)      (the method's step, then what happens between steps)
+
+and every chapter runs it the same way: :func:`pbanim.solve` with a fixed-step method, the particle and
+rigid-body scenes (:meth:`pbanim.scene.Scene.simulate`), the collision time-of-impact loop, contact time
+stepping and the reduced-coordinate runs all build a :class:`StepGrid` and call :func:`drive` (or
+:func:`drive_lean`, its hook-free form that stores straight into one preallocated array).
+
+The step rule (one rule, every chapter)
+---------------------------------------
+span = |t_end − t₀|, N = max(1, ⌈span/h − 10⁻⁹⌉). Steps 0 … N−2 have size h, the last one ends exactly at
+t_end: h_last = (t_end − t₀) − (N − 1)h ∈ (0, h(1 + 10⁻⁹)] (and exactly h when that is h up to 10⁻⁹·h). The times are t_k = t₀ + k·h for k < N and
+t_N = t_end exactly. When span/h is a whole number (to within 10⁻⁹, so 1.0/0.1 counts as 10), every
+step is h; otherwise the last step is shortened, never lengthened, and never skipped. So the same ``t_span``
+and ``h`` give the same number of steps and the same final time in every chapter.
+
+The cap and the check
+---------------------
+``max_steps`` (default :data:`MAX_STEPS`) is checked when the grid is built, before any step runs: a run
+that would need more steps raises :class:`~pbanim.errors.StepLimitExceeded` naming h, the span and N. After
+each step (every ``check_every`` steps and always at the last) :func:`check_finite` raises
+:class:`~pbanim.errors.SimulationDiverged` naming the start time of the step, its index and the quantity,
+so a diverging run stops with an error instead of filling the result with NaN.
+
+Hooks (what happens between steps)
+----------------------------------
+``drive(advance, grid, y0, hooks=[...], record=...)``: after ``advance(t, y, h)`` each hook is called as
+``hook(k, t, y, t1, y1, h)`` and returns ``None`` (nothing changed) or ``(t1, y1, stop)``: a new end time
+and state (an event located inside the step, an impulse applied at the time of impact, a chart switched,
+a contact solve) and whether the run ends there (a terminal event). ``record(t1, y1)`` is called every
+``record_every`` steps, at the last step and at a stop: recording states and diagnostics is a hook too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..errors import SimulationDiverged, StepLimitExceeded
+
+__all__ = ["MAX_STEPS", "StepGrid", "step_grid", "check_finite", "drive", "drive_lean"]
+
+#: Default cap on the number of fixed steps of one run (about 80 MB of states for a 1-D problem).
+MAX_STEPS = 10_000_000
+_SLACK = 1e-9          # a span within 1e-9·h of a whole number of steps takes that number
+_BLOCK = 64            # drive_lean checks finiteness once per this many stored states
+
+
+@dataclass(frozen=True)
+class StepGrid:
+    """The steps of one fixed-step run: N steps, all of size h but the last (h_last), ending at t_end.
+
+    >>> g = step_grid(0.0, 1.0, 0.3)
+    >>> g.n_steps, round(g.h_last, 12), g.time(4)
+    (4, 0.1, 1.0)
+    """
+
+    t0: float
+    t_end: float
+    h: float           # signed step (negative for a backward run)
+    n_steps: int
+    h_last: float      # signed size of the last step
+
+    def time(self, k: int) -> float:
+        """t_k: t₀ + k·h for k < N, exactly t_end for k = N."""
+        return self.t_end if k >= self.n_steps else self.t0 + k * self.h
+
+    def size(self, k: int) -> float:
+        """The (signed) size of step k."""
+        return self.h_last if k == self.n_steps - 1 else self.h
+
+    def times(self) -> np.ndarray:
+        """All N + 1 grid times t₀ … t_end."""
+        ts = self.t0 + self.h * np.arange(self.n_steps + 1)
+        ts[-1] = self.t_end
+        return ts
+
+
+def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
+              backward: bool = False, record_every: int = 1) -> StepGrid:
+    """Validate a fixed-step run and return its :class:`StepGrid` (the one step rule; see the module).
+
+    Raises ``ValueError`` naming the argument for a non-positive or non-finite ``h``, a non-finite ``t0``
+    or ``t_end``, ``t_end`` not after ``t0`` (unless ``backward``), ``record_every`` < 1 or ``max_steps`` < 1,
+    and :class:`~pbanim.errors.StepLimitExceeded` when the run needs more than ``max_steps`` steps.
+    """
+    h = float(h)
+    if not math.isfinite(h) or h <= 0:
+        raise ValueError(f"h must be a positive finite step, got {h}")
+    t0, t_end = float(t0), float(t_end)
+    if not math.isfinite(t0):
+        raise ValueError(f"t0 must be a finite time, got {t0}")
+    if not math.isfinite(t_end) or t_end == t0 or (t_end < t0 and not backward):
+        raise ValueError(f"t_end must be a finite time {'different from' if backward else 'after'} "
+                         f"t0 = {t0}, got {t_end}")
+    if int(record_every) != record_every or record_every < 1:
+        raise ValueError(f"record_every must be a positive integer, got {record_every}")
+    if int(max_steps) != max_steps or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps}")
+    span = abs(t_end - t0)
+    ratio = span / h
+    if not math.isfinite(ratio):
+        raise StepLimitExceeded(h, span, ratio, int(max_steps))
+    n = max(1, math.ceil(ratio - _SLACK))
+    if n > max_steps:
+        raise StepLimitExceeded(h, span, n, int(max_steps))
+    hs = math.copysign(h, t_end - t0)
+    h_last = (t_end - t0) - (n - 1) * hs
+    if abs(h_last - hs) <= _SLACK * h:   # a whole number of steps: the last is h itself, not h ± roundoff
+        h_last = hs
+    return StepGrid(t0, t_end, hs, n, h_last)
+
+
+def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") -> None:
+    """Raise :class:`SimulationDiverged` if ``y`` has a NaN or Inf (one BLAS pass, no temporaries).
+
+    ``t`` is the start time of step ``step`` that produced ``y``; ``quantity`` names what was checked.
+    """
+    flat = np.ravel(y)
+    with np.errstate(over="ignore", invalid="ignore"):
+        ok = np.isfinite(flat @ flat)
+    if not ok:
+        bad = np.flatnonzero(~np.isfinite(flat))
+        detail = f"first bad component {int(bad[0])}" if bad.size else "norm overflowed"
+        raise SimulationDiverged(t, step, quantity, detail)
+
+
+Hook = Callable[[int, float, np.ndarray, float, np.ndarray, float], "tuple | None"]
+
+
+def drive(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: StepGrid, y0: np.ndarray, *,
+          hooks: Sequence[Hook] = (), record: Callable[[float, np.ndarray], None] | None = None,
+          record_every: int = 1, check_every: int = 1, quantity: str = "state") -> tuple:
+    """Run the steps of ``grid`` from ``y0``: y₁ = advance(t, y, h), then the hooks, the check, the record.
+
+    Returns ``(t, y, steps, stopped)``: the time and state reached, the number of steps taken and whether
+    a hook stopped the run early. ``y0`` itself is neither checked nor recorded (the caller does both once).
+    """
+    n = grid.n_steps
+    t0, hs, t_end = grid.t0, grid.h, grid.t_end
+    t, y = t0, y0
+    k, stopped = -1, False
+    for k in range(n):
+        last = k == n - 1
+        h = grid.h_last if last else hs
+        t1 = t_end if last else t0 + (k + 1) * hs
+        y1 = advance(t, y, h)
+        due = last or (k + 1) % check_every == 0
+        if due:
+            check_finite(y1, t, k, quantity)
+        for hook in hooks:
+            out = hook(k, t, y, t1, y1, h)
+            if out is not None:
+                t1, y1, stop = out
+                stopped = stopped or stop
+        if hooks and (due or stopped):
+            check_finite(y1, t, k, quantity)
+        if record is not None and (last or stopped or (k + 1) % record_every == 0):
+            record(t1, y1)
+        t, y = t1, y1
+        if stopped:
+            break
+    return t, y, k + 1, stopped
+
+
+def drive_lean(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: StepGrid,
+               y0: np.ndarray, quantity: str = "state y") -> np.ndarray:
+    """:func:`drive` without hooks, storing every state: returns Y of shape (N + 1,) + y0.shape.
+
+    The loop does the step and the store and nothing else; finiteness is checked once per block of
+    stored states, and a non-finite block is searched for the first bad step (same error as :func:`drive`).
+    """
+    n, t0, hs = grid.n_steps, grid.t0, grid.h
+    Y = np.empty((n + 1,) + np.shape(y0), dtype=np.result_type(y0, float))
+    Y[0] = y = y0
+    k0 = 0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for k in range(n - 1):
+            y = advance(t0 + k * hs, y, hs)
+            Y[k + 1] = y
+            if k - k0 == _BLOCK:
+                if not np.isfinite(Y[k0 + 1:k + 2]).all():
+                    _raise_first_bad(Y, k0, k + 1, grid, quantity)
+                k0 = k + 1
+        Y[n] = advance(grid.time(n - 1), y, grid.h_last)
+        if not np.isfinite(Y[k0 + 1:]).all():
+            _raise_first_bad(Y, k0, n, grid, quantity)
+    return Y
+
+
+def _raise_first_bad(Y, k0, k1, grid, quantity):
+    seg = Y[k0 + 1:k1 + 1].reshape(k1 - k0, -1)
+    i = int(np.flatnonzero(~np.isfinite(seg).all(axis=1))[0])
+    k = k0 + i  # the step that went from Y[k] (finite) to Y[k + 1] (not)
+    check_finite(Y[k + 1], grid.time(k), k, quantity)
