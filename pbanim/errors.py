@@ -9,6 +9,7 @@ error                   raised when
 ======================  ==========================================================================
 SimulationDiverged      a state or force stops being finite, or grows past a bound, during stepping
 StepLimitExceeded       a fixed-step run would need more steps than its ``max_steps`` cap
+BodyProtocolError       a system given to impulses, constraints or contacts lacks the body protocol
 SingularConstraintError the constraint system JWJᵀλ = r has no solution (inconsistent rows)
 ConvergenceError        an iterative solver (CG, Newton, PGS) did not reach its tolerance
 SingularChartError      a reduced-coordinate chart loses rank (generalized mass near singular)
@@ -23,6 +24,7 @@ __all__ = [
     "PbanimError",
     "SimulationDiverged",
     "StepLimitExceeded",
+    "BodyProtocolError",
     "SingularConstraintError",
     "ConvergenceError",
     "SingularChartError",
@@ -74,6 +76,28 @@ class StepLimitExceeded(PbanimError, ValueError):
         self.h, self.span, self.n_steps, self.max_steps = float(h), float(span), n_steps, int(max_steps)
         super().__init__(f"h = {self.h:g} needs {n_steps} steps over t_span, more than max_steps = "
                          f"{self.max_steps} (|t_end − t0| = {self.span:g}); raise max_steps or enlarge h")
+
+
+class BodyProtocolError(PbanimError, TypeError, ValueError):
+    """A system does not implement the body protocol (:class:`pbanim.bodies.Bodies`).
+
+    A ``TypeError`` (wrong kind of object) and, for code written before the protocol, a ``ValueError``.
+
+    Attributes
+    ----------
+    who : str
+        The effect or solver that needed it.
+    system : str
+        The system's type name.
+    missing : list[str]
+        The protocol members the system lacks (empty: it has them all but is not a ``Bodies``).
+    """
+
+    def __init__(self, who: str, system: str, missing) -> None:
+        self.who, self.system, self.missing = who, system, list(missing)
+        tail = (f"{system} lacks {', '.join(self.missing)}" if self.missing else
+                f"{system} has every member but is not a Bodies: subclass it or call Bodies.register({system})")
+        super().__init__(f"{who} needs a system implementing the body protocol (pbanim.bodies.Bodies); {tail}")
 
 
 class SingularConstraintError(PbanimError, ValueError):

@@ -28,6 +28,7 @@ from .broad import grid_pairs
 from .impulse import ImpulseBodies, ImpulseResult, resolve_collisions
 from .narrow import collide, sphere_plane, sphere_sphere
 from .shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
+from ..bodies import require_bodies
 from ..scene import Effect
 
 __all__ = ["Collisions"]
@@ -100,8 +101,8 @@ class Collisions(Effect):
 
     # -- binding ------------------------------------------------------------------------------------
     def bind(self, system) -> None:
-        self.system = system
-        self.rigid = hasattr(system, "inv_I_body")
+        self.system = require_bodies(system, "Collisions")
+        self.rigid = system.kind == "rigid"
         N = system.N
         if self.rigid:
             sh = self.shapes_in
@@ -254,17 +255,9 @@ class Collisions(Effect):
         return y
 
     def _apply(self, y, c: Contacts, J) -> np.ndarray:
-        if self.rigid:
-            idx = np.concatenate([c.a, c.b])
-            return self.system.apply_impulses(y, idx, np.concatenate([c.point, c.point]), np.concatenate([J, -J]))
-        y = np.array(y, dtype=float, copy=True)
-        N, dim = self.system.N, self.dim
-        dv = np.zeros((N + 1, 3))
-        W = np.append(self.system.W, 0.0)
-        np.add.at(dv, c.a, W[c.a, None] * J)
-        np.add.at(dv, c.b, -W[c.b, None] * J)
-        y[self.system.split:] += dv[:N, :dim].ravel()
-        return y
+        """Impulse J on body a and −J on body b at each contact point (the body protocol's apply_impulses)."""
+        return self.system.apply_impulses(y, np.concatenate([c.a, c.b]), np.concatenate([c.point, c.point]),
+                                          np.concatenate([J, -J]))
 
     def _project(self, y, c: Contacts) -> np.ndarray:
         """Move each body along the normal of its deepest contact by its inverse-mass share of the depth."""

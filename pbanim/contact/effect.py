@@ -30,6 +30,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .assembly import assemble_particles, assemble_rigid
+from ..bodies import require_bodies
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
 from ..errors import InconsistentContact, InfeasibleContact
 from ..scene import Effect
@@ -112,23 +113,20 @@ class RestingContact(Effect):
         self.solves = 0
 
     def bind(self, system) -> None:
-        if hasattr(system, "inv_I_body"):
+        kind = require_bodies(system, "RestingContact").kind
+        if kind == "rigid":
             self._assemble, self._N = assemble_rigid, system.N
         elif self.friction > 0:
             raise ValueError("friction in RestingContact needs a RigidBodies system; use TimeStepping for particles")
-        elif hasattr(system, "W") and hasattr(system, "dim"):
+        elif kind == "particles":
             self._assemble, self._N = assemble_particles, system.N
         else:
-            raise ValueError(f"RestingContact needs a RigidBodies or ParticleSystem, got {type(system).__name__}")
+            raise ValueError(f"RestingContact assembles rows for particles or rigid bodies, got a {kind!r} system "
+                             f"({type(system).__name__})")
         self.system = system
 
     def _generalized_velocity(self, y: np.ndarray) -> np.ndarray:
-        s = self.system
-        if self._assemble is assemble_rigid:
-            v, w = s.velocities(y)
-            u = np.hstack([v, w])
-        else:
-            u = s.unpack(y)[1]
+        u = self.system.generalized_velocity(y)
         return np.vstack([u, np.zeros((1, u.shape[1]))])
 
     def solve(self, t: float, y: np.ndarray, Q: np.ndarray):

@@ -53,6 +53,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
+from ..bodies import require_bodies
 from ..lcp.solve import solve_lcp
 from ..errors import InconsistentContact, InfeasibleContact
 from ..results import ContactSolution, SimResult
@@ -164,9 +165,12 @@ class TimeStepping:
         if not (0 < erp <= 1):
             raise ValueError(f"erp must be in (0, 1], got {erp}")
         friction_directions([[0.0, 0.0, 1.0]], facets)  # validates facets
-        self.rigid = hasattr(system, "inv_I_body")
-        if not self.rigid and getattr(system, "dim", 3) != 3:
-            raise ValueError(f"TimeStepping needs 3-D particles, got dim = {system.dim}")
+        kind = require_bodies(system, "TimeStepping").kind
+        if kind not in ("rigid", "particles"):
+            raise ValueError(f"TimeStepping steps particles or rigid bodies, got a {kind!r} system")
+        self.rigid = kind == "rigid"
+        if not self.rigid and system.dof != 3:
+            raise ValueError(f"TimeStepping needs 3-D particles, got dim = {system.dof}")
         self.system, self.detect, self.forces = system, detect, list(forces)
         for e in self.forces:
             e.bind(system)

@@ -70,6 +70,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .springs import AnchorSprings, DampedSprings, ForceJacobian, spring_forces_loop
+from ..bodies import Bodies
 from ..scene import Effect
 
 __all__ = ["ParticleSystem", "ForceJacobian", "Gravity", "Drag", "DampedSprings", "AnchorSprings", "UserForce",
@@ -88,8 +89,9 @@ def _per_particle(value: Any, N: int, name: str, fix: str) -> np.ndarray:
     return a
 
 
-class ParticleSystem:
-    """N point masses in 2-D or 3-D: the mechanical-system protocol of :mod:`pbanim.scene`.
+class ParticleSystem(Bodies):
+    """N point masses in 2-D or 3-D: the mechanical-system protocol of :mod:`pbanim.scene` and the body
+    protocol of :mod:`pbanim.bodies` (u = v, W = 1/m per particle; points move with their particle).
 
     Parameters
     ----------
@@ -195,6 +197,39 @@ class ParticleSystem:
         if self.dim == 2:
             return np.array([np.sum(x[:, 0] * p[:, 1] - x[:, 1] * p[:, 0])])
         return np.cross(x, p).sum(axis=0)
+
+    # -- body protocol (pbanim.bodies): u = v, Wᵢ = Iᵈ/mᵢ, an impulse j on particle i adds j/mᵢ to vᵢ ---------
+    kind = "particles"
+
+    @property
+    def dof(self) -> int:
+        return self.dim
+
+    def generalized_velocity(self, y: np.ndarray) -> np.ndarray:
+        return self.unpack(y)[1]
+
+    def inverse_mass_blocks(self, y: np.ndarray) -> np.ndarray:
+        return self.W[:, None, None] * np.eye(self.dim)
+
+    def apply_inverse_mass(self, y: np.ndarray, G: np.ndarray) -> np.ndarray:
+        return self.W[:, None] * np.asarray(G, dtype=float)
+
+    def point_velocity(self, y: np.ndarray, body_idx, points_world) -> np.ndarray:
+        i = np.asarray(body_idx, dtype=np.intp)
+        v3 = np.zeros((self.N + 1, 3))
+        v3[:self.N, :self.dim] = self.unpack(y)[1]
+        return v3[np.where(i < 0, self.N, i)]
+
+    def apply_impulses(self, y: np.ndarray, body_idx, points_world, impulses) -> np.ndarray:
+        i = np.asarray(body_idx, dtype=np.intp)
+        j = np.asarray(impulses, dtype=float).reshape(-1, 3)
+        dv = np.zeros((self.N + 1, 3))
+        W = np.append(self.W, 0.0)
+        k = np.where(i < 0, self.N, i)
+        np.add.at(dv, k, W[k, None] * j)
+        y_new = np.array(y, dtype=float, copy=True)
+        y_new[self.split:] += dv[:self.N, :self.dim].ravel()
+        return y_new
 
     def center_of_mass(self, y: np.ndarray) -> np.ndarray:
         x, _ = self.unpack(y)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..bodies import Bodies
 from .inertia import validate_inertia
 from .quat import quat_normalize, quat_to_matrix
 
@@ -53,7 +54,7 @@ def _per_body(name: str, value, N: int, tail: tuple) -> np.ndarray:
                          f"got {a.shape}") from None
 
 
-class RigidBodies:
+class RigidBodies(Bodies):
     """N rigid bodies with Baraff's state y = [x (N,3), q (N,4), P (N,3), L (N,3)] (flat, 13N).
 
     Parameters
@@ -204,6 +205,19 @@ class RigidBodies:
         _, q, P, L = self.unpack(y)
         R = quat_to_matrix(q)
         return self.inv_mass[:, None] * P, _matvec(R, _matvec(self.inv_I_body, _matTvec(R, L)))
+
+    # -- body protocol (pbanim.bodies): u = (v, ω), Wᵢ = diag(Iᵈ/mᵢ, I⁻¹_world,i); zero for static bodies ----
+    kind = "rigid"
+    dof = 6
+
+    def generalized_velocity(self, y: np.ndarray) -> np.ndarray:
+        return np.hstack(self.velocities(y))
+
+    def inverse_mass_blocks(self, y: np.ndarray) -> np.ndarray:
+        Wb = np.zeros((self.N, 6, 6))
+        Wb[:, :3, :3] = self.inv_mass[:, None, None] * np.eye(3)
+        Wb[:, 3:, 3:] = self.inv_inertia_world(y) * self._dyn[:, :, None]
+        return Wb
 
     def body_angular_velocity(self, y: np.ndarray) -> np.ndarray:
         """ω in body coordinates, Rᵀω = I⁻¹_body Rᵀ L (the ω of Euler's equations), (N, 3)."""
