@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from .reduced.lagrangian import (EulerLagrangeEquations, LagrangianSystem, cache_info, clear_cache,
                                  compile_equations, derive_equations, energy_rate, lagrangian_system, speeds_for)
+from .reduced.chart import point_kinematics, validate_coords  # noqa: F401  (importable here before the move)
 
 __all__ = ["EulerLagrangeEquations", "LagrangianSystem", "derive_equations", "compile_equations",
            "lagrangian_system", "clear_cache", "cache_info", "energy_rate", "speeds_for"]

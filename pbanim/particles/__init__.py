@@ -9,6 +9,7 @@ drag, user forces) and :mod:`pbanim.particles.springs` (vectorized damped spring
 
 from __future__ import annotations
 
+from ..scene import Effect  # noqa: F401  (importable here before the move)
 from .system import (AnchorSprings, DampedSprings, Drag, ForceJacobian, Gravity, ParticleSystem, UserForce,
                      spring_forces_loop)
 

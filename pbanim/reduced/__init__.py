@@ -10,6 +10,7 @@ guard, point kinematics, the fixed-step chart driver), and, imported on demand b
 
 from __future__ import annotations
 
+from ..errors import SingularChartError  # noqa: F401  (importable here before the move)
 from .chart import PointKinematics, validate_coords
 from .system import ChartCheck, ChartGuard, ReducedSystem, check_chart, point_kinematics, simulate_fixed
 
