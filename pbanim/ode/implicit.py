@@ -184,13 +184,16 @@ def expm_small(A: np.ndarray) -> np.ndarray:
 
 def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None,
                            jac=None) -> np.ndarray:
-    """Exponential (Rosenbrock–)Euler: y₁ = y₀ + h φ₁(hJ) f(t, y₀), J = ∂f/∂y(t, y₀), φ₁(z) = (eᶻ − 1)/z.
+    """Exponential (Rosenbrock–)Euler: y₁ = y₀ + h φ₁(hJ) f + h² φ₂(hJ) v, J = ∂f/∂y, v = ∂f/∂t at (t, y₀).
 
-    Order 2 for autonomous problems with the exact Jacobian (Hochbruck & Ostermann, Acta Numerica 2010);
-    **exact** for linear constant-coefficient systems (a linear damped spring: y₁ = e^(hJ) y₀ at any h);
-    stability region the whole left half-plane. φ₁(hJ)·hf is read off one matrix exponential of the
-    augmented matrix [[hJ, hf], [0, 0]] (:func:`expm_small` or ``scipy.linalg.expm``, batched over K;
-    ``expm_multiply`` for a sparse J). Without ``jac`` a forward-difference Jacobian is used.
+    φ₁(z) = (eᶻ − 1)/z, φ₂(z) = (eᶻ − 1 − z)/z². This is the exponential Euler step of the autonomous
+    system (y, t)' = (f, 1), so it is order 2 also when f depends on t (forced springs, moving anchors);
+    without the v term it would be order 1 there (Hochbruck & Ostermann, Acta Numerica 2010, §2.4 and
+    ORACLES A3). **Exact** for linear constant-coefficient systems (a linear damped spring: y₁ = e^(hJ) y₀
+    at any h); stability region the whole left half-plane. Both φ terms are read off one matrix exponential
+    of the augmented matrix [[hJ, hv, hf], [0, 0, h], [0, 0, 0]] (:func:`expm_small` or
+    ``scipy.linalg.expm``, batched over K; ``expm_multiply`` for a sparse J). v is a forward difference
+    in t (one more evaluation of f, exactly 0 for an autonomous f); without ``jac`` J is one too.
 
     >>> y = exponential_euler_step(lambda t, y: np.array([y[1], -y[0]]), 0.0, np.array([1.0, 0.0]), np.pi,
     ...                            jac=lambda t, y: np.array([[0.0, 1.0], [-1.0, 0.0]]))
@@ -199,15 +202,21 @@ def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spl
     """
     f = fun(t, y)
     J = _jacobian(fun, t, y, f, jac)
+    dt = np.sqrt(np.finfo(float).eps) * max(1.0, abs(t))
+    v = (fun(t + dt, y) - f) / dt
     n = y.shape[-1]
     if sp.issparse(J):
         from scipy.sparse.linalg import expm_multiply
 
-        aug = sp.bmat([[h * J, sp.csc_matrix((h * f)[:, None])], [None, sp.csc_matrix((1, 1))]], format="csc")
-        e = np.zeros(n + 1)
-        e[n] = 1.0
+        col = lambda a: sp.csc_matrix(np.asarray(a, dtype=float).reshape(-1, 1))  # noqa: E731
+        aug = sp.bmat([[h * J, col(h * v), col(h * f)], [None, sp.csc_matrix((1, 1)), col([h])],
+                       [None, None, sp.csc_matrix((1, 1))]], format="csc")
+        e = np.zeros(n + 2)
+        e[n + 1] = 1.0
         return y + expm_multiply(aug, e)[:n]
-    aug = np.zeros(y.shape[:-1] + (n + 1, n + 1))
+    aug = np.zeros(y.shape[:-1] + (n + 2, n + 2))
     aug[..., :n, :n] = h * np.asarray(J, dtype=float)
-    aug[..., :n, n] = h * f
-    return y + (expm_small(aug) if n < 32 else sla.expm(aug))[..., :n, n]
+    aug[..., :n, n] = h * v
+    aug[..., :n, n + 1] = h * f
+    aug[..., n, n + 1] = h
+    return y + (expm_small(aug) if n < 32 else sla.expm(aug))[..., :n, n + 1]

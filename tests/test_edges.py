@@ -1,0 +1,25 @@
+"""Wrong answers at the edges, each pinned by a test that failed before its fix (issue 13, point 3)."""
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from pbanim import solve
+
+
+def test_exponential_euler_is_second_order_on_a_forced_stiff_spring():
+    # ORACLES A3: x'' = −ω²x − cx' + F cos Ωt depends on t; without the ∂f/∂t term the step is order 1
+    # (measured slope 1.0 before the fix); with it, order 2 (measured local slopes 2.45, 2.29, 2.17 → 2)
+    w, c, F, W = 50.0, 1.0, 10.0, 3.0
+    f = lambda t, y: np.array([y[1], -w * w * y[0] - c * y[1] + F * np.cos(W * t)])  # noqa: E731
+    J = lambda t, y: np.array([[0.0, 1.0], [-w * w, -c]])  # noqa: E731
+    ref = solve_ivp(f, (0, 1), [1.0, 0.0], rtol=1e-13, atol=1e-13, method="DOP853").y[:, -1]
+    hs = 0.01 / 2.0 ** np.arange(5)
+    err = [np.max(np.abs(solve(f, (0, 1), [1.0, 0.0], method="exponential_euler", h=h, jac=J).y[:, -1] - ref))
+           for h in hs]
+    slopes = np.diff(np.log(err)) / np.diff(np.log(hs))
+    assert abs(slopes[-1] - 2.0) < 0.25 and np.all(slopes > 1.9)
+    # autonomous problems are unchanged: exact on a linear spring at any step (ORACLES A1)
+    g = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    r = solve(g, (0, np.pi), [1.0, 0.0], method="exponential_euler", h=np.pi, jac=lambda t, y: [[0, 1.0], [-1.0, 0]])
+    np.testing.assert_allclose(r.y[:, -1], [-1.0, 0.0], atol=1e-13)
