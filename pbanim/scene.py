@@ -62,7 +62,7 @@ import scipy.sparse as sp
 
 from .errors import SimulationDiverged
 from .ode import get_method
-from .ode.driver import MAX_STEPS, check_finite, drive, step_grid
+from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
 from .results import SimResult
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
@@ -77,6 +77,8 @@ class Effect:
     phase: str = "force"
     # False: symplectic Euler must also evaluate it at (q₀, v₁) (see the module docstring)
     drift_free: bool = True
+    # constraint phase: set by Scene to applied_forces(t, y) -> Q of the scene's force effects
+    applied = None
 
     def bind(self, system: Any) -> None:
         """Validate against ``system`` and precompute; called once by :class:`Scene`."""
@@ -89,19 +91,6 @@ class Effect:
 
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError(f"{type(self).__name__} declares phase 'post_step' but has no post_step()")
-
-
-def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tuple[float, int]:
-    """Validate a fixed-step run and return (h, number of steps) by the driver's one step rule.
-
-    Kept for course material that called it; new code builds a :class:`pbanim.ode.driver.StepGrid` with
-    :func:`pbanim.ode.driver.step_grid` (which also gives the shortened last step).
-
-    >>> fixed_steps(0.0, 1.0, 0.1)
-    (0.1, 10)
-    """
-    grid = step_grid(t0, t_end, h, record_every=record_every)
-    return grid.h, grid.n_steps
 
 
 class Scene:
@@ -140,6 +129,8 @@ class Scene:
         self._force = [e for e in self.effects if e.phase == "force"]
         self._constraint = [e for e in self.effects if e.phase == "constraint"]
         self._post = [e for e in self.effects if e.phase == "post_step"]
+        for e in self._constraint:
+            e.applied = self.applied_forces
         # lean symplectic-Euler path (see the module docstring): buffers are allocated on first use
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
         self._affine = self._lean and all(callable(getattr(e, "affine", None)) for e in self._force)
@@ -156,11 +147,16 @@ class Scene:
                      + ["integrate"] + [e.name for e in self._post])
 
     # -- continuous part -------------------------------------------------------------------------
-    def forces(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Total generalized force Q (applied + constraint forces) at (t, y)."""
+    def applied_forces(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Q of the force effects alone at (t, y) (what a constraint effect sees as applied)."""
         Q = self.system.zero_forces()
         for e in self._force:
             e.apply(t, y, Q)
+        return Q
+
+    def forces(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Total generalized force Q (applied + constraint forces) at (t, y)."""
+        Q = self.applied_forces(t, y)
         for e in self._constraint:
             Q = e.constrain(t, y, Q)
         return Q

@@ -23,3 +23,22 @@ def test_exponential_euler_is_second_order_on_a_forced_stiff_spring():
     g = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
     r = solve(g, (0, np.pi), [1.0, 0.0], method="exponential_euler", h=np.pi, jac=lambda t, y: [[0, 1.0], [-1.0, 0]])
     np.testing.assert_allclose(r.y[:, -1], [-1.0, 0.0], atol=1e-13)
+
+
+def test_constraint_multiplier_is_right_from_t0_and_nothing_leaks_between_runs():
+    # ORACLES B1: a bead at the bottom of a circle with speed v under gravity has tension m(v²/R + g).
+    # Before the fix the λ recorded at t0 ignored gravity (the applied-force cache was empty: λ = −m v²/R),
+    # and a second run started from the first run's last applied force.
+    from pbanim.constraints import Constraints, OnCircle
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    m, v, R, g = 2.0, 2.0, 1.0, 9.81
+    ps = ParticleSystem([[0.0, -R]], [[v, 0.0]], masses=m)
+    cons = Constraints([OnCircle([0], [0.0, 0.0], R)], stabilization="projection")
+    scene = Scene(ps, [Gravity([0.0, -g]), cons])
+    first = scene.simulate(0.01, 1e-3, "rk4")
+    lam0 = -float(first.diagnostics["lam"][0][0])
+    assert lam0 == pytest.approx(m * (v * v / R + g), rel=1e-12)
+    again = scene.simulate(0.01, 1e-3, "rk4")
+    np.testing.assert_array_equal(np.asarray(again.diagnostics["lam"]), np.asarray(first.diagnostics["lam"]))

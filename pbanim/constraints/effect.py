@@ -193,7 +193,6 @@ class Constraints(Effect):
         self.projection_tol, self.projection_max_iter = float(projection_tol), int(projection_max_iter)
         self.max_violation = max_violation
         self.last: ConstraintSolution | None = None
-        self._Q_last = None
 
     def stages(self) -> list[Effect]:
         """The stages this effect adds to a scene: itself, plus the projection when asked."""
@@ -218,16 +217,15 @@ class Constraints(Effect):
 
     def constrain(self, t, y, Q):
         x, v = self.system.unpack(y)
-        self._Q_last = np.array(Q, float).ravel()
-        sol, _ = self._solve(x, v, self._Q_last, self.ks, self.kd, t)
+        sol, _ = self._solve(x, v, np.array(Q, float).ravel(), self.ks, self.kd, t)
         self.last = sol
         return Q + sol.Q_C.reshape(Q.shape)
 
     def diagnostics(self, t, y) -> dict:
-        """C_max, Cdot_max, and λ at (t, y) with the applied force of the most recent evaluation
-        (exact for state-independent forces such as gravity)."""
+        """C_max, Cdot_max, and λ at (t, y) with the applied forces at (t, y) (from the scene that holds
+        this effect; zero outside a scene). Nothing carries over from an earlier evaluation or run."""
         x, v = self.system.unpack(y)
-        Qf = self._Q_last if self._Q_last is not None else np.zeros(self.cset.n)
+        Qf = np.ravel(self.applied(t, y)) if self.applied is not None else np.zeros(self.cset.n)
         sol, asm = self._solve(x, v, Qf, self.ks, self.kd, t)
         return {"C_max": float(np.max(np.abs(asm.C), initial=0.0)),
                 "Cdot_max": float(np.max(np.abs(asm.Cdot), initial=0.0)), "lam": sol.lam}

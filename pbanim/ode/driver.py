@@ -44,7 +44,7 @@ import numpy as np
 
 from ..errors import SimulationDiverged, StepLimitExceeded
 
-__all__ = ["MAX_STEPS", "StepGrid", "step_grid", "check_finite", "drive", "drive_lean"]
+__all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
 
 #: Default cap on the number of fixed steps of one run (about 80 MB of states for a 1-D problem).
 MAX_STEPS = 10_000_000
@@ -115,6 +115,19 @@ def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
     if abs(h_last - hs) <= _SLACK * h:   # a whole number of steps: the last is h itself, not h ± roundoff
         h_last = hs
     return StepGrid(t0, t_end, hs, n, h_last)
+
+
+def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tuple[float, int]:
+    """Validate a fixed-step run and return (h, number of steps) by the driver's one step rule.
+
+    Kept for course material that called it (also as ``pbanim.scene.fixed_steps``); new code builds a
+    :class:`StepGrid` with :func:`step_grid`, which also gives the shortened last step.
+
+    >>> fixed_steps(0.0, 1.0, 0.1)
+    (0.1, 10)
+    """
+    grid = step_grid(t0, t_end, h, record_every=record_every)
+    return grid.h, grid.n_steps
 
 
 def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") -> None:
