@@ -42,3 +42,47 @@ def test_constraint_multiplier_is_right_from_t0_and_nothing_leaks_between_runs()
     assert lam0 == pytest.approx(m * (v * v / R + g), rel=1e-12)
     again = scene.simulate(0.01, 1e-3, "rk4")
     np.testing.assert_array_equal(np.asarray(again.diagnostics["lam"]), np.asarray(first.diagnostics["lam"]))
+
+
+def test_model_cache_keys_cover_the_initial_state():
+    # before the fix the ReducedSystem cache omitted u0, u̇0: the second model got the first one's state
+    from pbanim.models.reduced import simple_pendulum
+
+    a, b = simple_pendulum(0.3), simple_pendulum(0.9, omega0=0.5)
+    np.testing.assert_array_equal(a.reduced().state(), [0.3, 0.0])
+    np.testing.assert_array_equal(b.reduced().state(), [0.9, 0.5])
+    np.testing.assert_array_equal(a.reduced().state(), [0.3, 0.0])
+    assert a.reduced() is a.reduced()          # still cached per model
+
+
+def test_lagrangian_options_are_part_of_a_given_cache_key():
+    import sympy as sp
+
+    from pbanim.reduced import lagrangian as lg
+
+    th = sp.Symbol("th")
+    pts = [(1.0, [sp.sin(th), -sp.cos(th)])]
+    s1 = lg.lagrangian_system([th], pts, gravity=[0.0, -9.81], key=("pendulum",))
+    s2 = lg.lagrangian_system([th], pts, gravity=[0.0, -1.62], key=("pendulum",))   # the Moon
+    y = np.array([0.5, 0.0])
+    assert s1.accelerations(0.0, y)[0] == pytest.approx(-9.81 * np.sin(0.5), rel=1e-13)
+    assert s2.accelerations(0.0, y)[0] == pytest.approx(-1.62 * np.sin(0.5), rel=1e-13)
+
+
+@pytest.mark.parametrize("first", ["near", "far"])
+def test_chart_check_does_not_depend_on_build_order(first):
+    # ORACLES B6: bead on a circle in the x chart, M = mR²/(R² − x²). Two models of one structure with
+    # different x0: each one's chart check is referenced at its own x0, whichever was built first
+    # (before the fix the first model evaluated fixed the reference of both).
+    from pbanim.models.reduced import _VIEWS, bead_x_chart
+    from pbanim.reduced import lagrangian as lg
+
+    lg.clear_cache()
+    _VIEWS.clear()
+    near, far = bead_x_chart(x0=0.9), bead_x_chart(x0=0.0)
+    order = (near, far) if first == "near" else (far, near)
+    systems = {id(m): m.lagrangian() for m in order}
+    M = near.lagrangian().mass_matrix([0.95])
+    # referenced at x0: κ = M(0.95)/M(x0) = (R² − x0²)/(R² − 0.95²)
+    assert systems[id(near)].guard.condition(M) == pytest.approx((1 - 0.81) / (1 - 0.9025), rel=1e-12)
+    assert systems[id(far)].guard.condition(M) == pytest.approx(1 / (1 - 0.9025), rel=1e-12)

@@ -31,6 +31,7 @@ __all__ = ["ReducedModel", "pendulum_period", "simple_pendulum", "double_pendulu
            "chain_rod_tensions", "MaximalChain", "maximal_chain"]
 
 _REDUCED: dict = {}
+_VIEWS: dict = {}   # (structure, route, u0) → this model's view of a cached Lagrangian system
 
 
 def pendulum_period(theta0: Any, length: float = 1.0, g: float = 9.81) -> Any:
@@ -89,13 +90,22 @@ class ReducedModel:
         """The compiled Euler–Lagrange equations (:func:`pbanim.reduced.lagrangian.lagrangian_system`, cached)."""
         from ..reduced.lagrangian import lagrangian_system
 
+        import dataclasses
+
+        from ..reduced.chart import ChartGuard
+
         coords, pos, t = self.build()
         pts = list(zip(self.masses.tolist(), pos))
         sysl = lagrangian_system(list(coords), pts, gravity=self.g.tolist(), t=t, route=route,
                                  key=self.key + (route,))
-        if sysl.guard.d is None:  # the chart check's reference metric: M at this model's u0
-            sysl.guard.set_reference(sysl.mass_matrix(self.u0))
-        return sysl
+        view_key = self.key + (route, tuple(self.u0.tolist()))
+        if view_key not in _VIEWS:
+            # this model's own view: the chart check's reference metric is M at this model's u0, so the
+            # answer never depends on which model of the same structure was built first
+            view = dataclasses.replace(sysl, guard=ChartGuard(sysl.guard.max_cond), nfev=0)
+            view.guard.set_reference(view.mass_matrix(self.u0))
+            _VIEWS[view_key] = view
+        return _VIEWS[view_key]
 
     def reduced(self, max_cond: float = 1e8):
         """A :class:`pbanim.reduced.ReducedSystem` with gravity (J, J̇u̇ from sympy; cached)."""
@@ -103,11 +113,15 @@ class ReducedModel:
         from ..reduced.system import ReducedSystem
 
         k = self.key + (max_cond,)
-        if k not in _REDUCED:
+        if k not in _REDUCED:       # the compiled chart depends on the structure only
             coords, pos, t = self.build()
             _REDUCED[k] = ReducedSystem.from_sympy(pos, list(coords), self.masses, self.dim, [Gravity(self.g)],
                                                    self.u0, self.udot0, t=t, max_cond=max_cond, name=self.name)
-        return _REDUCED[k]
+        # the cache key covers every argument: the initial state picks this model's own system
+        kv = k + (tuple(self.u0.tolist()), tuple(self.udot0.tolist()))
+        if kv not in _REDUCED:
+            _REDUCED[kv] = _REDUCED[k].with_initial(self.u0, self.udot0)
+        return _REDUCED[kv]
 
 
 def _arr(x, n, name):

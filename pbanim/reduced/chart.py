@@ -58,7 +58,11 @@ class ChartGuard:
         self.last_cond = np.nan
 
     def set_reference(self, A_ref) -> None:
-        """Use diag(A_ref) as the metric's scale (set at the initial state by the systems)."""
+        """Use diag(A_ref) as the metric's scale (set at the initial state by the systems).
+
+        Without a reference, κ is that of A Jacobi-scaled by its own diagonal at each u: it detects rank
+        loss but not a metric that blows up as a whole (a 1×1 A); the result never depends on which
+        configuration was evaluated first."""
         dg = np.diag(np.asarray(A_ref, float)).copy()
         if not np.all(np.isfinite(dg)) or np.any(dg <= 0):
             raise SingularChartError(np.inf, None, f"the reference generalized mass has diagonal {dg}")
@@ -70,23 +74,29 @@ class ChartGuard:
         return self._factor(np.asarray(A, float))[1]
 
     def _factor(self, A):
-        if self.d is None:
-            self.set_reference(A)
-        At = A * self._dd
+        """(Cholesky factor of the scaled A or None, κ, the scale d)."""
+        if self.d is None:   # no reference: Jacobi-scale A at u itself (never latch the first u evaluated)
+            dg = np.diag(A)
+            if not np.all(dg > 0):
+                return None, np.inf, None
+            d = 1.0 / np.sqrt(dg)
+            At = A * (d[:, None] * d[None, :])
+        else:
+            d, At = self.d, A * self._dd
         anorm = float(_maxred(_addred(np.abs(At), 0)))     # ‖Ã‖₁ (ufunc reductions: no wrapper cost)
         if not math.isfinite(anorm):
-            return None, np.inf
+            return None, np.inf, d
         c, info = _potrf(At, lower=0, clean=0, overwrite_a=1)
         if info != 0:
-            return None, np.inf
+            return None, np.inf, d
         rc, info = _pocon(c, 1.0)                        # with anorm = 1: rc = 1/‖Ã⁻¹‖₁ (estimate)
         if info != 0 or rc <= 0:
-            return None, np.inf
-        return c, max(anorm, 1.0) * max(1.0 / rc, 1.0)
+            return None, np.inf, d
+        return c, max(anorm, 1.0) * max(1.0 / rc, 1.0), d
 
     def solve(self, A, r, u) -> np.ndarray:
         """ü = A⁻¹r, or SingularChartError(cond, u)."""
-        c, kappa = self._factor(A)
+        c, kappa, d = self._factor(A)
         self.last_cond = kappa
         r = np.asarray(r, float)
         if c is None or kappa > self.max_cond or not math.isfinite(_addred(r)):
@@ -98,8 +108,8 @@ class ChartGuard:
             else:
                 detail = f"above max_cond = {self.max_cond:.1e}"
             raise SingularChartError(kappa, u_list, detail)
-        x, info = _potrs(c, self.d * r, lower=0)
-        return self.d * x
+        x, info = _potrs(c, d * r, lower=0)
+        return d * x
 
 
 @dataclass

@@ -40,9 +40,9 @@ class LagrangianSystem:
     compile_time : float
         Seconds to generate and compile the numeric functions.
     guard : ChartGuard
-        Condition-number check of M(u) (raises SingularChartError near a singular chart). Its reference
-        metric is M at the first configuration evaluated, or set explicitly (the models of
-        :mod:`pbanim.models.reduced` set it at their u0).
+        Condition-number check of M(u) (raises SingularChartError near a singular chart). Without a
+        reference metric it Jacobi-scales M(u) at each u; the models of :mod:`pbanim.models.reduced`
+        hand out their own view of a cached system with the reference set at their u0.
     nfev : int
         Right-hand-side evaluations so far.
     """

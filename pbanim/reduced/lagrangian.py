@@ -366,11 +366,14 @@ def lagrangian_system(coords: Sequence, points: Sequence | None = None, *, key: 
     """Derive (:func:`derive_equations`) and compile (:func:`compile_equations`) once per process.
 
     The cache key is ``key`` if given (e.g. ``("n_link", 10, masses, lengths, g)``), else the model's
-    sympy inputs themselves (hashable). A cache hit returns the same compiled object.
+    sympy inputs themselves (hashable), together with every keyword option (gravity, route, t, ...), so
+    a call that changes any of them derives anew. A cache hit returns the same compiled object.
     """
+    options = tuple(sorted((k, _freeze(v)) for k, v in kwargs.items()))
     if key is None:
-        key = (_freeze(list(coords)), _freeze([(m, list(r)) for m, r in (points or [])]),
-               tuple(sorted((k, _freeze(v)) for k, v in kwargs.items())))
+        key = (_freeze(list(coords)), _freeze([(m, list(r)) for m, r in (points or [])]), options)
+    else:   # the caller's key names the model; the options that change the equations are always part of it
+        key = (key, options)
     hit = _CACHE.get(key)
     if hit is not None:
         _STATS["hits"] += 1

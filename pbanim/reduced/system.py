@@ -216,6 +216,17 @@ class ReducedSystem:
         self.nfev = 0
 
     # -- dynamics -------------------------------------------------------------------------------
+    def with_initial(self, u0: Any, udot0: Any = None) -> "ReducedSystem":
+        """A new system on the same compiled chart with initial state (u0, u̇0) (its own chart reference,
+        force effects and counters; nothing is shared but the compiled kinematics)."""
+        import copy
+
+        new = type(self).__new__(type(self))
+        new._setup(self._kin, self.particles.m, self.dim, [copy.copy(e) for e in self.forces], u0, udot0,
+                   self.guard.max_cond, self.name)
+        new.kinematics = getattr(self, "kinematics", None)
+        return new
+
     def state(self) -> np.ndarray:
         """Initial state y = [u0, u̇0]."""
         return np.concatenate([self.u0, self.udot0])
