@@ -7,6 +7,7 @@ result whose ``success`` is False.
 ======================  ==========================================================================
 error                   raised when
 ======================  ==========================================================================
+InvalidInput            an argument has the wrong shape, size, sign, range or value (also a ValueError)
 SimulationDiverged      a state or force stops being finite, or grows past a bound, during stepping
 StepLimitExceeded       a fixed-step run would need more steps than its ``max_steps`` cap
 BodyProtocolError       a system given to impulses, constraints or contacts lacks the body protocol
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 __all__ = [
     "PbanimError",
+    "InvalidInput",
     "SimulationDiverged",
     "StepLimitExceeded",
     "BodyProtocolError",
@@ -35,6 +37,11 @@ __all__ = [
 
 class PbanimError(Exception):
     """Base class of every error pbanim raises on purpose (besides ``ValueError`` for bad input)."""
+
+
+class InvalidInput(PbanimError, ValueError):
+    """A bad argument at a public boundary; the message names the argument, what was expected and what
+    came in. A ``ValueError``, so code that caught those keeps working."""
 
 
 class SimulationDiverged(PbanimError, FloatingPointError):
@@ -59,7 +66,7 @@ class SimulationDiverged(PbanimError, FloatingPointError):
         super().__init__(msg)
 
 
-class StepLimitExceeded(PbanimError, ValueError):
+class StepLimitExceeded(InvalidInput):
     """A fixed-step run would need more steps than its cap (checked before the first step).
 
     Attributes
@@ -78,7 +85,7 @@ class StepLimitExceeded(PbanimError, ValueError):
                          f"{self.max_steps} (|t_end − t0| = {self.span:g}); raise max_steps or enlarge h")
 
 
-class BodyProtocolError(PbanimError, TypeError, ValueError):
+class BodyProtocolError(InvalidInput, TypeError):
     """A system does not implement the body protocol (:class:`pbanim.bodies.Bodies`).
 
     A ``TypeError`` (wrong kind of object) and, for code written before the protocol, a ``ValueError``.

@@ -118,6 +118,13 @@ class ContactSolution:
     b: np.ndarray | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
+    def __post_init__(self) -> None:
+        # the solution owns its arrays: the caller's A, b (and f) are never aliased, so nothing done to
+        # the solution (certificates, warm starts) can change them, and changing them cannot change it
+        self.f = np.array(self.f, dtype=float)
+        self.A = None if self.A is None else np.array(self.A, dtype=float)
+        self.b = None if self.b is None else np.array(self.b, dtype=float)
+
     @property
     def w(self) -> np.ndarray:
         """Relative normal accelerations (or velocities) w = A f + b."""

@@ -6,36 +6,86 @@ measured and what was expected.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
+from .errors import InvalidInput
 from .results import natural_map_residual
 
-__all__ = ["fitted_order", "assert_order", "assert_conserved", "check_grad", "assert_complementarity",
+__all__ = ["fitted_order", "order_fit", "OrderFit", "assert_order", "assert_conserved", "check_grad", "assert_complementarity",
            "drift_ratio"]
 
 
+@dataclass(frozen=True)
+class OrderFit:
+    """A fitted convergence order and the points it used and dropped.
+
+    ``dropped`` lists (h, error, reason) for every point left out: outside the window (below it: the
+    roundoff floor; above it: not yet in the asymptotic range).
+    """
+
+    order: float
+    hs: np.ndarray
+    errors: np.ndarray
+    used: np.ndarray
+    dropped: tuple
+
+    def describe(self) -> str:
+        kept = ", ".join(f"h={h:.3g}: {e:.3g}" for h, e in zip(self.hs[self.used], self.errors[self.used]))
+        out = f"slope {self.order:.3f} from {int(self.used.sum())} points ({kept})"
+        if self.dropped:
+            out += "; dropped " + ", ".join(f"h={h:.3g}: {e:.3g} ({why})" for h, e, why in self.dropped)
+        return out
+
+
+def order_fit(hs, errors, window: tuple[float, float] = (1e-10, 1e-2)) -> OrderFit:
+    """Least-squares slope of log(error) vs log(h) over the points with error inside ``window``.
+
+    Refuses (:class:`~pbanim.errors.InvalidInput`) a NaN or infinite error (a diverged run is not a data
+    point to drop), non-positive or non-finite steps, mismatched lengths, and fewer than 2 points in the
+    window; reports every point it drops.
+    """
+    h = np.asarray(hs, dtype=float).ravel()
+    e = np.asarray(errors, dtype=float).ravel()
+    if h.size != e.size:
+        raise InvalidInput(f"hs and errors must have the same length, got {h.size} and {e.size}")
+    if not np.all(np.isfinite(h)) or np.any(h <= 0):
+        raise InvalidInput(f"hs must be positive finite steps, got {h}")
+    if not np.all(np.isfinite(e)) or np.any(e < 0):
+        bad = np.flatnonzero(~np.isfinite(e) | (e < 0))
+        raise InvalidInput(f"errors must be finite and >= 0, got {e[bad[0]]} at h = {h[bad[0]]:.3g} "
+                           "(a method that diverged at some h has no order there: fix or shrink the steps)")
+    lo, hi = window
+    if not (0 <= lo < hi):
+        raise InvalidInput(f"window must be (lo, hi) with 0 <= lo < hi, got {window}")
+    used = (e >= lo) & (e <= hi)
+    dropped = tuple((float(hh), float(ee), "below the window" if ee < lo else "above the window")
+                    for hh, ee, u in zip(h, e, used) if not u)
+    if used.sum() < 2:
+        raise InvalidInput(f"need at least 2 errors inside the window {window} to fit an order, got {e}")
+    slope, _ = np.polyfit(np.log(h[used]), np.log(e[used]), 1)
+    return OrderFit(float(slope), h, e, used, dropped)
+
+
 def fitted_order(hs, errors, window: tuple[float, float] = (1e-10, 1e-2)) -> float:
-    """Least-squares slope of log(error) vs log(h), using only points with error inside ``window``.
+    """The slope of :func:`order_fit` (which refuses NaN errors and records dropped points).
 
     >>> h = np.array([0.1, 0.05, 0.025]); round(fitted_order(h, 3 * h**2), 6)
     2.0
     """
-    hs = np.asarray(hs, dtype=float)
-    errors = np.asarray(errors, dtype=float)
-    keep = (errors >= window[0]) & (errors <= window[1]) & np.isfinite(errors)
-    if keep.sum() < 2:
-        raise ValueError(f"need at least 2 errors inside {window} to fit an order, got {errors}")
-    slope, _ = np.polyfit(np.log(hs[keep]), np.log(errors[keep]), 1)
-    return float(slope)
+    return order_fit(hs, errors, window).order
 
 
 def assert_order(hs, errors, order: float, tol: float = 0.15, window: tuple[float, float] = (1e-10, 1e-2)) -> float:
-    """Assert the fitted convergence slope is within ``tol`` of ``order`` (ORACLES A3); return it."""
-    p = fitted_order(hs, errors, window)
-    assert abs(p - order) <= tol, f"fitted order {p:.3f}, expected {order} ± {tol} (errors {np.asarray(errors)})"
-    return p
+    """Assert the fitted convergence slope is within ``tol`` of ``order`` (ORACLES A3); return it.
+
+    The message lists the points used and every point dropped, with the reason.
+    """
+    fit = order_fit(hs, errors, window)
+    assert abs(fit.order - order) <= tol, f"fitted order {fit.order:.3f}, expected {order} ± {tol}: {fit.describe()}"
+    return fit.order
 
 
 def drift_ratio(series, early: float = 0.2, late: float = 0.2) -> float:

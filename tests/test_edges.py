@@ -86,3 +86,39 @@ def test_chart_check_does_not_depend_on_build_order(first):
     # referenced at x0: κ = M(0.95)/M(x0) = (R² − x0²)/(R² − 0.95²)
     assert systems[id(near)].guard.condition(M) == pytest.approx((1 - 0.81) / (1 - 0.9025), rel=1e-12)
     assert systems[id(far)].guard.condition(M) == pytest.approx(1 / (1 - 0.9025), rel=1e-12)
+
+
+def test_order_checks_refuse_nan_and_report_what_they_drop():
+    # ORACLES A3. Before the fix a diverged run (NaN errors at the large steps) was silently dropped and
+    # the two remaining points "passed" a second-order check
+    from pbanim.errors import InvalidInput
+    from pbanim.testing import assert_order, fitted_order, order_fit
+
+    hs = np.array([0.4, 0.2, 0.1, 0.05])
+    with pytest.raises(InvalidInput, match=r"errors must be finite and >= 0, got nan at h = 0.4"):
+        assert_order(hs, [np.nan, np.nan, 1e-3, 2.5e-4], 2)
+    with pytest.raises(InvalidInput, match="same length"):
+        fitted_order(hs, [1e-3, 2.5e-4])
+    with pytest.raises(InvalidInput, match="positive finite steps"):
+        fitted_order([0.1, -0.05], [1e-3, 2.5e-4])
+    fit = order_fit(hs, [0.5, 4e-3, 1e-3, 2.5e-4])
+    assert fit.order == pytest.approx(2.0, abs=1e-12)
+    assert fit.dropped == ((0.4, 0.5, "above the window"),)
+    with pytest.raises(AssertionError, match=r"dropped h=0.4: 0.5 \(above the window\)"):
+        assert_order(hs, [0.5, 4e-3, 1e-3, 2.5e-4], 1)
+
+
+def test_contact_solution_owns_its_arrays():
+    # before the fix the solution aliased the caller's A and b: editing either changed the certificate
+    from pbanim.lcp import solve_lcp
+
+    A = np.array([[2.0, 1.0], [1.0, 2.0]])
+    b = np.array([-1.0, -1.0])
+    sol = solve_lcp(A, b, "lemke")
+    r0 = sol.residual
+    A *= 10.0
+    b[:] = 5.0
+    assert sol.residual == r0 == pytest.approx(0.0, abs=1e-14)
+    np.testing.assert_allclose(sol.w, 0.0, atol=1e-14)
+    sol.f[:] = 0.0                                  # and changing the solution leaves the caller's arrays
+    np.testing.assert_array_equal(b, [5.0, 5.0])
