@@ -147,6 +147,8 @@ class RigidScene(Scene):
         return d
 
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
+        if method == "verlet" and self.quaternions != "exponential":
+            return self._splitting_advance([0])(t, y, h)
         if self.quaternions != "exponential":
             return super().step(t, y, h, method)
         y = exp_map_step(self.system, self.forces, t, y, h, method)
@@ -166,12 +168,27 @@ class RigidScene(Scene):
         return res
 
     def _advance(self, m, counter: list):
+        if m.name == "verlet" and self.quaternions != "exponential":
+            return self._splitting_advance(counter)
         if self.quaternions != "exponential":
             return super()._advance(m, counter)
         system, forces, post, name = self.system, self.forces, self._post, m.name
 
         def advance(t, y, h):
             y = exp_map_step(system, forces, t, y, h, name, counter)
+            for e in post:
+                y = e.post_step(t + h, y, h)
+            return y
+        return advance
+
+    def _splitting_advance(self, counter: list):
+        """Velocity Verlet as kick, exact-axis free rotation, kick (:mod:`pbanim.rigid.splitting`)."""
+        from .splitting import rigid_verlet_step
+
+        system, forces, post = self.system, self.forces, self._post
+
+        def advance(t, y, h):
+            y = rigid_verlet_step(system, forces, t, y, h, counter)
             for e in post:
                 y = e.post_step(t + h, y, h)
             return y
