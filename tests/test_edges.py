@@ -172,3 +172,17 @@ def test_rigid_verlet_keeps_angular_momentum_and_unit_quaternions():
     res = RigidScene(rb, [], quaternions="none").simulate(5.0, 0.01, "verlet")
     np.testing.assert_array_equal(res.y[10:13, -1], res.y[10:13, 0])
     assert np.max(res.diagnostics["quat_norm_error"]) < 1e-13
+
+
+def test_scipy_route_keeps_the_cap_and_refuses_nan_output_times():
+    # before the fix the scipy route ran an astronomical h with no cap, and a NaN in t_eval gave an empty
+    # "successful" result
+    from pbanim.errors import StepLimitExceeded
+
+    with pytest.raises(StepLimitExceeded, match="needs 1000000000 steps over t_span, more than max_steps = 100000"):
+        solve(lambda t, y: -y, (0, 1), [1.0], method="scipy:RK45", h=1e-9)
+    r = solve(lambda t, y: -y, (0, 1e6), [1.0], method="scipy:RK45", rtol=1e-13, atol=1e-16, max_steps=100)
+    assert r.status == -1 and "stopped after 2000 evaluations" in r.message and not r.success
+    for method in ("rk4", "dopri5", "scipy:RK45"):
+        with pytest.raises(ValueError, match="t_eval must hold finite times, got nan"):
+            solve(lambda t, y: -y, (0, 1), [1.0], method=method, h=0.1, t_eval=[0.5, np.nan])

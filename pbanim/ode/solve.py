@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import SimulationDiverged
 from .adaptive import solve_adaptive
-from .driver import drive, drive_lean, step_grid
+from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
 from .methods import Method, get_method
 from ..results import SimResult
@@ -65,6 +65,9 @@ def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
         t_eval = np.asarray(t_eval, dtype=float).ravel()
         d = np.sign(tf - t0)
         lo, hi = min(t0, tf), max(t0, tf)
+        if not np.all(np.isfinite(t_eval)):
+            raise ValueError(f"t_eval must hold finite times, got {t_eval[~np.isfinite(t_eval)][0]} in {t_eval[:5]}"
+                             f"{'...' if t_eval.size > 5 else ''}")
         if t_eval.size == 0 or np.any(t_eval < lo) or np.any(t_eval > hi) or np.any(d * np.diff(t_eval) < 0):
             raise ValueError(f"t_eval must be sorted in the direction of integration and lie within t_span "
                              f"{(t0, tf)}, got {t_eval[:5]}{'...' if t_eval.size > 5 else ''}")
@@ -140,7 +143,7 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
     t0, tf, y, h, t_eval = _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval)
     evs = make_events(events)
     if isinstance(method, str) and method.startswith("scipy:"):
-        return _solve_scipy(fun, t0, tf, y, method[6:], h, rtol, atol, jac, t_eval, events)
+        return _solve_scipy(fun, t0, tf, y, method[6:], h, rtol, atol, jac, t_eval, events, int(max_steps))
     m = get_method(method)
     if evs and y.ndim == 2:
         raise ValueError("events are not supported in batch mode (y0 of shape (K, n)); loop over the "
@@ -217,7 +220,18 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
 # ---------------------------------------------------------------------------------------------------
 # delegation to scipy
 # ---------------------------------------------------------------------------------------------------
-def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events) -> SimResult:
+class _EvaluationCap(Exception):
+    """Raised inside the wrapped fun when scipy's run passes the evaluation cap (caught below)."""
+
+
+def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events, max_steps) -> SimResult:
+    """Hand the call to ``scipy.integrate.solve_ivp`` under pbanim's cap and finiteness check.
+
+    The cap: with ``h`` (scipy's ``max_step``) a run needing more than ``max_steps`` steps is refused up
+    front (:class:`~pbanim.errors.StepLimitExceeded`); whatever the step, the run stops with status −1
+    after 20·max_steps evaluations of f (more than any scipy method spends on max_steps steps). A
+    non-finite state in the output raises :class:`SimulationDiverged` naming its time.
+    """
     from scipy.integrate import solve_ivp
 
     if name not in SCIPY_METHODS:
@@ -226,12 +240,32 @@ def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events) -> Si
         raise ValueError("batch mode (y0 of shape (K, n)) needs a pbanim method, not scipy:" + name)
     opts = {}
     if h is not None:
+        step_grid(t0, tf, h, max_steps=max_steps, backward=True)      # refuses an astronomical run
         opts["max_step"] = h
     if jac is not None and name in ("Radau", "BDF", "LSODA"):
         opts["jac"] = jac
+    cap, count = 20 * max_steps, [0]
+
+    def capped(t, yy):
+        count[0] += 1
+        if count[0] > cap:
+            raise _EvaluationCap
+        return fun(t, yy)
+
     start = time.perf_counter()
-    r = solve_ivp(fun, (t0, tf), y, method=name, t_eval=t_eval, events=events, rtol=rtol, atol=atol, **opts)
+    try:
+        r = solve_ivp(capped, (t0, tf), y, method=name, t_eval=t_eval, events=events, rtol=rtol, atol=atol,
+                      **opts)
+    except _EvaluationCap:
+        return SimResult(t=np.array([t0]), y=y[:, None].copy(), nfev=cap, status=-1,
+                         message=f"scipy:{name} stopped after {cap} evaluations of f (20·max_steps, "
+                                 f"max_steps = {max_steps}); raise max_steps or loosen rtol",
+                         wall_time=time.perf_counter() - start, method="scipy:" + name)
     wall = time.perf_counter() - start
+    bad = ~np.all(np.isfinite(r.y), axis=0) if r.y.size else np.zeros(0, bool)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        check_finite(r.y[:, k], float(r.t[max(k - 1, 0)]), k, "state y")
     return SimResult(t=r.t, y=r.y, nfev=r.nfev, njev=r.njev, nlu=r.nlu, status=r.status, message=r.message,
                      wall_time=wall, method="scipy:" + name, t_events=r.t_events, y_events=r.y_events,
                      nsteps=max(0, len(r.t) - 1) if t_eval is None else 0)
