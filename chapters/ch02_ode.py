@@ -137,17 +137,17 @@ def kepler_orbits(ctx):
 
 @figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim vs scipy.solve_ivp")
 def work_precision(ctx):
-    from pbanim.bench.ode import _kepler_problem, _runner, _stiff_problem
+    from pbanim.bench.ode import kepler_problem, runner, stiff_problem
     from pbanim.accuracy import rows_by_variant, sweep
 
     quick = ctx.quick
     out = {}
-    probs = [("Kepler e = 0.5, 10 periods", _kepler_problem(),
+    probs = [("Kepler e = 0.5, 10 periods", kepler_problem(),
               {"pbanim:dopri5": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
                "pbanim:rk4": [1000, 4000] if quick else [1000, 2000, 4000, 8000, 16000],
                "scipy:RK45": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
                "scipy:DOP853": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)]}),
-             ("stiff damped spring k = 1e6", _stiff_problem(),
+             ("stiff damped spring k = 1e6", stiff_problem(),
               {"pbanim:implicit_euler": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
                "pbanim:implicit_midpoint": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
                "pbanim:exponential_euler": [1, 10] if quick else [1, 10, 100],
@@ -155,7 +155,7 @@ def work_precision(ctx):
                "scipy:LSODA": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)]})]
     fig, axes = ctx.subplots(1, 2, figsize=(11, 4.4))
     for ax, (title, (model, t_end, err), params) in zip(axes, probs):
-        rows = sweep(_runner(model, t_end), list(params), params, err, repeats=1 if quick else 3)
+        rows = sweep(runner(model, t_end), list(params), params, err, repeats=1 if quick else 3)
         out[title] = rows
         for v, rs in rows_by_variant(rows).items():
             ax.loglog([r.wall_time for r in rs], [max(r.error, 1e-16) for r in rs], "o-" if "pbanim" in v else "s--",

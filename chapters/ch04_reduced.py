@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 import pbanim
-from pbanim.bench.reduced import CAP, _batch, _in_subprocess, cost_at_accuracy
+from pbanim.bench.reduced import CAP, cost_at_accuracy, derive_batch, derive_in_subprocess
 from pbanim.models.reduced import double_pendulum, maximal_chain, pendulum_period, simple_pendulum
 from pbanim.plotting import figure
 from pbanim.reduced import simulate_fixed
@@ -170,7 +170,7 @@ def derivation_time(ctx):
     values = {}
     jobs = [(k, n, 1 if n == ns[0] else 0) for n in ns for k in kinds]
     # quick: one process for all (a single sympy import); full: a fresh process per job
-    results = _batch(jobs, cap) if ctx.quick else [_in_subprocess(*job, cap) for job in jobs]
+    results = derive_batch(jobs, cap) if ctx.quick else [derive_in_subprocess(*job, cap) for job in jobs]
     for (k, n, _), r in zip(jobs, results):
         times[k].append(r["total"])
         if "rhs_value" in r:

@@ -18,8 +18,22 @@ def _default_out() -> Path:
     return Path(__file__).resolve().parent.parent / "figures"
 
 
+def load_chapters(selected: list[str] | None = None) -> dict:
+    """Import the lecture chapters (all, or those in ``selected``, e.g. ``["ch02"]``) and return their figures.
+
+    The command line is the top of the package, so it is the one place that imports the ``chapters``
+    package (outside ``pbanim``); :mod:`pbanim.plotting` only holds the figures they register.
+    """
+    try:
+        import chapters
+    except ImportError as exc:  # pragma: no cover - installation problem
+        raise RuntimeError("the 'chapters' package is not importable; install pbanim with "
+                           "`pip install -e .` from the repository root") from exc
+    return chapters.load(selected)
+
+
 def cmd_figures(args) -> int:
-    from .plotting import load_chapters, run_figure, write_index
+    from .plotting import run_figure, write_index
 
     specs = load_chapters(args.chapters or None)
     out = Path(args.out) if args.out else _default_out()
@@ -49,8 +63,6 @@ def cmd_bench(args) -> int:
 
 def cmd_list(args) -> int:
     if args.what in ("figures", "all"):
-        from .plotting import load_chapters
-
         for key, spec in load_chapters().items():
             print(f"{key:40s} {spec.title}")
     if args.what in ("bench", "all"):

@@ -2,7 +2,8 @@
 
 A chapter (``chapters/chNN_topic.py``) registers each figure with :func:`figure`. A figure is a
 function that computes, plots and *returns its data* (a dict), so ``tests/test_chapters.py`` checks the
-numbers, never the pixels::
+numbers, never the pixels (this module never imports the chapters: ``pbanim figures``, the command line,
+finds and imports them, and their figures register themselves here)::
 
     @figure("ch01", "projectile_drag", "Projectile with and without drag vs exact")
     def projectile_drag(ctx):
@@ -18,15 +19,14 @@ Output is deterministic: Agg backend, fixed DPI, metadata scrubbed, fixed seeds 
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "load_chapters", "run_figure", "pyplot"]
+__all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "write_index",
+           "pyplot"]
 
 DPI = 110
 STYLE = {
@@ -128,27 +128,14 @@ class FigureContext:
         return path
 
 
-def _chapters_package():
-    try:
-        return importlib.import_module("chapters")
-    except ImportError as exc:  # pragma: no cover - installation problem
-        raise RuntimeError("the 'chapters' package is not importable; install pbanim with "
-                           "`pip install -e .` from the repository root") from exc
+def figures_of(chapters: set[str] | list[str] | None = None) -> dict[str, FigureSpec]:
+    """The registered figures (all, or those of the given chapters ``chNN``), sorted by key.
 
-
-def load_chapters(selected: list[str] | None = None) -> dict[str, FigureSpec]:
-    """Import ``chapters/chNN_*.py`` (all, or those whose chNN is in ``selected``) and return their figures."""
-    pkg = _chapters_package()
-    names = sorted(m.name for m in pkgutil.iter_modules(pkg.__path__) if m.name.startswith("ch"))
-    if selected:
-        unknown = [s for s in selected if not any(n.startswith(s) for n in names)]
-        if unknown:
-            raise ValueError(f"unknown chapter(s) {unknown}; available: {[n[:4] for n in names]}")
-        names = [n for n in names if any(n.startswith(s) for s in selected)]
-    for n in names:
-        importlib.import_module(f"chapters.{n}")
-    chapters = {n[:4] for n in names}
-    return {k: s for k, s in sorted(FIGURES.items()) if s.chapter in chapters}
+    Figures are registered when their chapter module is imported; finding and importing the chapters is
+    the caller's job (``pbanim figures`` does it in :mod:`pbanim.cli`), so this module never imports them.
+    """
+    wanted = None if chapters is None else set(chapters)
+    return {k: s for k, s in sorted(FIGURES.items()) if wanted is None or s.chapter in wanted}
 
 
 def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False) -> tuple[dict, list[Path]]:

@@ -34,7 +34,8 @@ def figure_data(tmp_path_factory):
     Each figure runs once per test session: the result (data and written files) is pickled into a folder
     shared by the xdist workers, so tests/test_chapters.py and the per-module tests reuse one run.
     """
-    from pbanim.plotting import load_chapters, run_figure
+    from pbanim.cli import load_chapters
+    from pbanim.plotting import run_figure
 
     shared = _shared_dir(tmp_path_factory)
 

@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pbanim.plotting import FIGURES, load_chapters
+from pbanim.cli import load_chapters
+from pbanim.plotting import FIGURES
 
 SPECS = load_chapters()
 TESTS = Path(__file__).parent

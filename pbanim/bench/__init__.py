@@ -21,7 +21,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-__all__ = ["Goal", "Table", "Report", "median_time", "available", "run_bench", "format_report"]
+__all__ = ["Goal", "Table", "Report", "median_time", "available", "run_bench", "format_report", "write_json",
+           "HELPERS"]
 
 
 @dataclass
@@ -53,6 +54,8 @@ class Goal:
 
 @dataclass
 class Table:
+    """A titled table of rows, printed with aligned columns (floats in 4 significant digits)."""
+
     title: str
     header: list[str]
     rows: list[list[Any]] = field(default_factory=list)
@@ -73,6 +76,8 @@ class Table:
 
 @dataclass
 class Report:
+    """What a family's ``run`` returns: tables, goals (printed last) and notes."""
+
     name: str
     tables: list[Table] = field(default_factory=list)
     goals: list[Goal] = field(default_factory=list)
@@ -106,6 +111,7 @@ HELPERS = frozenset({"contact_peers"})
 
 
 def available() -> list[str]:
+    """The benchmark families, sorted (modules of this package with a ``run``; helpers excluded)."""
     import pbanim.bench as pkg
 
     return sorted(m.name for m in pkgutil.iter_modules(pkg.__path__)
@@ -113,6 +119,7 @@ def available() -> list[str]:
 
 
 def run_bench(name: str, quick: bool = False) -> Report:
+    """Run the family ``name`` and return its report (``ValueError`` for an unknown name)."""
     names = available()
     if name not in names:
         raise ValueError(f"benchmark must be one of {names}, got {name!r}")
@@ -121,6 +128,7 @@ def run_bench(name: str, quick: bool = False) -> Report:
 
 
 def format_report(rep: Report) -> str:
+    """The report as text: tables, notes, then one line per goal."""
     parts = [f"# pbanim bench {rep.name}"]
     parts += [t.format() for t in rep.tables]
     parts += [f"note: {n}" for n in rep.notes]
@@ -130,5 +138,6 @@ def format_report(rep: Report) -> str:
 
 
 def write_json(rep: Report, path: str) -> None:
+    """Write the report (tables, goals with their lines, notes) as JSON to ``path``."""
     with open(path, "w") as fh:
         json.dump(rep.to_json(), fh, indent=1, default=float)

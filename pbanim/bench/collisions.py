@@ -16,6 +16,8 @@ import numpy as np
 
 from . import Goal, Report, Table, median_time
 
+__all__ = ["run"]
+
 
 def _spheres(N: int, rng) -> tuple[np.ndarray, float]:
     r = 0.05
@@ -24,6 +26,7 @@ def _spheres(N: int, rng) -> tuple[np.ndarray, float]:
 
 
 def run(quick: bool = False) -> Report:
+    """Run the collision benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     from ..collision.broad import all_pairs, grid_pairs
     from ..collision.toi import simulate_collisions
     from ..models.collision import bouncing_ball

@@ -26,6 +26,8 @@ from ..particles.system import Gravity
 from ..scene import Scene
 from . import Goal, Report, Table, median_time
 
+__all__ = ["run", "SOLVER_LIST", "chain_step", "step_costs", "loglog_slope", "work_precision"]
+
 SOLVER_LIST = ["linear", "witkin-sparse", "kkt", "witkin-cg", "witkin-dense"]
 DENSE_MAX, CG_MAX = 2000, 10_000
 
@@ -67,6 +69,7 @@ def step_costs(ns, solvers=SOLVER_LIST, repeats: int = 5) -> dict:
 
 
 def loglog_slope(ns, ts) -> float:
+    """Slope of log t against log n over the finite times (the empirical cost exponent; nan if < 2 points)."""
     ns, ts = np.asarray(ns, float), np.asarray(ts, float)
     ok = np.isfinite(ts)
     return float(np.polyfit(np.log(ns[ok]), np.log(ts[ok]), 1)[0]) if ok.sum() >= 2 else float("nan")
@@ -111,6 +114,7 @@ def work_precision(quick: bool = False, links: int | None = None) -> dict:
 
 
 def run(quick: bool = False) -> Report:
+    """Run the constraint benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     ns = [10, 100, 1000, 10_000] if quick else [10, 100, 1000, 10_000, 100_000]
     solvers = SOLVER_LIST if not quick else ["linear", "witkin-sparse", "kkt", "witkin-dense"]
     costs = step_costs(ns if not quick else ns[:3], solvers, repeats=2 if quick else 5)

@@ -32,6 +32,8 @@ import numpy as np
 
 from . import Goal, Report, Table, contact_peers, median_time
 
+__all__ = ["run", "DIRECT", "STACK_STEPS"]
+
 DIRECT = ("qp", "lemke", "dantzig")
 STACK_STEPS = (1e-3, 1 / 240, 1 / 60)   # PyBullet's reference step, its default step, one animation frame
 
@@ -219,6 +221,7 @@ def _pour(quick: bool, rep: Report) -> float:
 
 
 def run(quick: bool = False) -> Report:
+    """Run the contact benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     rep = Report("contact")
     drift, pen, cost, pb_cost = _stack_table(quick, rep)
     best_cost, best_label = _stack_steps(quick, rep)

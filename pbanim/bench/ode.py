@@ -23,23 +23,40 @@ from ..models.ode import damped_oscillator, harmonic_oscillator, kepler, pendulu
 from ..ode import solve
 from . import Goal, Report, Table, median_time
 
+__all__ = ["run", "LEVELS", "kepler_problem", "stiff_problem", "runner"]
+
 LEVELS = [10.0 ** -k for k in range(3, 11)]
 
 
-def _kepler_problem():
+def kepler_problem():
+    """The Kepler work-precision problem: (model, t_end, error), e = 0.5 over 10 periods.
+
+    ``error(y)`` = max |y − y*(t_end)| against the solution of Kepler's equation. Shared with the figure
+    ``ch02_work_precision``.
+    """
     kp = kepler(0.5)
     t_end = 10 * kp.period
     ref = kp.exact(t_end)[:, 0]
     return kp, t_end, lambda y: float(np.max(np.abs(y - ref)))
 
 
-def _stiff_problem():
+def stiff_problem():
+    """The stiff work-precision problem: (model, t_end, error) for the damped spring k = 10⁶, c = 2·10⁵.
+
+    Rates −5 and −2·10⁵ 1/s over t ∈ [0, 1]; ``error(y)`` = |x(1) − x*(1)|. Shared with ``ch02_work_precision``.
+    """
     m = damped_oscillator(1e3, 2e5)
     ref = m.exact(1.0)[0, 0]
     return m, 1.0, lambda y: float(abs(y[0] - ref))
 
 
-def _runner(model, t_end):
+def runner(model, t_end):
+    """A ``run(variant, param) -> (y(t_end), nfev)`` for :func:`pbanim.accuracy.sweep` on ``model``.
+
+    ``variant`` is ``"pbanim:<method>"`` or ``"scipy:<solve_ivp method>"``; ``param`` is the tolerance rtol
+    (scipy, dopri5; atol = rtol·10⁻²) or the number of steps over [0, t_end] (pbanim fixed-step methods). The
+    analytic Jacobian is passed to the methods that use it.
+    """
     J = model.jac
 
     def run(variant, param):
@@ -58,7 +75,7 @@ def _runner(model, t_end):
 
 
 def _work_precision(name, model, t_end, error, ours, theirs, repeats):
-    run = _runner(model, t_end)
+    run = runner(model, t_end)
     rows = sweep(run, list(ours) + list(theirs), {**ours, **theirs}, error, repeats=repeats)
     table = Table(f"work-precision: {name}", ["variant", "param", "error", "wall_time_s", "nfev"],
                   [r.as_list() for r in rows])
@@ -149,9 +166,10 @@ def _batch(quick):
 
 
 def run(quick: bool = False) -> Report:
+    """Run the ODE benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     rep = Report("ode")
     reps = 1 if quick else 3
-    kp, t_end, err = _kepler_problem()
+    kp, t_end, err = kepler_problem()
     tols = [1e-4, 1e-7] if quick else [10.0 ** -k for k in range(3, 15)]
     hs = [2000] if quick else [1000, 2000, 4000, 8000, 16000, 32000]
     _, tables, r_kep, f_kep, m_kep = _work_precision("Kepler e = 0.5, 10 periods", kp, t_end, err,
@@ -159,7 +177,7 @@ def run(quick: bool = False) -> Report:
                                        {"scipy:RK45": tols, "scipy:DOP853": tols, "scipy:LSODA": tols,
                                         "scipy:Radau": tols[:2] if quick else [1e-3, 1e-5, 1e-7]}, reps)
     rep.tables += tables
-    sm, s_end, serr = _stiff_problem()
+    sm, s_end, serr = stiff_problem()
     stols = [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 13)]
     steps = [100, 1000] if quick else [100, 300, 1000, 3000, 10000, 30000]
     _, tables, r_stiff, f_stiff, m_stiff = _work_precision("stiff damped spring k = 1e6, c = 2e5", sm, s_end, serr,

@@ -29,7 +29,8 @@ import numpy as np
 
 from . import Goal, Report, Table, median_time
 
-__all__ = ["run", "derive_worker", "cost_at_accuracy", "derivation_times"]
+__all__ = ["run", "CAP", "derive_worker", "derive_in_subprocess", "derive_batch", "cost_at_accuracy",
+           "derivation_times"]
 
 CAP = 60.0
 
@@ -104,12 +105,12 @@ def derive_worker(kind: str, n: int, rhs_calls: int = 0) -> dict:
     return out
 
 
-def _in_subprocess(kind: str, n: int, rhs_calls: int = 0, cap: float = CAP) -> dict:
+def derive_in_subprocess(kind: str, n: int, rhs_calls: int = 0, cap: float = CAP) -> dict:
     """One :func:`derive_worker` job in a fresh interpreter, killed after ``cap`` seconds."""
-    return _batch([(kind, n, rhs_calls)], cap)[0]
+    return derive_batch([(kind, n, rhs_calls)], cap)[0]
 
 
-def _batch(jobs, cap: float = CAP) -> list[dict]:
+def derive_batch(jobs, cap: float = CAP) -> list[dict]:
     """Several jobs in one fresh interpreter (quick mode: one sympy import for all; caches then warm).
 
     A job that does not finish within ``cap`` seconds (the whole batch's budget) reports
@@ -136,7 +137,7 @@ def derivation_times(ns, kinds=("pbanim", "kane", "lagrange"), cap: float = CAP)
     res = {k: [] for k in kinds}
     for n in ns:
         for k in kinds:
-            r = _in_subprocess(k, n, 0, cap)
+            r = derive_in_subprocess(k, n, 0, cap)
             res[k].append(r["total"])
     return res
 
@@ -189,6 +190,7 @@ def cost_at_accuracy(n: int, tol: float = 1e-8, t_end: float = 1.0, h0: float = 
 
 
 def run(quick: bool = False) -> Report:
+    """Run the reduced-coordinate benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     rep = Report("reduced")
     ns = [2, 3] if quick else [2, 5, 10, 20]
     n_rhs = 3 if quick else 10
@@ -196,12 +198,12 @@ def run(quick: bool = False) -> Report:
     # 1. derivation + compilation, each side in a fresh subprocess (quick: one subprocess for all)
     kinds = ("pbanim", "kane", "lagrange")
     if quick:
-        flat = _batch([(k, n, 0) for n in ns for k in kinds] + [("kane", n_rhs, 1)], cap)
+        flat = derive_batch([(k, n, 0) for n in ns for k in kinds] + [("kane", n_rhs, 1)], cap)
         at = {n: dict(zip(kinds, flat[3 * i: 3 * i + 3])) for i, n in enumerate(ns)}
         kr = flat[-1]
     else:
-        at = {n: {k: _in_subprocess(k, n, 0, cap) for k in kinds} for n in ns}
-        kr = _in_subprocess("kane", n_rhs, 1, cap)
+        at = {n: {k: derive_in_subprocess(k, n, 0, cap) for k in kinds} for n in ns}
+        kr = derive_in_subprocess("kane", n_rhs, 1, cap)
     rows = []
     for n in ns:
         r = at[n]

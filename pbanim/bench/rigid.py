@@ -17,10 +17,14 @@ import numpy as np
 
 from . import Goal, Report, Table, median_time
 
+__all__ = ["run", "make_bodies", "handwritten_vectorized_step", "handwritten_loop_step", "throughput",
+           "work_precision"]
+
 G = np.array([0.0, 0.0, -9.81])
 
 
 def make_bodies(N: int, seed: int = 0):
+    """N free rigid boxes (1 × 2 × 3) with random masses, poses and velocities (seeded)."""
     from ..rigid import RigidBodies, box_inertia
 
     rng = np.random.default_rng(seed)
@@ -153,6 +157,7 @@ def work_precision(quick: bool, t_end: float | None = None, repeats: int = 1) ->
 
 
 def run(quick: bool = False) -> Report:
+    """Run the rigid-body benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     rep = Report("rigid")
     Ns = [1, 10, 100, 1000] if quick else [1, 10, 100, 1000, 10000]
     rows = throughput(Ns, loop_max=100 if quick else 1000, repeats=3 if quick else 5)

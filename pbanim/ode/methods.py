@@ -100,30 +100,63 @@ TABLEAUX: dict[str, Tableau] = {
 }
 
 
+def _grouped(pairs) -> tuple:
+    """Σ aⱼ kⱼ as ((a, j₀, (j₁, …)), …): the stages that share a coefficient a are summed, then multiplied."""
+    groups: dict = {}
+    for j, a in pairs:
+        groups.setdefault(float(a), []).append(j)
+    return tuple((a, js[0], tuple(js[1:])) for a, js in groups.items())
+
+
+def _increment(k: list, h: float, groups: tuple):
+    """h Σ aⱼ kⱼ over the grouped nonzero coefficients: (k₀ + k₃)·(h a) + (k₁ + k₂)·(h b) + …"""
+    (a, j0, more), *rest = groups
+    s = k[j0]
+    for j in more:
+        s = s + k[j]
+    inc = s * (h * a)
+    for a, j0, more in rest:
+        s = k[j0]
+        for j in more:
+            s = s + k[j]
+        inc = inc + s * (h * a)
+    return inc
+
+
 def _make_rk_step(tab: Tableau) -> Callable:
-    """Compile a tableau into a straight-line step function (zero coefficients dropped).
+    """Turn a tableau into a step function that skips its zero coefficients.
 
-    The generated code is what one would write by hand for that tableau (``k1 = fun(t + c₁h, y +
-    (a₁₀h)·k0)`` ...), so the registered steps cost no more than a hand-written loop; the readable
-    loop over the tableau is :func:`explicit_rk_step`, and the tests check that the two agree.
+    The coefficients are read once, here: per stage i the node cᵢ and the nonzero aᵢⱼ grouped by value,
+    and the nonzero weights bᵢ. A tableau whose every stage uses only the one before it (Euler, midpoint,
+    RK4: kᵢ = f(t + cᵢh, y + aᵢ,ᵢ₋₁ h kᵢ₋₁)) gets a closure that keeps only the last stage in the loop;
+    any other tableau (Dormand–Prince) keeps the list of stages. Both do the numpy operations one would
+    write by hand for that tableau, so the registered steps cost no more than a hand-written loop; the
+    readable loop over the full tableau is :func:`explicit_rk_step`, and the tests check that they agree.
     """
-    def combo(pairs):  # Σ aⱼ kⱼ with equal coefficients grouped: (k0 + k3) * (h * a) + ...
-        groups: dict = {}
-        for j, a in pairs:
-            groups.setdefault(float(a), []).append(f"k{j}")
-        parts = [(f"({' + '.join(ks)})" if len(ks) > 1 else ks[0]) + f" * (h * {a!r})" for a, ks in groups.items()]
-        return " + ".join(parts)
+    s = tab.stages
+    weights = _grouped((i, b) for i, b in enumerate(tab.B) if b != 0)
+    if all(len(tab.rows[i]) == 1 and tab.rows[i][0][0] == i - 1 for i in range(1, s)):
+        chain = tuple((float(tab.C[i]), float(tab.rows[i][0][1])) for i in range(1, s))
 
-    lines = ["def step(fun, t, y, h, split=None, jac=None):", "    k0 = fun(t, y)"]
-    for i in range(1, tab.stages):
-        lines.append(f"    k{i} = fun(t + {float(tab.C[i])!r} * h, y + ({combo(tab.rows[i])}))")
-    lines.append(f"    return y + ({combo([(i, b) for i, b in enumerate(tab.B) if b != 0])})")
-    namespace: dict = {}
-    exec(compile("\n".join(lines), f"<tableau {tab.name}>", "exec"), namespace)  # noqa: S102
-    step = namespace["step"]
-    step.__name__ = f"{tab.name}_step"
-    step.source = "\n".join(lines)
-    step.nfev = tab.stages  # right-hand-side evaluations per step
+        def step(fun, t, y, h, split=None, jac=None):
+            last = fun(t, y)
+            k = [last]
+            for c, a in chain:
+                last = fun(t + c * h, y + last * (h * a))
+                k.append(last)
+            return y + _increment(k, h, weights)
+    else:
+        stages = tuple((float(tab.C[i]), _grouped(tab.rows[i])) for i in range(1, s))
+
+        def step(fun, t, y, h, split=None, jac=None):
+            k = [fun(t, y)]
+            for c, groups in stages:
+                k.append(fun(t + c * h, y + _increment(k, h, groups)) if groups else fun(t + c * h, y))
+            return y + _increment(k, h, weights)
+
+    step.__name__ = step.__qualname__ = f"{tab.name}_step"
+    step.tableau = tab
+    step.nfev = s  # right-hand-side evaluations per step
     return step
 
 
