@@ -60,7 +60,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .errors import SimulationDiverged
+from .errors import InvalidInput, SimulationDiverged
 from .ode import get_method
 from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
 from .results import SimResult
@@ -115,7 +115,7 @@ class Scene:
     def __init__(self, system: Any, effects: Sequence[Effect] = ()) -> None:
         for attr in ("split", "state", "zero_forces", "derivative"):
             if not hasattr(system, attr):
-                raise ValueError(f"system must implement the mechanical-system protocol; "
+                raise InvalidInput(f"system must implement the mechanical-system protocol; "
                                  f"{type(system).__name__} has no {attr!r}")
         self.system = system
         # an effect may contribute several stages (e.g. Constraints + its post-step projection)
@@ -123,7 +123,7 @@ class Scene:
                         for s in (e.stages() if callable(getattr(e, "stages", None)) else (e,))]
         for e in self.effects:
             if getattr(e, "phase", None) not in _PHASES:
-                raise ValueError(f"effect {e!r} has phase {getattr(e, 'phase', None)!r}; "
+                raise InvalidInput(f"effect {e!r} has phase {getattr(e, 'phase', None)!r}; "
                                  f"expected one of {_PHASES}")
             e.bind(system)
         self._force = [e for e in self.effects if e.phase == "force"]
@@ -212,7 +212,7 @@ class Scene:
         """
         if not self.has_jacobian:
             missing = [e.name for e in self._force if not callable(getattr(e, "jacobian", None))]
-            raise ValueError(f"scene has no analytic Jacobian: effects {missing or [e.name for e in self._constraint]} "
+            raise InvalidInput(f"scene has no analytic Jacobian: effects {missing or [e.name for e in self._constraint]} "
                              f"provide none; implicit methods then use finite differences")
         n = self.system.split
         Kx = sp.csr_matrix((n, n))
@@ -337,11 +337,11 @@ class Scene:
         """
         grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
         if int(check_every) != check_every or check_every < 1:
-            raise ValueError(f"check_every must be a positive integer, got {check_every}")
+            raise InvalidInput(f"check_every must be a positive integer, got {check_every}")
         m = get_method(method)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         if y0 is not None and y.shape != np.shape(self.system.state()):
-            raise ValueError(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
+            raise InvalidInput(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
                              f"got {y.shape}")
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []

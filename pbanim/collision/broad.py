@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .shapes import _as3
+from ..errors import InvalidInput
 
 __all__ = ["BroadPhase", "broad_phase", "all_pairs", "grid_pairs"]
 
@@ -98,7 +99,7 @@ def grid_pairs(centers, radii, margin: float = 0.0, cell: float | None = None) -
         return BroadPhase(np.zeros((0, 2), np.intp), 0, "grid")
     size = 2.0 * float(r.max()) + margin if cell is None else float(cell)
     if not np.isfinite(size) or size <= 0:
-        raise ValueError(f"grid cell size must be positive, got {size}; give spheres a radius > 0 or pass cell")
+        raise InvalidInput(f"grid cell size must be positive, got {size}; give spheres a radius > 0 or pass cell")
     ijk = np.floor((c - c.min(axis=0)) / size).astype(np.int64) + 1       # ≥ 1, so offsets −1 stay ≥ 0
     dims = ijk.max(axis=0) + 2
     key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
@@ -133,4 +134,4 @@ def broad_phase(centers, radii, method: str = "grid", margin: float = 0.0) -> Br
         return grid_pairs(centers, radii, margin)
     if method == "all_pairs":
         return all_pairs(centers, radii, margin)
-    raise ValueError(f"broad-phase method must be 'grid' or 'all_pairs', got {method!r}")
+    raise InvalidInput(f"broad-phase method must be 'grid' or 'all_pairs', got {method!r}")

@@ -30,6 +30,7 @@ from .narrow import collide, sphere_plane, sphere_sphere
 from .shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
 from ..bodies import require_bodies
 from ..scene import Effect
+from ..errors import InvalidInput
 
 __all__ = ["Collisions"]
 
@@ -79,11 +80,11 @@ class Collisions(Effect):
         self.restitution = check_restitution(restitution)
         self.friction = check_friction(friction)
         if mode not in ("sequential", "simultaneous"):
-            raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
+            raise InvalidInput(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
         if rest_velocity is not None and not (np.isfinite(rest_velocity) and rest_velocity >= 0):
-            raise ValueError(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
+            raise InvalidInput(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
         if friction_model not in ("staggered", "lcp"):
-            raise ValueError(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
+            raise InvalidInput(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
         self.mode, self.rest_velocity, self.gravity = mode, rest_velocity, float(gravity)
         self.friction_model = friction_model
         self.project, self.max_iter = bool(project), int(max_iter)
@@ -94,7 +95,7 @@ class Collisions(Effect):
             elif isinstance(ob, tuple) and len(ob) == 2 and isinstance(ob[0], Sphere):
                 self.spheres.append((ob[0], np.append(np.asarray(ob[1], float), [0.0] * (3 - len(ob[1])))))
             else:
-                raise ValueError(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
+                raise InvalidInput(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
         self.shapes_in, self.radius_in = shapes, radius
         self.log: list[dict] = []
         self.last: ImpulseResult | None = None
@@ -108,7 +109,7 @@ class Collisions(Effect):
             sh = self.shapes_in
             sh = [sh] * N if not isinstance(sh, (list, tuple)) else list(sh)
             if len(sh) != N or not all(isinstance(s, (Sphere, Box, Capsule)) for s in sh):
-                raise ValueError(f"shapes must be one Sphere/Box/Capsule per body ({N} bodies), got {self.shapes_in!r}")
+                raise InvalidInput(f"shapes must be one Sphere/Box/Capsule per body ({N} bodies), got {self.shapes_in!r}")
             self.shapes = sh
             kinds = sorted({type(x).__name__ for x in sh})
             ok = {("Box", "Box"), ("Box", "Sphere"), ("Sphere", "Sphere"), ("Capsule", "Sphere")}
@@ -116,7 +117,7 @@ class Collisions(Effect):
             bad = [(k1, k2) for i, k1 in enumerate(kinds) for k2 in kinds[i:]
                    if (k1, k2) not in ok and (k1 != k2 or names.count(k1) > 1)]
             if bad:
-                raise ValueError(f"shapes: no narrow-phase test between bodies of kinds {bad}; supported body "
+                raise InvalidInput(f"shapes: no narrow-phase test between bodies of kinds {bad}; supported body "
                                  f"pairs are {sorted(ok)} (every shape meets planes)")
             self.radius = np.array([s.radius if isinstance(s, (Sphere, Capsule)) else 0.0 for s in sh])
             self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
@@ -124,7 +125,7 @@ class Collisions(Effect):
         else:
             r = np.broadcast_to(np.asarray(self.radius_in, float), (N,)).copy()
             if not np.all(np.isfinite(r)) or np.any(r < 0):
-                raise ValueError(f"radius must be >= 0 for every particle, got {self.radius_in}")
+                raise InvalidInput(f"radius must be >= 0 for every particle, got {self.radius_in}")
             self.radius, self.is_sphere, self.dim = r, r > 0, system.dim
             self.inv_mass = system.W
 

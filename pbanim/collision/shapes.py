@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
+from ..errors import InvalidInput
 
 __all__ = ["Contacts", "Plane", "Sphere", "Box", "Capsule", "check_restitution", "check_friction"]
 
@@ -65,7 +66,7 @@ class Contacts:
         self.depth = np.asarray(self.depth, dtype=float).reshape(-1)
         m = self.a.size
         if not (self.b.size == m and len(self.point) == m and len(self.normal) == m and self.depth.size == m):
-            raise ValueError(f"Contacts fields must all have m = {m} rows, got b {self.b.shape}, point "
+            raise InvalidInput(f"Contacts fields must all have m = {m} rows, got b {self.b.shape}, point "
                              f"{self.point.shape}, normal {self.normal.shape}, depth {self.depth.shape}")
 
     @property
@@ -97,7 +98,7 @@ class Contacts:
 def _positive(name: str, value, fix: str) -> float:
     v = float(value)
     if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be positive and finite, got {value}; {fix}")
+        raise InvalidInput(f"{name} must be positive and finite, got {value}; {fix}")
     return v
 
 
@@ -107,11 +108,11 @@ def check_restitution(restitution) -> float:
     >>> check_restitution(1.5)
     Traceback (most recent call last):
     ...
-    ValueError: restitution must lie in [0, 1], got 1.5; use 0 for a plastic and 1 for an elastic impact
+    pbanim.errors.InvalidInput: restitution must lie in [0, 1], got 1.5; use 0 for a plastic and 1 for an elastic impact
     """
     e = float(restitution)
     if not (0.0 <= e <= 1.0):
-        raise ValueError(f"restitution must lie in [0, 1], got {restitution}; use 0 for a plastic and 1 "
+        raise InvalidInput(f"restitution must lie in [0, 1], got {restitution}; use 0 for a plastic and 1 "
                          "for an elastic impact")
     return e
 
@@ -120,7 +121,7 @@ def check_friction(friction) -> float:
     """Validate the Coulomb coefficient μ ≥ 0 (ORACLES G3)."""
     mu = float(friction)
     if not (np.isfinite(mu) and mu >= 0.0):
-        raise ValueError(f"friction must be a finite coefficient >= 0, got {friction}; use 0 for smooth contact")
+        raise InvalidInput(f"friction must be a finite coefficient >= 0, got {friction}; use 0 for smooth contact")
     return mu
 
 
@@ -138,11 +139,11 @@ class Plane:
         if n.size == 2:
             n = np.array([n[0], n[1], 0.0])
         if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
-            raise ValueError(f"plane normal must be a finite nonzero 2- or 3-vector, got {normal}")
+            raise InvalidInput(f"plane normal must be a finite nonzero 2- or 3-vector, got {normal}")
         self.normal = n / np.linalg.norm(n)
         self.offset = float(offset)
         if not np.isfinite(self.offset):
-            raise ValueError(f"plane offset must be finite, got {offset}")
+            raise InvalidInput(f"plane offset must be finite, got {offset}")
 
     def distance(self, points) -> np.ndarray:
         """Signed distance n·p − offset of points (k, 3) (or (k, 2), padded with z = 0)."""
@@ -159,7 +160,7 @@ class Sphere:
     >>> Sphere(0)
     Traceback (most recent call last):
     ...
-    ValueError: Sphere radius must be positive and finite, got 0; a sphere needs a radius > 0 (use a particle for a point)
+    pbanim.errors.InvalidInput: Sphere radius must be positive and finite, got 0; a sphere needs a radius > 0 (use a particle for a point)
     """
 
     def __init__(self, radius: float) -> None:
@@ -183,7 +184,7 @@ class Box:
     def __init__(self, half_extents) -> None:
         he = np.broadcast_to(np.asarray(half_extents, dtype=float), (3,)).copy()
         if not np.all(np.isfinite(he)) or np.any(he <= 0):
-            raise ValueError(f"Box half_extents must be three positive finite numbers, got {half_extents}; "
+            raise InvalidInput(f"Box half_extents must be three positive finite numbers, got {half_extents}; "
                              "a box with a zero extent is degenerate (use a Plane)")
         self.half_extents = he
 
@@ -207,7 +208,7 @@ class Capsule:
     >>> Capsule(radius=0.1, half_length=0.0)
     Traceback (most recent call last):
     ...
-    ValueError: Capsule half_length must be positive and finite, got 0.0; a capsule of zero length is a Sphere
+    pbanim.errors.InvalidInput: Capsule half_length must be positive and finite, got 0.0; a capsule of zero length is a Sphere
     """
 
     def __init__(self, radius: float, half_length: float) -> None:
@@ -231,5 +232,5 @@ def _as3(points) -> np.ndarray:
     if p.shape[1] == 2:
         p = np.concatenate([p, np.zeros((len(p), 1))], axis=1)
     if p.shape[1] != 3:
-        raise ValueError(f"points must have 2 or 3 coordinates, got shape {np.shape(points)}")
+        raise InvalidInput(f"points must have 2 or 3 coordinates, got shape {np.shape(points)}")
     return p

@@ -29,6 +29,7 @@ from scipy.sparse import csgraph
 from .check import UserConstraint
 from .kinds import Constraint
 from .rows import _dot, _span
+from ..errors import InvalidInput
 
 __all__ = ["ConstraintSet", "Assembly", "Structure"]
 
@@ -108,10 +109,10 @@ class ConstraintSet:
     def __init__(self, constraints, N: int, dim: int, W, x0: np.ndarray | None = None) -> None:
         self.constraints = list(constraints)
         if not self.constraints:
-            raise ValueError("constraints must be a non-empty list of Constraint objects")
+            raise InvalidInput("constraints must be a non-empty list of Constraint objects")
         for c in self.constraints:
             if not isinstance(c, Constraint):
-                raise ValueError(f"constraints must be Constraint objects, got {type(c).__name__}")
+                raise InvalidInput(f"constraints must be Constraint objects, got {type(c).__name__}")
             c.bind(N, dim, x0)
         self.N, self.dim = int(N), int(dim)
         self.W = np.asarray(W, float)

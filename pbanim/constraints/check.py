@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .kinds import Constraint, Distance  # noqa: F401  (Distance: doctest)
+from ..errors import InvalidInput
 
 __all__ = ["UserConstraint", "ConstraintCheck", "check_constraint"]
 
@@ -38,7 +39,7 @@ class UserConstraint(Constraint):
 
     def __init__(self, C: Callable, J: Callable, Jdot_qdot: Callable, m: int) -> None:
         if int(m) < 1:
-            raise ValueError(f"m must be a positive number of rows, got {m}")
+            raise InvalidInput(f"m must be a positive number of rows, got {m}")
         self.C_fun, self.J_fun, self.Jd_fun = C, J, Jdot_qdot
         self.slots = np.zeros((int(m), 0), dtype=np.int64)
 

@@ -21,7 +21,7 @@ import numpy as np
 from .assembly import ConstraintSet
 from .kinds import Constraint
 from .solvers import SOLVERS, ConstraintSolution, solve_lambda
-from ..errors import SimulationDiverged, SingularConstraintError
+from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError
 from ..scene import Effect
 
 __all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multipliers", "BaumgarteGains",
@@ -50,7 +50,7 @@ class BaumgarteGains:
 def _nonneg(value, name: str) -> float:
     v = float(value)
     if not np.isfinite(v) or v < 0:
-        raise ValueError(f"{name} must be a finite number >= 0, got {value}; Baumgarte gains are non-negative")
+        raise InvalidInput(f"{name} must be a finite number >= 0, got {value}; Baumgarte gains are non-negative")
     return v
 
 
@@ -83,7 +83,7 @@ def gains_from_mujoco(timeconst: float, dampratio: float) -> BaumgarteGains:
     tau = _nonneg(timeconst, "timeconst")
     z = _nonneg(dampratio, "dampratio")
     if tau == 0 or z == 0:
-        raise ValueError(f"timeconst and dampratio must be > 0, got {timeconst}, {dampratio}")
+        raise InvalidInput(f"timeconst and dampratio must be > 0, got {timeconst}, {dampratio}")
     return BaumgarteGains(1.0 / (tau * tau * z * z), 2.0 / tau)
 
 
@@ -96,11 +96,11 @@ def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float =
     """
     erp, cfm, h = float(erp), float(cfm), float(h)
     if not 0 < erp < 1:
-        raise ValueError(f"erp must be in (0, 1), got {erp}")
+        raise InvalidInput(f"erp must be in (0, 1), got {erp}")
     if not cfm > 0:
-        raise ValueError(f"cfm must be > 0 for finite gains, got {cfm}; CFM = 0 is the hard limit k_s, k_d → ∞")
+        raise InvalidInput(f"cfm must be > 0 for finite gains, got {cfm}; CFM = 0 is the hard limit k_s, k_d → ∞")
     if not h > 0 or not effective_mass > 0:
-        raise ValueError(f"h and effective_mass must be > 0, got {h}, {effective_mass}")
+        raise InvalidInput(f"h and effective_mass must be > 0, got {h}, {effective_mass}")
     return BaumgarteGains(erp / (h * cfm) / effective_mass, (1 - erp) / cfm / effective_mass)
 
 
@@ -169,9 +169,9 @@ class Constraints(Effect):
                  projection_tol: float = 1e-13, projection_max_iter: int = 20,
                  max_violation: float | None = None) -> None:
         if solver not in SOLVERS:
-            raise ValueError(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
+            raise InvalidInput(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
         if stabilization not in STABILIZATIONS:
-            raise ValueError(f"stabilization must be one of {list(STABILIZATIONS)}, got {stabilization!r}")
+            raise InvalidInput(f"stabilization must be one of {list(STABILIZATIONS)}, got {stabilization!r}")
         if ks is not None:
             _nonneg(ks, "ks")
         if kd is not None:
@@ -181,10 +181,10 @@ class Constraints(Effect):
                 g = baumgarte_gains(natural_frequency, damping_ratio)
                 ks, kd = g.ks, g.kd
             elif ks is None and kd is None:
-                raise ValueError("stabilization='baumgarte' needs ks and kd, or natural_frequency "
+                raise InvalidInput("stabilization='baumgarte' needs ks and kd, or natural_frequency "
                                  "(and damping_ratio)")
         elif (ks or kd or natural_frequency):
-            raise ValueError(f"ks, kd and natural_frequency only apply to stabilization='baumgarte', "
+            raise InvalidInput(f"ks, kd and natural_frequency only apply to stabilization='baumgarte', "
                              f"got stabilization={stabilization!r}")
         self.constraints = list(constraints)
         self.solver, self.stabilization = solver, stabilization
@@ -286,7 +286,7 @@ def baumgarte_feedback_map(method: str, omega_h: float, zeta: float) -> np.ndarr
 
     meth = get_method(method)
     if meth.adaptive:
-        raise ValueError(f"method must be a fixed-step method, got adaptive {method!r}")
+        raise InvalidInput(f"method must be a fixed-step method, got adaptive {method!r}")
     wh, z = float(omega_h), float(zeta)
     A = np.array([[0.0, 1.0], [-wh * wh, -2 * z * wh]])
     fun = lambda t, y: y @ A.T  # noqa: E731  (works on (2,) and batches)

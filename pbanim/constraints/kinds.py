@@ -29,6 +29,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .rows import _dot, _gather, _span, _take
+from ..errors import InvalidInput
 
 __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
            "Angle2D"]
@@ -37,7 +38,7 @@ __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlan
 def _as_index(a, name: str, k: int | None = None) -> np.ndarray:
     arr = np.array(a, dtype=np.int64, ndmin=1 if k is None else 2)
     if k is not None and (arr.ndim != 2 or arr.shape[1] != k):
-        raise ValueError(f"{name} must have shape (m, {k}), got {np.shape(a)}")
+        raise InvalidInput(f"{name} must have shape (m, {k}), got {np.shape(a)}")
     return arr
 
 
@@ -59,7 +60,7 @@ class Constraint:
     def bind(self, N: int, dim: int, x0: np.ndarray | None = None) -> None:
         bad = self.slots[(self.slots >= N) | (self.slots < -1)]
         if bad.size:
-            raise ValueError(f"particle index {int(bad[0])} out of range for a system of {N} particles "
+            raise InvalidInput(f"particle index {int(bad[0])} out of range for a system of {N} particles "
                              f"({self.kind}); use indices in [0, {N - 1}] (or -1 for a fixed point)")
         self.dim = dim
 
@@ -118,12 +119,12 @@ class Distance(Constraint):
     def __init__(self, pairs, lengths=None, anchors=None) -> None:
         self.slots = _as_index(pairs, "pairs", 2)
         if np.any(np.all(self.slots < 0, axis=1)):
-            raise ValueError("pairs must have at least one particle per rod, got a row (-1, -1)")
+            raise InvalidInput("pairs must have at least one particle per rod, got a row (-1, -1)")
         self.lengths_in = None if lengths is None else np.broadcast_to(np.asarray(lengths, float), (self.m,)).copy()
         if self.lengths_in is not None:
             bad = self.lengths_in[~(np.isfinite(self.lengths_in) & (self.lengths_in > 0))]
             if bad.size:
-                raise ValueError(f"length must be positive, got {bad[0]}; rest lengths of rods are > 0")
+                raise InvalidInput(f"length must be positive, got {bad[0]}; rest lengths of rods are > 0")
         self.anchors_in = anchors
 
     def bind(self, N, dim, x0=None) -> None:
@@ -131,15 +132,15 @@ class Distance(Constraint):
         anchors = np.zeros(dim) if self.anchors_in is None else np.asarray(self.anchors_in, float)
         self.anchors = np.broadcast_to(anchors, (self.m, dim)).copy()
         if self.anchors_in is None and np.any(self.slots < 0):
-            raise ValueError("anchors must be given for rods to a fixed point (pairs containing -1)")
+            raise InvalidInput("anchors must be given for rods to a fixed point (pairs containing -1)")
         if self.lengths_in is None:
             if x0 is None:
-                raise ValueError("lengths must be given when no initial positions are known")
+                raise InvalidInput("lengths must be given when no initial positions are known")
             a = _gather(x0, self.slots[:, 0], self.anchors)
             b = _gather(x0, self.slots[:, 1], self.anchors)
             self.lengths = np.linalg.norm(b - a, axis=1)
             if np.any(self.lengths <= 0):
-                raise ValueError(f"length must be positive, got {self.lengths.min()} (coincident particles)")
+                raise InvalidInput(f"length must be positive, got {self.lengths.min()} (coincident particles)")
         else:
             self.lengths = self.lengths_in
         self._L2 = self.lengths ** 2
@@ -201,12 +202,12 @@ class FixedPoint(Constraint):
     def bind(self, N, dim, x0=None) -> None:
         self.slots = np.repeat(self.particles, dim)[:, None]
         if np.any(self.particles < 0):
-            raise ValueError(f"particle index {int(self.particles.min())} out of range for a system of "
+            raise InvalidInput(f"particle index {int(self.particles.min())} out of range for a system of "
                              f"{N} particles (fixed_point); use indices in [0, {N - 1}]")
         super().bind(N, dim)
         if self.points_in is None:
             if x0 is None:
-                raise ValueError("points must be given when no initial positions are known")
+                raise InvalidInput("points must be given when no initial positions are known")
             pts = x0[self.particles]
         else:
             pts = np.broadcast_to(np.asarray(self.points_in, float), (len(self.particles), dim))
@@ -234,7 +235,7 @@ class OnCircle(Constraint):
         self.slots = _as_index(particles, "particles")[:, None]
         self.radius = np.broadcast_to(np.asarray(radius, float), (self.m,)).copy()
         if np.any(~(self.radius > 0)):
-            raise ValueError(f"radius must be positive, got {self.radius[~(self.radius > 0)][0]}")
+            raise InvalidInput(f"radius must be positive, got {self.radius[~(self.radius > 0)][0]}")
         self.center_in = np.asarray(center, float)
 
     def bind(self, N, dim, x0=None) -> None:
@@ -266,7 +267,7 @@ def _unit(a, name: str) -> np.ndarray:
     a = np.asarray(a, float)
     nrm = np.linalg.norm(a)
     if not np.isfinite(nrm) or nrm == 0:
-        raise ValueError(f"{name} must be a non-zero finite vector, got {a.tolist()}")
+        raise InvalidInput(f"{name} must be a non-zero finite vector, got {a.tolist()}")
     return a / nrm
 
 
@@ -288,7 +289,7 @@ class OnPlane(_Affine):
 
     def bind(self, N, dim, x0=None) -> None:
         if self.normal.shape != (dim,) or self.point.shape != (dim,):
-            raise ValueError(f"point and normal must have shape ({dim},), got {self.point.shape}, {self.normal.shape}")
+            raise InvalidInput(f"point and normal must have shape ({dim},), got {self.point.shape}, {self.normal.shape}")
         p = self.particles
         self._set(p, np.tile(self.normal, (len(p), 1)), np.full(len(p), self.normal @ self.point))
         super().bind(N, dim)
@@ -306,7 +307,7 @@ class OnLine(_Affine):
 
     def bind(self, N, dim, x0=None) -> None:
         if self.direction.shape != (dim,) or self.point.shape != (dim,):
-            raise ValueError(f"point and direction must have shape ({dim},), got {self.point.shape}, "
+            raise InvalidInput(f"point and direction must have shape ({dim},), got {self.point.shape}, "
                              f"{self.direction.shape}")
         # orthonormal complement of the direction: the last dim−1 columns of a full QR
         Qm, _ = np.linalg.qr(self.direction[:, None], mode="complete")
@@ -330,16 +331,16 @@ class LinearCombination(Constraint):
         self.axes = np.array(axes, dtype=np.int64, ndmin=2)
         self.coef = np.array(coefficients, dtype=float, ndmin=2)
         if not (self.slots.shape == self.axes.shape == self.coef.shape):
-            raise ValueError(f"particles, axes and coefficients must have one shape (m, k), got "
+            raise InvalidInput(f"particles, axes and coefficients must have one shape (m, k), got "
                              f"{self.slots.shape}, {self.axes.shape}, {self.coef.shape}")
         if np.any(self.slots < 0):
-            raise ValueError(f"particle index {int(self.slots.min())} out of range (linear): no fixed points here")
+            raise InvalidInput(f"particle index {int(self.slots.min())} out of range (linear): no fixed points here")
         self.offsets = np.broadcast_to(np.asarray(offsets, float), (self.m,)).copy()
 
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
         if np.any((self.axes < 0) | (self.axes >= dim)):
-            raise ValueError(f"axes must be in [0, {dim - 1}], got {self.axes[(self.axes < 0) | (self.axes >= dim)][0]}")
+            raise InvalidInput(f"axes must be in [0, {dim - 1}], got {self.axes[(self.axes < 0) | (self.axes >= dim)][0]}")
         self._G = np.ascontiguousarray((self.coef[:, :, None] * np.eye(dim)[self.axes]).transpose(1, 0, 2))
 
     def evaluate(self, x, v):
@@ -366,9 +367,9 @@ class Angle2D(Constraint):
 
     def bind(self, N, dim, x0=None) -> None:
         if dim != 2:
-            raise ValueError(f"Angle2D needs a 2-D system, got dim = {dim}")
+            raise InvalidInput(f"Angle2D needs a 2-D system, got dim = {dim}")
         if np.any(self.slots < 0):
-            raise ValueError("triples must index particles (no -1 fixed points in Angle2D)")
+            raise InvalidInput("triples must index particles (no -1 fixed points in Angle2D)")
         super().bind(N, dim)
 
     def evaluate(self, x, v):

@@ -25,7 +25,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import ConvergenceError, SingularConstraintError
+from ..errors import ConvergenceError, InvalidInput, SingularConstraintError
 
 __all__ = ["ConstraintSolution", "SOLVERS", "solve_lambda", "eliminate_readable", "EliminationResult"]
 
@@ -284,7 +284,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
     (-10.81, array([0., 0.]))
     """
     if solver not in SOLVERS:
-        raise ValueError(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
+        raise InvalidInput(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
     W = np.asarray(W, float)
     Q = np.asarray(Q, float).ravel()
     c = np.asarray(c, float)
@@ -297,7 +297,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
             solver = "witkin-dense" if m <= _DENSE_AUTO else "witkin-sparse"
     if solver == "linear" and (cset is None or not cset.structure.linear):
         kind = "general" if cset is None else cset.structure.kind
-        raise ValueError(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds; "
+        raise InvalidInput(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds; "
                          f"this set's structure is {kind!r}; use 'auto', 'witkin-sparse' or 'kkt'")
     JT = asm.JT if (asm is not None and asm.JT is not None) else J.T.tocsr()
     r = c - J @ (W * Q)

@@ -32,7 +32,7 @@ import numpy as np
 from .assembly import assemble_particles, assemble_rigid
 from ..bodies import require_bodies
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
-from ..errors import InconsistentContact, InfeasibleContact
+from ..errors import InconsistentContact, InfeasibleContact, InvalidInput
 from ..scene import Effect
 
 __all__ = ["RestingContact"]
@@ -91,22 +91,22 @@ class RestingContact(Effect):
                  tol: float = 1e-10, fallback: str | None = None, solver_options: dict | None = None,
                  warm_start: bool = True, friction: float = 0.0) -> None:
         if not callable(detect):
-            raise ValueError(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
+            raise InvalidInput(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         if solver not in LCP_SOLVERS:
-            raise ValueError(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
+            raise InvalidInput(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
         if stabilization not in _STAB:
-            raise ValueError(f"stabilization must be one of {_STAB}, got {stabilization!r}")
+            raise InvalidInput(f"stabilization must be one of {_STAB}, got {stabilization!r}")
         for nm, val in (("stiffness", stiffness), ("damping", damping)):
             if not (np.isfinite(val) and val >= 0):
-                raise ValueError(f"{nm} must be a finite number ≥ 0, got {val}")
+                raise InvalidInput(f"{nm} must be a finite number ≥ 0, got {val}")
         self.detect, self.solver, self.stabilization = detect, solver, stabilization
         self.ks, self.kd, self.tol, self.fallback = float(stiffness), float(damping), float(tol), fallback
         self.solver_options = dict(solver_options or {})
         self.warm_start = bool(warm_start)
         if not (np.isfinite(friction) and friction >= 0):
-            raise ValueError(f"friction must be a finite number ≥ 0, got {friction}")
+            raise InvalidInput(f"friction must be a finite number ≥ 0, got {friction}")
         if friction > 0 and solver not in ("lemke", "dantzig"):
-            raise ValueError(f"solver must be 'lemke' or 'dantzig' with friction (A is not symmetric), got {solver!r}")
+            raise InvalidInput(f"solver must be 'lemke' or 'dantzig' with friction (A is not symmetric), got {solver!r}")
         self.friction = float(friction)
         self.last = None          # the last ContactSolution
         self.last_contacts = None
@@ -117,11 +117,11 @@ class RestingContact(Effect):
         if kind == "rigid":
             self._assemble, self._N = assemble_rigid, system.N
         elif self.friction > 0:
-            raise ValueError("friction in RestingContact needs a RigidBodies system; use TimeStepping for particles")
+            raise InvalidInput("friction in RestingContact needs a RigidBodies system; use TimeStepping for particles")
         elif kind == "particles":
             self._assemble, self._N = assemble_particles, system.N
         else:
-            raise ValueError(f"RestingContact assembles rows for particles or rigid bodies, got a {kind!r} system "
+            raise InvalidInput(f"RestingContact assembles rows for particles or rigid bodies, got a {kind!r} system "
                              f"({type(system).__name__})")
         self.system = system
 

@@ -55,7 +55,7 @@ import numpy as np
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
 from ..bodies import require_bodies
 from ..lcp.solve import solve_lcp
-from ..errors import InconsistentContact, InfeasibleContact
+from ..errors import InconsistentContact, InfeasibleContact, InvalidInput
 from ..results import ContactSolution, SimResult
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 
@@ -75,7 +75,7 @@ def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
     """
     n = np.array(normal, dtype=float, ndmin=2)
     if int(facets) != facets or facets < 2:
-        raise ValueError(f"facets must be an integer ≥ 2, got {facets}")
+        raise InvalidInput(f"facets must be an integer ≥ 2, got {facets}")
     k = int(facets)
     if tangent is None:
         ref = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
@@ -84,7 +84,7 @@ def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
     t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
     norm = np.linalg.norm(t1, axis=1)
     if np.any(norm < 1e-12):
-        raise ValueError("tangent must not be parallel to a contact normal")
+        raise InvalidInput("tangent must not be parallel to a contact normal")
     t1 /= norm[:, None]
     t2 = np.cross(n, t1)
     ang = 2 * np.pi * np.arange(k) / k
@@ -156,21 +156,21 @@ class TimeStepping:
                  solver: str = "lemke", erp: float = 0.2, tol: float = 1e-10, tangent=None,
                  solver_options: dict | None = None, accept_unconverged: bool = False) -> None:
         if not callable(detect):
-            raise ValueError(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
+            raise InvalidInput(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         mu = np.asarray(friction, dtype=float)
         if not np.all(np.isfinite(mu)) or np.any(mu < 0):
-            raise ValueError(f"friction must be finite and ≥ 0, got {friction}")
+            raise InvalidInput(f"friction must be finite and ≥ 0, got {friction}")
         if np.any(mu > 0) and solver != "lemke":
-            raise ValueError(f"solver must be 'lemke' for friction (the LCP is not symmetric), got {solver!r}")
+            raise InvalidInput(f"solver must be 'lemke' for friction (the LCP is not symmetric), got {solver!r}")
         if not (0 < erp <= 1):
-            raise ValueError(f"erp must be in (0, 1], got {erp}")
+            raise InvalidInput(f"erp must be in (0, 1], got {erp}")
         friction_directions([[0.0, 0.0, 1.0]], facets)  # validates facets
         kind = require_bodies(system, "TimeStepping").kind
         if kind not in ("rigid", "particles"):
-            raise ValueError(f"TimeStepping steps particles or rigid bodies, got a {kind!r} system")
+            raise InvalidInput(f"TimeStepping steps particles or rigid bodies, got a {kind!r} system")
         self.rigid = kind == "rigid"
         if not self.rigid and system.dof != 3:
-            raise ValueError(f"TimeStepping needs 3-D particles, got dim = {system.dof}")
+            raise InvalidInput(f"TimeStepping needs 3-D particles, got dim = {system.dof}")
         self.system, self.detect, self.forces = system, detect, list(forces)
         for e in self.forces:
             e.bind(system)

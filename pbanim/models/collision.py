@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..collision.shapes import Plane, check_friction, check_restitution
+from ..errors import InvalidInput
 
 __all__ = ["BouncingBall", "bouncing_ball", "NewtonsCradle", "newtons_cradle", "ObliqueSpheres",
            "oblique_spheres", "FallingRod", "falling_rod", "SpinningBall", "spinning_ball"]
@@ -88,7 +89,7 @@ def bouncing_ball(h0: float = 1.0, restitution: float = 0.8, g: float = 9.81) ->
     (0.25, 3.0)
     """
     if not (np.isfinite(h0) and h0 > 0):
-        raise ValueError(f"h0 must be a positive height, got {h0}")
+        raise InvalidInput(f"h0 must be a positive height, got {h0}")
     return BouncingBall(float(h0), check_restitution(restitution), float(g))
 
 
@@ -117,7 +118,7 @@ class NewtonsCradle:
             return out
         if mode == "simultaneous" and self.n == 3:
             return np.array([-1.0, 2.0, 2.0]) * self.v0 / 3
-        raise ValueError(f"closed form known for mode 'sequential' (any n) or 'simultaneous' (n = 3), "
+        raise InvalidInput(f"closed form known for mode 'sequential' (any n) or 'simultaneous' (n = 3), "
                          f"got mode {mode!r}, n = {self.n}")
 
 
@@ -128,7 +129,7 @@ def newtons_cradle(n: int = 3, v0: float = 1.0, radius: float = 0.5, mass: float
     array([-0.5,  1. ,  1. ])
     """
     if n < 2:
-        raise ValueError(f"n must be at least 2 balls, got {n}")
+        raise InvalidInput(f"n must be at least 2 balls, got {n}")
     return NewtonsCradle(int(n), float(v0), float(radius), float(mass))
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..constraints import Distance, FixedPoint, LinearCombination, OnCircle
 from ..particles.system import ParticleSystem
+from ..errors import InvalidInput
 
 __all__ = ["ConstrainedModel", "bead_on_circle", "hanging_chain", "cloth_patch", "random_chain", "random_tree",
            "redundant_rod", "redundant_xy", "inconsistent_x"]
@@ -47,7 +48,7 @@ def bead_on_circle(radius: float = 1.0, mass: float = 1.0, g: float = 9.81, thet
     13.81
     """
     if not radius > 0 or not mass > 0:
-        raise ValueError(f"radius and mass must be positive, got {radius}, {mass}")
+        raise InvalidInput(f"radius and mass must be positive, got {radius}, {mass}")
     c = np.asarray(center, float)
     x0 = c + radius * np.array([np.sin(theta0), -np.cos(theta0)])
     v0 = radius * omega0 * np.array([np.cos(theta0), np.sin(theta0)])
@@ -80,7 +81,7 @@ def hanging_chain(n: int, link_length: float = 1.0, masses=1.0, mass_ratio: floa
     """
     n = int(n)
     if n < 1:
-        raise ValueError(f"n must be a positive number of links, got {n}")
+        raise InvalidInput(f"n must be a positive number of links, got {n}")
     m = np.array([1.0 if i % 2 == 0 else mass_ratio for i in range(n)]) if mass_ratio is not None else \
         np.broadcast_to(np.asarray(masses, float), (n,)).copy()
     down = np.zeros(dim)
@@ -109,7 +110,7 @@ def cloth_patch(nx: int = 6, ny: int = 6, spacing: float = 0.1, mass: float = 0.
     (12, [0, 6])
     """
     if nx < 2 or ny < 2:
-        raise ValueError(f"nx and ny must be >= 2, got {nx}, {ny}")
+        raise InvalidInput(f"nx and ny must be >= 2, got {nx}, {ny}")
     rng = np.random.default_rng(seed)
     I, Jg = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     idx = I * ny + Jg

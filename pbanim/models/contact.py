@@ -20,6 +20,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..contact.assembly import make_contacts
+from ..errors import InvalidInput
 
 __all__ = ["LCPCase", "psd_nonunique_lcp", "murty_lcp", "infeasible_lcp", "trivial_lcp", "random_contact_lcp",
            "ContactScene", "box_on_plane", "box_stack", "box_on_incline", "incline_expected", "painleve_B",
@@ -53,7 +54,7 @@ def murty_lcp(n: int = 8) -> LCPCase:
            [0., 0., 1.]])
     """
     if int(n) != n or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n}")
+        raise InvalidInput(f"n must be a positive integer, got {n}")
     A = np.eye(n) + 2.0 * np.triu(np.ones((n, n)), 1)
     sol = np.zeros(n)
     sol[-1] = 1.0
@@ -120,7 +121,7 @@ def _plane_corners(bodies, y, half, normal, offset, margin, bodies_idx=None, bot
 def _check_mass(name, value):
     value = float(value)
     if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be positive, got {value}")
+        raise InvalidInput(f"{name} must be positive, got {value}")
     return value
 
 
@@ -165,11 +166,11 @@ def box_stack(n: int = 10, mass_ratio: float = 100.0, pattern: str = "alternatin
     from ..rigid.inertia import box_inertia
 
     if int(n) != n or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n}")
+        raise InvalidInput(f"n must be a positive integer, got {n}")
     mass_ratio = _check_mass("mass_ratio", mass_ratio)
     patterns = ("alternating", "heavy_top", "light_top")
     if pattern not in patterns:
-        raise ValueError(f"pattern must be one of {patterns}, got {pattern!r}")
+        raise InvalidInput(f"pattern must be one of {patterns}, got {pattern!r}")
     k = np.arange(n)
     masses = {"alternating": np.where(k % 2 == 1, mass_ratio, 1.0),
               "heavy_top": np.where(k == n - 1, mass_ratio, 1.0),
@@ -233,7 +234,7 @@ def box_on_incline(angle: float, friction: float, mass: float = 1.0, half_extent
 
     mass = _check_mass("mass", mass)
     if not (0 <= angle < np.pi / 2):
-        raise ValueError(f"angle must be in [0, π/2) rad, got {angle}")
+        raise InvalidInput(f"angle must be in [0, π/2) rad, got {angle}")
     h = np.asarray(half_extents, dtype=float)
     s, c = np.sin(angle), np.cos(angle)
     normal = np.array([s, 0.0, c])          # plane through the origin, tilted about y: downhill is +x′
@@ -307,7 +308,7 @@ def sphere_pour(n: int = 100, radius: float = 0.05, box_half: float = 0.3, seed:
     from ..particles.system import Gravity, ParticleSystem
 
     if int(n) != n or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n}")
+        raise InvalidInput(f"n must be a positive integer, got {n}")
     r = float(radius)
     margin = 0.5 * r if margin is None else float(margin)
     rng = np.random.default_rng(seed)

@@ -27,6 +27,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.special import ellipk
+from ..errors import InvalidInput
 
 __all__ = ["OdeModel", "harmonic_oscillator", "damped_oscillator", "free_fall", "kepler", "pendulum",
            "kepler_position"]
@@ -50,7 +51,7 @@ class OdeModel:
 def _positive(name, value):
     value = float(value)
     if not (np.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be positive and finite, got {value}")
+        raise InvalidInput(f"{name} must be positive and finite, got {value}")
     return value
 
 
@@ -91,7 +92,7 @@ def damped_oscillator(omega: float = 1.0, c: float = 0.1, x0: float = 1.0, v0: f
     w = _positive("omega", omega)
     c = float(c)
     if not (np.isfinite(c) and c >= 0):
-        raise ValueError(f"c (damping per unit mass) must be non-negative, got {c}")
+        raise InvalidInput(f"c (damping per unit mass) must be non-negative, got {c}")
     w2 = w * w
     A = np.array([[0.0, 1.0], [-w2, -c]])
 
@@ -175,7 +176,7 @@ def kepler(e: float = 0.6, GM: float = 1.0, a: float = 1.0) -> OdeModel:
     (True, True)
     """
     if not (0 <= e < 1):
-        raise ValueError(f"e (eccentricity) must be in [0, 1) for a bound orbit, got {e}")
+        raise InvalidInput(f"e (eccentricity) must be in [0, 1) for a bound orbit, got {e}")
     GM, a = _positive("GM", GM), _positive("a", a)
     y0 = np.array([a * (1 - e), 0.0, 0.0, np.sqrt(GM * (1 + e) / (a * (1 - e)))])
 
@@ -218,7 +219,7 @@ def pendulum(theta0=np.pi / 2, length: float = 1.0, g: float = 9.81, omega0=0.0)
     L, g = _positive("length", length), _positive("g", g)
     th = np.asarray(theta0, dtype=float)
     if np.any(~np.isfinite(th)) or np.any(np.abs(th) >= np.pi):
-        raise ValueError(f"theta0 must be finite with |theta0| < pi (radians), got {theta0}")
+        raise InvalidInput(f"theta0 must be finite with |theta0| < pi (radians), got {theta0}")
     k = g / L
     y0 = np.stack([th, np.broadcast_to(np.asarray(omega0, dtype=float), th.shape)], axis=-1)
 

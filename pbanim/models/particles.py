@@ -26,6 +26,7 @@ import numpy as np
 
 from ..particles.system import AnchorSprings, DampedSprings, Drag, Gravity, ParticleSystem
 from ..scene import Scene
+from ..errors import InvalidInput
 
 __all__ = ["ParticleModel", "projectile_drag_model", "two_body_spring_model", "hanging_net"]
 
@@ -70,9 +71,9 @@ def projectile_drag_model(mass: float = 1.0, drag: float = 0.5, g: Any = (0.0, -
     """
     m, k = float(mass), float(drag)
     if not (np.isfinite(m) and m > 0):
-        raise ValueError(f"mass must be positive, got {mass}")
+        raise InvalidInput(f"mass must be positive, got {mass}")
     if not (np.isfinite(k) and k >= 0):
-        raise ValueError(f"drag must be finite and >= 0, got {drag}")
+        raise InvalidInput(f"drag must be finite and >= 0, got {drag}")
     gv = np.asarray(g, float)
     x0 = np.asarray(position, float)
     v0 = np.asarray(velocity, float)
@@ -106,9 +107,9 @@ def two_body_spring_model(m1: float = 1.0, m2: float = 3.0, stiffness: float = 1
     """
     k, r, A = float(stiffness), float(rest_length), float(amplitude)
     if not (k > 0 and np.isfinite(k)):
-        raise ValueError(f"stiffness must be positive, got {stiffness}")
+        raise InvalidInput(f"stiffness must be positive, got {stiffness}")
     if not (r + A > 0):
-        raise ValueError(f"rest_length + amplitude must be positive (a spring of positive length), got {r + A}")
+        raise InvalidInput(f"rest_length + amplitude must be positive (a spring of positive length), got {r + A}")
     M = m1 + m2
     L0 = r + A
     x = np.zeros((2, dim))
@@ -146,9 +147,9 @@ def hanging_net(nx: int = 10, ny: int = 10, spacing: float = 0.1, mass: float = 
     ('springs', 'anchors', 'gravity', 'integrate')
     """
     if nx < 2 or ny < 2:
-        raise ValueError(f"nx and ny must be >= 2 (a net), got nx={nx}, ny={ny}")
+        raise InvalidInput(f"nx and ny must be >= 2 (a net), got nx={nx}, ny={ny}")
     if not (spacing > 0 and mass > 0 and stiffness > 0):
-        raise ValueError(f"spacing, mass and stiffness must be positive, got {spacing}, {mass}, {stiffness}")
+        raise InvalidInput(f"spacing, mass and stiffness must be positive, got {spacing}, {mass}, {stiffness}")
     i, j = np.meshgrid(np.arange(nx), np.arange(ny))
     i, j = i.ravel(), j.ravel()
     idx = j * nx + i

@@ -25,6 +25,7 @@ from typing import Any, Callable
 
 import numpy as np
 from scipy.special import ellipk
+from ..errors import InvalidInput
 
 __all__ = ["ReducedModel", "pendulum_period", "simple_pendulum", "double_pendulum", "n_link_pendulum",
            "n_link_chart", "spherical_pendulum", "bead_on_rotating_hoop", "cart_pendulum", "bead_x_chart",
@@ -42,9 +43,9 @@ def pendulum_period(theta0: Any, length: float = 1.0, g: float = 9.81) -> Any:
     """
     th = np.asarray(theta0, dtype=float)
     if np.any(~np.isfinite(th)) or np.any(np.abs(th) >= np.pi) or np.any(th == 0):
-        raise ValueError(f"theta0 must satisfy 0 < |theta0| < pi (radians), got {theta0}")
+        raise InvalidInput(f"theta0 must satisfy 0 < |theta0| < pi (radians), got {theta0}")
     if not (length > 0 and g > 0):
-        raise ValueError(f"length and g must be positive, got length = {length}, g = {g}")
+        raise InvalidInput(f"length and g must be positive, got length = {length}, g = {g}")
     T = 4.0 * np.sqrt(length / g) * ellipk(np.sin(th / 2) ** 2)
     return float(T) if th.ndim == 0 else T
 
@@ -127,7 +128,7 @@ class ReducedModel:
 def _arr(x, n, name):
     a = np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy()
     if np.any(~np.isfinite(a)) or np.any(a <= 0):
-        raise ValueError(f"{name} must be positive and finite, got {x}")
+        raise InvalidInput(f"{name} must be positive and finite, got {x}")
     return a
 
 
@@ -141,7 +142,7 @@ def n_link_pendulum(n: int, lengths: Any = 1.0, masses: Any = 1.0, g: float = 9.
     (3, [1.0, 1.0, 1.0])
     """
     if not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be a positive integer number of links, got {n!r}")
+        raise InvalidInput(f"n must be a positive integer number of links, got {n!r}")
     L, m = _arr(lengths, n, "lengths"), _arr(masses, n, "masses")
     th0 = 0.5 + 0.1 * np.arange(n) if theta0 is None else np.broadcast_to(np.asarray(theta0, float), (n,)).copy()
     om0 = np.zeros(n) if omega0 is None else np.broadcast_to(np.asarray(omega0, float), (n,)).copy()
@@ -307,7 +308,7 @@ def bead_x_chart(x0: float = 0.0, xdot0: float = 5.0, radius: float = 1.0, mass:
     """
     R, m = float(_arr(radius, 1, "radius")[0]), float(_arr(mass, 1, "mass")[0])
     if not abs(x0) < R:
-        raise ValueError(f"x0 must satisfy |x0| < radius = {R}, got {x0}")
+        raise InvalidInput(f"x0 must satisfy |x0| < radius = {R}, got {x0}")
 
     def build():
         import sympy
@@ -343,7 +344,7 @@ def maximal_chain(model: ReducedModel, solver: str = "auto", stabilization: str 
     from ..scene import Scene
 
     if "lengths" not in model.info:
-        raise ValueError(f"model must be an n-link pendulum, got {model.name!r}")
+        raise InvalidInput(f"model must be an n-link pendulum, got {model.name!r}")
     L = model.info["lengths"]
     n = L.size
     q, J, _ = n_link_chart(L)

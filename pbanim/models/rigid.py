@@ -39,6 +39,7 @@ from scipy.special import ellipj, ellipk, ellipkinc
 from ..rigid.bodies import RigidBodies
 from ..rigid.inertia import cylinder_inertia, parallel_axis, validate_inertia
 from ..rigid.quat import quat_normalize, quat_to_matrix
+from ..errors import InvalidInput
 
 __all__ = ["TorqueFreeBody", "torque_free_body", "THandle", "t_handle"]
 
@@ -127,10 +128,10 @@ def torque_free_body(moments, omega0) -> TorqueFreeBody:
     I = np.asarray(moments, dtype=float)
     w0 = np.asarray(omega0, dtype=float)
     if I.shape != (3,) or not (I[0] < I[1] < I[2]):
-        raise ValueError(f"moments must be 3 strictly ascending principal moments I1 < I2 < I3, got {moments}")
+        raise InvalidInput(f"moments must be 3 strictly ascending principal moments I1 < I2 < I3, got {moments}")
     validate_inertia(np.diag(I), "moments")
     if w0.shape != (3,) or not np.all(np.isfinite(w0)) or not np.any(w0):
-        raise ValueError(f"omega0 must be a finite non-zero 3-vector, got {omega0}")
+        raise InvalidInput(f"omega0 must be a finite non-zero 3-vector, got {omega0}")
     E2, M2 = float(np.sum(I * w0 * w0)), float(np.sum(I * I * w0 * w0))
     if np.count_nonzero(w0) == 1:      # exact principal-axis spin (also the unstable middle one): ω constant
         return TorqueFreeBody(moments=I, omega0=w0, energy=0.5 * E2, L2=M2, m=0.0 if w0[1] == 0 else 1.0,

@@ -42,7 +42,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import SimulationDiverged, StepLimitExceeded
+from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded
 
 __all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
 
@@ -92,17 +92,17 @@ def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
     """
     h = float(h)
     if not math.isfinite(h) or h <= 0:
-        raise ValueError(f"h must be a positive finite step, got {h}")
+        raise InvalidInput(f"h must be a positive finite step, got {h}")
     t0, t_end = float(t0), float(t_end)
     if not math.isfinite(t0):
-        raise ValueError(f"t0 must be a finite time, got {t0}")
+        raise InvalidInput(f"t0 must be a finite time, got {t0}")
     if not math.isfinite(t_end) or t_end == t0 or (t_end < t0 and not backward):
-        raise ValueError(f"t_end must be a finite time {'different from' if backward else 'after'} "
+        raise InvalidInput(f"t_end must be a finite time {'different from' if backward else 'after'} "
                          f"t0 = {t0}, got {t_end}")
     if int(record_every) != record_every or record_every < 1:
-        raise ValueError(f"record_every must be a positive integer, got {record_every}")
+        raise InvalidInput(f"record_every must be a positive integer, got {record_every}")
     if int(max_steps) != max_steps or max_steps < 1:
-        raise ValueError(f"max_steps must be a positive integer, got {max_steps}")
+        raise InvalidInput(f"max_steps must be a positive integer, got {max_steps}")
     span = abs(t_end - t0)
     ratio = span / h
     if not math.isfinite(ratio):

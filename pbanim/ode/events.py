@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ..errors import SimulationDiverged
+from ..errors import InvalidInput, SimulationDiverged
 from ..results import SimResult
 
 __all__ = ["Event", "make_events", "make_result", "crossings", "handle_events", "OK_MESSAGE",
@@ -33,7 +33,7 @@ class Event:
 
     def __init__(self, fn):
         if not callable(fn):
-            raise ValueError(f"events must be callables event(t, y), got {type(fn).__name__}")
+            raise InvalidInput(f"events must be callables event(t, y), got {type(fn).__name__}")
         self.fn = fn
         term = getattr(fn, "terminal", False)
         self.terminal = int(term) if not isinstance(term, bool) else (1 if term else 0)

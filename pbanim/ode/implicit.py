@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InvalidInput
 
 __all__ = ["newton_solve", "implicit_euler_step", "implicit_midpoint_step", "expm_small", "exponential_euler_step"]
 
@@ -45,7 +45,7 @@ def _jacobian(fun, t, z, f, jac):
         return _fd_jacobian(fun, t, z, f)
     J = jac(t, z) if callable(jac) else jac
     if sp.issparse(J) and z.ndim != 1:
-        raise ValueError("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
+        raise InvalidInput("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
     return J
 
 

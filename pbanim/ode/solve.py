@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import SimulationDiverged
+from ..errors import InvalidInput, SimulationDiverged
 from .adaptive import solve_adaptive
 from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
@@ -34,42 +34,42 @@ SCIPY_METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 # ---------------------------------------------------------------------------------------------------
 def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
     if not callable(fun):
-        raise ValueError(f"fun must be a callable fun(t, y) -> dy/dt, got {type(fun).__name__}")
+        raise InvalidInput(f"fun must be a callable fun(t, y) -> dy/dt, got {type(fun).__name__}")
     try:
         t0, tf = (float(v) for v in t_span)
     except (TypeError, ValueError):
-        raise ValueError(f"t_span must be a pair (t0, t_end) of numbers, got {t_span!r}") from None
+        raise InvalidInput(f"t_span must be a pair (t0, t_end) of numbers, got {t_span!r}") from None
     if not (np.isfinite(t0) and np.isfinite(tf)) or t0 == tf:
-        raise ValueError(f"t_span must be two different finite times, got {t_span!r}")
+        raise InvalidInput(f"t_span must be two different finite times, got {t_span!r}")
     y = np.array(y0, dtype=float, copy=True) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
     if y.ndim not in (1, 2) or y.shape[-1] == 0:
-        raise ValueError(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
+        raise InvalidInput(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
     if not np.all(np.isfinite(y)):
         bad = np.flatnonzero(~np.isfinite(y.ravel()))
-        raise ValueError(f"y0 must be finite, got {y.ravel()[bad[0]]} at flat index {int(bad[0])}")
+        raise InvalidInput(f"y0 must be finite, got {y.ravel()[bad[0]]} at flat index {int(bad[0])}")
     if h is not None:
         h = float(h)
         if not np.isfinite(h) or h <= 0:
-            raise ValueError(f"h must be a positive finite step, got {h}; pass h > 0 (the sign of "
+            raise InvalidInput(f"h must be a positive finite step, got {h}; pass h > 0 (the sign of "
                              "t_span sets the direction)")
     if not (np.isfinite(rtol) and rtol > 0):
-        raise ValueError(f"rtol must be positive, got {rtol}")
+        raise InvalidInput(f"rtol must be positive, got {rtol}")
     if not (np.all(np.isfinite(atol)) and np.all(np.asarray(atol) >= 0)):
-        raise ValueError(f"atol must be non-negative, got {atol}")
+        raise InvalidInput(f"atol must be non-negative, got {atol}")
     if int(max_steps) != max_steps or max_steps < 1:
-        raise ValueError(f"max_steps must be a positive integer, got {max_steps}")
+        raise InvalidInput(f"max_steps must be a positive integer, got {max_steps}")
     n = y.shape[-1]
     if split is not None and not (0 <= int(split) <= n):
-        raise ValueError(f"split must be between 0 and n = {n} (number of position components), got {split}")
+        raise InvalidInput(f"split must be between 0 and n = {n} (number of position components), got {split}")
     if t_eval is not None:
         t_eval = np.asarray(t_eval, dtype=float).ravel()
         d = np.sign(tf - t0)
         lo, hi = min(t0, tf), max(t0, tf)
         if not np.all(np.isfinite(t_eval)):
-            raise ValueError(f"t_eval must hold finite times, got {t_eval[~np.isfinite(t_eval)][0]} in {t_eval[:5]}"
+            raise InvalidInput(f"t_eval must hold finite times, got {t_eval[~np.isfinite(t_eval)][0]} in {t_eval[:5]}"
                              f"{'...' if t_eval.size > 5 else ''}")
         if t_eval.size == 0 or np.any(t_eval < lo) or np.any(t_eval > hi) or np.any(d * np.diff(t_eval) < 0):
-            raise ValueError(f"t_eval must be sorted in the direction of integration and lie within t_span "
+            raise InvalidInput(f"t_eval must be sorted in the direction of integration and lie within t_span "
                              f"{(t0, tf)}, got {t_eval[:5]}{'...' if t_eval.size > 5 else ''}")
     return t0, tf, y, h, t_eval
 
@@ -77,7 +77,7 @@ def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
 def _check_f0(fun, t0, y):
     f0 = np.asarray(fun(t0, y))
     if f0.shape != y.shape:
-        raise ValueError(f"fun(t, y) must return an array of the shape of y0 {y.shape}, got {f0.shape}"
+        raise InvalidInput(f"fun(t, y) must return an array of the shape of y0 {y.shape}, got {f0.shape}"
                          + ("; in batch mode fun receives (K, n) arrays" if y.ndim == 2 else ""))
     if not np.all(np.isfinite(f0)):
         raise SimulationDiverged(t0, 0, "derivative f(t0, y0)", "fun returned a non-finite value at the start")
@@ -146,13 +146,13 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
         return _solve_scipy(fun, t0, tf, y, method[6:], h, rtol, atol, jac, t_eval, events, int(max_steps))
     m = get_method(method)
     if evs and y.ndim == 2:
-        raise ValueError("events are not supported in batch mode (y0 of shape (K, n)); loop over the "
+        raise InvalidInput("events are not supported in batch mode (y0 of shape (K, n)); loop over the "
                          "initial conditions or drop events")
     f0 = _check_f0(fun, t0, y)
     if m.adaptive:
         return solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split)
     if h is None:
-        raise ValueError(f"h must be given for the fixed-step method {m.name!r} (e.g. h=1e-3), got None")
+        raise InvalidInput(f"h must be given for the fixed-step method {m.name!r} (e.g. h=1e-3), got None")
     return _solve_fixed(fun, t0, tf, y, m, h, jac, t_eval, evs, int(max_steps), split)
 
 
@@ -235,9 +235,9 @@ def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events, max_s
     from scipy.integrate import solve_ivp
 
     if name not in SCIPY_METHODS:
-        raise ValueError(f"method must be 'scipy:' + one of {list(SCIPY_METHODS)}, got 'scipy:{name}'")
+        raise InvalidInput(f"method must be 'scipy:' + one of {list(SCIPY_METHODS)}, got 'scipy:{name}'")
     if y.ndim != 1:
-        raise ValueError("batch mode (y0 of shape (K, n)) needs a pbanim method, not scipy:" + name)
+        raise InvalidInput("batch mode (y0 of shape (K, n)) needs a pbanim method, not scipy:" + name)
     opts = {}
     if h is not None:
         step_grid(t0, tf, h, max_steps=max_steps, backward=True)      # refuses an astronomical run

@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..scene import Effect
+from ..errors import InvalidInput
 
 __all__ = ["DampedSprings", "AnchorSprings", "ForceJacobian", "spring_forces_loop"]
 
@@ -58,11 +59,11 @@ class ForceJacobian:
 def _per_spring(value: Any, S: int, name: str, fix: str) -> np.ndarray:
     a = np.asarray(value, dtype=float)
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != S):
-        raise ValueError(f"{name} must be a scalar or have shape ({S},), got shape {a.shape}")
+        raise InvalidInput(f"{name} must be a scalar or have shape ({S},), got shape {a.shape}")
     a = np.broadcast_to(a, (S,)).copy()
     bad = ~np.isfinite(a) | (a < 0)
     if bad.any():
-        raise ValueError(f"{name} must be finite and >= 0, got {a[bad][0]}; {fix}")
+        raise InvalidInput(f"{name} must be finite and >= 0, got {a[bad][0]}; {fix}")
     return a
 
 
@@ -129,10 +130,10 @@ class DampedSprings(Effect):
         if p.size == 0:
             p = p.reshape(0, 2)
         if p.ndim != 2 or p.shape[1] != 2:
-            raise ValueError(f"pairs must have shape (S, 2), got {p.shape}")
+            raise InvalidInput(f"pairs must have shape (S, 2), got {p.shape}")
         if p.dtype.kind not in "iu":
             if p.dtype.kind != "f" or not np.all(p == np.round(p)):
-                raise ValueError(f"pairs must be integer particle indices, got dtype {p.dtype}")
+                raise InvalidInput(f"pairs must be integer particle indices, got dtype {p.dtype}")
         self.pairs = p.astype(np.intp)
         self.S = self.pairs.shape[0]
         self.stiffness_in, self.damping_in, self.rest_in, self.name = stiffness, damping, rest_length, name
@@ -143,11 +144,11 @@ class DampedSprings(Effect):
         bad = (self.pairs < 0) | (self.pairs >= N)
         if bad.any():
             s = int(np.argwhere(bad)[0, 0])
-            raise ValueError(f"pairs must index particles in [0, {N}), got {self.pairs[s].tolist()} "
+            raise InvalidInput(f"pairs must index particles in [0, {N}), got {self.pairs[s].tolist()} "
                              f"at spring {s}")
         if np.any(a == b):
             s = int(np.flatnonzero(a == b)[0])
-            raise ValueError(f"pairs must join two different particles, got {self.pairs[s].tolist()} at spring {s}")
+            raise InvalidInput(f"pairs must join two different particles, got {self.pairs[s].tolist()} at spring {s}")
         self.system, self.a, self.b = system, a, b
         self.ks = _per_spring(self.stiffness_in, S, "stiffness", "use a spring stiffness k_s >= 0")
         self.kd = _per_spring(self.damping_in, S, "damping", "use a spring damping k_d >= 0")
@@ -293,17 +294,17 @@ class AnchorSprings(Effect):
         self.ks = float(stiffness)
         self.kd = float(damping)
         if not (np.isfinite(self.ks) and self.ks > 0):
-            raise ValueError(f"stiffness must be positive and finite, got {stiffness}")
+            raise InvalidInput(f"stiffness must be positive and finite, got {stiffness}")
         if not (np.isfinite(self.kd) and self.kd >= 0):
-            raise ValueError(f"damping must be finite and >= 0, got {damping}")
+            raise InvalidInput(f"damping must be finite and >= 0, got {damping}")
 
     def bind(self, system: Any) -> None:
         N, dim = system.N, system.dim
         if np.any((self.idx < 0) | (self.idx >= N)) or len(np.unique(self.idx)) != len(self.idx):
-            raise ValueError(f"indices must be distinct particle indices in [0, {N}), got {self.idx.tolist()}")
+            raise InvalidInput(f"indices must be distinct particle indices in [0, {N}), got {self.idx.tolist()}")
         p = system.x0[self.idx] if self.points_in is None else np.asarray(self.points_in, float)
         if p.shape != (len(self.idx), dim):
-            raise ValueError(f"points must have shape ({len(self.idx)}, {dim}), got {p.shape}")
+            raise InvalidInput(f"points must have shape ({len(self.idx)}, {dim}), got {p.shape}")
         self.system, self.points = system, p.copy()
         n = N * dim
         diag = np.zeros((N, dim))

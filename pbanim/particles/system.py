@@ -72,6 +72,7 @@ import scipy.sparse as sp
 from .springs import AnchorSprings, DampedSprings, ForceJacobian, spring_forces_loop
 from ..bodies import Bodies
 from ..scene import Effect
+from ..errors import InvalidInput
 
 __all__ = ["ParticleSystem", "ForceJacobian", "Gravity", "Drag", "DampedSprings", "AnchorSprings", "UserForce",
            "spring_forces_loop"]
@@ -81,11 +82,11 @@ def _per_particle(value: Any, N: int, name: str, fix: str) -> np.ndarray:
     """Broadcast a scalar or (N,) parameter to (N,), validated finite and ≥ 0."""
     a = np.asarray(value, dtype=float)
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != N):
-        raise ValueError(f"{name} must be a scalar or have shape ({N},), got shape {a.shape}")
+        raise InvalidInput(f"{name} must be a scalar or have shape ({N},), got shape {a.shape}")
     a = np.broadcast_to(a, (N,)).copy()
     bad = ~np.isfinite(a) | (a < 0)
     if bad.any():
-        raise ValueError(f"{name} must be finite and >= 0, got {a[bad][0]}; {fix}")
+        raise InvalidInput(f"{name} must be finite and >= 0, got {a[bad][0]}; {fix}")
     return a
 
 
@@ -115,20 +116,20 @@ class ParticleSystem(Bodies):
     def __init__(self, positions: Any, velocities: Any = None, masses: Any = 1.0) -> None:
         x = np.array(positions, dtype=float, ndmin=2)
         if x.ndim != 2 or x.shape[1] not in (2, 3) or x.shape[0] == 0:
-            raise ValueError(f"positions must have shape (N, 2) or (N, 3) with N >= 1, got {x.shape}")
+            raise InvalidInput(f"positions must have shape (N, 2) or (N, 3) with N >= 1, got {x.shape}")
         v = np.zeros_like(x) if velocities is None else np.array(velocities, dtype=float, ndmin=2)
         if v.shape != x.shape:
-            raise ValueError(f"velocities must have the shape of positions {x.shape}, got {v.shape}")
+            raise InvalidInput(f"velocities must have the shape of positions {x.shape}, got {v.shape}")
         m = np.asarray(masses, dtype=float)
         if m.ndim > 1 or (m.ndim == 1 and m.shape[0] != x.shape[0]):
-            raise ValueError(f"masses must be a scalar or have shape ({x.shape[0]},), got shape {m.shape}")
+            raise InvalidInput(f"masses must be a scalar or have shape ({x.shape[0]},), got shape {m.shape}")
         m = np.broadcast_to(m, (x.shape[0],)).copy()
         if not np.all(np.isfinite(x)) or not np.all(np.isfinite(v)):
             which = "positions" if not np.all(np.isfinite(x)) else "velocities"
-            raise ValueError(f"{which} must be finite (got NaN or Inf); check the initial state")
+            raise InvalidInput(f"{which} must be finite (got NaN or Inf); check the initial state")
         if np.any(~np.isfinite(m)) or np.any(m <= 0):
             bad = m[~(np.isfinite(m) & (m > 0))][0]
-            raise ValueError(f"mass must be positive, got {bad}; use a positive finite mass for every particle")
+            raise InvalidInput(f"mass must be positive, got {bad}; use a positive finite mass for every particle")
         self.x0, self.v0, self.m = x, v, m
         self.N, self.dim = x.shape
         self.split = self.N * self.dim
@@ -263,9 +264,9 @@ class Gravity(Effect):
         g = (np.array([0.0, -9.81] if dim == 2 else [0.0, 0.0, -9.81]) if self.g_in is None
              else np.asarray(self.g_in, float))
         if g.shape != (dim,):
-            raise ValueError(f"g must have shape ({dim},) for a {dim}-D system, got {g.shape}")
+            raise InvalidInput(f"g must have shape ({dim},) for a {dim}-D system, got {g.shape}")
         if not np.all(np.isfinite(g)):
-            raise ValueError(f"g must be finite, got {g}")
+            raise InvalidInput(f"g must be finite, got {g}")
         self.g, self.system = g, system
         self._mg = system.m[:, None] * g
 
@@ -361,7 +362,7 @@ class UserForce(Effect):
     def __init__(self, force: Callable, name: str = "user_force", potential: Callable | None = None,
                  jacobian: Callable | None = None) -> None:
         if not callable(force):
-            raise ValueError(f"force must be a callable force(t, x, v) -> (N, dim) array, got {force!r}")
+            raise InvalidInput(f"force must be a callable force(t, x, v) -> (N, dim) array, got {force!r}")
         self.force, self.name, self._potential, self._jacobian = force, str(name), potential, jacobian
         if jacobian is None:
             self.jacobian = None  # type: ignore[assignment]  # no Jacobian: implicit methods fall back to FD
@@ -375,7 +376,7 @@ class UserForce(Effect):
         try:
             np.broadcast_to(F, (system.N, system.dim))
         except ValueError:
-            raise ValueError(f"force of {self.name!r} must return an array broadcastable to "
+            raise InvalidInput(f"force of {self.name!r} must return an array broadcastable to "
                              f"({system.N}, {system.dim}), got shape {F.shape}") from None
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:

@@ -26,7 +26,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 from scipy.linalg import lapack
 
-from ..errors import SingularChartError
+from ..errors import InvalidInput, SingularChartError
 
 _potrf, _pocon, _potrs = lapack.dpotrf, lapack.dpocon, lapack.dpotrs
 _addred, _maxred = np.add.reduce, np.maximum.reduce
@@ -52,7 +52,7 @@ class ChartGuard:
     def __init__(self, max_cond: float = 1e8) -> None:
         max_cond = float(max_cond)
         if not max_cond > 1:
-            raise ValueError(f"max_cond must be > 1, got {max_cond}")
+            raise InvalidInput(f"max_cond must be > 1, got {max_cond}")
         self.max_cond = max_cond
         self.d: np.ndarray | None = None
         self.last_cond = np.nan
@@ -142,7 +142,7 @@ def check_chart(q: Callable, J: Callable, Jdot_udot: Callable, u, udot, eps: flo
     u = np.atleast_1d(np.asarray(u, float))
     ud = np.atleast_1d(np.asarray(udot, float))
     if ud.shape != u.shape:
-        raise ValueError(f"udot must have the shape of u {u.shape}, got {ud.shape}")
+        raise InvalidInput(f"udot must have the shape of u {u.shape}, got {ud.shape}")
     J0 = np.asarray(J(u), float)
     cols = []
     for i in range(u.size):
@@ -151,7 +151,7 @@ def check_chart(q: Callable, J: Callable, Jdot_udot: Callable, u, udot, eps: flo
         cols.append((np.asarray(q(u + du), float).ravel() - np.asarray(q(u - du), float).ravel()) / (2 * eps))
     Jfd = np.column_stack(cols)
     if J0.shape != Jfd.shape:
-        raise ValueError(f"J(u) must have shape {Jfd.shape} (len(q), len(u)), got {J0.shape}")
+        raise InvalidInput(f"J(u) must have shape {Jfd.shape} (len(q), len(u)), got {J0.shape}")
     b_fd = (np.asarray(J(u + eps * ud), float) @ ud - np.asarray(J(u - eps * ud), float) @ ud) / (2 * eps)
     b = np.asarray(Jdot_udot(u, ud), float).ravel()
     eJ = float(np.max(np.abs(J0 - Jfd)) / max(1.0, float(np.max(np.abs(Jfd)))))
@@ -164,13 +164,13 @@ def validate_coords(coords) -> tuple:
     import sympy
 
     if isinstance(coords, sympy.Basic) or not isinstance(coords, (list, tuple)) or len(coords) == 0:
-        raise ValueError(f"coords must be a non-empty list of sympy Symbols, got {coords!r}")
+        raise InvalidInput(f"coords must be a non-empty list of sympy Symbols, got {coords!r}")
     for c in coords:
         if not isinstance(c, sympy.Symbol):
-            raise ValueError(f"coords must be sympy Symbols, got {c!r} of type {type(c).__name__}; use "
+            raise InvalidInput(f"coords must be sympy Symbols, got {c!r} of type {type(c).__name__}; use "
                              "sympy.symbols('q1 q2') (time enters through the t argument, not dynamicsymbols)")
     if len(set(coords)) != len(coords):
-        raise ValueError(f"coords must be distinct, got {coords!r}")
+        raise InvalidInput(f"coords must be distinct, got {coords!r}")
     return tuple(coords)
 
 
@@ -209,7 +209,7 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
     t0 = time.perf_counter()
     coords = validate_coords(coords)
     if t is not None and not isinstance(t, sympy.Symbol):
-        raise ValueError(f"t must be a sympy Symbol or None, got {t!r}")
+        raise InvalidInput(f"t must be a sympy Symbol or None, got {t!r}")
     speeds = tuple(sympy.Symbol(f"{c.name}_dot") for c in coords)
     cset = set(coords)
     allowed = cset | ({t} if t is not None else set())
@@ -221,7 +221,7 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
                          log=False, deep=False)
         stray = e.free_symbols - allowed
         if stray:
-            raise ValueError(f"positions may depend only on coords{' and t' if t is not None else ''}; "
+            raise InvalidInput(f"positions may depend only on coords{' and t' if t is not None else ''}; "
                              f"got symbols {sorted(map(str, stray))}; substitute numbers for parameters")
         Jt: list[list] = [[] for _ in range(n)]
         for term in sympy.Add.make_args(e):

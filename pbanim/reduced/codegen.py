@@ -22,7 +22,7 @@ from typing import Any, Callable
 import numpy as np
 import sympy
 
-from ..errors import SingularChartError
+from ..errors import InvalidInput, SingularChartError
 from .chart import ChartGuard
 
 __all__ = ["LagrangianSystem", "compile_equations"]
@@ -71,7 +71,7 @@ class LagrangianSystem:
     def _args(self, t, y):
         y = np.asarray(y, dtype=float)
         if y.shape != (2 * self.n,):
-            raise ValueError(f"y must have shape ({2 * self.n},) = [u, u̇], got {y.shape}")
+            raise InvalidInput(f"y must have shape ({2 * self.n},) = [u, u̇], got {y.shape}")
         a = y.tolist()
         a.insert(0, float(t))
         return a

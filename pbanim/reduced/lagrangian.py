@@ -83,6 +83,7 @@ import sympy
 
 from .codegen import LagrangianSystem, compile_equations
 from .chart import point_kinematics, validate_coords
+from ..errors import InvalidInput
 
 __all__ = ["EulerLagrangeEquations", "LagrangianSystem", "derive_equations", "compile_equations",
            "lagrangian_system", "clear_cache", "cache_info", "energy_rate", "speeds_for"]
@@ -96,7 +97,7 @@ def _num(c):
         return Fraction(int(c.p), int(c.q))
     if c.is_number and c.is_real:
         return float(c)
-    raise ValueError(f"coefficients must be real numbers, got {c!r}; substitute numbers for parameters")
+    raise InvalidInput(f"coefficients must be real numbers, got {c!r}; substitute numbers for parameters")
 
 
 def _sym(v):
@@ -185,17 +186,17 @@ def _validate_points(points) -> list:
     out, dim = [], None
     for k, item in enumerate(points):
         if not (isinstance(item, (list, tuple)) and len(item) == 2):
-            raise ValueError(f"points[{k}] must be a pair (mass, position), got {item!r}")
+            raise InvalidInput(f"points[{k}] must be a pair (mass, position), got {item!r}")
         m, r = item
         r = list(r) if not isinstance(r, sympy.MatrixBase) else list(r)
         if dim is None:
             dim = len(r)
         if len(r) != dim or dim not in (1, 2, 3):
-            raise ValueError(f"points[{k}] position must have {dim} components (all points share one "
+            raise InvalidInput(f"points[{k}] position must have {dim} components (all points share one "
                              f"dimension, 1–3), got {len(r)}")
         m = sympy.sympify(m)
         if not (m.is_number and m > 0):
-            raise ValueError(f"mass must be positive, got {m} for points[{k}]")
+            raise InvalidInput(f"mass must be positive, got {m} for points[{k}]")
         out.append((m, [sympy.sympify(e) for e in r]))
     return out
 
@@ -236,11 +237,11 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     t0 = time.perf_counter()
     coords = validate_coords(coords)
     if route not in ("kinematic", "energy"):
-        raise ValueError(f"route must be 'kinematic' or 'energy', got {route!r}")
+        raise InvalidInput(f"route must be 'kinematic' or 'energy', got {route!r}")
     if t is not None and not isinstance(t, sympy.Symbol):
-        raise ValueError(f"t must be a sympy Symbol or None, got {t!r}")
+        raise InvalidInput(f"t must be a sympy Symbol or None, got {t!r}")
     if points is None and T is None:
-        raise ValueError("give points (point masses and their positions) or T (a kinetic energy), got neither")
+        raise InvalidInput("give points (point masses and their positions) or T (a kinetic energy), got neither")
     pts = _validate_points(points or [])
     n = len(coords)
     dim = len(pts[0][1]) if pts else 0
@@ -248,7 +249,7 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     if gravity is not None:
         g = [sympy.sympify(x) for x in gravity]
         if len(g) != dim:
-            raise ValueError(f"gravity must have {dim} components (the points' dimension), got {len(g)}")
+            raise InvalidInput(f"gravity must have {dim} components (the points' dimension), got {len(g)}")
         g = [_num(x) for x in g]
     kin = point_kinematics([r[d] for _, r in pts for d in range(dim)], coords, t)
     speeds = kin.speeds
@@ -313,14 +314,14 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     else:
         fl = list(forces)
         if len(fl) != n:
-            raise ValueError(f"forces must have one entry per coordinate ({n}), got {len(fl)}")
+            raise InvalidInput(f"forces must have one entry per coordinate ({n}), got {len(fl)}")
         Qnc = sympy.Matrix([sympy.sympify(f) for f in fl])
     Ttot = Tx + T_pts if route == "kinematic" else Tx
     T0 = Ttot.subs({s: 0 for s in speeds}) if t is not None else sympy.S.Zero
     free = Qnc.free_symbols | Vu.free_symbols | Tx.free_symbols
     stray = free - set(coords) - set(speeds) - {t}
     if stray:
-        raise ValueError(f"the model has symbols that are neither coordinates, speeds nor t: "
+        raise InvalidInput(f"the model has symbols that are neither coordinates, speeds nor t: "
                          f"{sorted(map(str, stray))}; substitute numbers for parameters first")
     return EulerLagrangeEquations(coords, speeds, t, Macc if route == "kinematic" else {},
                                   cacc if route == "kinematic" else [], Gacc, M_extra, c_extra, G_extra, Qnc,

@@ -66,7 +66,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .chart import ChartCheck, ChartGuard, check_chart, point_kinematics, simulate_fixed
-from ..errors import SingularChartError
+from ..errors import InvalidInput, SingularChartError
 
 __all__ = ["ReducedSystem", "ChartGuard", "ChartCheck", "check_chart", "point_kinematics", "simulate_fixed"]
 
@@ -103,14 +103,14 @@ class ReducedSystem:
                  name: str = "reduced") -> None:
         for nm, f in (("q", q), ("J", J), ("Jdot_udot", Jdot_udot)):
             if not callable(f):
-                raise ValueError(f"{nm} must be a callable of u, got {type(f).__name__}")
+                raise InvalidInput(f"{nm} must be a callable of u, got {type(f).__name__}")
 
         u_chk = np.atleast_1d(np.asarray(u0, dtype=float)) if u0 is not None else None
         if u_chk is not None:  # shapes first, with messages, before any product
             nq, k = np.asarray(q(u_chk), float).size, u_chk.size
             sJ = np.shape(J(u_chk))
             if sJ != (nq, k):
-                raise ValueError(f"J(u) must have shape (len(q), len(u)) = ({nq}, {k}), got {sJ}")
+                raise InvalidInput(f"J(u) must have shape (len(q), len(u)) = ({nq}, {k}), got {sJ}")
 
         def kin(t, u, ud):
             qq = np.asarray(q(u), float).reshape(-1)
@@ -148,15 +148,15 @@ class ReducedSystem:
         if rows and all(isinstance(r, (list, tuple, sympy.MatrixBase)) for r in rows):
             dims = {len(r) for r in rows}
             if len(dims) != 1 or (dim is not None and dims != {dim}):
-                raise ValueError(f"positions must all have the same dimension {dim or ''}, got lengths {sorted(dims)}")
+                raise InvalidInput(f"positions must all have the same dimension {dim or ''}, got lengths {sorted(dims)}")
             dim = dims.pop()
             flat = [sympy.sympify(e) for r in rows for e in r]
         else:
             if dim is None:
-                raise ValueError("dim must be given when positions is a flat list of expressions")
+                raise InvalidInput("dim must be given when positions is a flat list of expressions")
             flat = [sympy.sympify(e) for e in rows]
             if len(flat) % dim:
-                raise ValueError(f"positions must have N·dim entries, got {len(flat)} for dim = {dim}")
+                raise InvalidInput(f"positions must have N·dim entries, got {len(flat)} for dim = {dim}")
         kinm = point_kinematics(flat, coords, t)
         k = len(kinm.coords)
         args = [t if t is not None else sympy.Symbol("_t"), *kinm.coords, *kinm.speeds]
@@ -182,29 +182,29 @@ class ReducedSystem:
         from ..particles.system import ParticleSystem
 
         if dim not in (2, 3):
-            raise ValueError(f"dim must be 2 or 3, got {dim!r}")
+            raise InvalidInput(f"dim must be 2 or 3, got {dim!r}")
         if u0 is None:
-            raise ValueError("u0 must be given (the initial coordinates, also the chart's reference)")
+            raise InvalidInput("u0 must be given (the initial coordinates, also the chart's reference)")
         u0 = np.atleast_1d(np.asarray(u0, dtype=float))
         if u0.ndim != 1 or not np.all(np.isfinite(u0)):
-            raise ValueError(f"u0 must be a finite 1-D array, got {u0!r}")
+            raise InvalidInput(f"u0 must be a finite 1-D array, got {u0!r}")
         k = u0.size
         ud0 = np.zeros(k) if udot0 is None else np.atleast_1d(np.asarray(udot0, dtype=float))
         if ud0.shape != (k,):
-            raise ValueError(f"udot0 must have shape ({k},) like u0, got {ud0.shape}")
+            raise InvalidInput(f"udot0 must have shape ({k},) like u0, got {ud0.shape}")
         q0, qd0, J0, b0 = kin(0.0, u0, ud0)
         if q0.size % dim:
-            raise ValueError(f"q(u) must return N·dim = multiple of {dim} values, got {q0.size}")
+            raise InvalidInput(f"q(u) must return N·dim = multiple of {dim} values, got {q0.size}")
         if J0.shape != (q0.size, k):
-            raise ValueError(f"J(u) must have shape (len(q), len(u)) = ({q0.size}, {k}), got {J0.shape}")
+            raise InvalidInput(f"J(u) must have shape (len(q), len(u)) = ({q0.size}, {k}), got {J0.shape}")
         if b0.shape != (q0.size,):
-            raise ValueError(f"Jdot_udot(u, ud) must have shape ({q0.size},), got {b0.shape}")
+            raise InvalidInput(f"Jdot_udot(u, ud) must have shape ({q0.size},), got {b0.shape}")
         N = q0.size // dim
         self.particles = ParticleSystem(q0.reshape(N, dim), qd0.reshape(N, dim), masses)
         self.forces = list(forces)
         for e in self.forces:
             if getattr(e, "phase", None) != "force":
-                raise ValueError(f"forces must be force effects (phase 'force'), got {e!r} with phase "
+                raise InvalidInput(f"forces must be force effects (phase 'force'), got {e!r} with phase "
                                  f"{getattr(e, 'phase', None)!r}; constraints are what the chart replaces")
             e.bind(self.particles)
         self._kin, self.k, self.N, self.dim, self.name = kin, k, N, dim, name
@@ -248,7 +248,7 @@ class ReducedSystem:
     def _solve(self, t, y):
         y = np.asarray(y, dtype=float)
         if y.shape != (2 * self.k,):
-            raise ValueError(f"y must have shape ({2 * self.k},) = [u, u̇], got {y.shape}")
+            raise InvalidInput(f"y must have shape ({2 * self.k},) = [u, u̇], got {y.shape}")
         u, ud = y[: self.k], y[self.k:]
         try:
             q, qd, J, b = self._kin(t, u, ud)

@@ -28,13 +28,14 @@ import numpy as np
 
 from .bodies import RigidBodies, _cross, _matvec
 from ..scene import Effect
+from ..errors import InvalidInput
 
 __all__ = ["RigidGravity", "PointForce", "RigidSprings", "LinearDrag", "AngularDrag", "QuaternionRenormalize"]
 
 
 def _require_rigid(effect: Effect, system) -> RigidBodies:
     if not isinstance(system, RigidBodies):
-        raise ValueError(f"{type(effect).__name__} acts on RigidBodies, got {type(system).__name__}")
+        raise InvalidInput(f"{type(effect).__name__} acts on RigidBodies, got {type(system).__name__}")
     return system
 
 
@@ -60,7 +61,7 @@ class RigidGravity(Effect):
     def __init__(self, g=(0.0, 0.0, -9.81)) -> None:
         self.g = np.asarray(g, dtype=float)
         if self.g.shape != (3,) or not np.all(np.isfinite(self.g)):
-            raise ValueError(f"g must be a finite 3-vector, got {g}")
+            raise InvalidInput(f"g must be a finite 3-vector, got {g}")
 
     def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
@@ -89,14 +90,14 @@ class PointForce(Effect):
         self.bodies = np.atleast_1d(np.asarray(bodies, dtype=np.intp))
         self.points = np.asarray(points_body, dtype=float).reshape(-1, 3)
         if len(self.points) != len(self.bodies):
-            raise ValueError(f"points_body must have one row per body index ({len(self.bodies)}), "
+            raise InvalidInput(f"points_body must have one row per body index ({len(self.bodies)}), "
                              f"got {len(self.points)}")
         self.force = force if callable(force) else np.broadcast_to(np.asarray(force, float), self.points.shape)
 
     def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
         if self.bodies.size and (self.bodies.min() < 0 or self.bodies.max() >= system.N):
-            raise ValueError(f"bodies must lie in [0, {system.N - 1}] (forces on the world do nothing), "
+            raise InvalidInput(f"bodies must lie in [0, {system.N - 1}] (forces on the world do nothing), "
                              f"got {self.bodies}")
         self._idx = self.bodies
 
@@ -132,13 +133,13 @@ class RigidSprings(Effect):
         self.ra = np.asarray(point_a, dtype=float).reshape(-1, 3)
         self.rb = np.asarray(point_b, dtype=float).reshape(-1, 3)
         if not (len(self.b) == len(self.ra) == len(self.rb) == k):
-            raise ValueError(f"body_a, point_a, body_b, point_b must all have {k} rows, got "
+            raise InvalidInput(f"body_a, point_a, body_b, point_b must all have {k} rows, got "
                              f"{len(self.b)}, {len(self.ra)}, {len(self.rb)}")
         self.ks = np.broadcast_to(np.asarray(stiffness, dtype=float), (k,)).copy()
         self.kd = np.broadcast_to(np.asarray(damping, dtype=float), (k,)).copy()
         for name, val in (("stiffness", self.ks), ("damping", self.kd)):
             if np.any(~np.isfinite(val)) or np.any(val < 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {val}")
+                raise InvalidInput(f"{name} must be finite and >= 0, got {val}")
         self.rest_in = rest_length
 
     def bind(self, system: RigidBodies) -> None:
@@ -150,7 +151,7 @@ class RigidSprings(Effect):
         else:
             self.rest = np.broadcast_to(np.asarray(self.rest_in, dtype=float), (len(self.a),)).copy()
             if np.any(self.rest < 0):
-                raise ValueError(f"rest_length must be >= 0, got {self.rest}")
+                raise InvalidInput(f"rest_length must be >= 0, got {self.rest}")
 
     def _points(self, y):
         rb = self.system
@@ -195,9 +196,9 @@ class _Drag(Effect):
         try:
             self.c = np.broadcast_to(c, (system.N,)).copy()
         except ValueError:
-            raise ValueError(f"coefficient must be a scalar or have shape ({system.N},), got {c.shape}") from None
+            raise InvalidInput(f"coefficient must be a scalar or have shape ({system.N},), got {c.shape}") from None
         if np.any(~np.isfinite(self.c)) or np.any(self.c < 0):
-            raise ValueError(f"coefficient must be finite and >= 0, got {self.c_in}")
+            raise InvalidInput(f"coefficient must be finite and >= 0, got {self.c_in}")
 
 
 class LinearDrag(_Drag):

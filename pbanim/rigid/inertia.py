@@ -41,6 +41,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from ..errors import InvalidInput
 
 __all__ = ["MassProperties", "box_inertia", "sphere_inertia", "cylinder_inertia", "capsule_inertia",
            "mesh_mass_properties", "parallel_axis", "validate_inertia", "principal_axes", "box_mesh",
@@ -52,7 +53,7 @@ _REL_TOL = 1e-10  # symmetry / triangle-inequality slack, relative to the larges
 def _positive(name: str, value) -> float:
     v = float(value)
     if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name} must be positive and finite, got {value}")
+        raise InvalidInput(f"{name} must be positive and finite, got {value}")
     return v
 
 
@@ -69,7 +70,7 @@ def box_inertia(mass: float, extents) -> np.ndarray:
     m = _positive("mass", mass)
     e = np.asarray(extents, dtype=float)
     if e.shape != (3,) or np.any(~np.isfinite(e)) or np.any(e <= 0):
-        raise ValueError(f"extents must be 3 positive side lengths, got {extents}")
+        raise InvalidInput(f"extents must be 3 positive side lengths, got {extents}")
     a2, b2, c2 = e * e
     return m / 12.0 * np.diag([b2 + c2, a2 + c2, a2 + b2])
 
@@ -86,7 +87,7 @@ def sphere_inertia(mass: float, radius: float, hollow: bool = False) -> np.ndarr
 
 def _axis_diag(axial: float, transverse: float, axis: int) -> np.ndarray:
     if axis not in (0, 1, 2):
-        raise ValueError(f"axis must be 0, 1 or 2, got {axis}")
+        raise InvalidInput(f"axis must be 0, 1 or 2, got {axis}")
     d = np.full(3, transverse)
     d[axis] = axial
     return np.diag(d)
@@ -115,7 +116,7 @@ def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) ->
     m, r = _positive("mass", mass), _positive("radius", radius)
     h = float(height)
     if not np.isfinite(h) or h < 0:
-        raise ValueError(f"height must be finite and >= 0 (0 gives a sphere), got {height}")
+        raise InvalidInput(f"height must be finite and >= 0 (0 gives a sphere), got {height}")
     vc, vs = np.pi * r * r * h, 4.0 / 3.0 * np.pi * r ** 3
     mc, ms = m * vc / (vc + vs), m * vs / (vc + vs)
     axial = 0.5 * mc * r * r + 0.4 * ms * r * r
@@ -140,12 +141,12 @@ def _check_closed(faces: np.ndarray, n_vertices: int) -> None:
     rkey = e[:, 1].astype(np.int64) * n_vertices + e[:, 0]
     uniq, counts = np.unique(key, return_counts=True)
     if np.any(counts > 1):
-        raise ValueError("faces must be consistently oriented: a directed edge appears "
+        raise InvalidInput("faces must be consistently oriented: a directed edge appears "
                          f"{int(counts.max())} times; flip the offending faces")
     missing = ~np.isin(rkey, uniq)
     if np.any(missing):
         i = int(np.flatnonzero(missing)[0])
-        raise ValueError(f"mesh must be closed: edge {tuple(int(v) for v in e[i])} has no opposite edge; "
+        raise InvalidInput(f"mesh must be closed: edge {tuple(int(v) for v in e[i])} has no opposite edge; "
                          "close the holes (mass properties need a watertight surface)")
 
 
@@ -171,15 +172,15 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     V = np.asarray(vertices, dtype=float)
     F = np.asarray(faces)
     if V.ndim != 2 or V.shape[1] != 3 or not np.all(np.isfinite(V)):
-        raise ValueError(f"vertices must be a finite array of shape (V, 3), got shape {V.shape}")
+        raise InvalidInput(f"vertices must be a finite array of shape (V, 3), got shape {V.shape}")
     if F.ndim != 2 or F.shape[1] != 3 or F.size == 0 or F.min() < 0 or F.max() >= len(V):
-        raise ValueError(f"faces must be an int array (F, 3) indexing {len(V)} vertices, got shape {F.shape}")
+        raise InvalidInput(f"faces must be an int array (F, 3) indexing {len(V)} vertices, got shape {F.shape}")
     _check_closed(F, len(V))
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     vol = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0          # signed tetra volumes (F,)
     volume = float(vol.sum())
     if volume <= 0:
-        raise ValueError(f"mesh volume must be positive, got {volume:.6g}; orient faces outward "
+        raise InvalidInput(f"mesh volume must be positive, got {volume:.6g}; orient faces outward "
                          "(counter-clockwise seen from outside)")
     s = a + b + c
     first = (vol[:, None] * s).sum(axis=0) / 4.0
@@ -237,32 +238,32 @@ def validate_inertia(inertia, name: str = "inertia") -> np.ndarray:
     >>> validate_inertia(np.diag([1.0, 1.0, 3.0]))
     Traceback (most recent call last):
     ...
-    ValueError: inertia violates the triangle inequality I1 + I2 >= I3: principal moments [1. 1. 3.] (1 + 1 < 3); no mass distribution has these moments — check the axes or units
+    pbanim.errors.InvalidInput: inertia violates the triangle inequality I1 + I2 >= I3: principal moments [1. 1. 3.] (1 + 1 < 3); no mass distribution has these moments — check the axes or units
     """
     I = np.asarray(inertia, dtype=float)
     if I.shape[-2:] != (3, 3):
-        raise ValueError(f"{name} must have shape (3, 3) or (N, 3, 3), got {I.shape}")
+        raise InvalidInput(f"{name} must have shape (3, 3) or (N, 3, 3), got {I.shape}")
     flat = I.reshape(-1, 3, 3)
     label = lambda k: name if flat.shape[0] == 1 else f"{name}[{k}]"  # noqa: E731
     finite = np.all(np.isfinite(flat), axis=(1, 2))
     if not finite.all():
         k = int(np.flatnonzero(~finite)[0])
-        raise ValueError(f"{label(k)} must be finite, got {flat[k].tolist()}")
+        raise InvalidInput(f"{label(k)} must be finite, got {flat[k].tolist()}")
     scale = np.maximum(np.abs(flat).max(axis=(1, 2)), np.finfo(float).tiny)
     asym = np.abs(flat - np.swapaxes(flat, 1, 2)).max(axis=(1, 2))
     if np.any(asym > _REL_TOL * scale):
         k = int(np.flatnonzero(asym > _REL_TOL * scale)[0])
-        raise ValueError(f"{label(k)} must be symmetric, got {flat[k].tolist()} (max |I - I^T| = {asym[k]:.3g})")
+        raise InvalidInput(f"{label(k)} must be symmetric, got {flat[k].tolist()} (max |I - I^T| = {asym[k]:.3g})")
     w = np.linalg.eigvalsh(flat)                      # all bodies at once, ascending
     if np.any(w[:, 0] <= 0):
         k = int(np.flatnonzero(w[:, 0] <= 0)[0])
-        raise ValueError(f"{label(k)} must be positive definite, got principal moments {w[k]}; "
+        raise InvalidInput(f"{label(k)} must be positive definite, got principal moments {w[k]}; "
                          "every moment of a solid body is > 0")
     bad = w[:, 0] + w[:, 1] < w[:, 2] * (1 - _REL_TOL)
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
         a, b, c = w[k]
-        raise ValueError(f"{label(k)} violates the triangle inequality I1 + I2 >= I3: principal moments "
+        raise InvalidInput(f"{label(k)} violates the triangle inequality I1 + I2 >= I3: principal moments "
                          f"{w[k]} ({a:.6g} + {b:.6g} < {c:.6g}); no mass distribution has these "
                          "moments — check the axes or units")
     return I

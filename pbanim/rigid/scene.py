@@ -35,6 +35,7 @@ from .bodies import RigidBodies, _cross
 from .effects import QuaternionRenormalize
 from .quat import quat_exp, quat_multiply
 from ..scene import Effect, Scene
+from ..errors import InvalidInput
 
 __all__ = ["RigidScene", "exp_map_step", "dexpinv"]
 
@@ -121,9 +122,9 @@ class RigidScene(Scene):
 
     def __init__(self, system: RigidBodies, effects: Sequence[Effect] = (), quaternions: str = "renormalize") -> None:
         if not isinstance(system, RigidBodies):
-            raise ValueError(f"system must be a RigidBodies, got {type(system).__name__}")
+            raise InvalidInput(f"system must be a RigidBodies, got {type(system).__name__}")
         if quaternions not in QUATERNION_MODES:
-            raise ValueError(f"quaternions must be one of {QUATERNION_MODES}, got {quaternions!r}")
+            raise InvalidInput(f"quaternions must be one of {QUATERNION_MODES}, got {quaternions!r}")
         effects = list(effects)
         if quaternions == "renormalize" and not any(isinstance(e, QuaternionRenormalize) for e in effects):
             effects.append(QuaternionRenormalize())
