@@ -35,6 +35,11 @@ __all__ = [
 ]
 
 
+def _tail(detail: str) -> str:
+    """"; detail" when there is a detail, else nothing (the middle part of every message below)."""
+    return f"; {detail}" if detail else ""
+
+
 class PbanimError(Exception):
     """Base class of every error pbanim raises on purpose (besides ``ValueError`` for bad input)."""
 
@@ -62,7 +67,7 @@ class SimulationDiverged(PbanimError, FloatingPointError):
         self.step = int(step)
         self.quantity = quantity
         msg = (f"simulation diverged at t = {self.t:.6g} (step {self.step}): {quantity} is not finite"
-               f"{'; ' + detail if detail else ''}; reduce the step h or use a stabler method")
+               f"{_tail(detail)}; reduce the step h or use a stabler method")
         super().__init__(msg)
 
 
@@ -119,10 +124,9 @@ class SingularConstraintError(PbanimError, ValueError):
     """
 
     def __init__(self, rows, residual: float, detail: str = "") -> None:
-        self.rows = [int(r) for r in rows]
-        self.residual = float(residual)
+        self.rows, self.residual = [int(r) for r in rows], float(residual)
         msg = (f"constraints are inconsistent: rows {self.rows} are dependent and conflict "
-               f"(least-squares residual {self.residual:.3e}){'; ' + detail if detail else ''}; "
+               f"(least-squares residual {self.residual:.3e}){_tail(detail)}; "
                "remove or fix the conflicting constraints")
         super().__init__(msg)
 
@@ -138,12 +142,9 @@ class ConvergenceError(PbanimError, RuntimeError):
     """
 
     def __init__(self, solver: str, iterations: int, residual: float, tol: float, detail: str = "") -> None:
-        self.solver = solver
-        self.iterations = int(iterations)
-        self.residual = float(residual)
-        self.tol = float(tol)
+        self.solver, self.iterations, self.residual, self.tol = solver, int(iterations), float(residual), float(tol)
         msg = (f"{solver} did not converge: residual {self.residual:.3e} > tol {self.tol:.1e} after "
-               f"{self.iterations} iterations{'; ' + detail if detail else ''}; raise max_iter, loosen tol "
+               f"{self.iterations} iterations{_tail(detail)}; raise max_iter, loosen tol "
                "or use a direct solver")
         super().__init__(msg)
 
@@ -155,7 +156,7 @@ class SingularChartError(PbanimError, ValueError):
         self.cond = float(cond)
         self.u = u
         msg = (f"reduced coordinates are near a singular chart: cond(JᵀMJ) = {self.cond:.3e} at u = {u}"
-               f"{'; ' + detail if detail else ''}; switch to another chart or to maximal coordinates")
+               f"{_tail(detail)}; switch to another chart or to maximal coordinates")
         super().__init__(msg)
 
 
@@ -175,7 +176,7 @@ class InfeasibleContact(PbanimError, RuntimeError):
         self.status = str(status)
         self.residual = float(residual)
         msg = (f"contact solver {solver!r} failed: status {self.status}, residual {self.residual:.3e}"
-               f"{'; ' + detail if detail else ''}")
+               f"{_tail(detail)}")
         super().__init__(msg)
 
 
@@ -187,5 +188,5 @@ class InconsistentContact(PbanimError, RuntimeError):
 
     def __init__(self, detail: str = "") -> None:
         msg = ("acceleration-level contact problem is inconsistent (no contact forces satisfy the "
-               f"complementarity conditions){'; ' + detail if detail else ''}; use the velocity-level scheme")
+               f"complementarity conditions){_tail(detail)}; use the velocity-level scheme")
         super().__init__(msg)

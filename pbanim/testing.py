@@ -11,6 +11,7 @@ from typing import Callable
 
 import numpy as np
 
+from .derivatives import central_jacobian
 from .errors import InvalidInput
 from .results import natural_map_residual
 
@@ -119,12 +120,7 @@ def check_grad(f: Callable[[np.ndarray], np.ndarray], x, J, eps: float = 1e-6, r
     """
     x = np.asarray(x, dtype=float)
     J = J.toarray() if hasattr(J, "toarray") else np.asarray(J, dtype=float)
-    f0 = np.atleast_1d(f(x))
-    Jfd = np.empty((f0.size, x.size))
-    for i in range(x.size):
-        dx = np.zeros_like(x)
-        dx[i] = eps * max(1.0, abs(x[i]))
-        Jfd[:, i] = (np.atleast_1d(f(x + dx)) - np.atleast_1d(f(x - dx))).ravel() / (2 * dx[i])
+    Jfd = central_jacobian(f, x, eps, relative=True)
     J = J.reshape(Jfd.shape)
     diff = np.abs(J - Jfd)
     bound = atol + rtol * np.abs(Jfd)

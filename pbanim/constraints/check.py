@@ -16,6 +16,7 @@ import scipy.sparse as sp
 
 from .kinds import Constraint, Distance  # noqa: F401  (Distance: doctest)
 from ..errors import InvalidInput
+from ..derivatives import central_jacobian, directional_derivative
 
 __all__ = ["UserConstraint", "ConstraintCheck", "check_constraint"]
 
@@ -87,14 +88,9 @@ def check_constraint(c: Constraint, q, qd, eps: float = 1e-6, tol: float = 1e-6)
     if not hasattr(c, "dim"):
         c.bind(x.shape[0], x.shape[1], x0=x)
     J = c.jacobian(x).toarray()
-    Jfd = np.empty_like(J)
-    flat = x.ravel()
-    for j in range(flat.size):
-        dx = np.zeros_like(flat)
-        dx[j] = eps
-        Jfd[:, j] = (c.value((flat + dx).reshape(x.shape)) - c.value((flat - dx).reshape(x.shape))) / (2 * eps)
+    Jfd = central_jacobian(c.value, x, eps).reshape(J.shape)
     Jd = c.jdot_qdot(x, v)
-    Jdfd = (c.jacobian(x + eps * v).toarray() - c.jacobian(x - eps * v).toarray()) @ v.ravel() / (2 * eps)
+    Jdfd = directional_derivative(lambda z: c.jacobian(z).toarray() @ v.ravel(), x, v, eps)
     eJ = float(np.max(np.abs(J - Jfd), initial=0.0) / max(1.0, np.max(np.abs(J), initial=0.0)))
     eD = float(np.max(np.abs(Jd - Jdfd), initial=0.0) / max(1.0, np.max(np.abs(Jd), initial=0.0)))
     return ConstraintCheck(eJ, eD, tol)

@@ -57,6 +57,7 @@ class ForceJacobian:
 
 
 def _per_spring(value: Any, S: int, name: str, fix: str) -> np.ndarray:
+    """Broadcast a scalar or (S,) parameter (per spring, or per particle) to (S,), validated finite and ≥ 0."""
     a = np.asarray(value, dtype=float)
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != S):
         raise InvalidInput(f"{name} must be a scalar or have shape ({S},), got shape {a.shape}")

@@ -69,6 +69,7 @@ from typing import Any, Callable
 import numpy as np
 import scipy.sparse as sp
 
+from .springs import _per_spring as _per_particle
 from .springs import AnchorSprings, DampedSprings, ForceJacobian, spring_forces_loop
 from ..bodies import Bodies
 from ..scene import Effect
@@ -78,16 +79,6 @@ __all__ = ["ParticleSystem", "ForceJacobian", "Gravity", "Drag", "DampedSprings"
            "spring_forces_loop"]
 
 
-def _per_particle(value: Any, N: int, name: str, fix: str) -> np.ndarray:
-    """Broadcast a scalar or (N,) parameter to (N,), validated finite and ≥ 0."""
-    a = np.asarray(value, dtype=float)
-    if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != N):
-        raise InvalidInput(f"{name} must be a scalar or have shape ({N},), got shape {a.shape}")
-    a = np.broadcast_to(a, (N,)).copy()
-    bad = ~np.isfinite(a) | (a < 0)
-    if bad.any():
-        raise InvalidInput(f"{name} must be finite and >= 0, got {a[bad][0]}; {fix}")
-    return a
 
 
 class ParticleSystem(Bodies):

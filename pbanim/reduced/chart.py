@@ -27,6 +27,7 @@ import numpy as np
 from scipy.linalg import lapack
 
 from ..errors import InvalidInput, SingularChartError
+from ..derivatives import central_jacobian, directional_derivative
 
 _potrf, _pocon, _potrs = lapack.dpotrf, lapack.dpocon, lapack.dpotrs
 _addred, _maxred = np.add.reduce, np.maximum.reduce
@@ -144,15 +145,10 @@ def check_chart(q: Callable, J: Callable, Jdot_udot: Callable, u, udot, eps: flo
     if ud.shape != u.shape:
         raise InvalidInput(f"udot must have the shape of u {u.shape}, got {ud.shape}")
     J0 = np.asarray(J(u), float)
-    cols = []
-    for i in range(u.size):
-        du = np.zeros_like(u)
-        du[i] = eps
-        cols.append((np.asarray(q(u + du), float).ravel() - np.asarray(q(u - du), float).ravel()) / (2 * eps))
-    Jfd = np.column_stack(cols)
+    Jfd = central_jacobian(q, u, eps)
     if J0.shape != Jfd.shape:
         raise InvalidInput(f"J(u) must have shape {Jfd.shape} (len(q), len(u)), got {J0.shape}")
-    b_fd = (np.asarray(J(u + eps * ud), float) @ ud - np.asarray(J(u - eps * ud), float) @ ud) / (2 * eps)
+    b_fd = directional_derivative(lambda z: np.asarray(J(z), float) @ ud, u, ud, eps)
     b = np.asarray(Jdot_udot(u, ud), float).ravel()
     eJ = float(np.max(np.abs(J0 - Jfd)) / max(1.0, float(np.max(np.abs(Jfd)))))
     eb = float(np.max(np.abs(b - b_fd)) / max(1.0, float(np.max(np.abs(b_fd)))))
