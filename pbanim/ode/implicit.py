@@ -193,7 +193,8 @@ def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spl
     at any h); stability region the whole left half-plane. Both φ terms are read off one matrix exponential
     of the augmented matrix [[hJ, hv, hf], [0, 0, h], [0, 0, 0]] (:func:`expm_small` or
     ``scipy.linalg.expm``, batched over K; ``expm_multiply`` for a sparse J). v is a forward difference
-    in t (one more evaluation of f, exactly 0 for an autonomous f); without ``jac`` J is one too.
+    in t (one more evaluation of f), skipped for a right-hand side that declares ``fun.autonomous = True``;
+    without ``jac`` J is a forward difference too.
 
     >>> y = exponential_euler_step(lambda t, y: np.array([y[1], -y[0]]), 0.0, np.array([1.0, 0.0]), np.pi,
     ...                            jac=lambda t, y: np.array([[0.0, 1.0], [-1.0, 0.0]]))
@@ -202,21 +203,27 @@ def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spl
     """
     f = fun(t, y)
     J = _jacobian(fun, t, y, f, jac)
-    dt = np.sqrt(np.finfo(float).eps) * max(1.0, abs(t))
-    v = (fun(t + dt, y) - f) / dt
-    n = y.shape[-1]
+    # columns after J: [h v, h f] with the t row (0, h), or just h f for a declared time-independent f
+    cols = [h * f]
+    if not getattr(fun, "autonomous", False):
+        dt = np.sqrt(np.finfo(float).eps) * max(1.0, abs(t))
+        cols.insert(0, h * (fun(t + dt, y) - f) / dt)
+    n, p = y.shape[-1], len(cols)
     if sp.issparse(J):
         from scipy.sparse.linalg import expm_multiply
 
-        col = lambda a: sp.csc_matrix(np.asarray(a, dtype=float).reshape(-1, 1))  # noqa: E731
-        aug = sp.bmat([[h * J, col(h * v), col(h * f)], [None, sp.csc_matrix((1, 1)), col([h])],
-                       [None, None, sp.csc_matrix((1, 1))]], format="csc")
-        e = np.zeros(n + 2)
-        e[n + 1] = 1.0
+        top = sp.hstack([h * J] + [sp.csc_matrix(np.asarray(c, dtype=float).reshape(-1, 1)) for c in cols])
+        tail = sp.csc_matrix((p, n + p))
+        if p == 2:
+            tail = sp.csc_matrix(([h], ([0], [n + 1])), shape=(p, n + p))
+        aug = sp.vstack([top, tail], format="csc")
+        e = np.zeros(n + p)
+        e[-1] = 1.0
         return y + expm_multiply(aug, e)[:n]
-    aug = np.zeros(y.shape[:-1] + (n + 2, n + 2))
+    aug = np.zeros(y.shape[:-1] + (n + p, n + p))
     aug[..., :n, :n] = h * np.asarray(J, dtype=float)
-    aug[..., :n, n] = h * v
-    aug[..., :n, n + 1] = h * f
-    aug[..., n, n + 1] = h
-    return y + (expm_small(aug) if n < 32 else sla.expm(aug))[..., :n, n + 1]
+    for i, c in enumerate(cols):
+        aug[..., :n, n + i] = c
+    if p == 2:
+        aug[..., n, n + 1] = h
+    return y + (expm_small(aug) if n < 32 else sla.expm(aug))[..., :n, -1]

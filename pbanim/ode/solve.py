@@ -175,6 +175,8 @@ def _solve_fixed(fun, t0, tf, y, m: Method, h, jac, t_eval, evs, max_steps, spli
         counter[0] += 1
         return fun(t, yy)
 
+    f.autonomous = getattr(fun, "autonomous", False)   # a declared time-independent f stays declared
+
     jf = jac
     if callable(jac):
         def jf(t, yy):
