@@ -89,3 +89,13 @@ def test_every_public_name_in_the_readme_imports(module, name):
     except ModuleNotFoundError:
         pass
     assert hasattr(importlib.import_module(module), name), f"README names {module}.{name}"
+
+
+def test_readme_examples_run():
+    # the code a newcomer copies first must run as printed (blocks run in order, in one fresh process)
+    text = (ROOT / "README.md").read_text()
+    code = "\n".join(re.findall(r"```python\n(.*?)```", text, flags=re.S))
+    assert "Scene" in code and "solve" in code
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "('gravity', 'drag', 'integrate')" in out.stdout
