@@ -1,0 +1,164 @@
+"""RNEA, CRBA and ABA vectorized over a batch of K states (chapter 08).
+
+The same recursions as :mod:`pbanim.articulated.dynamics` (read that module first), with every per-link
+quantity carrying a leading batch axis: ⁱX_λ (K, 6, 6), v̂_i (K, 6), I^A_i (K, 6, 6). The loops run over
+the n links only; each step is one array operation on all K states, so the Python overhead of a step is
+paid once per batch instead of once per state. Cross products are applied directly,
+
+    v̂ × ŵ = (ω × w_ω,  v × w_ω + ω × w_v),     v̂ ×* f̂ = (ω × n + v × f,  ω × f),
+
+instead of forming the 6 × 6 matrices. ``q`` of shape (nq,) is treated as K = 1 and the result squeezed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tree import ArticulatedTree
+
+__all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
+
+
+def _cross(a, b):
+    """a × b for (..., 3) arrays, by components."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def _crm(v, w):
+    return np.concatenate([_cross(v[..., :3], w[..., :3]),
+                           _cross(v[..., 3:], w[..., :3]) + _cross(v[..., :3], w[..., 3:])], axis=-1)
+
+
+def _crf(v, f):
+    return np.concatenate([_cross(v[..., :3], f[..., :3]) + _cross(v[..., 3:], f[..., 3:]),
+                           _cross(v[..., :3], f[..., 3:])], axis=-1)
+
+
+def _mv(M, x):
+    return np.einsum("kij,kj->ki", M, x)
+
+
+def _mtv(M, x):
+    return np.einsum("kji,kj->ki", M, x)
+
+
+def _batch(tree, q, *more, names=("qd", "x")):
+    q = np.asarray(q, dtype=float)
+    single = q.ndim == 1
+    q2 = np.atleast_2d(q)
+    out = []
+    for arr, name in zip(more, names):
+        _, a = tree.check_state(q2, np.atleast_2d(np.asarray(arr, dtype=float)), name_qd=name)
+        out.append(a)
+    tree.check_state(q2)
+    return single, q2, out
+
+
+def link_transforms_batch(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
+    """ⁱX_λ(i) for each link, each (K, 6, 6)."""
+    A = tree.arrays()
+    return [tree.joint_transform(i, q[:, A["qi"][i]]) @ A["XT"][i] for i in range(tree.n)]
+
+
+def _ext(tree, f_ext, K):
+    if f_ext is None:
+        return np.zeros((K, tree.n, 6))
+    f = np.broadcast_to(np.asarray(f_ext, dtype=float), (K, tree.n, 6))
+    if not np.all(np.isfinite(f)):
+        from ..errors import InvalidInput
+
+        raise InvalidInput("f_ext must be finite")
+    return f
+
+
+def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
+    """τ for K states at once: q (K, nq), q̇ and q̈ (K, nv) → τ (K, nv)."""
+    single, q, (qd, qdd) = _batch(tree, q, qd, qdd, names=("qd", "qdd"))
+    A, K = tree.arrays(), q.shape[0]
+    fx = _ext(tree, f_ext, K)
+    Xup = link_transforms_batch(tree, q)
+    v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
+    a0 = np.broadcast_to(A["a0"], (K, 6))
+    for i in range(tree.n):
+        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
+        vJ = qd[:, vi] @ S.T
+        v[i] = (_mv(Xup[i], v[lam]) if lam >= 0 else 0.0) + vJ
+        a[i] = _mv(Xup[i], a[lam] if lam >= 0 else a0) + qdd[:, vi] @ S.T + _crm(v[i], vJ)
+        I = A["I"][i]
+        f[i] = a[i] @ I.T + _crf(v[i], v[i] @ I.T) - fx[:, i]
+    tau = np.zeros((K, tree.nv))
+    for i in reversed(range(tree.n)):
+        tau[:, A["vi"][i]] = f[i] @ A["S"][i]
+        lam = tree.parent[i]
+        if lam >= 0:
+            f[lam] = f[lam] + _mtv(Xup[i], f[i])
+    return tau[0] if single else tau
+
+
+def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
+    """H(q) for K states: (K, nv, nv)."""
+    single, q, _ = _batch(tree, q)
+    A, K = tree.arrays(), q.shape[0]
+    Xup = link_transforms_batch(tree, q)
+    Ic = [np.broadcast_to(I, (K, 6, 6)).copy() for I in A["I"]]
+    for i in reversed(range(tree.n)):
+        lam = tree.parent[i]
+        if lam >= 0:
+            Ic[lam] += np.swapaxes(Xup[i], 1, 2) @ Ic[i] @ Xup[i]
+    H = np.zeros((K, tree.nv, tree.nv))
+    for i in range(tree.n):
+        S, vi = A["S"][i], A["vi"][i]
+        F = Ic[i] @ S                                           # (K, 6, d_i)
+        B = np.swapaxes(F, 1, 2) @ S
+        H[:, vi, vi] = 0.5 * (B + np.swapaxes(B, 1, 2))
+        j = i
+        while tree.parent[j] >= 0:                              # at most depth(i) < n steps
+            F = np.swapaxes(Xup[j], 1, 2) @ F
+            j = tree.parent[j]
+            Hij = np.swapaxes(F, 1, 2) @ A["S"][j]
+            H[:, vi, A["vi"][j]] = Hij
+            H[:, A["vi"][j], vi] = np.swapaxes(Hij, 1, 2)
+    return H[0] if single else H
+
+
+def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
+    """q̈ for K states at once by the articulated-body algorithm (joint damping included)."""
+    single, q, (qd, tau) = _batch(tree, q, qd, tau, names=("qd", "tau"))
+    A, K, n = tree.arrays(), q.shape[0], tree.n
+    fx = _ext(tree, f_ext, K)
+    tau = tau - np.repeat(A["damping"], [s.stop - s.start for s in A["vi"]]) * qd
+    Xup = link_transforms_batch(tree, q)
+    v, c, IA, pA = [None] * n, [None] * n, [None] * n, [None] * n
+    for i in range(n):
+        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
+        vJ = qd[:, vi] @ S.T
+        v[i] = (_mv(Xup[i], v[lam]) if lam >= 0 else 0.0) + vJ
+        c[i] = _crm(v[i], vJ)
+        IA[i] = np.broadcast_to(A["I"][i], (K, 6, 6)).copy()
+        pA[i] = _crf(v[i], v[i] @ A["I"][i].T) - fx[:, i]
+    U, Dinv, u = [None] * n, [None] * n, [None] * n
+    for i in reversed(range(n)):
+        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
+        U[i] = IA[i] @ S                                        # (K, 6, d)
+        D = S.T @ U[i]                                          # (K, d, d)
+        Dinv[i] = np.linalg.inv(D) if S.shape[1] else np.zeros((K, 0, 0))
+        u[i] = tau[:, vi] - pA[i] @ S                           # (K, d)
+        if lam >= 0:
+            UD = U[i] @ Dinv[i]
+            Ia = IA[i] - UD @ np.swapaxes(U[i], 1, 2)
+            pa = pA[i] + _mv(Ia, c[i]) + np.einsum("kij,kj->ki", UD, u[i])
+            XT = np.swapaxes(Xup[i], 1, 2)
+            IA[lam] += XT @ Ia @ Xup[i]
+            pA[lam] = pA[lam] + _mv(XT, pa)
+    qdd = np.zeros((K, tree.nv))
+    a = [None] * n
+    a0 = np.broadcast_to(A["a0"], (K, 6))
+    for i in range(n):
+        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
+        ap = _mv(Xup[i], a[lam] if lam >= 0 else a0) + c[i]
+        qi = np.einsum("kij,kj->ki", Dinv[i], u[i] - np.einsum("kji,kj->ki", U[i], ap))
+        qdd[:, vi] = qi
+        a[i] = ap + qi @ S.T
+    return qdd[0] if single else qdd

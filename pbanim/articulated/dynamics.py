@@ -1,0 +1,166 @@
+"""Featherstone's algorithms, readable: RNEA, CRBA, ABA for one state (chapter 08).
+
+With the tree of :mod:`pbanim.articulated.tree` (ⁱX_λ = X_J(q_i) X_T(i), S_i, I_i) and the base
+acceleration â₀ = (0, −g) (gravity as a fictitious upward acceleration of the world):
+
+RNEA, inverse dynamics τ = ID(q, q̇, q̈) (Featherstone 2008, Table 5.1):
+    v̂_i = ⁱX_λ v̂_λ + S_i q̇_i,   â_i = ⁱX_λ â_λ + S_i q̈_i + v̂_i × S_i q̇_i,
+    f̂_i = I_i â_i + v̂_i ×* I_i v̂_i − f̂ᵉˣᵗ_i,   then from the leaves:  τ_i = S_iᵀ f̂_i,  f̂_λ += ⁱX_λᵀ f̂_i.
+CRBA, the joint-space mass matrix H (Table 6.2): composite inertias I^c_λ += ⁱX_λᵀ I^c_i ⁱX_λ, then
+    H_ii = S_iᵀ I^c_i S_i and, walking F = I^c_i S_i up to each ancestor j, H_ji = H_ijᵀ = S_jᵀ F.
+ABA, forward dynamics q̈ = FD(q, q̇, τ) in O(n) (Table 7.1): articulated inertias I^A and bias forces p^A
+from the leaves, U_i = I^A_i S_i, D_i = S_iᵀ U_i, u_i = τ_i − S_iᵀ p^A_i, and accelerations from the root.
+
+So H q̈ + C(q, q̇) = τ with C = ID(q, q̇, 0): ABA equals the CRBA solve H⁻¹(τ − C) (tested), and
+RNEA(q, q̇, ABA(q, q̇, τ)) = τ. Joint damping b adds −b q̇ to τ in ABA and the simulation (not in RNEA,
+which is the rigid-body inverse dynamics). External forces f̂ᵉˣᵗ (n, 6) are in link coordinates.
+The vectorized versions over a batch of K states are in :mod:`pbanim.articulated.batched`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .spatial import crf, crm
+from .tree import ArticulatedTree
+
+__all__ = ["link_transforms", "rnea", "crba", "aba", "kinetic_energy", "potential_energy", "bias_forces"]
+
+
+def link_transforms(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
+    """ⁱX_λ(i) = X_J(q_i) X_T(i) for every link (the child-from-parent transforms)."""
+    A = tree.arrays()
+    return [tree.joint_transform(i, q[A["qi"][i]]) @ A["XT"][i] for i in range(tree.n)]
+
+
+def _ext(tree, f_ext):
+    if f_ext is None:
+        return np.zeros((tree.n, 6))
+    f = np.asarray(f_ext, dtype=float)
+    if f.shape != (tree.n, 6) or not np.all(np.isfinite(f)):
+        from ..errors import InvalidInput
+
+        raise InvalidInput(f"f_ext must be finite with shape ({tree.n}, 6) (link coordinates), got {f.shape}")
+    return f
+
+
+def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
+    """τ = ID(q, q̇, q̈): the joint forces that produce the accelerations q̈ (gravity included)."""
+    q, qd = tree.check_state(q, qd)
+    _, qdd = tree.check_state(q, qdd, name_qd="qdd")
+    A, fx = tree.arrays(), _ext(tree, f_ext)
+    Xup = link_transforms(tree, q)
+    v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
+    for i in range(tree.n):
+        S, vi = A["S"][i], A["vi"][i]
+        vJ = S @ qd[vi]
+        lam = tree.parent[i]
+        v[i] = (Xup[i] @ v[lam] if lam >= 0 else np.zeros(6)) + vJ
+        a[i] = Xup[i] @ (a[lam] if lam >= 0 else A["a0"]) + S @ qdd[vi] + crm(v[i]) @ vJ
+        I = A["I"][i]
+        f[i] = I @ a[i] + crf(v[i]) @ (I @ v[i]) - fx[i]
+    tau = np.zeros(tree.nv)
+    for i in reversed(range(tree.n)):
+        tau[A["vi"][i]] = A["S"][i].T @ f[i]
+        lam = tree.parent[i]
+        if lam >= 0:
+            f[lam] = f[lam] + Xup[i].T @ f[i]
+    return tau
+
+
+def bias_forces(tree: ArticulatedTree, q, qd, f_ext=None) -> np.ndarray:
+    """C(q, q̇) = ID(q, q̇, 0): gravity, Coriolis and centrifugal joint forces (minus external ones)."""
+    return rnea(tree, q, qd, np.zeros(tree.nv), f_ext)
+
+
+def crba(tree: ArticulatedTree, q) -> np.ndarray:
+    """H(q), the joint-space mass matrix (nv, nv), symmetric positive definite."""
+    q, _ = tree.check_state(q)
+    A = tree.arrays()
+    Xup = link_transforms(tree, q)
+    Ic = [I.copy() for I in A["I"]]
+    for i in reversed(range(tree.n)):
+        lam = tree.parent[i]
+        if lam >= 0:
+            Ic[lam] = Ic[lam] + Xup[i].T @ Ic[i] @ Xup[i]
+    H = np.zeros((tree.nv, tree.nv))
+    for i in range(tree.n):
+        S, vi = A["S"][i], A["vi"][i]
+        F = Ic[i] @ S
+        B = S.T @ F
+        H[vi, vi] = 0.5 * (B + B.T)                # symmetric to the last bit (a 6×6 block for floating)
+        j = i
+        while tree.parent[j] >= 0:          # at most depth(i) < n steps: λ(j) < j
+            F = Xup[j].T @ F
+            j = tree.parent[j]
+            H[vi, A["vi"][j]] = F.T @ A["S"][j]
+            H[A["vi"][j], vi] = H[vi, A["vi"][j]].T
+    return H
+
+
+def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
+    """q̈ = FD(q, q̇, τ) by the articulated-body algorithm, O(n); joint damping included."""
+    q, qd = tree.check_state(q, qd)
+    _, tau = tree.check_state(q, tau, name_qd="tau")
+    A, fx = tree.arrays(), _ext(tree, f_ext)
+    tau = tau - np.repeat(A["damping"], [s.stop - s.start for s in A["vi"]]) * qd
+    Xup = link_transforms(tree, q)
+    n = tree.n
+    v, c, IA, pA = [None] * n, [None] * n, [None] * n, [None] * n
+    for i in range(n):
+        S, vi = A["S"][i], A["vi"][i]
+        vJ = S @ qd[vi]
+        lam = tree.parent[i]
+        v[i] = (Xup[i] @ v[lam] if lam >= 0 else np.zeros(6)) + vJ
+        c[i] = crm(v[i]) @ vJ
+        IA[i] = A["I"][i].copy()
+        pA[i] = crf(v[i]) @ (A["I"][i] @ v[i]) - fx[i]
+    U, Dinv, u = [None] * n, [None] * n, [None] * n
+    for i in reversed(range(n)):
+        S, vi = A["S"][i], A["vi"][i]
+        U[i] = IA[i] @ S
+        Dinv[i] = np.linalg.inv(S.T @ U[i]) if S.shape[1] else np.zeros((0, 0))
+        u[i] = tau[vi] - S.T @ pA[i]
+        lam = tree.parent[i]
+        if lam >= 0:
+            Ia = IA[i] - U[i] @ Dinv[i] @ U[i].T
+            pa = pA[i] + Ia @ c[i] + U[i] @ (Dinv[i] @ u[i])
+            IA[lam] = IA[lam] + Xup[i].T @ Ia @ Xup[i]
+            pA[lam] = pA[lam] + Xup[i].T @ pa
+    qdd = np.zeros(tree.nv)
+    a = [None] * n
+    for i in range(n):
+        S, vi = A["S"][i], A["vi"][i]
+        lam = tree.parent[i]
+        ap = Xup[i] @ (a[lam] if lam >= 0 else A["a0"]) + c[i]
+        qdd[vi] = Dinv[i] @ (u[i] - U[i].T @ ap)
+        a[i] = ap + S @ qdd[vi]
+    return qdd
+
+
+def kinetic_energy(tree: ArticulatedTree, q, qd) -> float:
+    """T = ½ q̇ᵀ H(q) q̇."""
+    q, qd = tree.check_state(q, qd)
+    return float(0.5 * qd @ crba(tree, q) @ qd)
+
+
+def potential_energy(tree: ArticulatedTree, q) -> float:
+    """V = −Σ m_i g·x_ci, with x_ci the world position of link i's centre of mass."""
+    q, _ = tree.check_state(q)
+    Xup = link_transforms(tree, q)
+    X0 = [None] * tree.n
+    V = 0.0
+    for i in range(tree.n):
+        lam = tree.parent[i]
+        X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]
+        E = X0[i][:3, :3]                       # world → link rotation
+        r = _origin(X0[i])                      # link origin in world coordinates
+        lk = tree.links[i]
+        V -= lk.mass * tree.gravity @ (r + E.T @ lk.com)
+    return float(V)
+
+
+def _origin(X: np.ndarray) -> np.ndarray:
+    """The origin r of frame B in A's coordinates from ᴮX_A = [[E, 0], [−E r×, E]]: r× = −Eᵀ(−E r×)."""
+    M = -X[:3, :3].T @ X[3:, :3]
+    return np.array([M[2, 1], M[0, 2], M[1, 0]])

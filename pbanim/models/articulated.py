@@ -1,0 +1,128 @@
+"""Canonical articulated models of chapter 08, built in Python and shipped as URDF (ORACLES I1–I5).
+
+============================  ==========================================================================
+model                         what it is
+============================  ==========================================================================
+``pendulum_chain(n, ...)``    planar chain of n revolute joints about z, point masses at the link ends,
+                              gravity −y: the same system as :func:`pbanim.models.reduced.n_link_pendulum`
+                              (relative joint angles here, absolute angles there)
+``ragdoll()``                 a floating pelvis with a torso, a head, two arms (shoulder, elbow) and two
+                              legs (hip, knee), 11 links, 16 joint coordinates plus the floating base
+``planar_biped()``            the 7-link planar biped of the characters lecture: the trunk on a planar
+                              base (x, y slides and a pitch hinge), hips, knees and ankles about z
+============================  ==========================================================================
+
+The URDF copies live in ``pbanim/models/urdf/`` (:func:`urdf_path`); ``tests/test_articulated.py`` loads
+them with :func:`pbanim.articulated.load_urdf` and checks that they give the same mass matrix and
+accelerations as the Python builders. Lengths in m, masses in kg, inertias in kg m² (about the centre of
+mass, link axes); the segment proportions follow common anthropometric tables (about 1.75 m, 70 kg).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..articulated.tree import ArticulatedTree
+from ..errors import InvalidInput
+
+__all__ = ["pendulum_chain", "ragdoll", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
+
+
+def box_inertia(mass: float, size) -> np.ndarray:
+    """Principal moments of a solid box of the given full side lengths (about its centre)."""
+    a, b, c = (float(s) for s in size)
+    return mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+
+
+def urdf_path(name: str) -> Path:
+    """The shipped URDF file of a model: ``"pendulum3"``, ``"ragdoll"`` or ``"planar_biped"``."""
+    p = Path(__file__).with_name("urdf") / f"{name}.urdf"
+    if not p.exists():
+        names = sorted(f.stem for f in p.parent.glob("*.urdf"))
+        raise InvalidInput(f"name must be one of {names}, got {name!r}")
+    return p
+
+
+def pendulum_chain(n: int = 3, lengths=1.0, masses=1.0, g: float = 9.81) -> ArticulatedTree:
+    """n point masses on massless rods, joints about z, in the x–y plane (gravity −y)."""
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise InvalidInput(f"n must be a positive integer, got {n!r}")
+    L = np.broadcast_to(np.asarray(lengths, dtype=float), (n,))
+    m = np.broadcast_to(np.asarray(masses, dtype=float), (n,))
+    tree = ArticulatedTree(gravity=(0.0, -g, 0.0))
+    for i in range(n):
+        tree.add(f"link{i}", i - 1, "revolute", axis=[0, 0, 1], p=[0.0, -L[i - 1], 0.0] if i else [0, 0, 0],
+                 mass=m[i], com=[0.0, -L[i], 0.0], inertia=np.zeros((3, 3)))
+    return tree
+
+
+def _segment(tree, name, parent, kind, axis, p, mass, length, R=None, down=True):
+    """A limb segment hanging from its joint along −z (``down``) or rising along +z, box-shaped."""
+    com = [0.0, 0.0, -0.5 * length if down else 0.5 * length]
+    size = (0.1 * length + 0.04, 0.1 * length + 0.04, length)
+    return tree.add(name, parent, kind, axis=axis, p=p, R=R, mass=mass, com=com, inertia=box_inertia(mass, size))
+
+
+def ragdoll(g: float = 9.81) -> ArticulatedTree:
+    """A 70 kg ragdoll on a floating pelvis (z up); every joint a hinge (shoulders and hips about y)."""
+    tree = ArticulatedTree(gravity=(0.0, 0.0, -g))
+    pelvis = tree.add("pelvis", -1, "floating", mass=10.0, inertia=box_inertia(10.0, (0.3, 0.2, 0.15)))
+    torso = _segment(tree, "torso", pelvis, "revolute", [0, 1, 0], [0, 0, 0.08], 25.0, 0.45, down=False)
+    _segment(tree, "head", torso, "revolute", [0, 1, 0], [0, 0, 0.5], 5.0, 0.25, down=False)
+    for side, y in (("left", 0.2), ("right", -0.2)):
+        upper = _segment(tree, f"{side}_upper_arm", torso, "revolute", [0, 1, 0], [0, y, 0.42], 2.0, 0.3)
+        _segment(tree, f"{side}_forearm", upper, "revolute", [0, 1, 0], [0, 0, -0.3], 1.5, 0.28)
+    for side, y in (("left", 0.1), ("right", -0.1)):
+        thigh = _segment(tree, f"{side}_thigh", pelvis, "revolute", [0, 1, 0], [0, y, -0.08], 7.0, 0.45)
+        _segment(tree, f"{side}_shin", thigh, "revolute", [0, 1, 0], [0, 0, -0.45], 4.0, 0.43)
+    return tree
+
+
+def planar_biped(g: float = 9.81) -> ArticulatedTree:
+    """The planar biped (x forward, y up, joints about z): a 3-DOF planar base carries the trunk."""
+    tree = ArticulatedTree(gravity=(0.0, -g, 0.0))
+    tiny = dict(mass=1e-6, inertia=np.full(3, 1e-9))            # the base's slides carry no real mass
+    bx = tree.add("base_x", -1, "prismatic", axis=[1, 0, 0], p=[0, 1.0, 0], **tiny)
+    by = tree.add("base_y", bx, "prismatic", axis=[0, 1, 0], **tiny)
+    trunk = tree.add("trunk", by, "revolute", axis=[0, 0, 1], mass=40.0, com=[0, 0.25, 0],
+                     inertia=box_inertia(40.0, (0.2, 0.5, 0.3)))
+    down = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])    # link z along the parent's −y
+    for side in ("left", "right"):
+        thigh = _segment(tree, f"{side}_thigh", trunk, "revolute", [0, -1, 0], [0, 0, 0], 7.0, 0.45, R=down)
+        shin = _segment(tree, f"{side}_shin", thigh, "revolute", [0, 1, 0], [0, 0, -0.45], 4.0, 0.45)
+        tree.add(f"{side}_foot", shin, "revolute", axis=[0, 1, 0], p=[0, 0, -0.45], mass=1.0, com=[0.05, 0, -0.03],
+                 inertia=box_inertia(1.0, (0.2, 0.08, 0.06)))
+    return tree
+
+
+def to_urdf(tree: ArticulatedTree, name: str) -> str:
+    """URDF text of a tree (a fixed root is written as the robot's root link; a floating or jointed root
+    gets a massless ``world`` link only when its joint is not floating)."""
+    from scipy.spatial.transform import Rotation
+
+    out = [f'<robot name="{name}">']
+    jointed_root = tree.joints[0].kind not in ("fixed", "floating")
+    if jointed_root:
+        out.append('  <link name="world_anchor"><inertial><mass value="1e-9"/><inertia ixx="1e-12" ixy="0" '
+                   'ixz="0" iyy="1e-12" iyz="0" izz="1e-12"/></inertial></link>')
+    for i, (lk, j) in enumerate(zip(tree.links, tree.joints)):
+        I = [float(x) for x in lk.inertia.ravel()]
+        out.append(f'  <link name="{lk.name}"><inertial><origin xyz="{_fmt(lk.com)}" rpy="0 0 0"/>'
+                   f'<mass value="{float(lk.mass)!r}"/><inertia ixx="{I[0]!r}" ixy="{I[1]!r}" ixz="{I[2]!r}" '
+                   f'iyy="{I[4]!r}" iyz="{I[5]!r}" izz="{I[8]!r}"/></inertial></link>')
+        par = tree.parent[i]
+        if par < 0 and not jointed_root:
+            continue
+        parent = "world_anchor" if par < 0 else tree.links[par].name
+        rpy = Rotation.from_matrix(j.R).as_euler("xyz")                 # extrinsic x, y, z = URDF rpy
+        out.append(f'  <joint name="{lk.name}_joint" type="{j.kind}"><parent link="{parent}"/>'
+                   f'<child link="{lk.name}"/><origin xyz="{_fmt(j.p)}" rpy="{_fmt(rpy)}"/>'
+                   f'<axis xyz="{_fmt(j.axis)}"/><dynamics damping="{float(tree.damping[i])!r}"/></joint>')
+    out.append("</robot>")
+    return "\n".join(out) + "\n"
+
+
+def _fmt(v) -> str:
+    return " ".join(repr(float(x)) for x in v)
