@@ -19,7 +19,9 @@ def random_tree(n, seed, floating=False, kinds=("revolute", "revolute", "prismat
         R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         R *= np.sign(np.linalg.det(R))
         Q = np.linalg.qr(rng.normal(size=(3, 3)))[0]
-        tree.add(f"l{i}", parent, kind, axis=rng.normal(size=3), R=R, p=rng.normal(size=3),
+        placed = kind != "floating"                    # a floating root moves from the world frame itself
+        tree.add(f"l{i}", parent, kind, axis=rng.normal(size=3), R=R if placed else None,
+                 p=rng.normal(size=3) if placed else np.zeros(3),
                  mass=rng.uniform(0.5, 2.0), com=0.3 * rng.normal(size=3),
                  inertia=Q @ np.diag(rng.uniform(0.5, 1.0, 3)) @ Q.T)
     return tree
@@ -187,3 +189,44 @@ def test_bad_tree_input_is_named():
     t.add("a", -1, "revolute", mass=1.0, com=[1.0, 0, 0])
     with pytest.raises(InvalidInput, match="q must be finite with shape \\(1,\\)"):
         aba(t, [np.nan], [0.0], [0.0])
+
+
+# --- against Pinocchio (optional: pip install -e ".[pinocchio]") --------------------------------------------
+def _to_pinocchio(tree, floating):
+    pin = pytest.importorskip("pinocchio")
+    xml = to_urdf(tree, "t")
+    model = pin.buildModelFromXML(xml, pin.JointModelFreeFlyer()) if floating else pin.buildModelFromXML(xml)
+    model.gravity.linear = np.asarray(tree.gravity, dtype=float)
+    qmap, vmap = np.zeros(tree.nq, int), np.zeros(tree.nv, int)   # our index → Pinocchio's
+    for i, (lk, j) in enumerate(zip(tree.links, tree.joints)):
+        qs, vs = tree._q_index[i], tree._v_index[i]
+        if j.kind == "fixed":
+            continue
+        if j.kind == "floating":                 # ours: (w, x, y, z, p), (ω, v); Pinocchio: (p, x, y, z, w), (v, ω)
+            jid = 1
+            iq, iv = model.joints[jid].idx_q, model.joints[jid].idx_v
+            qmap[qs] = [iq + 6, iq + 3, iq + 4, iq + 5, iq, iq + 1, iq + 2]
+            vmap[vs] = [iv + 3, iv + 4, iv + 5, iv, iv + 1, iv + 2]
+            continue
+        jid = model.getJointId(f"{lk.name}_joint")
+        qmap[qs], vmap[vs] = model.joints[jid].idx_q, model.joints[jid].idx_v
+    return pin, model, qmap, vmap
+
+
+@pytest.mark.parametrize("n, seed, floating", [(1, 31, False), (7, 32, False), (15, 33, True), (30, 34, False),
+                                               (30, 35, True)])
+def test_agrees_with_pinocchio(n, seed, floating):
+    # RNEA, CRBA and ABA equal Pinocchio's on random trees of 1–30 links (skipped without pinocchio)
+    tree = random_tree(n, seed, floating)
+    pin, model, qmap, vmap = _to_pinocchio(tree, floating)
+    data = model.createData()
+    q, qd, tau = random_state(tree, seed)
+    qp, vp, tp = np.zeros(model.nq), np.zeros(model.nv), np.zeros(model.nv)
+    qp[qmap], vp[vmap], tp[vmap] = q, qd, tau
+    scale = 1 + np.abs(tau).max()
+    np.testing.assert_allclose(pin.rnea(model, data, qp, vp, tp)[vmap], rnea(tree, q, qd, tau), atol=1e-10 * scale * 10)
+    M = pin.crba(model, data, qp)
+    M = np.triu(M) + np.triu(M, 1).T
+    np.testing.assert_allclose(M[np.ix_(vmap, vmap)], crba(tree, q), atol=1e-10 * (1 + np.abs(M).max()))
+    np.testing.assert_allclose(pin.aba(model, data, qp, vp, tp)[vmap], aba(tree, q, qd, tau),
+                               atol=1e-10 * (1 + np.abs(aba(tree, q, qd, tau)).max()))

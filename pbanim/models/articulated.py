@@ -102,6 +102,12 @@ def to_urdf(tree: ArticulatedTree, name: str) -> str:
     gets a massless ``world`` link only when its joint is not floating)."""
     from scipy.spatial.transform import Rotation
 
+    # URDF requires <limit> on revolute and prismatic joints; pbanim does not read it (no limits here)
+    limit = '<limit lower="-1e9" upper="1e9" effort="1e9" velocity="1e9"/>'
+    j0 = tree.joints[0]
+    if j0.kind == "floating" and (not np.allclose(j0.R, np.eye(3)) or np.any(j0.p != 0)):
+        raise InvalidInput("tree: a floating root placed away from the world frame has no URDF form (URDF's "
+                           "root link moves from the world frame itself)")
     out = [f'<robot name="{name}">']
     jointed_root = tree.joints[0].kind not in ("fixed", "floating")
     if jointed_root:
@@ -119,7 +125,8 @@ def to_urdf(tree: ArticulatedTree, name: str) -> str:
         rpy = Rotation.from_matrix(j.R).as_euler("xyz")                 # extrinsic x, y, z = URDF rpy
         out.append(f'  <joint name="{lk.name}_joint" type="{j.kind}"><parent link="{parent}"/>'
                    f'<child link="{lk.name}"/><origin xyz="{_fmt(j.p)}" rpy="{_fmt(rpy)}"/>'
-                   f'<axis xyz="{_fmt(j.axis)}"/><dynamics damping="{float(tree.damping[i])!r}"/></joint>')
+                   f'<axis xyz="{_fmt(j.axis)}"/>{limit if j.kind in ("revolute", "prismatic") else ""}'
+                   f'<dynamics damping="{float(tree.damping[i])!r}"/></joint>')
     out.append("</robot>")
     return "\n".join(out) + "\n"
 
