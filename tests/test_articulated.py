@@ -230,3 +230,15 @@ def test_agrees_with_pinocchio(n, seed, floating):
     np.testing.assert_allclose(M[np.ix_(vmap, vmap)], crba(tree, q), atol=1e-10 * (1 + np.abs(M).max()))
     np.testing.assert_allclose(pin.aba(model, data, qp, vp, tp)[vmap], aba(tree, q, qd, tau),
                                atol=1e-10 * (1 + np.abs(aba(tree, q, qd, tau)).max()))
+
+
+def test_bench_articulated_smoke():
+    # the benchmark runs and prints its goals (measured only with Pinocchio; never timed here)
+    from pbanim.bench import run_bench
+
+    rep = run_bench("articulated", quick=True)
+    assert [g.id for g in rep.goals] == ["articulated-batched-aba-vs-pinocchio", "articulated-aba-vs-pinocchio"]
+    rows = rep.tables[0].rows
+    assert [r[0] for r in rows] == [2, 5, 10]
+    agree = [r[5] for r in rows if np.isfinite(r[5])]
+    assert all(a < 1e-10 for a in agree)
