@@ -31,10 +31,11 @@ Several contacts.
   ``friction_model``: ``"staggered"`` (default) applies it contact by contact after the normal impulses,
   from the 2 × 2 tangential system K_tt J_t = −u_t clamped to μ f; ``"lcp"`` solves normal and
   friction impulses in one LCP with a pyramidal cone of 8 edges (Stewart & Trinkle 1996; sliding
-  speeds λ as the extra unknowns), exact when the slip direction is a cone edge. Its Lemke pivoting
-  has no anti-cycling rule: on degenerate multi-contact configurations (resting stacks, redundant
-  corners) it may stop with :class:`~pbanim.errors.InfeasibleContact` or
-  :class:`~pbanim.errors.ConvergenceError` — never a wrong answer; "staggered" always returns.
+  speeds λ as the extra unknowns), exact when the slip direction is a cone edge. Both LCPs go to the
+  one LCP core (:mod:`pbanim.lcp`: Lemke with a lexicographic ratio test, then the natural-map
+  certificate); an answer that does not certify stops with :class:`~pbanim.errors.InfeasibleContact`
+  (or :class:`~pbanim.errors.ConvergenceError` at the pivot cap) — never a wrong answer; "staggered"
+  always returns.
 
 Both conserve linear momentum exactly; with ε = 1 both conserve energy on Newton's cradle.
 
@@ -64,17 +65,11 @@ import numpy as np
 from .lcp import _friction_lcp, _normal_lcp, solve_lcp_small
 from .shapes import Contacts, check_friction, check_restitution
 from ..errors import ConvergenceError
+from ..geometry import skew, tangent_basis
+from ..results import natural_map_residual
 
 __all__ = ["ImpulseBodies", "ImpulseResult", "collision_matrix", "contact_velocity", "contact_impulse",
            "apply_impulses", "resolve_collisions"]
-
-
-def _skew(r: np.ndarray) -> np.ndarray:
-    """[r]× for r of shape (..., 3)."""
-    S = np.zeros(r.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2], S[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
-    S[..., 1, 0], S[..., 2, 0], S[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
-    return S
 
 
 @dataclass
@@ -177,7 +172,7 @@ def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     array([3.5, 3.5, 1. ])
     """
     ra, rb = _lever(bodies, c)
-    Sa, Sb = _skew(ra), _skew(rb)
+    Sa, Sb = skew(ra), skew(rb)
     lin = (bodies.inv_mass[c.a] + bodies.inv_mass[c.b])[:, None, None] * np.eye(3)
     return lin - Sa @ bodies.inv_I[c.a] @ Sa - Sb @ bodies.inv_I[c.b] @ Sb
 
@@ -236,10 +231,8 @@ def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: fl
 
 def _tangent_friction(K: np.ndarray, u: np.ndarray, n: np.ndarray, jn: float, mu: float):
     """Tangential impulse from the 2×2 system K_tt J_t = −u_t, clamped to the disc ‖J_t‖ ≤ μ jn."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t1 = np.cross(n, a)
-    t1 /= np.linalg.norm(t1)
-    T = np.stack([t1, np.cross(n, t1)], axis=1)                # (3, 2) tangent basis
+    t1, t2 = tangent_basis(n)
+    T = np.stack([t1[0], t2[0]], axis=1)                       # (3, 2) tangent basis
     ut = T.T @ u
     if mu == 0.0 or jn <= 0 or not np.any(ut):
         return np.zeros(3), bool(mu > 0 and jn > 0)
@@ -262,8 +255,7 @@ def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float
     A = _normal_lcp(bodies, c)
     f, its = solve_lcp_small(A, b, method=lcp)
     apply_impulses(bodies, c, f[:, None] * c.normal)
-    w = A @ f + b
-    residual = float(np.max(np.abs(f - np.maximum(0.0, f - w))))
+    residual = natural_map_residual(f, A @ f + b)
     Jt = np.zeros((c.m, 3))
     sticking = np.zeros(c.m, bool)
     if mu > 0:

@@ -9,8 +9,12 @@ Trinkle (1996) adds d edge directions per contact and a sliding speed λ per con
     [w_D] = [A_Dn  A_DD  E ] [β] + [D u⁻]   ≥ 0,  ⊥ (f, β, λ) ≥ 0.
     [ ζ ]   [ μ𝟙   −Eᵀ   0 ] [λ]   [ 0  ]
 
-Solvers (written here, no dependency on :mod:`pbanim.contact`): Lemke's complementary pivoting with a
-lexicographic ratio test, and enumeration of active sets (the readable O(2ᵐ) check).
+Nothing is solved or assembled here twice: the matrix is :func:`pbanim.lcp.delassus` on the contact
+rows [d, r × d] with the blocks W = diag(1/m 𝟙, I⁻¹), the tangents are :func:`pbanim.geometry.cone_edges`
+(the frame the contact chapter's friction cones use), and the solvers are the LCP core's: Lemke's
+complementary pivoting with a lexicographic ratio test (:func:`pbanim.lcp.solve_lcp`, which also
+polishes the answer on its active set and certifies it by the natural-map residual), and enumeration of
+active sets (:func:`pbanim.lcp.enumerate_active_sets`, the readable O(2ᵐ) check).
 
 References: Cottle, Pang & Stone, *The Linear Complementarity Problem* (1992) §4.4 (Lemke);
 Stewart & Trinkle, IJNME 39 (1996); Anitescu & Potra, Nonlinear Dynamics 14 (1997).
@@ -18,12 +22,13 @@ Stewart & Trinkle, IJNME 39 (1996); Anitescu & Potra, Nonlinear Dynamics 14 (199
 
 from __future__ import annotations
 
-from itertools import combinations
-
 import numpy as np
 
 from .shapes import Contacts
 from ..errors import ConvergenceError, InfeasibleContact
+from ..geometry import cone_edges
+from ..lcp import delassus, enumerate_active_sets, solve_lcp
+from ..results import natural_map_residual
 
 __all__ = ["solve_lcp_small"]
 
@@ -31,102 +36,52 @@ __all__ = ["solve_lcp_small"]
 def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, tol: float = 1e-12):
     """Solve w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 for a small dense A (collision impulses).
 
-    ``"lemke"``: Lemke's complementary pivoting on the tableau [𝟙, −A, −e | b], with the lexicographic
-    ratio test against cycling (terminates for the positive semidefinite A = J W Jᵀ of a feasible
-    contact problem). ``"enumerate"``: try every active
-    set S, f_S = −A_SS⁺ b_S (least squares), the readable O(2ᵐ) check for m ≤ 12.
-    Returns ``(f, iterations)``; raises :class:`InfeasibleContact` on ray termination.
+    ``"lemke"``: :func:`pbanim.lcp.solve_lcp` with ``solver="lemke"`` (complementary pivoting with the
+    lexicographic ratio test against cycling; terminates for the positive semidefinite A = J W Jᵀ of a
+    feasible contact problem), accepted when its natural-map residual is at most
+    :func:`pbanim.lcp.residual_threshold` with ``tol``. ``"enumerate"``: try every active set S,
+    f_S = −A_SS⁺ b_S (least squares), the readable O(2ᵐ) check for m ≤ 12 (``tol``: the sign tolerance).
+    ``max_iter`` caps Lemke's pivots (default 50 (m + 1) + 1000).
+    Returns ``(f, iterations)``; raises :class:`InfeasibleContact` on ray termination or an answer that
+    does not certify, :class:`ConvergenceError` at the pivot cap.
 
     >>> f, it = solve_lcp_small(np.array([[2.0, -1.0], [-1.0, 2.0]]), np.array([-2.0, 0.0]))
     >>> f.round(12)
     array([1.33333333, 0.66666667])
     """
+    if method not in ("lemke", "enumerate"):
+        raise ValueError(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
     A, b = np.asarray(A, float), np.asarray(b, float)
     m = len(b)
     if m == 0 or np.all(b >= 0):
         return np.zeros(m), 0
-    scale = max(1.0, float(np.abs(A).max()), float(np.abs(b).max()))
     if method == "enumerate":
-        if m > 12:
-            raise ValueError(f"method='enumerate' is for m <= 12 contacts, got m = {m}; use 'lemke'")
-        for k in range(1, m + 1):
-            for S in combinations(range(m), k):
-                S = list(S)
-                f = np.zeros(m)
-                f[S] = np.linalg.lstsq(A[np.ix_(S, S)], -b[S], rcond=None)[0]
-                w = A @ f + b
-                if f.min() >= -tol * scale and w.min() >= -1e-9 * scale:
-                    return np.maximum(f, 0.0), k
-        raise InfeasibleContact("enumerate", "no active set", detail="no complementary solution found")
-    if method != "lemke":
-        raise ValueError(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
-    T = np.hstack([np.eye(m), -A, -np.ones((m, 1)), b[:, None]])
-    basis = list(range(m))
-    z0 = 2 * m
-
-    def pivot(r: int, col: int) -> None:
-        T[r] /= T[r, col]
-        others = np.arange(m) != r
-        T[others] -= np.outer(T[others, col], T[r])
-
-    r = int(np.argmin(b))
-    pivot(r, z0)
-    leaving, basis[r] = basis[r], z0
-    for it in range(1, (max_iter or 50 * (m + 1)) + 1):
-        entering = leaving + m if leaving < m else leaving - m
-        col = T[:, entering]
-        ok = col > tol * scale
-        if not ok.any():
-            raise InfeasibleContact("lemke", "ray termination", detail=f"after {it} pivots")
-        ratios = np.where(ok, T[:, -1] / np.where(ok, col, 1.0), np.inf)
-        rmin = ratios.min()
-        ties = np.flatnonzero(ratios <= rmin + 1e-12 * max(1.0, abs(rmin)))
-        r = next((int(i) for i in ties if basis[i] == z0), -1)     # let z0 leave when it can
-        if r < 0:      # lexicographic rule on the rows of B⁻¹ (the tableau's w columns): no cycling
-            cand = ties
-            for j in range(m):
-                if len(cand) == 1:
-                    break
-                v = T[cand, j] / col[cand]
-                cand = cand[v <= v.min() + 1e-12 * max(1.0, abs(v.min()))]
-            r = int(cand[0])
-        pivot(r, entering)
-        leaving, basis[r] = basis[r], entering
-        if leaving == z0:
-            f = np.zeros(m)
-            for i, var in enumerate(basis):
-                if m <= var < 2 * m:
-                    f[var - m] = max(T[i, -1], 0.0)
-            return f, it
-    raise ConvergenceError("lemke", it, float("nan"), tol, detail="pivot cap reached (cycling?)")
+        f, status, size = enumerate_active_sets(A, b, tol=tol)
+        if status != "solved":
+            raise InfeasibleContact("enumerate", status, detail="no complementary solution found")
+        return f, size
+    sol = solve_lcp(A, b, "lemke", tol=tol, raise_on_failure=False, max_iter=max_iter)
+    if sol.status == "max_iter":
+        raise ConvergenceError("lemke", sol.iterations, sol.residual, tol, detail="pivot cap reached (cycling?)")
+    if not sol.success:
+        raise InfeasibleContact("lemke", "ray termination" if sol.status == "ray" else sol.status, sol.residual,
+                                detail=f"after {sol.iterations} pivots")
+    return sol.f, sol.iterations
 
 
 def _delassus(bodies, c: Contacts, rows: np.ndarray, dirs: np.ndarray) -> np.ndarray:
     """A = G W Gᵀ for impulse rows along ``dirs`` (k, 3) at contacts ``rows`` (k,) (J W Jᵀ, not formed)."""
-    ra, rb = c.point - bodies.x[c.a], c.point - bodies.x[c.b]
+    ra, rb = c.point[rows] - bodies.x[c.a[rows]], c.point[rows] - bodies.x[c.b[rows]]
+    Wb = np.zeros((len(bodies.inv_mass), 6, 6))
+    Wb[:, :3, :3] = bodies.inv_mass[:, None, None] * np.eye(3)
+    Wb[:, 3:, 3:] = bodies.inv_I
     ia, ib = c.a[rows], c.b[rows]
-    ends = [(ia, dirs, np.cross(ra[rows], dirs)), (ib, -dirs, -np.cross(rb[rows], dirs))]
-    A = np.zeros((len(rows), len(rows)))
-    for bi, li, ai in ends:
-        for bj, lj, aj in ends:
-            same = bi[:, None] == bj[None, :]
-            lin = bodies.inv_mass[bi][:, None] * (li @ lj.T)
-            ang = np.einsum("ik,ikl,jl->ij", ai, bodies.inv_I[bi], aj)
-            A += np.where(same, lin + ang, 0.0)
-    return A
+    return delassus(ia, ib, np.hstack([dirs, np.cross(ra, dirs)]), np.hstack([dirs, np.cross(rb, dirs)]), Wb)
 
 
 def _normal_lcp(bodies, c: Contacts) -> np.ndarray:
     """A = [n_iᵀ K_ij n_j] for all contact pairs sharing a body (the Delassus matrix J W Jᵀ)."""
     return _delassus(bodies, c, np.arange(c.m), c.normal)
-
-
-def _tangents(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Orthonormal tangents t1, t2 (m, 3) of unit normals n (m, 3)."""
-    a = np.where(np.abs(n[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    t1 = np.cross(n, a)
-    t1 /= np.linalg.norm(t1, axis=1)[:, None]
-    return t1, np.cross(n, t1)
 
 
 def _friction_lcp(bodies, c: Contacts, u0: np.ndarray, b_n: np.ndarray, mu: float, lcp: str, d: int = 8):
@@ -136,9 +91,7 @@ def _friction_lcp(bodies, c: Contacts, u0: np.ndarray, b_n: np.ndarray, mu: floa
     w_n = A_nn f + A_nD β + b_n ⊥ f;  w_D = A_Dn f + A_DD β + E λ + D u⁻ ⊥ β;  μ f − Eᵀβ ⊥ λ.
     """
     m = c.m
-    t1, t2 = _tangents(c.normal)
-    th = 2 * np.pi * np.arange(d) / d
-    dirs_t = (np.cos(th)[None, :, None] * t1[:, None, :] + np.sin(th)[None, :, None] * t2[:, None, :]).reshape(-1, 3)
+    dirs_t = cone_edges(c.normal, d).reshape(-1, 3)
     rows_t = np.repeat(np.arange(m), d)
     A = _delassus(bodies, c, np.concatenate([np.arange(m), rows_t]), np.concatenate([c.normal, dirs_t]))
     E = np.zeros((m * d, m))
@@ -151,13 +104,11 @@ def _friction_lcp(bodies, c: Contacts, u0: np.ndarray, b_n: np.ndarray, mu: floa
     M[k:, m:k] = -E.T
     q = np.concatenate([b_n, np.einsum("ij,ij->i", dirs_t, u0[rows_t]), np.zeros(m)])
     try:
-        z, its = solve_lcp_small(M, q, method=lcp)
-    except (InfeasibleContact, ConvergenceError):      # a degenerate tiny pivot: retry accepting it
-        z, its = solve_lcp_small(M, q, method=lcp, tol=1e-15)
+        z, its = solve_lcp_small(M, q, method=lcp, tol=1e-8)
+    except InfeasibleContact as exc:
+        raise InfeasibleContact(exc.solver, exc.status, exc.residual,
+                                detail="friction LCP; use friction_model='staggered'") from None
     f, beta, lam = z[:m], z[m:k], z[k:]
     J = f[:, None] * c.normal + np.add.reduceat(beta[:, None] * dirs_t, np.arange(0, m * d, d), axis=0)
-    w = M @ z + q
-    residual = float(np.max(np.abs(z - np.maximum(0.0, z - w))))
-    if residual > 1e-8 * max(1.0, float(np.abs(q).max())):
-        raise InfeasibleContact("lemke", "inaccurate", residual, detail="friction LCP; use friction_model='staggered'")
+    residual = natural_map_residual(z, M @ z + q)
     return f, J, (f > 0) & (lam <= 1e-12 * max(1.0, float(np.abs(u0).max()))), its, residual

@@ -13,7 +13,9 @@ on b and W = diag(1/m, I⁻¹) per body,
     A = J W Jᵀ   (symmetric PSD),     b = J W (Q + gyro) + velocity-product terms,
 
 and the generalized contact force is Q_C = Jᵀ f. Index −1 is the static world: per-body arrays are
-padded with one row of zero inverse mass and zero velocity, so no formula special-cases it.
+padded with one row of zero inverse mass and zero velocity, so no formula special-cases it. A is built by
+the LCP core's :func:`pbanim.lcp.delassus` (the collision impulses of chapter 06 use the same one) and
+the cross products by :func:`pbanim.geometry.cross`.
 
 =========  ======================  ============  ===============================================
 symbol     code                    shape         meaning
@@ -44,6 +46,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+
+from ..geometry import cross
+from ..lcp.solve import delassus
 
 __all__ = ["ContactProblem", "rigid_state", "assemble_rigid", "assemble_rigid_loop", "assemble_particles",
            "assemble_particles_loop", "make_contacts", "ContactRows", "rigid_rows", "particle_rows", "particle_blocks"]
@@ -102,15 +107,6 @@ def _contacts_class():
     return _CONTACTS_CLASS[0]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b for (m, 3) arrays (np.cross has a large per-call overhead on small arrays)."""
-    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
-
-
 @dataclass
 class ContactRows:
     """Rows of a contact Jacobian, stored per contact: row i is ``Ga[i]`` on body ``a[i]`` and
@@ -144,13 +140,7 @@ class ContactRows:
 
     def gram(self, other: "ContactRows", Wb: np.ndarray) -> np.ndarray:
         """J W Kᵀ (dense (m, m_other)) for block-diagonal W given as blocks ``Wb`` (n_pad, d, d)."""
-        WKa = np.einsum("nij,nj->ni", Wb[other.a], other.Ga)
-        WKb = np.einsum("nij,nj->ni", Wb[other.b], other.Gb)
-        out = (self.Ga @ WKa.T) * (self.a[:, None] == other.a[None, :])
-        out -= (self.Ga @ WKb.T) * (self.a[:, None] == other.b[None, :])
-        out -= (self.Gb @ WKa.T) * (self.b[:, None] == other.a[None, :])
-        out += (self.Gb @ WKb.T) * (self.b[:, None] == other.b[None, :])
-        return out
+        return delassus(self.a, self.b, self.Ga, self.Gb, Wb, (other.a, other.b, other.Ga, other.Gb))
 
     def sparse(self) -> sp.csr_matrix:
         m, d = self.Ga.shape
@@ -216,7 +206,7 @@ def rigid_rows(S: dict, a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarr
     Row i maps the generalized velocities u = (v, ω) of all bodies to dᵢ·(ṗ_a − ṗ_b) at the point pᵢ.
     """
     ra, rb = p - S["x"][a], p - S["x"][b]
-    return ContactRows(a, b, np.hstack([d, _cross(ra, d)]), np.hstack([d, _cross(rb, d)]), S["x"].shape[0])
+    return ContactRows(a, b, np.hstack([d, cross(ra, d)]), np.hstack([d, cross(rb, d)]), S["x"].shape[0])
 
 
 def _free_accel(S: dict, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -224,7 +214,7 @@ def _free_accel(S: dict, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Qp = np.zeros((N + 1, 6))
     Qp[:N] = Q
     vdot = S["inv_mass"][:, None] * Qp[:, :3]
-    wdot = np.einsum("nij,nj->ni", S["Iinv"], Qp[:, 3:] + _cross(S["L"], S["omega"]))
+    wdot = np.einsum("nij,nj->ni", S["Iinv"], Qp[:, 3:] + cross(S["L"], S["omega"]))
     return vdot, wdot
 
 
@@ -260,9 +250,9 @@ def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
     r = np.vstack([p, p]) - S["x"][ends]
     v, w = S["v"][ends], S["omega"][ends]
     nn = np.vstack([n, n])
-    rxn = _cross(r, nn)
+    rxn = cross(r, nn)
     rows = ContactRows(a, bb, np.hstack([n, rxn[:m]]), np.hstack([n, rxn[m:]]), N + 1)
-    pdot = v + _cross(w, r)
+    pdot = v + cross(w, r)
     pdot_rel = pdot[:m] - pdot[m:]
     mu = np.broadcast_to(np.asarray(friction, dtype=float), (m,))
     force_rows = None
@@ -277,8 +267,8 @@ def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
         A = rows.gram(rows, S["Wb"])
         A = 0.5 * (A + A.T)
     vdot, wdot = _free_accel(S, Q)
-    acc = vdot[ends] + _cross(wdot[ends], r) + _cross(w, pdot - v)
-    ndot = _cross(w[m:], n)
+    acc = vdot[ends] + cross(wdot[ends], r) + cross(w, pdot - v)
+    ndot = cross(w[m:], n)
     b = np.einsum("ij,ij->i", n, acc[:m] - acc[m:]) + 2.0 * np.einsum("ij,ij->i", ndot, pdot_rel)
     return ContactProblem(A=A, b=b, rows=rows, Wb=S["Wb"], force_rows=force_rows, u=np.hstack([S["v"], S["omega"]]))
 

@@ -65,7 +65,8 @@ __all__ = ["friction_directions", "velocity_lcp", "TimeStepping", "acceleration_
 def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
     """k unit tangents per contact, shape (m, k, 3): dⱼ = cos(2πj/k) t₁ + sin(2πj/k) t₂.
 
-    t₁ is ``tangent`` (default the x axis, or y when the normal is near x) projected on the contact plane.
+    t₁ is ``tangent`` (default the x axis, or y when the normal is near x) projected on the contact plane
+    (:func:`pbanim.geometry.cone_edges`, the frame the collision impulses use too).
 
     >>> friction_directions([[0.0, 0.0, 1.0]], 4).round(12)[0]
     array([[ 1.,  0.,  0.],
@@ -76,19 +77,12 @@ def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
     n = np.array(normal, dtype=float, ndmin=2)
     if int(facets) != facets or facets < 2:
         raise InvalidInput(f"facets must be an integer ≥ 2, got {facets}")
-    k = int(facets)
-    if tangent is None:
-        ref = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    else:
-        ref = np.broadcast_to(np.asarray(tangent, dtype=float), n.shape)
-    t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
-    norm = np.linalg.norm(t1, axis=1)
-    if np.any(norm < 1e-12):
-        raise InvalidInput("tangent must not be parallel to a contact normal")
-    t1 /= norm[:, None]
-    t2 = np.cross(n, t1)
-    ang = 2 * np.pi * np.arange(k) / k
-    return np.cos(ang)[None, :, None] * t1[:, None, :] + np.sin(ang)[None, :, None] * t2[:, None, :]
+    from ..geometry import cone_edges  # the one tangent frame, shared with the collision impulses
+
+    try:
+        return cone_edges(n, int(facets), tangent)
+    except ValueError as exc:
+        raise InvalidInput(str(exc)) from None
 
 
 def velocity_lcp(rows_n: ContactRows, rows_d: ContactRows | None, Wb: np.ndarray, mu, u_free: np.ndarray,

@@ -5,14 +5,18 @@ One linear complementarity problem serves collision impulses, resting contact an
     w = A f + b ≥ 0,   f ≥ 0,   fᵀ w = 0.
 
 Parts: :mod:`pbanim.lcp.solve` (``solve_lcp``: one signature for every solver, QP through qpsolvers and
-proxsuite, projected Gauss–Seidel, the certificate) and :mod:`pbanim.lcp.pivoting` (Lemke's
-complementary pivoting and Dantzig-style principal pivoting). Every answer is judged by the natural-map
-residual ‖f − max(0, f − w)‖∞ computed from A and b (ORACLES D8), never by the solver's own claim.
+proxsuite, projected Gauss–Seidel, the certificate; ``delassus``: the matrix A = J W Kᵀ from per-contact
+Jacobian rows) and :mod:`pbanim.lcp.pivoting` (Lemke's complementary pivoting, Dantzig-style principal
+pivoting, enumeration of active sets). Collision impulses (chapter 06) and resting contact (chapter 07)
+both build A with ``delassus`` and solve with these solvers: each algorithm exists once. Every answer
+is judged by the natural-map residual ‖f − max(0, f − w)‖∞ (:func:`pbanim.results.natural_map_residual`)
+computed from A and b (ORACLES D8), never by the solver's own claim.
 """
 
 from __future__ import annotations
 
-from .pivoting import dantzig, lemke, residual_threshold
-from .solve import LCP_SOLVERS, solve_lcp
+from .pivoting import dantzig, enumerate_active_sets, lemke, residual_threshold
+from .solve import LCP_SOLVERS, delassus, solve_lcp
 
-__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "residual_threshold"]
+__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "enumerate_active_sets", "residual_threshold",
+           "delassus"]

@@ -1,4 +1,4 @@
-"""Pivoting LCP solvers for contact forces (chapter 07, part of :mod:`pbanim.contact`): Lemke and Dantzig.
+"""Pivoting LCP solvers for contact forces and collision impulses (chapters 06–07): Lemke, Dantzig, enumeration.
 
 Both solve w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 exactly in finitely many pivots (see :mod:`pbanim.lcp.solve`
 for the notation and :func:`~pbanim.lcp.solve.solve_lcp` for the common signature):
@@ -8,6 +8,10 @@ for the notation and :func:`~pbanim.lcp.solve.solve_lcp` for the common signatur
   has no solution (for a copositive-plus A, e.g. PSD), which is reported as infeasible.
 * ``dantzig``: Baraff's (1994) principal pivoting, driving one wᵢ < 0 to zero at a time while keeping
   the others complementary; Bland's rule breaks ties.
+* ``enumerate_active_sets``: every active set S in order of size, f_S = −A_SS⁺ b_S (least squares),
+  the first one that is complementary — the readable O(2ᵐ) check for m ≤ 12 (collision impulses).
+
+The collision impulses of chapter 06 (:func:`pbanim.collision.solve_lcp_small`) call these same solvers.
 
 Each answer is refined on its active set by :func:`_polish` (minimum-norm least-squares correction,
 kept only if it lowers the natural-map residual) and judged by :func:`residual_threshold`.
@@ -18,13 +22,14 @@ contact force computation for nonpenetrating rigid bodies", SIGGRAPH 1994.
 
 from __future__ import annotations
 
+from itertools import combinations
 from typing import Any
 
 import numpy as np
 
 from ..results import natural_map_residual
 
-__all__ = ["lemke", "dantzig", "residual_threshold"]
+__all__ = ["lemke", "dantzig", "enumerate_active_sets", "residual_threshold"]
 
 
 def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
@@ -221,3 +226,31 @@ def dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_
             else:
                 unclamped[j], clamped[j] = False, True
                 w[j] = 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# Enumeration of active sets: the readable O(2ᵐ) check
+# ---------------------------------------------------------------------------------------------
+def enumerate_active_sets(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-12, max_size: int = 12,
+                          **_: Any) -> tuple[np.ndarray, str, int]:
+    """Try every active set S (smallest first): f_S = −A_SS⁺ b_S by least squares, f = 0 elsewhere.
+
+    Returns ``(f, status, size)`` for the first S with f ≥ −tol·s and w = A f + b ≥ −1e-9·s
+    (s = max(1, ‖A‖∞, ‖b‖∞)), status "solved"; "no active set" when none is complementary. Raises
+    ``ValueError`` for m > ``max_size`` (2ᵐ least-squares solves).
+    """
+    m = b.size
+    if m > max_size:
+        raise ValueError(f"method='enumerate' is for m <= {max_size} contacts, got m = {m}; use 'lemke'")
+    if np.all(b >= 0):
+        return np.zeros(m), "solved", 0
+    scale = max(1.0, float(np.abs(A).max()), float(np.abs(b).max()))
+    for k in range(1, m + 1):
+        for S in combinations(range(m), k):
+            S = list(S)
+            f = np.zeros(m)
+            f[S] = np.linalg.lstsq(A[np.ix_(S, S)], -b[S], rcond=None)[0]
+            w = A @ f + b
+            if f.min() >= -tol * scale and w.min() >= -1e-9 * scale:
+                return np.maximum(f, 0.0), "solved", k
+    return np.zeros(m), "no active set", 2 ** m - 1

@@ -130,6 +130,36 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
     return f, status, iters
 
 
+# ---------------------------------------------------------------------------------------------
+# The Delassus matrix A = J W Kᵀ (collision impulses, resting contact, friction)
+# ---------------------------------------------------------------------------------------------
+def delassus(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
+    """A = J W Kᵀ, dense (m, k), from per-contact Jacobian rows, without forming J, W or K.
+
+    Row i of J is ``Ga[i]`` (d,) on body ``a[i]`` and −``Gb[i]`` on body ``b[i]``; W is block diagonal
+    with the blocks ``Wb`` (n, d, d) (the static world: a zero block, so it needs no special case).
+    ``other = (a, b, Ga, Gb)`` are the rows of K (e.g. the force directions nᵢ − μ t̂ᵢ of sliding
+    friction); by default K = J and A is symmetric positive semidefinite. Aᵢⱼ is nonzero only where
+    contacts i and j share a body.
+
+    One particle (1/m = 0.5) on the ground (the world, body 1) with two contacts along z:
+
+    >>> Wb = np.array([0.5, 0.0])[:, None, None] * np.eye(3)
+    >>> G = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
+    >>> delassus(np.array([0, 0]), np.array([1, 1]), G, G, Wb)
+    array([[0.5, 0.5],
+           [0.5, 0.5]])
+    """
+    oa, ob, Ha, Hb = (a, b, Ga, Gb) if other is None else other
+    WKa = np.einsum("nij,nj->ni", Wb[oa], Ha)
+    WKb = np.einsum("nij,nj->ni", Wb[ob], Hb)
+    out = (Ga @ WKa.T) * (a[:, None] == oa[None, :])
+    out -= (Ga @ WKb.T) * (a[:, None] == ob[None, :])
+    out -= (Gb @ WKa.T) * (b[:, None] == oa[None, :])
+    out += (Gb @ WKb.T) * (b[:, None] == ob[None, :])
+    return out
+
+
 _IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp}
 
 

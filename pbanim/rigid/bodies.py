@@ -20,19 +20,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..bodies import Bodies
+from ..geometry import cross
 from .inertia import validate_inertia
 from .quat import quat_normalize, quat_to_matrix
 
 __all__ = ["RigidBodies"]
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b for (..., 3) arrays (explicit components: cheaper than np.cross on small rows)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return out
+_cross = cross  # the name rigid.effects and rigid.scene import from here; the one helper is pbanim.geometry.cross
 
 
 def _matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -249,7 +244,7 @@ class RigidBodies(Bodies):
         i = self._index(body_idx)
         xp, _, vp, wp = self._padded(y)
         p = np.asarray(points_world, dtype=float)
-        return vp[i] + _cross(wp[i], p - xp[i])
+        return vp[i] + cross(wp[i], p - xp[i])
 
     def effective_inverse_mass(self, y: np.ndarray, body_idx, points_world, directions) -> np.ndarray:
         """nᵀ W n = 1/m + (r × n)·I⁻¹_world (r × n) per contact (m,) — the impulse response along n."""
@@ -257,7 +252,7 @@ class RigidBodies(Bodies):
         xp = np.concatenate([self.unpack(y)[0], np.zeros((1, 3))])
         Rp = np.concatenate([self.rotations(y), np.eye(3)[None]])
         n = np.asarray(directions, dtype=float)
-        rn = _cross(np.asarray(points_world, dtype=float) - xp[i], n)
+        rn = cross(np.asarray(points_world, dtype=float) - xp[i], n)
         u = _matTvec(Rp[i], rn)
         return self.inv_mass_padded[i] + np.einsum("mi,mi->m", u, _matvec(self.inv_I_body_padded[i], u))
 
@@ -276,7 +271,7 @@ class RigidBodies(Bodies):
         dP = np.zeros((self.N + 1, 3))
         dL = np.zeros((self.N + 1, 3))
         np.add.at(dP, i, j)
-        np.add.at(dL, i, _cross(p - xp[i], j))
+        np.add.at(dL, i, cross(p - xp[i], j))
         P += dP[:-1] * self._dyn
         L += dL[:-1] * self._dyn
         return y_new
@@ -358,7 +353,7 @@ class RigidBodies(Bodies):
         """Σ (x − o) × P + L about the point o (default the origin), (3,)."""
         x, _, P, L = self.unpack(y)
         o = np.zeros(3) if about is None else np.asarray(about, dtype=float)
-        return _cross(x - o, P).sum(axis=0) + L.sum(axis=0)
+        return cross(x - o, P).sum(axis=0) + L.sum(axis=0)
 
     def angular_momentum_com(self, y: np.ndarray) -> np.ndarray:
         """Angular momentum about the (moving) centre of mass of the system, (3,)."""

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import skew  # [v]× lives in pbanim.geometry (shared with collisions); re-exported here
+
 __all__ = ["quat_multiply", "quat_conjugate", "quat_normalize", "quat_to_matrix", "matrix_to_quat",
            "quat_from_axis_angle", "quat_exp", "quat_rotate", "skew"]
 
@@ -167,17 +169,3 @@ def quat_exp(theta: np.ndarray) -> np.ndarray:
 def quat_rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
     """R(q) v for quaternions (..., 4) and vectors (..., 3)."""
     return np.einsum("...ij,...j->...i", quat_to_matrix(quat), np.asarray(v, dtype=float))
-
-
-def skew(v: np.ndarray) -> np.ndarray:
-    """The cross-product matrix [v]× (..., 3, 3) with [v]× u = v × u.
-
-    >>> skew([1.0, 2.0, 3.0]) @ [4.0, 5.0, 6.0]
-    array([-3.,  6., -3.])
-    """
-    v = np.asarray(v, dtype=float)
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
