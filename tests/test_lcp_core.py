@@ -64,11 +64,13 @@ def test_collision_lcp_keeps_its_named_errors():
 
 def test_no_private_copies_left():
     for mod, names in ((collision_lcp, ("_tangents",)), (impulse_mod, ("_skew",)),
-                       (assembly_mod, ("_cross",))):
+                       (assembly_mod, ("_cross", "_Contacts")), (bodies_mod, ("_cross",))):
         for name in names:
             assert not hasattr(mod, name), f"{mod.__name__}.{name} is a second copy"
     assert quat_skew is skew
-    assert bodies_mod._cross is cross                      # an alias kept for rigid.effects / rigid.scene
+    import pbanim.articulated.batched as batched_mod
+    import pbanim.articulated.spatial as spatial_mod
+    assert spatial_mod.skew is skew and batched_mod._cross is cross
 
 
 # ------------------------------------------------------------------------------------------------

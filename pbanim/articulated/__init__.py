@@ -19,7 +19,7 @@ q̈ for a given τ        ABA, articulated bodies                     O(n)     :
 
 Readable one-state versions (:mod:`.dynamics`) stand beside versions vectorized over K states
 (:mod:`.batched`, arrays of shape (K, nq)); tests check that the two agree and that RNEA inverts ABA,
-ABA equals the CRBA solve, H is symmetric positive definite and energy is conserved (ORACLES H1–H4).
+ABA equals the CRBA solve, H is symmetric positive definite and energy is conserved (ORACLES I1–I5).
 
 Notation: q, q̇, q̈ joint positions, velocities, accelerations; τ joint forces; v̂, â, f̂ spatial motion
 and force vectors (angular part first); ⁱX_λ(i) the transform from the parent λ(i) to link i; S_i the

@@ -14,16 +14,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import cross as _cross
 from .tree import ArticulatedTree
 
 __all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
-
-
-def _cross(a, b):
-    """a × b for (..., 3) arrays, by components."""
-    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
-                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
-                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def _crm(v, w):

@@ -24,17 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import skew
+
 __all__ = ["skew", "rotation", "plucker", "plucker_inverse", "force_transform", "crm", "crf",
            "spatial_inertia", "transform_inertia"]
-
-
-def skew(a: np.ndarray) -> np.ndarray:
-    """a× (..., 3, 3): skew(a) @ b = a × b."""
-    a = np.asarray(a, dtype=float)
-    z = np.zeros(a.shape[:-1])
-    return np.stack([np.stack([z, -a[..., 2], a[..., 1]], -1),
-                     np.stack([a[..., 2], z, -a[..., 0]], -1),
-                     np.stack([-a[..., 1], a[..., 0], z], -1)], -2)
 
 
 def rotation(axis: np.ndarray, angle) -> np.ndarray:

@@ -37,8 +37,8 @@ class Contacts:
     ----------
     a, b : ndarray of int, shape (m,)
         The two bodies; −1 is the static world. ``a`` moves along +``normal`` to separate.
-    point : ndarray, shape (m, 3)
-    normal : ndarray, shape (m, 3)
+    point : ndarray, shape (m, 3) (or (m, 2) for contacts of 2-D particles)
+    normal : ndarray, shape (m, 3) (or (m, 2))
         Unit normals pointing from b towards a.
     depth : ndarray, shape (m,)
         Penetration depths ≥ 0.
@@ -61,8 +61,10 @@ class Contacts:
     def __post_init__(self) -> None:
         self.a = np.asarray(self.a, dtype=np.intp).reshape(-1)
         self.b = np.asarray(self.b, dtype=np.intp).reshape(-1)
-        self.point = np.asarray(self.point, dtype=float).reshape(-1, 3)
-        self.normal = np.asarray(self.normal, dtype=float).reshape(-1, 3)
+        point = np.asarray(self.point, dtype=float)
+        d = point.shape[-1] if point.ndim >= 1 and point.shape[-1] in (2, 3) else 3   # 2-D scenes: (m, 2)
+        self.point = point.reshape(-1, d)
+        self.normal = np.asarray(self.normal, dtype=float).reshape(-1, d)
         self.depth = np.asarray(self.depth, dtype=float).reshape(-1)
         m = self.a.size
         if not (self.b.size == m and len(self.point) == m and len(self.normal) == m and self.depth.size == m):

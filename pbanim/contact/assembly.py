@@ -41,12 +41,12 @@ SIGGRAPH 2001 course notes (§8, "Computing contact forces").
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
+from ..collision.shapes import Contacts
 from ..geometry import cross
 from ..lcp.solve import delassus
 
@@ -54,24 +54,8 @@ __all__ = ["ContactProblem", "rigid_state", "assemble_rigid", "assemble_rigid_lo
            "assemble_particles_loop", "make_contacts", "ContactRows", "rigid_rows", "particle_rows", "particle_blocks"]
 
 
-@dataclass
-class _Contacts:
-    a: np.ndarray
-    b: np.ndarray
-    point: np.ndarray
-    normal: np.ndarray
-    depth: np.ndarray
-
-    @property
-    def m(self) -> int:
-        return int(self.a.size)
-
-    def __len__(self) -> int:
-        return int(self.a.size)
-
-
 def make_contacts(a, b, point, normal, depth=None):
-    """A contact set (``pbanim.collision.Contacts`` when that class exists, else a local one).
+    """A contact set: the collision chapter's :class:`~pbanim.collision.shapes.Contacts` (2-D or 3-D points).
 
     >>> c = make_contacts([0], [-1], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
     >>> c.a.tolist(), c.depth.tolist()
@@ -82,29 +66,7 @@ def make_contacts(a, b, point, normal, depth=None):
     point = np.array(point, dtype=float, ndmin=2)
     normal = np.array(normal, dtype=float, ndmin=2)
     depth = np.zeros(a.size) if depth is None else np.atleast_1d(np.asarray(depth, dtype=float))
-    if point.shape[1] == 3:
-        cls = _contacts_class()
-        if cls is not None:
-            return cls(a=a, b=b, point=point, normal=normal, depth=depth)
-    return _Contacts(a, b, point, normal, depth)
-
-
-_CONTACTS_CLASS: list = []
-
-
-def _contacts_class():
-    """The collision chapter's struct-of-arrays ``Contacts`` (looked up once)."""
-    if not _CONTACTS_CLASS:
-        cls = None
-        for mod in ("collision", "collision_shapes"):
-            try:
-                cls = getattr(importlib.import_module(f"pbanim.{mod}"), "Contacts", None)
-            except ImportError:
-                cls = None
-            if cls is not None:
-                break
-        _CONTACTS_CLASS.append(cls)
-    return _CONTACTS_CLASS[0]
+    return Contacts(a=a, b=b, point=point, normal=normal, depth=depth)
 
 
 @dataclass

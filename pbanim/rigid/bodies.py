@@ -27,7 +27,6 @@ from .quat import quat_normalize, quat_to_matrix
 __all__ = ["RigidBodies"]
 
 
-_cross = cross  # the name rigid.effects and rigid.scene import from here; the one helper is pbanim.geometry.cross
 
 
 def _matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:

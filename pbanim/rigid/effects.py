@@ -26,7 +26,8 @@ from typing import Callable
 
 import numpy as np
 
-from .bodies import RigidBodies, _cross, _matvec
+from .bodies import RigidBodies, _matvec
+from ..geometry import cross as _cross
 from ..scene import Effect
 from ..errors import InvalidInput
 

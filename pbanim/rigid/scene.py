@@ -31,7 +31,8 @@ import numpy as np
 
 from ..ode import get_method
 from ..results import SimResult
-from .bodies import RigidBodies, _cross
+from .bodies import RigidBodies
+from ..geometry import cross as _cross
 from .effects import QuaternionRenormalize
 from .quat import quat_exp, quat_multiply
 from ..scene import Effect, Scene
