@@ -1,6 +1,6 @@
 """pbanim.particles: force objects, Jacobians, diagnostics, models and the ch01 figures.
 
-Each test names the physics it checks and the oracle (see /work/shared/ORACLES.md).
+Each test names the physics it checks and the oracle (ORACLES.md at the top of the repository).
 """
 
 import numpy as np

@@ -1,6 +1,6 @@
 """pbanim.scene with particle systems: the pipeline, undeclared stages, the lean step, the Jacobian path.
 
-Each test names what it checks (and the oracle from /work/shared/ORACLES.md where there is one).
+Each test names what it checks (and its oracle in ORACLES.md where there is one).
 """
 
 import numpy as np
