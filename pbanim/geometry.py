@@ -39,6 +39,7 @@ SIGGRAPH 1997 course notes (the star operator); D. E. Stewart, J. C. Trinkle, IJ
 from __future__ import annotations
 
 import numpy as np
+from .errors import InvalidInput
 
 __all__ = ["cross", "skew", "tangent_basis", "cone_edges"]
 
@@ -93,7 +94,7 @@ def tangent_basis(normal, reference=None) -> tuple[np.ndarray, np.ndarray]:
     t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
     norm = np.linalg.norm(t1, axis=1)
     if np.any(norm < 1e-12):
-        raise ValueError("tangent must not be parallel to a contact normal")
+        raise InvalidInput("tangent must not be parallel to a contact normal")
     t1 /= norm[:, None]
     return t1, np.cross(n, t1)
 

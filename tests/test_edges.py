@@ -186,3 +186,29 @@ def test_scipy_route_keeps_the_cap_and_refuses_nan_output_times():
     for method in ("rk4", "dopri5", "scipy:RK45"):
         with pytest.raises(ValueError, match="t_eval must hold finite times, got nan"):
             solve(lambda t, y: -y, (0, 1), [1.0], method=method, h=0.1, t_eval=[0.5, np.nan])
+
+
+@pytest.mark.parametrize("solver", ["qp", "lemke", "dantzig", "pgs"])
+def test_separating_contacts_give_zero_force_on_every_route(solver):
+    # ORACLES D8: every contact separating (b > 0) has the unique answer f = 0. Before the fix the QP
+    # route left f ~ 1e-9 after its polish stopped early and reported the problem infeasible (measured on
+    # 3 of 4 random rank-deficient problems of 10–25 contacts)
+    from pbanim.lcp import solve_lcp
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        m = int(rng.integers(1, 30))
+        J = rng.normal(size=(m, max(1, m // 2)))
+        sol = solve_lcp(J @ J.T, rng.uniform(0.1, 2.0, m), solver)
+        assert sol.success and np.all(sol.f == 0.0)
+    empty = solve_lcp(np.zeros((0, 0)), np.zeros(0), solver)         # no contacts at all
+    assert empty.success and empty.f.shape == (0,)
+
+
+def test_qp_refuses_a_non_symmetric_matrix_even_without_validation():
+    # before the fix validate=False handed a non-symmetric A to the QP backend, which ran for minutes
+    from pbanim.errors import InvalidInput
+    from pbanim.lcp import solve_lcp
+
+    with pytest.raises(InvalidInput, match="A must be symmetric for solver='qp'"):
+        solve_lcp(np.array([[1.0, 2.0], [0.0, 1.0]]), np.array([-1.0, -1.0]), "qp", validate=False)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
+from ..errors import InvalidInput
 
 __all__ = ["Goal", "Table", "Report", "median_time", "available", "run_bench", "format_report", "write_json",
            "HELPERS"]
@@ -122,7 +123,7 @@ def run_bench(name: str, quick: bool = False) -> Report:
     """Run the family ``name`` and return its report (``ValueError`` for an unknown name)."""
     names = available()
     if name not in names:
-        raise ValueError(f"benchmark must be one of {names}, got {name!r}")
+        raise InvalidInput(f"benchmark must be one of {names}, got {name!r}")
     mod = importlib.import_module(f"pbanim.bench.{name}")
     return mod.run(quick=quick)
 

@@ -36,6 +36,7 @@ import importlib.util
 import time
 
 import numpy as np
+from ..errors import InvalidInput
 
 __all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour"]
 
@@ -58,7 +59,7 @@ def _stack_scene(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def _steps(t_end: float, h: float) -> int:
     if not (np.isfinite(h) and h > 0 and np.isfinite(t_end) and t_end > 0):
-        raise ValueError(f"t_end and h must be positive and finite, got t_end = {t_end}, h = {h}")
+        raise InvalidInput(f"t_end and h must be positive and finite, got t_end = {t_end}, h = {h}")
     return max(1, int(round(t_end / h)))
 
 

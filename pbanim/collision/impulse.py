@@ -64,7 +64,7 @@ import numpy as np
 
 from .lcp import _friction_lcp, _normal_lcp, solve_lcp_small
 from .shapes import Contacts, check_friction, check_restitution
-from ..errors import ConvergenceError
+from ..errors import ConvergenceError, InvalidInput
 from ..geometry import skew, tangent_basis
 from ..results import natural_map_residual
 
@@ -288,11 +288,11 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
     """
     eps, mu = check_restitution(restitution), check_friction(friction)
     if mode not in ("sequential", "simultaneous"):
-        raise ValueError(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
+        raise InvalidInput(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
     if friction_model not in ("staggered", "lcp"):
-        raise ValueError(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
+        raise InvalidInput(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
     if rest_velocity < 0:
-        raise ValueError(f"rest_velocity must be >= 0, got {rest_velocity}")
+        raise InvalidInput(f"rest_velocity must be >= 0, got {rest_velocity}")
     c = contacts
     m = c.m
     impulse = np.zeros((m, 3))

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from .shapes import Contacts
-from ..errors import ConvergenceError, InfeasibleContact
+from ..errors import ConvergenceError, InfeasibleContact, InvalidInput
 from ..geometry import cone_edges
 from ..lcp import delassus, enumerate_active_sets, solve_lcp
 from ..results import natural_map_residual
@@ -50,7 +50,7 @@ def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, to
     array([1.33333333, 0.66666667])
     """
     if method not in ("lemke", "enumerate"):
-        raise ValueError(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
+        raise InvalidInput(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
     A, b = np.asarray(A, float), np.asarray(b, float)
     m = len(b)
     if m == 0 or np.all(b >= 0):

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from ..results import natural_map_residual
+from ..errors import InvalidInput
 
 __all__ = ["lemke", "dantzig", "enumerate_active_sets", "residual_threshold"]
 
@@ -38,12 +39,12 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
     A = A.reshape(1, 1) if A.ndim == 0 else A
     b = b.reshape(1) if b.ndim == 0 else b
     if b.ndim != 1:
-        raise ValueError(f"b must be a vector, got shape {b.shape}")
+        raise InvalidInput(f"b must be a vector, got shape {b.shape}")
     m = b.size
     if A.shape != (m, m):
-        raise ValueError(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
+        raise InvalidInput(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
-        raise ValueError("A and b must be finite (got NaN or Inf); check the contact assembly")
+        raise InvalidInput("A and b must be finite (got NaN or Inf); check the contact assembly")
     return A, b
 
 
@@ -73,7 +74,11 @@ def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int
     for _ in range(rounds):
         w = A @ g + b
         C = np.flatnonzero(g > w)  # the natural active-set guess (includes violated wᵢ < 0 at fᵢ = 0)
-        if C.size == 0:
+        if C.size == 0:            # no active contact: the candidate is f = 0 (every contact separating)
+            g = np.zeros_like(f)
+            r = natural_map_residual(g, b)
+            if r < best_r:
+                best, best_r = g, r
             break
         for drop in range(4):
             ACC = A[np.ix_(C, C)]
@@ -241,7 +246,7 @@ def enumerate_active_sets(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-12, m
     """
     m = b.size
     if m > max_size:
-        raise ValueError(f"method='enumerate' is for m <= {max_size} contacts, got m = {m}; use 'lemke'")
+        raise InvalidInput(f"method='enumerate' is for m <= {max_size} contacts, got m = {m}; use 'lemke'")
     if np.all(b >= 0):
         return np.zeros(m), "solved", 0
     scale = max(1.0, float(np.abs(A).max()), float(np.abs(b).max()))

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from .pivoting import _check, _polish, _scale, dantzig, lemke, residual_threshold
-from ..errors import InfeasibleContact
+from ..errors import InfeasibleContact, InvalidInput
 from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["solve_lcp", "LCP_SOLVERS", "residual_threshold"]  # lemke, dantzig, pgs, qp: via this module
@@ -101,7 +101,7 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
     import qpsolvers  # lazy: never imported unless a QP is solved
 
     if backend not in qpsolvers.available_solvers:
-        raise ValueError(f"backend must be an installed qpsolvers solver, one of "
+        raise InvalidInput(f"backend must be an installed qpsolvers solver, one of "
                          f"{qpsolvers.available_solvers}, got {backend!r}")
     m = b.size
     x0 = None if warm_start is None else np.maximum(np.asarray(warm_start, dtype=float), 0.0)
@@ -207,27 +207,29 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
     pbanim.errors.InfeasibleContact: contact solver 'dantzig' failed: status infeasible, residual 1.000e+00...
     """
     if solver not in _IMPL:
-        raise ValueError(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
+        raise InvalidInput(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
     if fallback is not None and fallback not in _IMPL:
-        raise ValueError(f"fallback must be None or one of {LCP_SOLVERS}, got {fallback!r}")
+        raise InvalidInput(f"fallback must be None or one of {LCP_SOLVERS}, got {fallback!r}")
     if not (np.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol must be a positive finite number, got {tol}")
+        raise InvalidInput(f"tol must be a positive finite number, got {tol}")
     A, b = _check(A, b)
     m = b.size
-    if solver == "qp" and validate:
-        asym = np.max(np.abs(A - A.T)) if m else 0.0
-        if asym > 1e-12 * max(1.0, np.max(np.abs(A))):
-            raise ValueError(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "
-                             "use solver='lemke' for friction or other non-symmetric LCPs")
-        if m and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, np.max(np.abs(A))):
-            raise ValueError("A must be positive semidefinite for solver='qp' (the QP is then convex); "
+    if solver == "qp" and m:
+        # symmetry is always checked (O(m²); a non-symmetric A can keep a QP backend busy for minutes);
+        # definiteness (an O(m³) eigenvalue computation) only with validate=True
+        asym = float(np.max(np.abs(A - A.T)))
+        if asym > 1e-12 * max(1.0, float(np.max(np.abs(A)))):
+            raise InvalidInput(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "
+                               "use solver='lemke' for friction or other non-symmetric LCPs")
+        if validate and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, float(np.max(np.abs(A)))):
+            raise InvalidInput("A must be positive semidefinite for solver='qp' (the QP is then convex); "
                              "use solver='lemke' for an indefinite LCP")
     start = time.perf_counter()
     f, status, iters, extra = None, "", 0, {}
     if warm_start is not None:
         warm_start = np.asarray(warm_start, dtype=float)
         if warm_start.shape != (m,):
-            raise ValueError(f"warm_start must have shape ({m},), got {warm_start.shape}")
+            raise InvalidInput(f"warm_start must have shape ({m},), got {warm_start.shape}")
         if solver in ("lemke", "dantzig") and np.any(warm_start > 0):
             g = _polish(A, b, np.where(warm_start > 0, 1.0, 0.0) * np.maximum(warm_start, 0), tol)
             if natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
@@ -239,7 +241,14 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         polish = kw.pop("polish", True)
         if solver == "qp":
             kw["polish"] = polish
-        f, status, iters = _IMPL[solver](A, b, **kw)
+        if m == 0:                 # no contacts: nothing to solve on any route
+            f, status, iters = np.zeros(0), "solved", 0
+        else:
+            try:
+                f, status, iters = _IMPL[solver](A, b, **kw)
+            except (ArithmeticError, RuntimeError, np.linalg.LinAlgError) as exc:   # a backend's own failure
+                raise InfeasibleContact(solver, f"backend error {type(exc).__name__}", float("nan"),
+                                        f"{exc}; m = {m} contacts") from exc
         if polish and solver in ("lemke", "dantzig") and status == "solved":
             g = _polish(A, b, f, tol)  # one least-squares solve on the support: removes pivoting roundoff
             extra["polished"] = g is not f

@@ -18,6 +18,7 @@ import numpy as np
 
 from .implicit import (expm_small, exponential_euler_step, implicit_euler_step, implicit_midpoint_step,
                            newton_solve)
+from ..errors import InvalidInput
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "get_method", "explicit_rk_step", "euler_step",
            "midpoint_step", "rk4_step", "symplectic_euler_step", "verlet_step", "implicit_euler_step",
@@ -51,13 +52,13 @@ class Tableau:
         A, B, C = (np.asarray(x, dtype=float) for x in (self.A, self.B, self.C))
         s = len(B)
         if A.shape != (s, s) or C.shape != (s,):
-            raise ValueError(f"tableau {self.name}: A must be ({s}, {s}) and C ({s},), got {A.shape}, {C.shape}")
+            raise InvalidInput(f"tableau {self.name}: A must be ({s}, {s}) and C ({s},), got {A.shape}, {C.shape}")
         if abs(B.sum() - 1.0) > 1e-14:
-            raise ValueError(f"tableau {self.name}: weights B must sum to 1, got {B.sum()!r}")
+            raise InvalidInput(f"tableau {self.name}: weights B must sum to 1, got {B.sum()!r}")
         if np.max(np.abs(A.sum(axis=1) - C)) > 1e-14:
-            raise ValueError(f"tableau {self.name}: rows of A must sum to C")
+            raise InvalidInput(f"tableau {self.name}: rows of A must sum to C")
         if np.any(np.triu(A) != 0):
-            raise ValueError(f"tableau {self.name}: A must be strictly lower triangular (explicit method)")
+            raise InvalidInput(f"tableau {self.name}: A must be strictly lower triangular (explicit method)")
         object.__setattr__(self, "A", A)
         object.__setattr__(self, "B", B)
         object.__setattr__(self, "C", C)
@@ -301,5 +302,5 @@ def get_method(name: str) -> Method:
     try:
         return METHODS[name]
     except (KeyError, TypeError):
-        raise ValueError(f"method must be one of {sorted(METHODS)} or 'scipy:<solve_ivp method>', "
+        raise InvalidInput(f"method must be one of {sorted(METHODS)} or 'scipy:<solve_ivp method>', "
                          f"got {name!r}") from None

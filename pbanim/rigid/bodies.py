@@ -23,6 +23,7 @@ from ..bodies import Bodies
 from ..geometry import cross
 from .inertia import validate_inertia
 from .quat import quat_normalize, quat_to_matrix
+from ..errors import InvalidInput
 
 __all__ = ["RigidBodies"]
 
@@ -44,7 +45,7 @@ def _per_body(name: str, value, N: int, tail: tuple) -> np.ndarray:
     try:
         return np.broadcast_to(a, (N,) + tail).copy()
     except ValueError:
-        raise ValueError(f"{name} must have shape {tail} or ({N}, {', '.join(map(str, tail))}), "
+        raise InvalidInput(f"{name} must have shape {tail} or ({N}, {', '.join(map(str, tail))}), "
                          f"got {a.shape}") from None
 
 
@@ -105,16 +106,16 @@ class RigidBodies(Bodies):
             cands.append(np.atleast_1d(static).shape[0])
         N = max(cands)
         if N < 1:
-            raise ValueError("need at least one body, got N = 0")
+            raise InvalidInput("need at least one body, got N = 0")
         m = _per_body("mass", m_in if m_in.size > 1 else m_in[0], N, ())
         st = np.zeros(N, bool) if static is None else _per_body("static", static, N, ()).astype(bool)
         st |= np.isposinf(m)
         bad = ~st & ~(np.isfinite(m) & (m > 0))
         if np.any(bad):
-            raise ValueError(f"mass must be positive and finite (np.inf for a static body), got "
+            raise InvalidInput(f"mass must be positive and finite (np.inf for a static body), got "
                              f"{m[bad][0]} for body {int(np.flatnonzero(bad)[0])}")
         if I_in.ndim not in (1, 2, 3) or I_in.shape[-1] != 3 or (I_in.ndim == 3 and I_in.shape[1] != 3):
-            raise ValueError(f"inertia must have shape (3,) or (N, 3) (principal moments), or (3, 3) or "
+            raise InvalidInput(f"inertia must have shape (3,) or (N, 3) (principal moments), or (3, 3) or "
                              f"(N, 3, 3) (tensors), got {I_in.shape}")
         if I_in.ndim == 1 or (I_in.ndim == 2 and I_in.shape != (3, 3)):  # principal moments
             I_in = I_in[..., :, None] * np.eye(3)
@@ -140,9 +141,9 @@ class RigidBodies(Bodies):
             _per_body("angular_velocities", angular_velocities, N, (3,))
         for name, a in (("positions", x), ("velocities", v), ("angular_velocities", w)):
             if not np.all(np.isfinite(a)):
-                raise ValueError(f"{name} must be finite, got {a[~np.all(np.isfinite(a), axis=1)][0]}")
+                raise InvalidInput(f"{name} must be finite, got {a[~np.all(np.isfinite(a), axis=1)][0]}")
         if np.any(st & (np.any(v != 0, axis=1) | np.any(w != 0, axis=1))):
-            raise ValueError("static bodies cannot move: give them zero velocities and angular_velocities")
+            raise InvalidInput("static bodies cannot move: give them zero velocities and angular_velocities")
         R = quat_to_matrix(q)
         Iw = R @ Ib @ np.swapaxes(R, 1, 2)
         self.x0, self.q0 = x, q
@@ -229,7 +230,7 @@ class RigidBodies(Bodies):
     def _index(self, body_idx) -> np.ndarray:
         idx = np.asarray(body_idx, dtype=np.intp)
         if idx.size and (idx.min() < -1 or idx.max() >= self.N):
-            raise ValueError(f"body_idx must lie in [-1, {self.N - 1}] (-1 = static world), got {idx}")
+            raise InvalidInput(f"body_idx must lie in [-1, {self.N - 1}] (-1 = static world), got {idx}")
         return np.where(idx < 0, self.N, idx)
 
     def world_points(self, y: np.ndarray, body_idx, points_body) -> np.ndarray:

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import skew  # [v]× lives in pbanim.geometry (shared with collisions); re-exported here
+from ..errors import InvalidInput
 
 __all__ = ["quat_multiply", "quat_conjugate", "quat_normalize", "quat_to_matrix", "matrix_to_quat",
            "quat_from_axis_angle", "quat_exp", "quat_rotate", "skew"]
@@ -70,7 +71,7 @@ def quat_normalize(q: np.ndarray) -> np.ndarray:
     q = np.asarray(q, dtype=float)
     n = np.linalg.norm(q, axis=-1, keepdims=True)
     if not np.all(np.isfinite(n)) or np.any(n == 0):
-        raise ValueError(f"orientations must be finite non-zero quaternions (w, x, y, z), got norms {n.ravel()}")
+        raise InvalidInput(f"orientations must be finite non-zero quaternions (w, x, y, z), got norms {n.ravel()}")
     return q / n
 
 
@@ -143,7 +144,7 @@ def quat_from_axis_angle(axis, angle) -> np.ndarray:
     axis = np.asarray(axis, dtype=float)
     n = np.linalg.norm(axis, axis=-1, keepdims=True)
     if np.any(n == 0):
-        raise ValueError(f"axis must be a non-zero vector, got {axis}")
+        raise InvalidInput(f"axis must be a non-zero vector, got {axis}")
     half = 0.5 * np.asarray(angle, dtype=float)[..., None]
     return np.concatenate([np.cos(half), np.sin(half) * axis / n], axis=-1)
 
