@@ -267,3 +267,47 @@ def test_simultaneous_impulses_never_create_energy(eps):
     c = Contacts(a=[1, 2], b=[0, 1], point=[[1, 0, 0], [3, 0, 0]], normal=[[1, 0, 0]] * 2, depth=[0, 0])
     v = resolve_collisions(cradle, c, 1.0, mode="simultaneous").v[:, 0]
     np.testing.assert_allclose(v, [-1 / 3, 2 / 3, 2 / 3], atol=1e-14)
+
+
+def test_spinning_sphere_on_a_plane_feels_its_weight_only():
+    # ORACLES D4: a sphere resting on the ground, spinning about a horizontal axis, is pushed up by exactly
+    # m g: the contact point slides over the sphere, its centre does not accelerate. Before the fix the
+    # material-point term ω × (ω × r) made b = −g + R|ω⊥|² = +7.19 m/s²: f = 0, the sphere "lifts off"
+    # (measured f = 0 N instead of 19.62 N here)
+    from pbanim.collision import Plane
+    from pbanim.collision.narrow import sphere_plane
+    from pbanim.contact import assemble_rigid, assemble_rigid_loop
+    from pbanim.lcp import solve_lcp
+    from pbanim.rigid import RigidBodies
+
+    m, R, g = 2.0, 0.5, 9.81
+    rb = RigidBodies(m, 0.4 * m * R * R * np.ones(3), positions=[[0.0, 0.0, R]], velocities=[[1.0, 0.0, 0.0]],
+                     angular_velocities=[[3.0, 5.0, 2.0]])
+    y = rb.state()
+    c = sphere_plane(rb.unpack(y)[0], R, Plane([0, 0, 1]), a=[0])
+    Q = np.zeros((1, 6))
+    Q[0, 2] = -m * g
+    prob = assemble_rigid(rb, y, c, Q)
+    f = solve_lcp(prob.A, prob.b, "lemke").f
+    assert f[0] == pytest.approx(m * g, rel=1e-12)
+    A, b = assemble_rigid_loop(rb, y, c, Q)
+    np.testing.assert_allclose(b, prob.b, rtol=1e-13, atol=1e-13)
+    np.testing.assert_allclose(A, prob.A, rtol=1e-13, atol=1e-13)
+
+
+def test_rounded_contact_terms_agree_between_readable_and_vectorized():
+    # two spinning spheres touching and a sphere on a tumbling box face: both assembly codes agree
+    from pbanim.collision import Contacts
+    from pbanim.contact import assemble_rigid, assemble_rigid_loop
+    from pbanim.rigid import RigidBodies
+
+    rng = np.random.default_rng(2)
+    rb = RigidBodies([1.0, 2.0, 3.0], [np.diag([1.0, 1.0, 1.0]), np.diag([2.0, 2.0, 2.0]), np.diag([1.0, 2.0, 2.5])],
+                     positions=[[0, 0, 0], [1.0, 0, 0], [0, 0, -2.0]], velocities=rng.normal(size=(3, 3)),
+                     angular_velocities=rng.normal(size=(3, 3)))
+    c = Contacts(a=[1, 0], b=[0, 2], point=[[0.5, 0, 0], [0, 0, -0.5]], normal=[[1.0, 0, 0], [0, 0, 1.0]],
+                 depth=[0, 0], radius=[0.5, 0.5], radius_b=[0.5, 0.0])
+    Q = rng.normal(size=(3, 6))
+    prob = assemble_rigid(rb, rb.state(), c, Q)
+    A, b = assemble_rigid_loop(rb, rb.state(), c, Q)
+    np.testing.assert_allclose(b, prob.b, rtol=1e-12, atol=1e-12)

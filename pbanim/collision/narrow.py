@@ -48,7 +48,7 @@ def sphere_plane(centers, radii, plane: Plane, a=0, b=-1, margin: float = 0.0) -
     n = np.broadcast_to(plane.normal, (int(hit.sum()), 3))
     d = np.maximum(depth[hit], 0.0)
     point = c[hit] - (r[hit] - 0.5 * d)[:, None] * n
-    return Contacts(_idx(a, k)[hit], _idx(b, k)[hit], point, n, d)
+    return Contacts(_idx(a, k)[hit], _idx(b, k)[hit], point, n, d, radius=r[hit])
 
 
 def sphere_sphere(ca, ra, cb, rb, a, b, margin: float = 0.0) -> Contacts:
@@ -74,7 +74,7 @@ def sphere_sphere(ca, ra, cb, rb, a, b, margin: float = 0.0) -> Contacts:
     n[~ok] = (0.0, 0.0, 1.0)  # coincident centres: any unit normal is a valid answer
     d = np.maximum(depth[hit], 0.0)
     point = cb[hit] + (rb[hit] - 0.5 * d)[:, None] * n
-    return Contacts(_idx(a, k)[hit], _idx(b, k)[hit], point, n, d)
+    return Contacts(_idx(a, k)[hit], _idx(b, k)[hit], point, n, d, radius=ra[hit], radius_b=rb[hit])
 
 
 def box_plane(x, R, half_extents, plane: Plane, a=0, b=-1, margin: float = 0.0) -> Contacts:
@@ -164,7 +164,7 @@ def sphere_box(center, radius: float, x, R, half_extents, a: int = 0, b: int = 1
     if depth < -margin:
         return Contacts.empty()
     point = 0.5 * ((c - radius * n) + (x + R @ q))
-    return Contacts([a], [b], [point], [n], [max(depth, 0.0)])
+    return Contacts([a], [b], [point], [n], [max(depth, 0.0)], radius=[float(radius)])
 
 
 def _clip(poly: list, normal: np.ndarray, limit: float) -> list:
@@ -284,13 +284,11 @@ def collide(shape_a, xa, Ra, shape_b, xb, Rb, a: int, b: int, margin: float = 0.
     elif isinstance(shape_a, Sphere) and isinstance(shape_b, Box):
         return sphere_box(xa, shape_a.radius, xb, Rb, shape_b.half_extents, a, b, margin)
     elif isinstance(shape_a, Box) and isinstance(shape_b, Sphere):
-        c = sphere_box(xb, shape_b.radius, xa, Ra, shape_a.half_extents, b, a, margin)
-        return Contacts(c.b, c.a, c.point, -c.normal, c.depth)
+        return sphere_box(xb, shape_b.radius, xa, Ra, shape_a.half_extents, b, a, margin).swapped()
     elif isinstance(shape_a, Capsule) and isinstance(shape_b, Sphere):
         return capsule_sphere(xa, Ra, shape_a.radius, shape_a.half_length, xb, shape_b.radius, a, b, margin)
     elif isinstance(shape_a, Sphere) and isinstance(shape_b, Capsule):
-        c = capsule_sphere(xb, Rb, shape_b.radius, shape_b.half_length, xa, shape_a.radius, b, a, margin)
-        return Contacts(c.b, c.a, c.point, -c.normal, c.depth)
+        return capsule_sphere(xb, Rb, shape_b.radius, shape_b.half_length, xa, shape_a.radius, b, a, margin).swapped()
     raise NotImplementedError(f"no narrow-phase test for {type(shape_a).__name__}–{type(shape_b).__name__}; "
                               "supported: sphere/box/capsule–plane, sphere–sphere, sphere–box, box–box, "
                               "capsule–sphere")

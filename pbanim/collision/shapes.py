@@ -57,6 +57,8 @@ class Contacts:
     point: np.ndarray
     normal: np.ndarray
     depth: np.ndarray
+    radius: np.ndarray | None = None      # curvature radius of a's feature (sphere, capsule end); 0: vertex
+    radius_b: np.ndarray | None = None    # the same for b; 0: a vertex or a face of b
 
     def __post_init__(self) -> None:
         self.a = np.asarray(self.a, dtype=np.intp).reshape(-1)
@@ -67,6 +69,11 @@ class Contacts:
         self.normal = np.asarray(self.normal, dtype=float).reshape(-1, d)
         self.depth = np.asarray(self.depth, dtype=float).reshape(-1)
         m = self.a.size
+        self.radius = np.zeros(m) if self.radius is None else np.asarray(self.radius, dtype=float).reshape(-1)
+        self.radius_b = np.zeros(m) if self.radius_b is None else np.asarray(self.radius_b, dtype=float).reshape(-1)
+        if self.radius.size != m or self.radius_b.size != m or np.any(~(self.radius >= 0)) or np.any(~(self.radius_b >= 0)):
+            raise InvalidInput(f"Contacts radius and radius_b must hold m = {m} finite values >= 0, got "
+                               f"{self.radius} and {self.radius_b}")
         if not (self.b.size == m and len(self.point) == m and len(self.normal) == m and self.depth.size == m):
             raise InvalidInput(f"Contacts fields must all have m = {m} rows, got b {self.b.shape}, point "
                              f"{self.point.shape}, normal {self.normal.shape}, depth {self.depth.shape}")
@@ -90,11 +97,17 @@ class Contacts:
             return cls.empty()
         return cls(np.concatenate([p.a for p in parts]), np.concatenate([p.b for p in parts]),
                    np.concatenate([p.point for p in parts]), np.concatenate([p.normal for p in parts]),
-                   np.concatenate([p.depth for p in parts]))
+                   np.concatenate([p.depth for p in parts]), np.concatenate([p.radius for p in parts]),
+                   np.concatenate([p.radius_b for p in parts]))
 
     def select(self, mask) -> "Contacts":
         """The contacts where ``mask`` (bool array or index array) holds."""
-        return Contacts(self.a[mask], self.b[mask], self.point[mask], self.normal[mask], self.depth[mask])
+        return Contacts(self.a[mask], self.b[mask], self.point[mask], self.normal[mask], self.depth[mask],
+                        self.radius[mask], self.radius_b[mask])
+
+    def swapped(self) -> "Contacts":
+        """The same contacts seen from the other body: a ↔ b, n → −n, radius ↔ radius_b."""
+        return Contacts(self.b, self.a, self.point, -self.normal, self.depth, self.radius_b, self.radius)
 
 
 def _positive(name: str, value, fix: str) -> float:

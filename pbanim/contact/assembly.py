@@ -6,7 +6,10 @@ separation dᵢ = nᵢ·(p_a − p_b) has, at the contact instant,
     d̈ᵢ = nᵢ·(p̈_a − p̈_b) + 2 ṅᵢ·(ṗ_a − ṗ_b) = Aᵢ f + bᵢ,
 
 with p̈ = v̇ + ω̇ × r + ω × (ω × r), r = p − x, ṅᵢ = ω_b × nᵢ (the normal turns with the face it
-belongs to, on body b: vertex–face contact, Baraff 1994 §3). The contact forces fⱼ nⱼ act on a (+)
+belongs to, on body b: vertex–face contact, Baraff 1994 §3). A rounded feature (a sphere, a capsule's
+end; ``Contacts.radius``) touches through a point that slides over it: its centre takes the place of p
+(so a spinning sphere on a plane feels no ω × (ω × r) term) and the curvature adds −R|ṅ|²; two rounded
+features use d = |x_a − x_b| − R_a − R_b (see :func:`_velocity_terms`). The contact forces fⱼ nⱼ act on a (+)
 and on b (−), so with the contact Jacobian rows Jᵢ = [nᵢᵀ, (r_a × nᵢ)ᵀ] on a and −[nᵢᵀ, (r_b × nᵢ)ᵀ]
 on b and W = diag(1/m, I⁻¹) per body,
 
@@ -229,10 +232,36 @@ def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
         A = rows.gram(rows, S["Wb"])
         A = 0.5 * (A + A.T)
     vdot, wdot = _free_accel(S, Q)
-    acc = vdot[ends] + cross(wdot[ends], r) + cross(w, pdot - v)
-    ndot = cross(w[m:], n)
-    b = np.einsum("ij,ij->i", n, acc[:m] - acc[m:]) + 2.0 * np.einsum("ij,ij->i", ndot, pdot_rel)
+    b = _velocity_terms(contacts, n, m, S["x"][ends], p, r, v, w, vdot[ends], wdot[ends])
     return ContactProblem(A=A, b=b, rows=rows, Wb=S["Wb"], force_rows=force_rows, u=np.hstack([S["v"], S["omega"]]))
+
+
+def _velocity_terms(contacts, n, m, x, p, r, v, w, vdot, wdot) -> np.ndarray:
+    """b = d̈ at f = 0 for the rows of both ends (0..m−1: a, m..2m−1: b); see the module docstring.
+
+    A rounded end (``radius`` > 0: a sphere or a capsule's end) touches through a point that slides over
+    its surface, so its centre stands in for the contact point (r → 0 in ṗ and p̈). With b's feature a
+    face (``radius_b`` = 0) the normal turns with b, ṅ = ω_b × n, and d = n·(q_a − p_b) − R_a gives
+    d̈ = n·(q̈_a − p̈_b) + 2ṅ·(q̇_a − ṗ_b) − R_a|ṅ|²; with b rounded, d = |q_a − x_b| − R_a − R_b gives
+    d̈ = n·(q̈_a − ẍ_b) + |Δ̇⊥|²/|Δ|, Δ = q_a − x_b (the sphere–sphere formula).
+    """
+    Ra = np.asarray(getattr(contacts, "radius", np.zeros(m)), dtype=float)
+    Rb = np.asarray(getattr(contacts, "radius_b", np.zeros(m)), dtype=float)
+    rounded = np.concatenate([Ra > 0, Rb > 0])
+    rc = np.where(rounded[:, None], 0.0, r)                         # contact point or centre, per end
+    qdot = v + cross(w, rc)
+    qdd = vdot + cross(wdot, rc) + cross(w, qdot - v)
+    dd = qdot[:m] - qdot[m:]
+    ndot = cross(w[m:], n)
+    face = np.einsum("ij,ij->i", n, qdd[:m] - qdd[m:]) + 2.0 * np.einsum("ij,ij->i", ndot, dd) \
+        - Ra * np.einsum("ij,ij->i", ndot, ndot)
+    if not np.any(Rb > 0):
+        return face
+    D = np.where(Ra[:, None] > 0, x[:m], p) - x[m:]
+    dist = np.maximum(np.linalg.norm(D, axis=1), 1e-300)
+    perp = dd - np.einsum("ij,ij->i", dd, n)[:, None] * n
+    centres = np.einsum("ij,ij->i", n, qdd[:m] - qdd[m:]) + np.einsum("ij,ij->i", perp, perp) / dist
+    return np.where(Rb > 0, centres, face)
 
 
 def assemble_rigid_loop(bodies, y: np.ndarray, contacts, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -251,10 +280,19 @@ def assemble_rigid_loop(bodies, y: np.ndarray, contacts, Q: np.ndarray) -> tuple
         ai, bi, pi, ni = idx(contacts.a[i]), idx(contacts.b[i]), contacts.point[i], contacts.normal[i]
         ra, rb = pi - S["x"][ai], pi - S["x"][bi]
         va, wa, vb, wb = S["v"][ai], S["omega"][ai], S["v"][bi], S["omega"][bi]
-        pa_dd = vdot[ai] + np.cross(wdot[ai], ra) + np.cross(wa, np.cross(wa, ra))
-        pb_dd = vdot[bi] + np.cross(wdot[bi], rb) + np.cross(wb, np.cross(wb, rb))
-        ndot = np.cross(wb, ni)
-        b[i] = ni @ (pa_dd - pb_dd) + 2.0 * ndot @ ((va + np.cross(wa, ra)) - (vb + np.cross(wb, rb)))
+        Ra, Rb = float(contacts.radius[i]), float(contacts.radius_b[i])
+        qa = np.zeros(3) if Ra > 0 else ra            # a rounded end: its centre stands in for the point
+        qb = np.zeros(3) if Rb > 0 else rb
+        qa_dd = vdot[ai] + np.cross(wdot[ai], qa) + np.cross(wa, np.cross(wa, qa))
+        qb_dd = vdot[bi] + np.cross(wdot[bi], qb) + np.cross(wb, np.cross(wb, qb))
+        dd = (va + np.cross(wa, qa)) - (vb + np.cross(wb, qb))
+        if Rb > 0:                                     # d = |q_a − x_b| − R_a − R_b
+            D = (S["x"][ai] if Ra > 0 else pi) - S["x"][bi]
+            perp = dd - (dd @ ni) * ni
+            b[i] = ni @ (qa_dd - qb_dd) + perp @ perp / np.linalg.norm(D)
+        else:                                          # b's face turns with b: ṅ = ω_b × n
+            ndot = np.cross(wb, ni)
+            b[i] = ni @ (qa_dd - qb_dd) + 2.0 * ndot @ dd - Ra * ndot @ ndot
         for j in range(m):
             aj, bj, pj, nj = idx(contacts.a[j]), idx(contacts.b[j]), contacts.point[j], contacts.normal[j]
             total = 0.0
