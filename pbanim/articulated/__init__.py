@@ -17,6 +17,10 @@ H(q)                   CRBA, composite rigid bodies                O(n d)   :fun
 q̈ for a given τ        ABA, articulated bodies                     O(n)     :func:`aba`
 =====================  ==========================================  =======  =================================
 
+In maximal coordinates, :class:`RigidJoints` (ball, hinge, slider, weld) holds rigid bodies of a
+:class:`~pbanim.rigid.RigidScene` together with multipliers, as chapter 03 does for particles; the tests
+check that both ways give the same motion (ORACLES G1).
+
 Readable one-state versions (:mod:`.dynamics`) stand beside versions vectorized over K states
 (:mod:`.batched`, arrays of shape (K, nq)); tests check that the two agree and that RNEA inverts ABA,
 ABA equals the CRBA solve, H is symmetric positive definite and energy is conserved (ORACLES I1–I5).
@@ -34,11 +38,12 @@ from __future__ import annotations
 
 from .batched import aba_batch, crba_batch, rnea_batch
 from .dynamics import aba, bias_forces, crba, kinetic_energy, link_transforms, potential_energy, rnea
+from .joints import JOINTS, RigidJoint, RigidJoints
 from .system import ArticulatedSystem
 from .urdf import load_urdf, rpy_matrix
 from .spatial import crf, crm, plucker, plucker_inverse, rotation, spatial_inertia
 from .tree import JOINT_TYPES, ArticulatedTree, Joint, Link
 
-__all__ = ["ArticulatedTree", "ArticulatedSystem", "load_urdf", "rpy_matrix", "Joint", "Link", "JOINT_TYPES", "rnea", "crba", "aba", "bias_forces",
+__all__ = ["ArticulatedTree", "ArticulatedSystem", "RigidJoints", "RigidJoint", "JOINTS", "load_urdf", "rpy_matrix", "Joint", "Link", "JOINT_TYPES", "rnea", "crba", "aba", "bias_forces",
            "kinetic_energy", "potential_energy", "link_transforms", "rnea_batch", "crba_batch", "aba_batch",
            "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation"]
