@@ -21,6 +21,10 @@ InconsistentContact     the acceleration-level contact problem is inconsistent (
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
+
 __all__ = [
     "PbanimError",
     "InvalidInput",
@@ -32,7 +36,48 @@ __all__ = [
     "SingularChartError",
     "InfeasibleContact",
     "InconsistentContact",
+    "check_count",
+    "check_number",
 ]
+
+
+def check_count(name: str, value, minimum: int = 1, maximum: int | None = None) -> int:
+    """``value`` as an int >= ``minimum``, or :class:`InvalidInput` naming ``name`` (NaN, inf, 2.5, "3" refused).
+
+    >>> check_count("max_steps", 10.0)
+    10
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value) or int(value) != value or value < minimum:
+        what = "a positive integer" if minimum == 1 else f"an integer ≥ {minimum}"
+        raise InvalidInput(f"{name} must be {what}, got {value}")
+    if maximum is not None and value > maximum:
+        raise InvalidInput(f"{name} must be at most {maximum}, got {value}")
+    return int(value)
+
+
+def check_number(name: str, value, *, low: float = -math.inf, high: float = math.inf, low_open: bool = False,
+                 high_open: bool = False) -> float:
+    """``value`` as a finite float in [low, high] (open ends on request), or :class:`InvalidInput`.
+
+    >>> check_number("stiffness", float("nan"), low=0.0)
+    Traceback (most recent call last):
+    ...
+    pbanim.errors.InvalidInput: stiffness must be a finite number >= 0, got nan
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    ok = math.isfinite(v) and (v > low if low_open else v >= low) and (v < high if high_open else v <= high)
+    if not ok:
+        parts = []
+        if low > -math.inf:
+            parts.append(f"{'>' if low_open else '>='} {low:g}")
+        if high < math.inf:
+            parts.append(f"{'<' if high_open else '<='} {high:g}")
+        raise InvalidInput(f"{name} must be a finite number{' ' if parts else ''}{' and '.join(parts)}, got {value!r}")
+    return v
 
 
 def _tail(detail: str) -> str:

@@ -60,7 +60,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .errors import InvalidInput, SimulationDiverged
+from .errors import InvalidInput, SimulationDiverged, check_count
 from .ode import get_method
 from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
 from .results import SimResult
@@ -336,8 +336,7 @@ class Scene:
             Cap on N, checked before the first step (:class:`~pbanim.errors.StepLimitExceeded`).
         """
         grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
-        if int(check_every) != check_every or check_every < 1:
-            raise InvalidInput(f"check_every must be a positive integer, got {check_every}")
+        check_every = check_count("check_every", check_every)
         m = get_method(method)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         if y0 is not None and y.shape != np.shape(self.system.state()):

@@ -90,18 +90,36 @@ def assert_order(hs, errors, order: float, tol: float = 0.15, window: tuple[floa
 
 
 def drift_ratio(series, early: float = 0.2, late: float = 0.2) -> float:
-    """max|x − x₀| over the last ``late`` fraction divided by that over the first ``early`` fraction."""
+    """max|x − x₀| over the last ``late`` fraction divided by that over the first ``early`` fraction.
+
+    Refuses (:class:`~pbanim.errors.InvalidInput`) fewer than 2 samples, NaN/Inf samples and fractions
+    outside (0, 1].
+    """
     s = np.asarray(series, dtype=float)
+    if s.ndim == 0 or len(s) < 2 or s[0].size == 0:
+        raise InvalidInput(f"series must hold at least 2 samples, got shape {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise InvalidInput(f"series must be finite, got {s[~np.isfinite(s)][0]} (a diverged run has no drift ratio)")
+    for nm, f in (("early", early), ("late", late)):
+        if not (isinstance(f, (int, float, np.integer, np.floating)) and 0 < f <= 1):
+            raise InvalidInput(f"{nm} must be a fraction in (0, 1], got {f}")
     dev = np.abs(s - s[0])
     n = len(s)
     a = dev[1:max(2, int(early * n))].max()
-    b = dev[int((1 - late) * n):].max()
+    b = dev[min(n - 1, int((1 - late) * n)):].max()
     return float(b / a) if a > 0 else (0.0 if b == 0 else np.inf)
 
 
 def assert_conserved(series, rtol: float, name: str = "quantity", atol: float = 0.0) -> float:
     """Assert max|x(t) − x(0)| ≤ atol + rtol·|x(0)| elementwise over time (axis 0); return the max rel error."""
     s = np.asarray(series, dtype=float)
+    if s.ndim == 0 or len(s) == 0 or s[0].size == 0:
+        raise InvalidInput(f"series must hold at least one sample, got shape {s.shape}")
+    if not np.all(np.isfinite(s)):
+        raise InvalidInput(f"series must be finite, got {s[~np.isfinite(s)][0]}; {name} diverged")
+    for nm, tol in (("rtol", rtol), ("atol", atol)):
+        if not (isinstance(tol, (int, float, np.integer, np.floating)) and np.isfinite(tol) and tol >= 0):
+            raise InvalidInput(f"{nm} must be a finite number >= 0, got {tol}")
     ref = s[0]
     dev = np.max(np.abs(s - ref), axis=0)
     scale = np.abs(ref)

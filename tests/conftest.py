@@ -17,6 +17,51 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 _FIGURE_CACHE: dict = {}
 
+# -- fuzzing (tests/test_fuzz.py): --fuzz multiplies the example counts; the counts are reported ----------
+_FUZZ_COUNTS: dict = {}
+
+
+def pytest_addoption(parser):
+    parser.addoption("--fuzz", action="store", nargs="?", type=int, const=10, default=1, metavar="N",
+                     help="multiply the example counts of tests/test_fuzz.py by N (default 10 when given "
+                          "without a value; 1 otherwise), for release checks")
+
+
+def pytest_configure(config):
+    factor = config.getoption("--fuzz")
+    if factor is None or factor < 1:
+        raise pytest.UsageError(f"--fuzz must be a positive integer, got {factor}")
+    os.environ["PBANIM_FUZZ_FACTOR"] = str(factor)   # read by tests/test_fuzz.py when it is collected
+
+
+@pytest.fixture(scope="session")
+def fuzz_counts():
+    """Examples run per fuzzed entry point in this process (filled by tests/test_fuzz.py)."""
+    return _FUZZ_COUNTS
+
+
+def pytest_sessionfinish(session):
+    workeroutput = getattr(session.config, "workeroutput", None)
+    if workeroutput is not None:            # an xdist worker: hand the counts to the controller
+        workeroutput["fuzz_counts"] = dict(_FUZZ_COUNTS)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    for k, v in getattr(node, "workeroutput", {}).get("fuzz_counts", {}).items():
+        _FUZZ_COUNTS[k] = _FUZZ_COUNTS.get(k, 0) + v
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if not _FUZZ_COUNTS:
+        return
+    tr = terminalreporter
+    tr.section(f"fuzz cases per entry point (--fuzz factor {config.getoption('--fuzz')})")
+    width = max(len(k) for k in _FUZZ_COUNTS)
+    for k in sorted(_FUZZ_COUNTS):
+        tr.write_line(f"{k:<{width}}  {_FUZZ_COUNTS[k]}")
+    tr.write_line(f"{'total':<{width}}  {sum(_FUZZ_COUNTS.values())}")
+
 
 def _shared_dir(tmp_path_factory) -> Path:
     """A folder shared by all xdist workers of this run (the parent of the per-worker base temp)."""

@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 import pbanim
+import pbanim.testing
 from pbanim.errors import SimulationDiverged
 from pbanim.models.rigid import t_handle, torque_free_body
 from pbanim.ode import METHODS

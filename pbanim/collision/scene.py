@@ -93,7 +93,10 @@ class Collisions(Effect):
             if isinstance(ob, Plane):
                 self.planes.append(ob)
             elif isinstance(ob, tuple) and len(ob) == 2 and isinstance(ob[0], Sphere):
-                self.spheres.append((ob[0], np.append(np.asarray(ob[1], float), [0.0] * (3 - len(ob[1])))))
+                c = np.asarray(ob[1], float)
+                if c.shape not in ((2,), (3,)) or not np.all(np.isfinite(c)):
+                    raise InvalidInput(f"an obstacle sphere's centre must be a finite 2- or 3-vector, got {ob[1]!r}")
+                self.spheres.append((ob[0], np.append(c, [0.0] * (3 - len(c)))))
             else:
                 raise InvalidInput(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
         self.shapes_in, self.radius_in = shapes, radius
@@ -123,10 +126,23 @@ class Collisions(Effect):
             self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
             self.inv_mass = system.inv_mass
         else:
-            r = np.broadcast_to(np.asarray(self.radius_in, float), (N,)).copy()
+            r = np.asarray(self.radius_in, float)
+            if r.shape not in ((), (1,), (N,)):
+                raise InvalidInput(f"radius must be a scalar or have shape ({N},), got shape {r.shape}")
+            r = np.broadcast_to(r, (N,)).copy()
             if not np.all(np.isfinite(r)) or np.any(r < 0):
                 raise InvalidInput(f"radius must be >= 0 for every particle, got {self.radius_in}")
             self.radius, self.is_sphere, self.dim = r, r > 0, system.dim
+            if system.dim == 2:   # 2-D particles live in z = 0: a tilted plane or an off-plane sphere misses them
+                for p in self.planes:
+                    if abs(p.normal[2]) > 1e-12:
+                        raise InvalidInput(f"obstacle {p!r} is a 3-D plane (normal has a z part) in a 2-D particle "
+                                           "scene, whose particles stay in z = 0; give the plane a 2-D normal "
+                                           "such as Plane([0, 1])")
+                for s, c in self.spheres:
+                    if c[2] != 0.0:
+                        raise InvalidInput(f"obstacle sphere centre {c.tolist()} is off the plane z = 0 of a 2-D "
+                                           "particle scene; give a 2-D centre")
             self.inv_mass = system.W
 
     # -- state access ---------------------------------------------------------------------------

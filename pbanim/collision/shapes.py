@@ -64,9 +64,13 @@ class Contacts:
         self.a = np.asarray(self.a, dtype=np.intp).reshape(-1)
         self.b = np.asarray(self.b, dtype=np.intp).reshape(-1)
         point = np.asarray(self.point, dtype=float)
+        normal = np.asarray(self.normal, dtype=float)
         d = point.shape[-1] if point.ndim >= 1 and point.shape[-1] in (2, 3) else 3   # 2-D scenes: (m, 2)
+        if point.size % d or normal.size % d:
+            raise InvalidInput(f"Contacts point and normal must have shape (m, 2) or (m, 3) alike, got "
+                               f"{point.shape} and {normal.shape}")
         self.point = point.reshape(-1, d)
-        self.normal = np.asarray(self.normal, dtype=float).reshape(-1, d)
+        self.normal = normal.reshape(-1, d)
         self.depth = np.asarray(self.depth, dtype=float).reshape(-1)
         m = self.a.size
         self.radius = np.zeros(m) if self.radius is None else np.asarray(self.radius, dtype=float).reshape(-1)
@@ -77,6 +81,15 @@ class Contacts:
         if not (self.b.size == m and len(self.point) == m and len(self.normal) == m and self.depth.size == m):
             raise InvalidInput(f"Contacts fields must all have m = {m} rows, got b {self.b.shape}, point "
                              f"{self.point.shape}, normal {self.normal.shape}, depth {self.depth.shape}")
+        if m:   # one fused pass: unit normals (a zero or NaN normal is no contact direction), finite geometry
+            nn = np.einsum("ij,ij->i", self.normal, self.normal)
+            if not (np.all(np.abs(nn - 1.0) <= 1e-6) and np.isfinite(self.point).all()
+                    and np.isfinite(self.depth).all()):
+                bad = int(np.flatnonzero(~(np.abs(nn - 1.0) <= 1e-6) | ~np.isfinite(self.point).all(axis=1)
+                                         | ~np.isfinite(self.depth))[0])
+                raise InvalidInput(f"Contacts need finite points and depths and unit normals, got contact {bad}: "
+                                   f"point {self.point[bad].tolist()}, normal {self.normal[bad].tolist()} "
+                                   f"(|n| = {np.sqrt(nn[bad]):.6g}), depth {self.depth[bad]}")
 
     @property
     def m(self) -> int:
@@ -102,6 +115,12 @@ class Contacts:
 
     def select(self, mask) -> "Contacts":
         """The contacts where ``mask`` (bool array or index array) holds."""
+        mask = np.asarray(mask)
+        if mask.dtype == bool and mask.shape != (self.m,):
+            raise InvalidInput(f"mask must be a bool array of shape ({self.m},) (one per contact), got {mask.shape}")
+        if mask.dtype != bool and (mask.dtype.kind not in "iu" or mask.ndim != 1
+                                   or np.any((mask < -self.m) | (mask >= self.m))):
+            raise InvalidInput(f"mask must be bool (m,) or contact indices in [0, {self.m}), got {mask!r}")
         return Contacts(self.a[mask], self.b[mask], self.point[mask], self.normal[mask], self.depth[mask],
                         self.radius[mask], self.radius_b[mask])
 
@@ -110,8 +129,22 @@ class Contacts:
         return Contacts(self.b, self.a, self.point, -self.normal, self.depth, self.radius_b, self.radius)
 
 
+def _shape_inertia(shape, mass, moments) -> np.ndarray:
+    """diag(moments) after checking the mass and that the moments are representable (finite, > 0)."""
+    m = _positive("mass", mass, "a body has a positive finite mass")
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        d = np.array([f(m) for f in moments], dtype=float)
+    if not (np.all(np.isfinite(d)) and np.all(d > 0)):
+        raise InvalidInput(f"{shape!r}.inertia({mass}) has moments {d.tolist()}, not finite and > 0 (the "
+                           "dimensions or mass overflow double precision); use moderate units")
+    return np.diag(d)
+
+
 def _positive(name: str, value, fix: str) -> float:
-    v = float(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
     if not np.isfinite(v) or v <= 0:
         raise InvalidInput(f"{name} must be positive and finite, got {value}; {fix}")
     return v
@@ -183,7 +216,8 @@ class Sphere:
 
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia tensor of a solid sphere, (2/5) m r² 𝟙."""
-        return 0.4 * mass * self.radius**2 * np.eye(3)
+        r = np.float64(self.radius)
+        return _shape_inertia(self, mass, [lambda m: 0.4 * m * r * r] * 3)
 
     def __repr__(self) -> str:
         return f"Sphere(radius={self.radius})"
@@ -197,7 +231,8 @@ class Box:
     """
 
     def __init__(self, half_extents) -> None:
-        he = np.broadcast_to(np.asarray(half_extents, dtype=float), (3,)).copy()
+        he = np.asarray(half_extents, dtype=float)
+        he = np.broadcast_to(he, (3,)).copy() if he.shape in ((), (1,), (3,)) else np.full(3, np.nan)
         if not np.all(np.isfinite(he)) or np.any(he <= 0):
             raise InvalidInput(f"Box half_extents must be three positive finite numbers, got {half_extents}; "
                              "a box with a zero extent is degenerate (use a Plane)")
@@ -211,7 +246,8 @@ class Box:
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia (m/3) diag(hy²+hz², hx²+hz², hx²+hy²)."""
         hx, hy, hz = self.half_extents
-        return mass / 3.0 * np.diag([hy * hy + hz * hz, hx * hx + hz * hz, hx * hx + hy * hy])
+        return _shape_inertia(self, mass, [lambda m: m / 3.0 * (hy * hy + hz * hz), lambda m: m / 3.0 * (hx * hx + hz * hz),
+                                           lambda m: m / 3.0 * (hx * hx + hy * hy)])
 
     def __repr__(self) -> str:
         return f"Box(half_extents={self.half_extents.tolist()})"
@@ -232,9 +268,9 @@ class Capsule:
 
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia, approximated by a solid cylinder of length 2(half_length + radius)."""
-        r, L = self.radius, 2 * (self.half_length + self.radius)
-        ixx = mass * (3 * r * r + L * L) / 12.0
-        return np.diag([ixx, ixx, 0.5 * mass * r * r])
+        r, hl = np.float64(self.radius), np.float64(self.half_length)
+        ixx = lambda m: m * (3 * r * r + (2 * (hl + r)) ** 2) / 12.0  # noqa: E731
+        return _shape_inertia(self, mass, [ixx, ixx, lambda m: 0.5 * m * r * r])
 
     def __repr__(self) -> str:
         return f"Capsule(radius={self.radius}, half_length={self.half_length})"

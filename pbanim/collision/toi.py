@@ -29,7 +29,7 @@ from .scene import Collisions
 from ..ode import get_method, solve
 from ..results import SimResult
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count
 
 __all__ = ["simulate_collisions"]
 
@@ -67,8 +67,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     if toi not in ("event", "fixed"):
         raise InvalidInput(f"toi must be 'event' or 'fixed', got {toi!r}")
     grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
-    if int(max_events_per_step) != max_events_per_step or max_events_per_step < 1:
-        raise InvalidInput(f"max_events_per_step must be a positive integer, got {max_events_per_step}")
+    max_events_per_step = check_count("max_events_per_step", max_events_per_step)
     coll = [e for e in scene.effects if isinstance(e, Collisions)]
     if len(coll) != 1:
         raise InvalidInput(f"scene must hold exactly one Collisions effect, found {len(coll)}")

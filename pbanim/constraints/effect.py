@@ -21,7 +21,7 @@ import numpy as np
 from .assembly import ConstraintSet
 from .kinds import Constraint
 from .solvers import SOLVERS, ConstraintSolution, solve_lambda
-from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError
+from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError, check_number
 from ..scene import Effect
 
 __all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multipliers", "BaumgarteGains",
@@ -37,6 +37,13 @@ class BaumgarteGains:
 
     ks: float
     kd: float
+
+    def __post_init__(self) -> None:
+        for name in ("ks", "kd"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise InvalidInput(f"Baumgarte gain {name} must be a finite number >= 0, got {v}; the "
+                                   "parameters it came from are out of range (too large or too small)")
 
     @property
     def natural_frequency(self) -> float:
@@ -84,7 +91,8 @@ def gains_from_mujoco(timeconst: float, dampratio: float) -> BaumgarteGains:
     z = _nonneg(dampratio, "dampratio")
     if tau == 0 or z == 0:
         raise InvalidInput(f"timeconst and dampratio must be > 0, got {timeconst}, {dampratio}")
-    return BaumgarteGains(1.0 / (tau * tau * z * z), 2.0 / tau)
+    with np.errstate(over="ignore", divide="ignore"):   # an overflow is refused by BaumgarteGains
+        return BaumgarteGains(float(1.0 / np.float64(tau * tau * z * z)), float(2.0 / np.float64(tau)))
 
 
 def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float = 1.0) -> BaumgarteGains:
@@ -99,9 +107,11 @@ def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float =
         raise InvalidInput(f"erp must be in (0, 1), got {erp}")
     if not cfm > 0:
         raise InvalidInput(f"cfm must be > 0 for finite gains, got {cfm}; CFM = 0 is the hard limit k_s, k_d → ∞")
-    if not h > 0 or not effective_mass > 0:
-        raise InvalidInput(f"h and effective_mass must be > 0, got {h}, {effective_mass}")
-    return BaumgarteGains(erp / (h * cfm) / effective_mass, (1 - erp) / cfm / effective_mass)
+    if not (h > 0 and np.isfinite(h)) or not (effective_mass > 0 and np.isfinite(effective_mass)):
+        raise InvalidInput(f"h and effective_mass must be finite and > 0, got {h}, {effective_mass}")
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # refused by BaumgarteGains
+        hc, m = np.float64(h * cfm), np.float64(effective_mass)
+        return BaumgarteGains(float(erp / hc / m), float((1 - erp) / np.float64(cfm) / m))
 
 
 def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system, y, Q=None, *,
@@ -309,13 +319,16 @@ def baumgarte_stability_limit(method: str, zeta: float, upper: float = 20.0) -> 
     >>> round(baumgarte_stability_limit("symplectic_euler", 1.0), 6)   # (ωh)² + 4ωh = 4: 2√2 − 2
     0.828427
     """
+    upper = check_number("upper", upper, low=1e-3, low_open=True, high=1e6)
     grid = np.linspace(1e-3, upper, 2000)
     rho = baumgarte_spectral_radius(method, grid, zeta)
     bad = np.flatnonzero(rho > 1 + 1e-12)
     if not bad.size:
         return float("inf")
     lo, hi = (grid[bad[0] - 1] if bad[0] else 0.0), grid[bad[0]]
-    while hi - lo > 1e-10:
+    for _ in range(200):   # bisection: width/2²⁰⁰ is far below the tolerance, so the cap is never the stop
+        if hi - lo <= 1e-10:
+            break
         mid = 0.5 * (lo + hi)
         if baumgarte_spectral_radius(method, mid, zeta) > 1 + 1e-12:
             hi = mid

@@ -36,10 +36,27 @@ __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlan
 
 
 def _as_index(a, name: str, k: int | None = None) -> np.ndarray:
-    arr = np.array(a, dtype=np.int64, ndmin=1 if k is None else 2)
-    if k is not None and (arr.ndim != 2 or arr.shape[1] != k):
-        raise InvalidInput(f"{name} must have shape (m, {k}), got {np.shape(a)}")
+    raw = np.array(a, ndmin=1 if k is None else 2)
+    if raw.size and raw.dtype.kind not in "iu":
+        f = raw.astype(float) if raw.dtype.kind in "fb" else None
+        if f is None or not np.all(np.isfinite(f)) or not np.all(f == np.round(f)):
+            raise InvalidInput(f"{name} must be integer particle indices, got {np.asarray(a).ravel()[:5].tolist()}")
+    arr = raw.astype(np.int64)
+    if (k is None and arr.ndim != 1) or (k is not None and (arr.ndim != 2 or arr.shape[1] != k)):
+        raise InvalidInput(f"{name} must have shape {'(m,)' if k is None else f'(m, {k})'}, got {np.shape(a)}")
     return arr
+
+
+def _per_row(value, shape: tuple, name: str, finite: bool = True) -> np.ndarray:
+    """A float parameter broadcast to ``shape`` (one per row, or per row and axis), checked finite."""
+    a = np.asarray(value, dtype=float)
+    try:
+        out = np.broadcast_to(a, shape).copy()
+    except ValueError:
+        raise InvalidInput(f"{name} must be a scalar or broadcast to shape {shape}, got shape {a.shape}") from None
+    if finite and not np.all(np.isfinite(out)):
+        raise InvalidInput(f"{name} must be finite, got {out[~np.isfinite(out)][0]}")
+    return out
 
 
 class Constraint:
@@ -120,7 +137,7 @@ class Distance(Constraint):
         self.slots = _as_index(pairs, "pairs", 2)
         if np.any(np.all(self.slots < 0, axis=1)):
             raise InvalidInput("pairs must have at least one particle per rod, got a row (-1, -1)")
-        self.lengths_in = None if lengths is None else np.broadcast_to(np.asarray(lengths, float), (self.m,)).copy()
+        self.lengths_in = None if lengths is None else _per_row(lengths, (self.m,), "lengths", finite=False)
         if self.lengths_in is not None:
             bad = self.lengths_in[~(np.isfinite(self.lengths_in) & (self.lengths_in > 0))]
             if bad.size:
@@ -129,8 +146,8 @@ class Distance(Constraint):
 
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
-        anchors = np.zeros(dim) if self.anchors_in is None else np.asarray(self.anchors_in, float)
-        self.anchors = np.broadcast_to(anchors, (self.m, dim)).copy()
+        anchors = np.zeros(dim) if self.anchors_in is None else self.anchors_in
+        self.anchors = _per_row(anchors, (self.m, dim), "anchors")
         if self.anchors_in is None and np.any(self.slots < 0):
             raise InvalidInput("anchors must be given for rods to a fixed point (pairs containing -1)")
         if self.lengths_in is None:
@@ -210,7 +227,7 @@ class FixedPoint(Constraint):
                 raise InvalidInput("points must be given when no initial positions are known")
             pts = x0[self.particles]
         else:
-            pts = np.broadcast_to(np.asarray(self.points_in, float), (len(self.particles), dim))
+            pts = _per_row(self.points_in, (len(self.particles), dim), "points")
         self.points = np.array(pts, float).ravel()
         self._axis = np.tile(np.arange(dim), len(self.particles))
         self._G = np.eye(dim)[self._axis][None]
@@ -233,14 +250,15 @@ class OnCircle(Constraint):
 
     def __init__(self, particles, center, radius) -> None:
         self.slots = _as_index(particles, "particles")[:, None]
-        self.radius = np.broadcast_to(np.asarray(radius, float), (self.m,)).copy()
-        if np.any(~(self.radius > 0)):
-            raise InvalidInput(f"radius must be positive, got {self.radius[~(self.radius > 0)][0]}")
+        self.radius = _per_row(radius, (self.m,), "radius", finite=False)
+        bad = ~(self.radius > 0) | ~np.isfinite(self.radius)
+        if np.any(bad):
+            raise InvalidInput(f"radius must be positive, got {self.radius[bad][0]} (a finite radius > 0)")
         self.center_in = np.asarray(center, float)
 
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
-        self.center = np.broadcast_to(self.center_in, (self.m, dim)).copy()
+        self.center = _per_row(self.center_in, (self.m, dim), "center")
         self._p = self.slots[:, 0]
 
     def evaluate(self, x, v):
@@ -266,7 +284,7 @@ class _Affine(Constraint):
 def _unit(a, name: str) -> np.ndarray:
     a = np.asarray(a, float)
     nrm = np.linalg.norm(a)
-    if not np.isfinite(nrm) or nrm == 0:
+    if a.ndim != 1 or not np.isfinite(nrm) or nrm == 0:
         raise InvalidInput(f"{name} must be a non-zero finite vector, got {a.tolist()}")
     return a / nrm
 
@@ -290,6 +308,7 @@ class OnPlane(_Affine):
     def bind(self, N, dim, x0=None) -> None:
         if self.normal.shape != (dim,) or self.point.shape != (dim,):
             raise InvalidInput(f"point and normal must have shape ({dim},), got {self.point.shape}, {self.normal.shape}")
+        _per_row(self.point, (dim,), "point")
         p = self.particles
         self._set(p, np.tile(self.normal, (len(p), 1)), np.full(len(p), self.normal @ self.point))
         super().bind(N, dim)
@@ -309,6 +328,7 @@ class OnLine(_Affine):
         if self.direction.shape != (dim,) or self.point.shape != (dim,):
             raise InvalidInput(f"point and direction must have shape ({dim},), got {self.point.shape}, "
                              f"{self.direction.shape}")
+        _per_row(self.point, (dim,), "point")
         # orthonormal complement of the direction: the last dim−1 columns of a full QR
         Qm, _ = np.linalg.qr(self.direction[:, None], mode="complete")
         normals = Qm[:, 1:].T
@@ -335,7 +355,7 @@ class LinearCombination(Constraint):
                              f"{self.slots.shape}, {self.axes.shape}, {self.coef.shape}")
         if np.any(self.slots < 0):
             raise InvalidInput(f"particle index {int(self.slots.min())} out of range (linear): no fixed points here")
-        self.offsets = np.broadcast_to(np.asarray(offsets, float), (self.m,)).copy()
+        self.offsets = _per_row(offsets, (self.m,), "offsets")
 
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
@@ -363,7 +383,7 @@ class Angle2D(Constraint):
 
     def __init__(self, triples, angles) -> None:
         self.slots = _as_index(triples, "triples", 3)
-        self.angles = np.broadcast_to(np.asarray(angles, float), (self.m,)).copy()
+        self.angles = _per_row(angles, (self.m,), "angles")
 
     def bind(self, N, dim, x0=None) -> None:
         if dim != 2:

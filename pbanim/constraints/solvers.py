@@ -126,7 +126,7 @@ def _splu(A, scale: np.ndarray | None = None, **kw):
     except RuntimeError:  # "Factor is exactly singular"
         return None
     u = np.abs(lu.U.diagonal())
-    if u.min() < _PIVOT * u.max():
+    if u.size and u.min() < _PIVOT * u.max():
         return None
     return lu.solve if scale is None else (lambda r: scale * lu.solve(scale * r))
 
@@ -156,7 +156,7 @@ def _linear(cset, asm):
     order = st.order
     if st.kind == "chain" and st.bandwidth == 0:  # uncoupled rows: A is diagonal
         d = cset.bands(asm)[0]
-        if np.any(d <= 0) or d.min() < _PIVOT * d.max():
+        if np.any(d <= 0) or (d.size and d.min() < _PIVOT * d.max()):
             return None
         core = lambda rp: rp / d  # noqa: E731
     elif st.kind == "chain":

@@ -55,7 +55,7 @@ import numpy as np
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
 from ..bodies import require_bodies
 from ..lcp.solve import solve_lcp
-from ..errors import InconsistentContact, InfeasibleContact, InvalidInput
+from ..errors import InconsistentContact, InfeasibleContact, InvalidInput, check_count
 from ..results import ContactSolution, SimResult
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 
@@ -75,8 +75,7 @@ def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
            [-0., -1.,  0.]])
     """
     n = np.array(normal, dtype=float, ndmin=2)
-    if int(facets) != facets or facets < 2:
-        raise InvalidInput(f"facets must be an integer ≥ 2, got {facets}")
+    facets = check_count("facets", facets, 2)
     from ..geometry import cone_edges  # the one tangent frame, shared with the collision impulses
 
     try:
@@ -152,6 +151,8 @@ class TimeStepping:
         if not callable(detect):
             raise InvalidInput(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         mu = np.asarray(friction, dtype=float)
+        if mu.ndim > 1:
+            raise InvalidInput(f"friction must be a scalar or one value per contact (m,), got shape {mu.shape}")
         if not np.all(np.isfinite(mu)) or np.any(mu < 0):
             raise InvalidInput(f"friction must be finite and ≥ 0, got {friction}")
         if np.any(mu > 0) and solver != "lemke":
@@ -210,7 +211,11 @@ class TimeStepping:
             rn = rows(a, b, contacts.point, contacts.normal)
             sep = -np.asarray(contacts.depth, dtype=float)
             bias = np.where(sep > 0, sep, self.erp * sep) / h
-            mu = np.broadcast_to(self.mu, (m,))
+            try:
+                mu = np.broadcast_to(self.mu, (m,))
+            except ValueError:
+                raise InvalidInput(f"friction has {self.mu.size} values but detect returned {m} contacts at "
+                                   f"t = {t:.6g}; give one μ, or one per contact") from None
             rd = None
             k = self.facets
             if np.any(mu > 0):

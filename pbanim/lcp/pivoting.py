@@ -45,7 +45,14 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
         raise InvalidInput(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
     if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
         raise InvalidInput("A and b must be finite (got NaN or Inf); check the contact assembly")
+    big = max(float(np.max(np.abs(A), initial=0.0)), float(np.max(np.abs(b), initial=0.0)))
+    if big > _LIMIT:     # products A f and the residual threshold would overflow: no certificate possible
+        raise InvalidInput(f"A and b must have entries below {_LIMIT:.0e} in magnitude (rescale the units), "
+                           f"got max |entry| = {big:.3e}")
     return A, b
+
+
+_LIMIT = 1e100
 
 
 def _scale(b: np.ndarray) -> float:

@@ -210,8 +210,8 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         raise InvalidInput(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
     if fallback is not None and fallback not in _IMPL:
         raise InvalidInput(f"fallback must be None or one of {LCP_SOLVERS}, got {fallback!r}")
-    if not (np.isfinite(tol) and tol > 0):
-        raise InvalidInput(f"tol must be a positive finite number, got {tol}")
+    if not (np.isfinite(tol) and 0 < tol < 1):
+        raise InvalidInput(f"tol must be a number in (0, 1) (a residual relative to max(1, ‖b‖∞)), got {tol}")
     A, b = _check(A, b)
     m = b.size
     if solver == "qp" and m:

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..articulated.tree import ArticulatedTree
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count
 
 __all__ = ["pendulum_chain", "ragdoll", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
 
@@ -47,8 +47,7 @@ def urdf_path(name: str) -> Path:
 
 def pendulum_chain(n: int = 3, lengths=1.0, masses=1.0, g: float = 9.81) -> ArticulatedTree:
     """n point masses on massless rods, joints about z, in the x–y plane (gravity −y)."""
-    if isinstance(n, bool) or int(n) != n or n < 1:
-        raise InvalidInput(f"n must be a positive integer, got {n!r}")
+    n = check_count("n", n)
     L = np.broadcast_to(np.asarray(lengths, dtype=float), (n,))
     m = np.broadcast_to(np.asarray(masses, dtype=float), (n,))
     tree = ArticulatedTree(gravity=(0.0, -g, 0.0))

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..collision.shapes import Plane, check_friction, check_restitution
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count
 
 __all__ = ["BouncingBall", "bouncing_ball", "NewtonsCradle", "newtons_cradle", "ObliqueSpheres",
            "oblique_spheres", "FallingRod", "falling_rod", "SpinningBall", "spinning_ball"]
@@ -128,8 +128,7 @@ def newtons_cradle(n: int = 3, v0: float = 1.0, radius: float = 0.5, mass: float
     >>> newtons_cradle(3, 1.5).expected("simultaneous")
     array([-0.5,  1. ,  1. ])
     """
-    if n < 2:
-        raise InvalidInput(f"n must be at least 2 balls, got {n}")
+    n = check_count("n", n, 2)
     return NewtonsCradle(int(n), float(v0), float(radius), float(mass))
 
 

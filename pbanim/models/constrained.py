@@ -21,7 +21,7 @@ import numpy as np
 
 from ..constraints import Distance, FixedPoint, LinearCombination, OnCircle
 from ..particles.system import ParticleSystem
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count, check_number
 
 __all__ = ["ConstrainedModel", "bead_on_circle", "hanging_chain", "cloth_patch", "random_chain", "random_tree",
            "redundant_rod", "redundant_xy", "inconsistent_x"]
@@ -79,9 +79,7 @@ def hanging_chain(n: int, link_length: float = 1.0, masses=1.0, mass_ratio: floa
     >>> mod.info["tension_at_rest"]
     array([60., 50., 30.])
     """
-    n = int(n)
-    if n < 1:
-        raise InvalidInput(f"n must be a positive number of links, got {n}")
+    n = check_count("n", n, 1, 1_000_000)
     m = np.array([1.0 if i % 2 == 0 else mass_ratio for i in range(n)]) if mass_ratio is not None else \
         np.broadcast_to(np.asarray(masses, float), (n,)).copy()
     down = np.zeros(dim)
@@ -109,8 +107,7 @@ def cloth_patch(nx: int = 6, ny: int = 6, spacing: float = 0.1, mass: float = 0.
     >>> mod = cloth_patch(3, 3); mod.constraints[0].m, mod.info["pins"]
     (12, [0, 6])
     """
-    if nx < 2 or ny < 2:
-        raise InvalidInput(f"nx and ny must be >= 2, got {nx}, {ny}")
+    nx, ny = check_count("nx", nx, 2, 1000), check_count("ny", ny, 2, 1000)
     rng = np.random.default_rng(seed)
     I, Jg = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
     idx = I * ny + Jg
@@ -127,27 +124,37 @@ def cloth_patch(nx: int = 6, ny: int = 6, spacing: float = 0.1, mass: float = 0.
 
 
 def _random_masses(rng, n, spread):
+    n = check_count("n", n, 1, 1_000_000)
+    spread = check_number("spread", spread, low=0.0, high=100.0) + 0.0   # 10^±spread finite; −0.0 → 0.0
     return 10.0 ** rng.uniform(-spread, spread, n)
 
 
 def random_chain(n: int, rng: np.random.Generator, dim: int = 2, spread: float = 1.0) -> ConstrainedModel:
     """A chain hung from the origin with random masses (10^±spread), link lengths, directions, velocities."""
+    masses = _random_masses(rng, n, spread)
+    n = int(n)
+    if dim not in (2, 3):
+        raise InvalidInput(f"dim must be 2 or 3, got {dim}")
     steps = rng.normal(size=(n, dim))
     steps *= rng.uniform(0.5, 2.0, n)[:, None] / np.linalg.norm(steps, axis=1)[:, None]
     x = np.cumsum(steps, axis=0)
-    ps = ParticleSystem(x, rng.normal(size=(n, dim)), masses=_random_masses(rng, n, spread))
+    ps = ParticleSystem(x, rng.normal(size=(n, dim)), masses=masses)
     pairs = np.stack([np.arange(n), np.arange(-1, n - 1)], axis=1)
     return ConstrainedModel(ps, [Distance(pairs, anchors=np.zeros(dim))], -9.81 * np.eye(dim)[1], {})
 
 
 def random_tree(n: int, rng: np.random.Generator, dim: int = 2, spread: float = 1.0) -> ConstrainedModel:
     """A random tree: particle i > 0 hangs by a rod from a random earlier particle; particle 0 is nailed."""
+    masses = _random_masses(rng, n, spread)
+    n = int(n)
+    if dim not in (2, 3):
+        raise InvalidInput(f"dim must be 2 or 3, got {dim}")
     parent = np.array([-1] + [int(rng.integers(0, i)) for i in range(1, n)])
     x = np.zeros((n, dim))
     for i in range(1, n):
         d = rng.normal(size=dim)
         x[i] = x[parent[i]] + rng.uniform(0.5, 2.0) * d / np.linalg.norm(d)
-    ps = ParticleSystem(x, rng.normal(size=(n, dim)), masses=_random_masses(rng, n, spread))
+    ps = ParticleSystem(x, rng.normal(size=(n, dim)), masses=masses)
     cons = [FixedPoint([0])]
     if n > 1:
         cons.insert(0, Distance(np.stack([np.arange(1, n), parent[1:]], axis=1)))

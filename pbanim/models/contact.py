@@ -20,7 +20,7 @@ from typing import Any, Callable
 import numpy as np
 
 from ..contact.assembly import make_contacts
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count, check_number
 
 __all__ = ["LCPCase", "psd_nonunique_lcp", "murty_lcp", "infeasible_lcp", "trivial_lcp", "random_contact_lcp",
            "ContactScene", "box_on_plane", "box_stack", "box_on_incline", "incline_expected", "painleve_B",
@@ -53,8 +53,7 @@ def murty_lcp(n: int = 8) -> LCPCase:
            [0., 1., 2.],
            [0., 0., 1.]])
     """
-    if int(n) != n or n < 1:
-        raise InvalidInput(f"n must be a positive integer, got {n}")
+    n = check_count("n", n, 1, 10_000)
     A = np.eye(n) + 2.0 * np.triu(np.ones((n, n)), 1)
     sol = np.zeros(n)
     sol[-1] = 1.0
@@ -68,6 +67,7 @@ def infeasible_lcp() -> LCPCase:
 
 def trivial_lcp(m: int = 3) -> LCPCase:
     """b ≥ 0: f = 0 is the solution (unique here, A = I)."""
+    m = check_count("m", m, 0, 10_000)   # dense m × m matrices
     return LCPCase("trivial", np.eye(m), np.linspace(0.0, 1.0, m), True, np.zeros(m))
 
 
@@ -77,6 +77,7 @@ def random_contact_lcp(m: int, redundant: bool = False, seed: int = 0) -> LCPCas
     ``redundant=False``: n = 2m generalized velocities (A full rank); ``redundant=True``: n = m // 2 + 1
     (rank-deficient A, like the four corners of every box face). Half the contacts are pressed.
     """
+    m = check_count("m", m, 1, 10_000)
     rng = np.random.default_rng(seed)
     n = m // 2 + 1 if redundant else 2 * m
     J = rng.normal(size=(m, n)) / np.sqrt(n)
@@ -165,8 +166,7 @@ def box_stack(n: int = 10, mass_ratio: float = 100.0, pattern: str = "alternatin
     from ..rigid.effects import RigidGravity
     from ..rigid.inertia import box_inertia
 
-    if int(n) != n or n < 1:
-        raise InvalidInput(f"n must be a positive integer, got {n}")
+    n = check_count("n", n)
     mass_ratio = _check_mass("mass_ratio", mass_ratio)
     patterns = ("alternating", "heavy_top", "light_top")
     if pattern not in patterns:
@@ -307,12 +307,13 @@ def sphere_pour(n: int = 100, radius: float = 0.05, box_half: float = 0.3, seed:
     """
     from ..particles.system import Gravity, ParticleSystem
 
-    if int(n) != n or n < 1:
-        raise InvalidInput(f"n must be a positive integer, got {n}")
-    r = float(radius)
-    margin = 0.5 * r if margin is None else float(margin)
+    n = check_count("n", n)
+    r = check_number("radius", radius, low=0.0, low_open=True)
+    box_half = check_number("box_half", box_half, low=r, low_open=True)
+    margin = 0.5 * r if margin is None else check_number("margin", margin, low=0.0)
     rng = np.random.default_rng(seed)
-    per = max(1, int(np.floor(2 * box_half / (2.2 * r))))
+    with np.errstate(over="ignore"):   # a lattice row longer than n is never needed (and may overflow)
+        per = max(1, int(min(n, np.floor(2 * box_half / (2.2 * r)))))
     i = np.arange(n)
     pos = np.stack([-box_half + 1.1 * r + 2.2 * r * (i % per), -box_half + 1.1 * r + 2.2 * r * ((i // per) % per),
                     r + 0.05 + 2.4 * r * (i // (per * per))], axis=1)

@@ -27,7 +27,7 @@ from typing import Callable
 
 import numpy as np
 from scipy.special import ellipk
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_number
 
 __all__ = ["OdeModel", "harmonic_oscillator", "damped_oscillator", "free_fall", "kepler", "pendulum",
            "kepler_position"]
@@ -48,11 +48,15 @@ class OdeModel:
     period: float | None = None
 
 
+_BIG = 1e100   # model parameters beyond this overflow the closed forms (products, squares, exponentials)
+
+
 def _positive(name, value):
-    value = float(value)
-    if not (np.isfinite(value) and value > 0):
-        raise InvalidInput(f"{name} must be positive and finite, got {value}")
-    return value
+    return check_number(name, value, low=0.0, low_open=True, high=_BIG)
+
+
+def _finite(name, value):
+    return check_number(name, value, low=-_BIG, high=_BIG)
 
 
 def harmonic_oscillator(omega: float = 1.0, x0: float = 1.0, v0: float = 0.0) -> OdeModel:
@@ -62,6 +66,7 @@ def harmonic_oscillator(omega: float = 1.0, x0: float = 1.0, v0: float = 0.0) ->
     >>> bool(np.allclose(m.exact([np.pi])[:, 0], [1.0, 0.0]))
     True
     """
+    x0, v0 = _finite("x0", x0), _finite("v0", v0)
     w = _positive("omega", omega)
     w2 = w * w
     A = np.array([[0.0, 1.0], [-w2, 0.0]])
@@ -89,6 +94,7 @@ def damped_oscillator(omega: float = 1.0, c: float = 0.1, x0: float = 1.0, v0: f
     >>> bool(abs(m.exact([1.0])[0, 0] - np.exp(-5.0)) < 1e-3)
     True
     """
+    x0, v0 = _finite("x0", x0), _finite("v0", v0)
     w = _positive("omega", omega)
     c = float(c)
     if not (np.isfinite(c) and c >= 0):
@@ -133,6 +139,7 @@ def free_fall(g: float = 9.81, x0: float = 10.0, v0: float = 0.0) -> OdeModel:
     >>> free_fall(9.81, 10.0).params["t_ground"]  # doctest: +ELLIPSIS
     1.42784312...
     """
+    x0, v0 = _finite("x0", x0), _finite("v0", v0)
     g = float(g)
 
     def rhs(t, y):

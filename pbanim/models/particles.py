@@ -108,6 +108,16 @@ def two_body_spring_model(m1: float = 1.0, m2: float = 3.0, stiffness: float = 1
     k, r, A = float(stiffness), float(rest_length), float(amplitude)
     if not (k > 0 and np.isfinite(k)):
         raise InvalidInput(f"stiffness must be positive, got {stiffness}")
+    for nm, v in (("m1", m1), ("m2", m2)):
+        if not (isinstance(v, (int, float, np.integer, np.floating)) and np.isfinite(v) and v > 0):
+            raise InvalidInput(f"{nm} must be a positive finite mass, got {v}")
+    for nm, v in (("rest_length", r), ("amplitude", A)):
+        if not np.isfinite(v):
+            raise InvalidInput(f"{nm} must be finite, got {v}")
+    with np.errstate(over="ignore", divide="ignore", under="ignore"):
+        w2 = np.float64(k) * (np.float64(m1) + m2) / (np.float64(m1) * m2)
+    if not np.isfinite(w2):
+        raise InvalidInput(f"masses m1 = {m1}, m2 = {m2} and stiffness {k} give no finite frequency ω; use moderate units")
     if not (r + A > 0):
         raise InvalidInput(f"rest_length + amplitude must be positive (a spring of positive length), got {r + A}")
     M = m1 + m2
@@ -146,8 +156,11 @@ def hanging_net(nx: int = 10, ny: int = 10, spacing: float = 0.1, mass: float = 
     >>> net.scene().pipeline
     ('springs', 'anchors', 'gravity', 'integrate')
     """
-    if nx < 2 or ny < 2:
-        raise InvalidInput(f"nx and ny must be >= 2 (a net), got nx={nx}, ny={ny}")
+    if not all(isinstance(k, (int, np.integer)) and not isinstance(k, bool) and k >= 2 for k in (nx, ny)):
+        raise InvalidInput(f"nx and ny must be >= 2 (a net), whole numbers, got nx={nx}, ny={ny}")
+    nx, ny = int(nx), int(ny)
+    if nx * ny > 1_000_000:
+        raise InvalidInput(f"nx·ny must be at most 1e6 particles, got nx={nx}, ny={ny}")
     if not (spacing > 0 and mass > 0 and stiffness > 0):
         raise InvalidInput(f"spacing, mass and stiffness must be positive, got {spacing}, {mass}, {stiffness}")
     i, j = np.meshgrid(np.arange(nx), np.arange(ny))

@@ -126,9 +126,12 @@ class ReducedModel:
 
 
 def _arr(x, n, name):
-    a = np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy()
-    if np.any(~np.isfinite(a)) or np.any(a <= 0):
-        raise InvalidInput(f"{name} must be positive and finite, got {x}")
+    try:
+        a = np.broadcast_to(np.asarray(x, dtype=float), (n,)).copy()
+    except (TypeError, ValueError):
+        raise InvalidInput(f"{name} must be a positive number or {n} of them, got {x!r}") from None
+    if np.any(~np.isfinite(a)) or np.any(a <= 0) or np.any(a > 1e100):
+        raise InvalidInput(f"{name} must be positive and finite (at most 1e100), got {x}")
     return a
 
 

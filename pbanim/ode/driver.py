@@ -42,7 +42,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded
+from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, check_count
 
 __all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
 
@@ -99,10 +99,8 @@ def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
     if not math.isfinite(t_end) or t_end == t0 or (t_end < t0 and not backward):
         raise InvalidInput(f"t_end must be a finite time {'different from' if backward else 'after'} "
                          f"t0 = {t0}, got {t_end}")
-    if int(record_every) != record_every or record_every < 1:
-        raise InvalidInput(f"record_every must be a positive integer, got {record_every}")
-    if int(max_steps) != max_steps or max_steps < 1:
-        raise InvalidInput(f"max_steps must be a positive integer, got {max_steps}")
+    record_every = check_count("record_every", record_every)
+    max_steps = check_count("max_steps", max_steps)
     span = abs(t_end - t0)
     ratio = span / h
     if not math.isfinite(ratio):

@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged
+from ..errors import InvalidInput, SimulationDiverged, check_count
 from .adaptive import solve_adaptive
 from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
@@ -42,7 +42,7 @@ def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
     if not (np.isfinite(t0) and np.isfinite(tf)) or t0 == tf:
         raise InvalidInput(f"t_span must be two different finite times, got {t_span!r}")
     y = np.array(y0, dtype=float, copy=True) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
-    if y.ndim not in (1, 2) or y.shape[-1] == 0:
+    if y.ndim not in (1, 2) or y.size == 0:
         raise InvalidInput(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
     if not np.all(np.isfinite(y)):
         bad = np.flatnonzero(~np.isfinite(y.ravel()))
@@ -56,8 +56,7 @@ def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
         raise InvalidInput(f"rtol must be positive, got {rtol}")
     if not (np.all(np.isfinite(atol)) and np.all(np.asarray(atol) >= 0)):
         raise InvalidInput(f"atol must be non-negative, got {atol}")
-    if int(max_steps) != max_steps or max_steps < 1:
-        raise InvalidInput(f"max_steps must be a positive integer, got {max_steps}")
+    max_steps = check_count("max_steps", max_steps)
     n = y.shape[-1]
     if split is not None and not (0 <= int(split) <= n):
         raise InvalidInput(f"split must be between 0 and n = {n} (number of position components), got {split}")
@@ -240,6 +239,9 @@ def _solve_scipy(fun, t0, tf, y, name, h, rtol, atol, jac, t_eval, events, max_s
         raise InvalidInput(f"method must be 'scipy:' + one of {list(SCIPY_METHODS)}, got 'scipy:{name}'")
     if y.ndim != 1:
         raise InvalidInput("batch mode (y0 of shape (K, n)) needs a pbanim method, not scipy:" + name)
+    if t_eval is not None and np.any(np.diff(t_eval) == 0):
+        raise InvalidInput(f"t_eval must not repeat a time for scipy:{name} (scipy needs strictly sorted "
+                           f"times), got {t_eval[:5]}{'...' if t_eval.size > 5 else ''}")
     opts = {}
     if h is not None:
         step_grid(t0, tf, h, max_steps=max_steps, backward=True)      # refuses an astronomical run

@@ -124,7 +124,11 @@ class ParticleSystem(Bodies):
         self.x0, self.v0, self.m = x, v, m
         self.N, self.dim = x.shape
         self.split = self.N * self.dim
-        self.W = 1.0 / m
+        with np.errstate(over="ignore"):
+            self.W = 1.0 / m
+        if not np.all(np.isfinite(self.W)):
+            raise InvalidInput(f"mass must be positive, got {m[~np.isfinite(self.W)][0]}, too small for its "
+                               "inverse 1/m to be finite; use a larger mass (or other units)")
         self._Wflat = np.repeat(self.W, self.dim)  # W per component: flat operands keep numpy's loops long
         self._h_cached, self._hW = None, None
 

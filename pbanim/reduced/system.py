@@ -107,8 +107,12 @@ class ReducedSystem:
 
         u_chk = np.atleast_1d(np.asarray(u0, dtype=float)) if u0 is not None else None
         if u_chk is not None:  # shapes first, with messages, before any product
-            nq, k = np.asarray(q(u_chk), float).size, u_chk.size
-            sJ = np.shape(J(u_chk))
+            try:
+                nq, k = np.asarray(q(u_chk), float).size, u_chk.size
+                sJ = np.shape(J(u_chk))
+            except (TypeError, ValueError, IndexError) as exc:
+                raise InvalidInput(f"q(u0) or J(u0) failed with u0 of shape {u_chk.shape} ({type(exc).__name__}: "
+                                   f"{exc}); give u0 one entry per coordinate of the chart") from exc
             if sJ != (nq, k):
                 raise InvalidInput(f"J(u) must have shape (len(q), len(u)) = ({nq}, {k}), got {sJ}")
 
@@ -186,13 +190,19 @@ class ReducedSystem:
         if u0 is None:
             raise InvalidInput("u0 must be given (the initial coordinates, also the chart's reference)")
         u0 = np.atleast_1d(np.asarray(u0, dtype=float))
-        if u0.ndim != 1 or not np.all(np.isfinite(u0)):
-            raise InvalidInput(f"u0 must be a finite 1-D array, got {u0!r}")
+        if u0.ndim != 1 or u0.size == 0 or not np.all(np.isfinite(u0)):
+            raise InvalidInput(f"u0 must be a finite non-empty 1-D array, got {u0!r}")
         k = u0.size
         ud0 = np.zeros(k) if udot0 is None else np.atleast_1d(np.asarray(udot0, dtype=float))
         if ud0.shape != (k,):
             raise InvalidInput(f"udot0 must have shape ({k},) like u0, got {ud0.shape}")
-        q0, qd0, J0, b0 = kin(0.0, u0, ud0)
+        if not np.all(np.isfinite(ud0)):
+            raise InvalidInput(f"udot0 must be finite, got {ud0!r}")
+        try:
+            q0, qd0, J0, b0 = kin(0.0, u0, ud0)
+        except (TypeError, ValueError, IndexError) as exc:
+            raise InvalidInput(f"the chart failed at u0 = {u0.tolist()} ({type(exc).__name__}: {exc}); check "
+                               "that u0 and udot0 have one entry per coordinate") from exc
         if q0.size % dim:
             raise InvalidInput(f"q(u) must return N·dim = multiple of {dim} values, got {q0.size}")
         if J0.shape != (q0.size, k):

@@ -34,6 +34,39 @@ from ..errors import InvalidInput
 __all__ = ["RigidGravity", "PointForce", "RigidSprings", "LinearDrag", "AngularDrag", "QuaternionRenormalize"]
 
 
+def _rows3(value, name: str) -> np.ndarray:
+    """Points or vectors as a finite (k, 3) array (a flat array of 3k numbers is read row by row)."""
+    a = np.asarray(value, dtype=float)
+    if a.size % 3 or (a.ndim >= 1 and a.shape[-1] != 3 and a.size):
+        raise InvalidInput(f"{name} must have shape (k, 3), got shape {a.shape}")
+    a = a.reshape(-1, 3)
+    if not np.all(np.isfinite(a)):
+        raise InvalidInput(f"{name} must be finite, got {a[~np.isfinite(a)][0]}")
+    return a
+
+
+def _per_item(value, k: int, name: str) -> np.ndarray:
+    """A scalar or (k,) parameter broadcast to (k,), checked finite and >= 0."""
+    a = np.asarray(value, dtype=float)
+    try:
+        out = np.broadcast_to(a, (k,)).copy()
+    except ValueError:
+        raise InvalidInput(f"{name} must be a scalar or have shape ({k},), got shape {a.shape}") from None
+    if np.any(~np.isfinite(out)) or np.any(out < 0):
+        raise InvalidInput(f"{name} must be finite and >= 0, got {out[~np.isfinite(out) | (out < 0)][0]}")
+    return out
+
+
+def _indices(value, name: str) -> np.ndarray:
+    a = np.atleast_1d(np.asarray(value))
+    if a.size and (a.dtype.kind not in "iu" and not (a.dtype.kind == "f" and np.all(np.isfinite(a))
+                                                      and np.all(a == np.round(a)))):
+        raise InvalidInput(f"{name} must be integer body indices, got {a.ravel()[:5].tolist()}")
+    if a.ndim != 1:
+        raise InvalidInput(f"{name} must be a 1-D array of body indices, got shape {a.shape}")
+    return a.astype(np.intp)
+
+
 def _require_rigid(effect: Effect, system) -> RigidBodies:
     if not isinstance(system, RigidBodies):
         raise InvalidInput(f"{type(effect).__name__} acts on RigidBodies, got {type(system).__name__}")
@@ -88,12 +121,22 @@ class PointForce(Effect):
     phase = "force"
 
     def __init__(self, bodies, points_body, force: np.ndarray | Callable) -> None:
-        self.bodies = np.atleast_1d(np.asarray(bodies, dtype=np.intp))
-        self.points = np.asarray(points_body, dtype=float).reshape(-1, 3)
+        self.bodies = _indices(bodies, "bodies")
+        self.points = _rows3(points_body, "points_body")
         if len(self.points) != len(self.bodies):
             raise InvalidInput(f"points_body must have one row per body index ({len(self.bodies)}), "
                              f"got {len(self.points)}")
-        self.force = force if callable(force) else np.broadcast_to(np.asarray(force, float), self.points.shape)
+        if callable(force):
+            self.force = force
+        else:
+            f = np.asarray(force, float)
+            try:
+                self.force = np.broadcast_to(f, self.points.shape)
+            except ValueError:
+                raise InvalidInput(f"force must be a callable or broadcast to shape {self.points.shape}, got "
+                                   f"shape {f.shape}") from None
+            if not np.all(np.isfinite(self.force)):
+                raise InvalidInput(f"force must be finite, got {self.force[~np.isfinite(self.force)][0]}")
 
     def bind(self, system: RigidBodies) -> None:
         self.system = _require_rigid(self, system)
@@ -128,19 +171,16 @@ class RigidSprings(Effect):
     phase = "force"
 
     def __init__(self, body_a, point_a, body_b, point_b, stiffness, damping=0.0, rest_length=None) -> None:
-        self.a = np.atleast_1d(np.asarray(body_a, dtype=np.intp))
-        self.b = np.atleast_1d(np.asarray(body_b, dtype=np.intp))
+        self.a = _indices(body_a, "body_a")
+        self.b = _indices(body_b, "body_b")
         k = len(self.a)
-        self.ra = np.asarray(point_a, dtype=float).reshape(-1, 3)
-        self.rb = np.asarray(point_b, dtype=float).reshape(-1, 3)
+        self.ra = _rows3(point_a, "point_a")
+        self.rb = _rows3(point_b, "point_b")
         if not (len(self.b) == len(self.ra) == len(self.rb) == k):
             raise InvalidInput(f"body_a, point_a, body_b, point_b must all have {k} rows, got "
                              f"{len(self.b)}, {len(self.ra)}, {len(self.rb)}")
-        self.ks = np.broadcast_to(np.asarray(stiffness, dtype=float), (k,)).copy()
-        self.kd = np.broadcast_to(np.asarray(damping, dtype=float), (k,)).copy()
-        for name, val in (("stiffness", self.ks), ("damping", self.kd)):
-            if np.any(~np.isfinite(val)) or np.any(val < 0):
-                raise InvalidInput(f"{name} must be finite and >= 0, got {val}")
+        self.ks = _per_item(stiffness, k, "stiffness")
+        self.kd = _per_item(damping, k, "damping")
         self.rest_in = rest_length
 
     def bind(self, system: RigidBodies) -> None:
@@ -150,9 +190,7 @@ class RigidSprings(Effect):
             pa, pb = self._points(rb.state())
             self.rest = np.linalg.norm(pa - pb, axis=1)
         else:
-            self.rest = np.broadcast_to(np.asarray(self.rest_in, dtype=float), (len(self.a),)).copy()
-            if np.any(self.rest < 0):
-                raise InvalidInput(f"rest_length must be >= 0, got {self.rest}")
+            self.rest = _per_item(self.rest_in, len(self.a), "rest_length")
 
     def _points(self, y):
         rb = self.system

@@ -41,7 +41,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_count
 
 __all__ = ["MassProperties", "box_inertia", "sphere_inertia", "cylinder_inertia", "capsule_inertia",
            "mesh_mass_properties", "parallel_axis", "validate_inertia", "principal_axes", "box_mesh",
@@ -51,10 +51,22 @@ _REL_TOL = 1e-10  # symmetry / triangle-inequality slack, relative to the larges
 
 
 def _positive(name: str, value) -> float:
-    v = float(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = float("nan")
     if not np.isfinite(v) or v <= 0:
         raise InvalidInput(f"{name} must be positive and finite, got {value}")
     return v
+
+
+def _representable(who: str, inertia: np.ndarray, args: str) -> np.ndarray:
+    """Refuse an inertia whose moments overflowed to inf or underflowed to 0 (parameters far off scale)."""
+    d = np.diagonal(inertia, axis1=-2, axis2=-1)
+    if not (np.all(np.isfinite(inertia)) and np.all(d > 0)):
+        raise InvalidInput(f"{who}({args}) has moments {d.tolist()} that are not finite and > 0 (the parameters "
+                           "overflow or underflow double precision); use units that keep them moderate")
+    return inertia
 
 
 def box_inertia(mass: float, extents) -> np.ndarray:
@@ -71,8 +83,10 @@ def box_inertia(mass: float, extents) -> np.ndarray:
     e = np.asarray(extents, dtype=float)
     if e.shape != (3,) or np.any(~np.isfinite(e)) or np.any(e <= 0):
         raise InvalidInput(f"extents must be 3 positive side lengths, got {extents}")
-    a2, b2, c2 = e * e
-    return m / 12.0 * np.diag([b2 + c2, a2 + c2, a2 + b2])
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        a2, b2, c2 = e * e
+        I = m / 12.0 * np.diag([b2 + c2, a2 + c2, a2 + b2])
+    return _representable("box_inertia", I, f"{mass}, {extents}")
 
 
 def sphere_inertia(mass: float, radius: float, hollow: bool = False) -> np.ndarray:
@@ -81,13 +95,15 @@ def sphere_inertia(mass: float, radius: float, hollow: bool = False) -> np.ndarr
     >>> float(sphere_inertia(5.0, 1.0)[0, 0])
     2.0
     """
-    m, r = _positive("mass", mass), _positive("radius", radius)
-    return (2.0 / 3.0 if hollow else 0.4) * m * r * r * np.eye(3)
+    m, r = np.float64(_positive("mass", mass)), np.float64(_positive("radius", radius))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        I = (2.0 / 3.0 if hollow else 0.4) * m * r * r * np.eye(3)
+    return _representable("sphere_inertia", I, f"{mass}, {radius}")
 
 
 def _axis_diag(axial: float, transverse: float, axis: int) -> np.ndarray:
-    if axis not in (0, 1, 2):
-        raise InvalidInput(f"axis must be 0, 1 or 2, got {axis}")
+    if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or axis not in (0, 1, 2):
+        raise InvalidInput(f"axis must be 0, 1 or 2, got {axis!r}")
     d = np.full(3, transverse)
     d[axis] = axial
     return np.diag(d)
@@ -99,8 +115,10 @@ def cylinder_inertia(mass: float, radius: float, height: float, axis: int = 2) -
     >>> np.diag(cylinder_inertia(12.0, 1.0, 2.0))
     array([7., 7., 6.])
     """
-    m, r, h = _positive("mass", mass), _positive("radius", radius), _positive("height", height)
-    return _axis_diag(0.5 * m * r * r, m * (3 * r * r + h * h) / 12.0, axis)
+    m, r, h = (np.float64(_positive(nm, v)) for nm, v in (("mass", mass), ("radius", radius), ("height", height)))
+    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
+        I = _axis_diag(0.5 * m * r * r, m * (3 * r * r + h * h) / 12.0, axis)
+    return _representable("cylinder_inertia", I, f"{mass}, {radius}, {height}")
 
 
 def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) -> np.ndarray:
@@ -113,15 +131,18 @@ def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) ->
     >>> np.allclose(capsule_inertia(2.0, 0.5, 0.0), sphere_inertia(2.0, 0.5))
     True
     """
-    m, r = _positive("mass", mass), _positive("radius", radius)
-    h = float(height)
+    m, r = np.float64(_positive("mass", mass)), np.float64(_positive("radius", radius))
+    h = np.float64(height) if isinstance(height, (int, float, np.integer, np.floating)) else np.float64("nan")
     if not np.isfinite(h) or h < 0:
         raise InvalidInput(f"height must be finite and >= 0 (0 gives a sphere), got {height}")
-    vc, vs = np.pi * r * r * h, 4.0 / 3.0 * np.pi * r ** 3
-    mc, ms = m * vc / (vc + vs), m * vs / (vc + vs)
-    axial = 0.5 * mc * r * r + 0.4 * ms * r * r
-    trans = mc * (3 * r * r + h * h) / 12.0 + ms * (0.4 * r * r + h * h / 4.0 + 3.0 * h * r / 8.0)
-    return _axis_diag(axial, trans, axis)
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        # volume fractions from the ratio h/r (no r³ that overflows or underflows on its own)
+        fc = np.pi * h / (np.pi * h + 4.0 / 3.0 * np.pi * r) if h > 0 else np.float64(0.0)
+        mc, ms = m * fc, m * (1.0 - fc)
+        axial = 0.5 * mc * r * r + 0.4 * ms * r * r
+        trans = mc * (3 * r * r + h * h) / 12.0 + ms * (0.4 * r * r + h * h / 4.0 + 3.0 * h * r / 8.0)
+        I = _axis_diag(axial, trans, axis)
+    return _representable("capsule_inertia", I, f"{mass}, {radius}, {height}")
 
 
 @dataclass(frozen=True)
@@ -193,6 +214,9 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     C = rho * second - m * np.outer(com, com)
     C = 0.5 * (C + C.T)
     inertia = np.trace(C) * np.eye(3) - C
+    if not (np.isfinite(m) and np.all(np.isfinite(com)) and np.all(np.isfinite(inertia))):
+        raise InvalidInput(f"mesh mass properties overflow double precision (volume {volume:.3g}, mass {m:.3g}); "
+                           "use moderate units")
     return MassProperties(mass=float(m), com=com, inertia=inertia, volume=volume)
 
 
@@ -209,8 +233,23 @@ def parallel_axis(inertia, mass: float, offset) -> np.ndarray:
     I = np.asarray(inertia, dtype=float)
     m = np.asarray(mass, dtype=float)
     d = np.asarray(offset, dtype=float)
-    dd = np.sum(d * d, axis=-1)[..., None, None]
-    return I + m[..., None, None] * (dd * np.eye(3) - d[..., :, None] * d[..., None, :])
+    if I.shape[-2:] != (3, 3) or d.shape[-1:] != (3,):
+        raise InvalidInput(f"inertia must have shape (..., 3, 3) and offset (..., 3), got {I.shape} and {d.shape}")
+    for nm, a in (("inertia", I), ("mass", m), ("offset", d)):
+        if not np.all(np.isfinite(a)):
+            raise InvalidInput(f"{nm} must be finite, got {a[~np.isfinite(a)][0]}")
+    if np.any(m < 0):
+        raise InvalidInput(f"mass must be >= 0, got {m[m < 0][0]}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        try:
+            dd = np.sum(d * d, axis=-1)[..., None, None]
+            out = I + m[..., None, None] * (dd * np.eye(3) - d[..., :, None] * d[..., None, :])
+        except ValueError:
+            raise InvalidInput(f"inertia {I.shape}, mass {m.shape} and offset {d.shape} do not broadcast "
+                               "together") from None
+    if not np.all(np.isfinite(out)):
+        raise InvalidInput(f"parallel_axis overflowed (mass {mass}, offset {offset}); use moderate units")
+    return out
 
 
 def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
@@ -221,7 +260,14 @@ def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     array([1., 2., 3.])
     """
     I = np.asarray(inertia, dtype=float)
-    w, A = np.linalg.eigh(0.5 * (I + np.swapaxes(I, -1, -2)))
+    if I.ndim < 2 or I.shape[-2:] != (3, 3) or not np.all(np.isfinite(I)):
+        raise InvalidInput(f"inertia must be a finite array of shape (..., 3, 3), got shape {I.shape}"
+                           f"{'' if np.all(np.isfinite(I)) else ' with NaN/Inf'}")
+    with np.errstate(over="ignore", invalid="ignore"):
+        w, A = np.linalg.eigh(0.5 * (I + np.swapaxes(I, -1, -2)))
+    if not (np.all(np.isfinite(w)) and np.all(np.isfinite(A))):
+        raise InvalidInput(f"principal_axes: the eigen-decomposition of inertia overflowed (max |I| = "
+                           f"{np.abs(I).max():.3g}); use moderate units")
     A = A * np.where(np.linalg.det(A) < 0, -1.0, 1.0)[..., None, None]
     return w, A
 
@@ -275,7 +321,10 @@ def box_mesh(extents) -> tuple[np.ndarray, np.ndarray]:
     >>> v, f = box_mesh([2.0, 2.0, 2.0]); v.shape, f.shape
     ((8, 3), (12, 3))
     """
-    e = 0.5 * np.asarray(extents, dtype=float)
+    e = np.asarray(extents, dtype=float)
+    if e.shape != (3,) or not np.all(np.isfinite(e)) or np.any(e <= 0):
+        raise InvalidInput(f"extents must be 3 positive finite side lengths, got {extents}")
+    e = 0.5 * e
     v = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float) * e
     # quads (outward, counter-clockwise from outside) on the faces x=-, x=+, y=-, y=+, z=-, z=+
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
@@ -289,6 +338,10 @@ def icosphere_mesh(radius: float = 1.0, subdivisions: int = 2) -> tuple[np.ndarr
     >>> v, f = icosphere_mesh(1.0, 1); len(f)
     80
     """
+    radius = _positive("radius", radius)
+    subdivisions = check_count("subdivisions", subdivisions, 0)
+    if subdivisions > 7:
+        raise InvalidInput(f"subdivisions must be <= 7 (20·4ˢ faces: 7 gives 327680), got {subdivisions}")
     t = (1 + np.sqrt(5)) / 2
     v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
                   [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=float)
