@@ -38,6 +38,7 @@ __all__ = [
     "InconsistentContact",
     "check_count",
     "check_number",
+    "check_positive",
 ]
 
 
@@ -77,6 +78,17 @@ def check_number(name: str, value, *, low: float = -math.inf, high: float = math
         if high < math.inf:
             parts.append(f"{'<' if high_open else '<='} {high:g}")
         raise InvalidInput(f"{name} must be a finite number{' ' if parts else ''}{' and '.join(parts)}, got {value!r}")
+    return v
+
+
+def check_positive(name: str, value, fix: str = "") -> float:
+    """``value`` as a positive finite float, or :class:`InvalidInput` "NAME must be positive and finite"."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (math.isfinite(v) and v > 0):
+        raise InvalidInput(f"{name} must be positive and finite, got {value}{_tail(fix)}")
     return v
 
 

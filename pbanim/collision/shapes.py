@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
-from ..errors import InvalidInput
+from ..errors import InvalidInput, check_positive
 
 __all__ = ["Contacts", "Plane", "Sphere", "Box", "Capsule", "check_restitution", "check_friction"]
 
@@ -140,14 +140,7 @@ def _shape_inertia(shape, mass, moments) -> np.ndarray:
     return np.diag(d)
 
 
-def _positive(name: str, value, fix: str) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = float("nan")
-    if not np.isfinite(v) or v <= 0:
-        raise InvalidInput(f"{name} must be positive and finite, got {value}; {fix}")
-    return v
+_positive = check_positive
 
 
 def check_restitution(restitution) -> float:

@@ -41,7 +41,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from ..errors import InvalidInput, check_count
+from ..errors import InvalidInput, check_count, check_positive
 
 __all__ = ["MassProperties", "box_inertia", "sphere_inertia", "cylinder_inertia", "capsule_inertia",
            "mesh_mass_properties", "parallel_axis", "validate_inertia", "principal_axes", "box_mesh",
@@ -50,14 +50,7 @@ __all__ = ["MassProperties", "box_inertia", "sphere_inertia", "cylinder_inertia"
 _REL_TOL = 1e-10  # symmetry / triangle-inequality slack, relative to the largest moment
 
 
-def _positive(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        v = float("nan")
-    if not np.isfinite(v) or v <= 0:
-        raise InvalidInput(f"{name} must be positive and finite, got {value}")
-    return v
+_positive = check_positive
 
 
 def _representable(who: str, inertia: np.ndarray, args: str) -> np.ndarray:
