@@ -579,3 +579,44 @@ def test_models(data):
     }
     name = data.draw(st.sampled_from(sorted(makers)))
     call(f"models.{name}", makers[name], check=None)
+
+
+# -- chapter 08: articulated bodies ------------------------------------------------------------------------
+@fuzz_settings(40)
+@given(data=st.data())
+def test_articulated(data):
+    from pbanim.articulated import ArticulatedTree, RigidJoints, aba, crba, load_urdf, rnea
+
+    kind = data.draw(st.sampled_from(["revolute", "prismatic", "fixed", "floating", "ball", 3]))
+    parent = data.draw(int_like)
+    mass, cx, iz = data.draw(number), data.draw(number), data.draw(number)
+    axis = data.draw(vec(st.sampled_from([2, 3])))
+
+    def build():
+        tree = ArticulatedTree()
+        tree.add("root", -1, "revolute", axis=[0, 0, 1], mass=1.0, com=[1.0, 0, 0])
+        tree.add("link", parent, kind, axis=axis, mass=mass, com=[cx, 0.0, 0.0], inertia=[1.0, 1.0, iz])
+        return tree
+
+    tree = call("ArticulatedTree.add", build, check=None)
+    if tree is not None:
+        q = tree.neutral()
+        qd = data.draw(vec(st.just(tree.nv)))
+        call("articulated.aba", lambda: aba(tree, q, qd, np.zeros(tree.nv)))
+        call("articulated.rnea", lambda: rnea(tree, q, qd, qd))
+        call("articulated.crba", lambda: crba(tree, q))
+    text = data.draw(st.sampled_from([
+        "", "<robot/>", "<robot><link/></robot>", "<robot name='r'><link name='a'/></robot>", "not xml",
+        "<robot><link name='a'><inertial><mass value='nan'/><inertia ixx='1' ixy='0' ixz='0' iyy='1' iyz='0' izz='1'/>"
+        "</inertial></link></robot>", "missing_file.urdf"]))
+    call("load_urdf", lambda: load_urdf(text), check=None)
+    jk = data.draw(st.sampled_from(["ball", "hinge", "slider", "weld", "cardan"]))
+    ja, jb = data.draw(int_like), data.draw(int_like)
+
+    def joint_scene():
+        rb = pbanim.RigidBodies(1.0, [1.0, 1.0, 1.0])
+        return pbanim.RigidScene(rb, [RigidJoints([dict(kind=jk, a=ja, b=jb, anchor_a=[0.0, cx, 0.0], axis_a=axis)])])
+
+    scene = call("RigidJoints", joint_scene, check=None)
+    if scene is not None:
+        call("RigidJoints.simulate", lambda: scene.simulate(0.01, 1e-3, "rk4"), check=None)

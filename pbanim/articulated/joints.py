@@ -33,7 +33,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularConstraintError
+from ..errors import InvalidInput, SingularConstraintError, check_count
 from ..geometry import cross, skew, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..scene import Effect
@@ -93,7 +93,9 @@ class RigidJoints(Effect):
         for nm, ax in (("axis_a", axis_a), ("axis_b", axis_b)):
             if kind in ("hinge", "slider") and not np.linalg.norm(ax) > 1e-12:
                 raise InvalidInput(f"a {kind} joint's {nm} must be non-zero, got {ax}")
-        return RigidJoint(kind, int(d.get("a", 0)), int(d.get("b", -1)), _vec(d.get("anchor_a", (0, 0, 0)), "anchor_a"),
+        a = check_count("joint body a", d.get("a", 0), minimum=-1)
+        b = check_count("joint body b", d.get("b", -1), minimum=-1)
+        return RigidJoint(kind, a, b, _vec(d.get("anchor_a", (0, 0, 0)), "anchor_a"),
                           _vec(d.get("anchor_b", (0, 0, 0)), "anchor_b"),
                           axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300))
 

@@ -93,7 +93,9 @@ class ArticulatedTree:
         who = f"link {name!r}"
         if kind not in JOINT_TYPES:
             raise InvalidInput(f"{who}: joint type must be one of {list(JOINT_TYPES)}, got {kind!r}")
-        if isinstance(parent, bool) or int(parent) != parent or not -1 <= parent < self.n:
+        ok = not isinstance(parent, bool) and isinstance(parent, (int, float, np.integer, np.floating)) \
+            and np.isfinite(parent) and int(parent) == parent
+        if not ok or not -1 <= parent < self.n:
             raise InvalidInput(f"{who}: parent must be −1 (the world) or an existing link 0..{self.n - 1} "
                                f"(parents come before children, so the tree has no cycle), got {parent!r}")
         if kind == "floating" and parent != -1:
