@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import cross as _cross
+from ..errors import SingularChartError
 from .tree import ArticulatedTree
 
 __all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
@@ -137,7 +138,13 @@ def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
         S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
         U[i] = IA[i] @ S                                        # (K, 6, d)
         D = S.T @ U[i]                                          # (K, d, d)
-        Dinv[i] = np.linalg.inv(D) if S.shape[1] else np.zeros((K, 0, 0))
+        if S.shape[1]:
+            if not np.all(np.isfinite(D)) or np.any(np.abs(np.linalg.det(D)) < 1e-280):
+                raise SingularChartError(np.inf, None, f"joint {i} has (nearly) zero articulated inertia about "
+                                         "its axis in some state of the batch")
+            Dinv[i] = np.linalg.inv(D)
+        else:
+            Dinv[i] = np.zeros((K, 0, 0))
         u[i] = tau[:, vi] - pA[i] @ S                           # (K, d)
         if lam >= 0:
             UD = U[i] @ Dinv[i]
@@ -155,4 +162,7 @@ def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
         qi = np.einsum("kij,kj->ki", Dinv[i], u[i] - np.einsum("kji,kj->ki", U[i], ap))
         qdd[:, vi] = qi
         a[i] = ap + qi @ S.T
+    if not np.all(np.isfinite(qdd)):
+        raise SingularChartError(np.inf, None, "ABA's accelerations are not finite (singular joint inertia or "
+                                 "overflowing inputs)")
     return qdd[0] if single else qdd

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import SingularChartError
 from .spatial import crf, crm
 from .tree import ArticulatedTree
 
@@ -119,7 +120,7 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     for i in reversed(range(n)):
         S, vi = A["S"][i], A["vi"][i]
         U[i] = IA[i] @ S
-        Dinv[i] = np.linalg.inv(S.T @ U[i]) if S.shape[1] else np.zeros((0, 0))
+        Dinv[i] = _inverse(S.T @ U[i], i, q)
         u[i] = tau[vi] - S.T @ pA[i]
         lam = tree.parent[i]
         if lam >= 0:
@@ -135,7 +136,27 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
         ap = Xup[i] @ (a[lam] if lam >= 0 else A["a0"]) + c[i]
         qdd[vi] = Dinv[i] @ (u[i] - U[i].T @ ap)
         a[i] = ap + S @ qdd[vi]
+    if not np.all(np.isfinite(qdd)):
+        raise SingularChartError(np.inf, q.tolist(), "ABA's accelerations are not finite (a joint whose "
+                                 "subtree has no inertia about its axis, or overflowing inputs)")
     return qdd
+
+
+def _inverse(D: np.ndarray, i: int, q) -> np.ndarray:
+    """D⁻¹ of joint i's articulated inertia Sᵀ I^A S, or SingularChartError when it is singular."""
+    if D.size == 0:
+        return np.zeros((0, 0))
+    if D.shape == (1, 1):                       # revolute and prismatic joints: a scalar
+        d = float(D[0, 0])
+        if not (np.isfinite(d) and abs(d) > 1e-280):
+            raise SingularChartError(np.inf, np.asarray(q).tolist(),
+                                     f"joint {i} has (nearly) zero articulated inertia about its axis")
+        return np.array([[1.0 / d]])
+    scale = float(np.max(np.abs(D))) if np.all(np.isfinite(D)) else np.inf
+    if not np.isfinite(scale) or np.linalg.cond(D) > 1e14 or scale < 1e-280:
+        raise SingularChartError(np.linalg.cond(D) if np.isfinite(scale) else np.inf, np.asarray(q).tolist(),
+                                 f"joint {i} has (nearly) zero articulated inertia about its axis")
+    return np.linalg.inv(D)
 
 
 def kinetic_energy(tree: ArticulatedTree, q, qd) -> float:
