@@ -11,7 +11,8 @@ Figures:
 * ``quat_drift``: ||q| − 1| per integrator without renormalization, explicit Euler on its exact law
   (1 + h²|ω|²/4)^(n/2), and with renormalization / the exponential map (ORACLES C3). |q|² is a quadratic
   invariant of q̇ = ½(0, ω)⊗q (the map is skew), so implicit midpoint keeps it to its Newton tolerance;
-  symplectic Euler and Verlet coincide with explicit Euler on q here (L̇ = 0 makes the kick trivial).
+  symplectic Euler coincides with explicit Euler on q here (L̇ = 0 makes the kick trivial); Verlet is the
+  rigid-body splitting (exact rotations about the principal axes) and keeps |q| = 1 to roundoff.
 * ``work_precision``: error of ω(t) vs wall time per integrator and quaternion policy.
 * ``tumbling_box``: an animation (GIF) of a box tumbling about an axis near its intermediate axis.
 """
