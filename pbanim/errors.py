@@ -39,6 +39,8 @@ __all__ = [
     "check_count",
     "check_number",
     "check_positive",
+    "as_floats",
+    "as_float",
 ]
 
 
@@ -79,6 +81,26 @@ def check_number(name: str, value, *, low: float = -math.inf, high: float = math
             parts.append(f"{'<' if high_open else '<='} {high:g}")
         raise InvalidInput(f"{name} must be a finite number{' ' if parts else ''}{' and '.join(parts)}, got {value!r}")
     return v
+
+
+def as_float(name: str, value) -> float:
+    """``value`` as one float (NaN and inf pass through for the caller's range check), or
+    :class:`InvalidInput` when it is not a number."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        text = repr(value)
+        raise InvalidInput(f"{name} must be a number, got {text[:60]}{'...' if len(text) > 60 else ''}") from None
+
+
+def as_floats(name: str, value, ndmin: int = 0):
+    """``value`` as a float array (a copy), or :class:`InvalidInput` when it is not numbers (e.g. a string)."""
+    try:
+        return np.array(value, dtype=float, ndmin=ndmin)
+    except (TypeError, ValueError):
+        text = repr(value)
+        raise InvalidInput(f"{name} must be numbers (an array of floats), got {text[:60]}"
+                           f"{'...' if len(text) > 60 else ''}") from None
 
 
 def check_positive(name: str, value, fix: str = "") -> float:

@@ -293,3 +293,25 @@ def test_baumgarte_stability_limit_upper_is_bounded():
 def test_batch_of_zero_initial_conditions_refused():
     with pytest.raises(InvalidInput, match="y0"):
         pbanim.solve(lambda t, y: y, (0.0, 1.0), np.zeros((0, 1)), method="dopri5")
+
+
+def test_text_where_numbers_go_is_named():
+    # a student passing a string (or another non-number) gets InvalidInput naming the argument, never
+    # numpy's "could not convert string to float"
+    ps = pbanim.ParticleSystem([[0.0, 1.0]])
+    cases = {
+        "y0": lambda: pbanim.solve(lambda t, y: -y, (0, 1), "abc", h=0.1),
+        "h": lambda: pbanim.solve(lambda t, y: -y, (0, 1), [1.0], h="x"),
+        "t_span": lambda: pbanim.solve(lambda t, y: -y, "ab", [1.0], h=0.1),
+        "g": lambda: pbanim.Scene(ps, [pbanim.Gravity("x")]),
+        "t_end": lambda: pbanim.Scene(ps, []).simulate("x", 0.1),
+        "normal": lambda: pbanim.Plane("abc"),
+        "A": lambda: pbanim.solve_lcp("a", "b"),
+        "a and b": lambda: pbanim.make_contacts("a", [-1], [[0, 0, 0]], [[0, 0, 1]]),
+        "restitution": lambda: pbanim.Collisions(obstacles=[pbanim.Plane([0, 1])], restitution="x"),
+        "positions": lambda: pbanim.ParticleSystem("abc"),
+        "mass": lambda: pbanim.RigidBodies("a", [1.0, 1.0, 1.0]),
+    }
+    for name, call in cases.items():
+        with pytest.raises(InvalidInput, match=name):
+            call()

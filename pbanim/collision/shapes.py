@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
-from ..errors import InvalidInput, check_positive
+from ..errors import InvalidInput, as_float, as_floats, check_positive
 
 __all__ = ["Contacts", "Plane", "Sphere", "Box", "Capsule", "check_restitution", "check_friction"]
 
@@ -151,7 +151,7 @@ def check_restitution(restitution) -> float:
     ...
     pbanim.errors.InvalidInput: restitution must lie in [0, 1], got 1.5; use 0 for a plastic and 1 for an elastic impact
     """
-    e = float(restitution)
+    e = as_float("restitution", restitution)
     if not (0.0 <= e <= 1.0):
         raise InvalidInput(f"restitution must lie in [0, 1], got {restitution}; use 0 for a plastic and 1 "
                          "for an elastic impact")
@@ -176,7 +176,7 @@ class Plane:
     static = True
 
     def __init__(self, normal=(0.0, 0.0, 1.0), offset: float = 0.0) -> None:
-        n = np.asarray(normal, dtype=float).reshape(-1)
+        n = as_floats("normal", normal).reshape(-1)
         if n.size == 2:
             n = np.array([n[0], n[1], 0.0])
         if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:

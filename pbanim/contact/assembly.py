@@ -50,6 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..collision.shapes import Contacts
+from ..errors import InvalidInput, as_floats
 from ..geometry import cross
 from ..lcp.solve import delassus
 
@@ -64,11 +65,13 @@ def make_contacts(a, b, point, normal, depth=None):
     >>> c.a.tolist(), c.depth.tolist()
     ([0], [0.0])
     """
-    a = np.atleast_1d(np.asarray(a, dtype=int))
-    b = np.atleast_1d(np.asarray(b, dtype=int))
-    point = np.array(point, dtype=float, ndmin=2)
-    normal = np.array(normal, dtype=float, ndmin=2)
-    depth = np.zeros(a.size) if depth is None else np.atleast_1d(np.asarray(depth, dtype=float))
+    a, b = (np.atleast_1d(as_floats(nm, v)) for nm, v in (("a", a), ("b", b)))
+    if not (np.all(np.isfinite(a)) and np.all(a == np.round(a)) and np.all(np.isfinite(b)) and np.all(b == np.round(b))):
+        raise InvalidInput(f"a and b must be body indices (integers, −1 for the world), got {a} and {b}")
+    a, b = a.astype(np.intp), b.astype(np.intp)
+    point = as_floats("point", point, ndmin=2)
+    normal = as_floats("normal", normal, ndmin=2)
+    depth = np.zeros(a.size) if depth is None else np.atleast_1d(as_floats("depth", depth))
     return Contacts(a=a, b=b, point=point, normal=normal, depth=depth)
 
 

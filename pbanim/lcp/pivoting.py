@@ -28,14 +28,14 @@ from typing import Any
 import numpy as np
 
 from ..results import natural_map_residual
-from ..errors import InvalidInput
+from ..errors import InvalidInput, as_floats
 
 __all__ = ["lemke", "dantzig", "enumerate_active_sets", "residual_threshold"]
 
 
 def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
-    A = np.asarray(A, dtype=float)
-    b = np.asarray(b, dtype=float)
+    A = as_floats("A", A)
+    b = as_floats("b", b)
     A = A.reshape(1, 1) if A.ndim == 0 else A
     b = b.reshape(1) if b.ndim == 0 else b
     if b.ndim != 1:

@@ -42,7 +42,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, check_count
+from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, as_float, as_floats, check_count
 
 __all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
 
@@ -90,10 +90,10 @@ def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
     or ``t_end``, ``t_end`` not after ``t0`` (unless ``backward``), ``record_every`` < 1 or ``max_steps`` < 1,
     and :class:`~pbanim.errors.StepLimitExceeded` when the run needs more than ``max_steps`` steps.
     """
-    h = float(h)
+    h = as_float("h", h)
     if not math.isfinite(h) or h <= 0:
         raise InvalidInput(f"h must be a positive finite step, got {h}")
-    t0, t_end = float(t0), float(t_end)
+    t0, t_end = as_float("t0", t0), as_float("t_end", t_end)
     if not math.isfinite(t0):
         raise InvalidInput(f"t0 must be a finite time, got {t0}")
     if not math.isfinite(t_end) or t_end == t0 or (t_end < t0 and not backward):

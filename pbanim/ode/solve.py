@@ -17,7 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged, check_count
+from ..errors import InvalidInput, SimulationDiverged, as_float, as_floats, check_count
 from .adaptive import solve_adaptive
 from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
@@ -36,19 +36,19 @@ def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
     if not callable(fun):
         raise InvalidInput(f"fun must be a callable fun(t, y) -> dy/dt, got {type(fun).__name__}")
     try:
-        t0, tf = (float(v) for v in t_span)
+        t0, tf = (as_float("t_span", v) for v in t_span)
     except (TypeError, ValueError):
         raise InvalidInput(f"t_span must be a pair (t0, t_end) of numbers, got {t_span!r}") from None
     if not (np.isfinite(t0) and np.isfinite(tf)) or t0 == tf:
         raise InvalidInput(f"t_span must be two different finite times, got {t_span!r}")
-    y = np.array(y0, dtype=float, copy=True) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
+    y = as_floats("y0", y0) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
     if y.ndim not in (1, 2) or y.size == 0:
         raise InvalidInput(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
     if not np.all(np.isfinite(y)):
         bad = np.flatnonzero(~np.isfinite(y.ravel()))
         raise InvalidInput(f"y0 must be finite, got {y.ravel()[bad[0]]} at flat index {int(bad[0])}")
     if h is not None:
-        h = float(h)
+        h = as_float("h", h)
         if not np.isfinite(h) or h <= 0:
             raise InvalidInput(f"h must be a positive finite step, got {h}; pass h > 0 (the sign of "
                              "t_span sets the direction)")

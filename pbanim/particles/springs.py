@@ -43,7 +43,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..scene import Effect
-from ..errors import InvalidInput
+from ..errors import InvalidInput, as_floats
 
 __all__ = ["DampedSprings", "AnchorSprings", "ForceJacobian", "spring_forces_loop"]
 
@@ -58,7 +58,7 @@ class ForceJacobian:
 
 def _per_spring(value: Any, S: int, name: str, fix: str) -> np.ndarray:
     """Broadcast a scalar or (S,) parameter (per spring, or per particle) to (S,), validated finite and ≥ 0."""
-    a = np.asarray(value, dtype=float)
+    a = as_floats(name, value)
     if a.ndim > 1 or (a.ndim == 1 and a.shape[0] != S):
         raise InvalidInput(f"{name} must be a scalar or have shape ({S},), got shape {a.shape}")
     a = np.broadcast_to(a, (S,)).copy()

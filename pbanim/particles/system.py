@@ -73,7 +73,7 @@ from .springs import _per_spring as _per_particle
 from .springs import AnchorSprings, DampedSprings, ForceJacobian, spring_forces_loop
 from ..bodies import Bodies
 from ..scene import Effect
-from ..errors import InvalidInput
+from ..errors import InvalidInput, as_floats
 
 __all__ = ["ParticleSystem", "ForceJacobian", "Gravity", "Drag", "DampedSprings", "AnchorSprings", "UserForce",
            "spring_forces_loop"]
@@ -105,13 +105,13 @@ class ParticleSystem(Bodies):
     """
 
     def __init__(self, positions: Any, velocities: Any = None, masses: Any = 1.0) -> None:
-        x = np.array(positions, dtype=float, ndmin=2)
+        x = as_floats("positions", positions, ndmin=2)
         if x.ndim != 2 or x.shape[1] not in (2, 3) or x.shape[0] == 0:
             raise InvalidInput(f"positions must have shape (N, 2) or (N, 3) with N >= 1, got {x.shape}")
-        v = np.zeros_like(x) if velocities is None else np.array(velocities, dtype=float, ndmin=2)
+        v = np.zeros_like(x) if velocities is None else as_floats("velocities", velocities, ndmin=2)
         if v.shape != x.shape:
             raise InvalidInput(f"velocities must have the shape of positions {x.shape}, got {v.shape}")
-        m = np.asarray(masses, dtype=float)
+        m = as_floats("masses", masses)
         if m.ndim > 1 or (m.ndim == 1 and m.shape[0] != x.shape[0]):
             raise InvalidInput(f"masses must be a scalar or have shape ({x.shape[0]},), got shape {m.shape}")
         m = np.broadcast_to(m, (x.shape[0],)).copy()
@@ -257,7 +257,7 @@ class Gravity(Effect):
     def bind(self, system: Any) -> None:
         dim = system.dim
         g = (np.array([0.0, -9.81] if dim == 2 else [0.0, 0.0, -9.81]) if self.g_in is None
-             else np.asarray(self.g_in, float))
+             else as_floats("g", self.g_in))
         if g.shape != (dim,):
             raise InvalidInput(f"g must have shape ({dim},) for a {dim}-D system, got {g.shape}")
         if not np.all(np.isfinite(g)):

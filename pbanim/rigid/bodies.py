@@ -23,7 +23,7 @@ from ..bodies import Bodies
 from ..geometry import cross
 from .inertia import validate_inertia
 from .quat import quat_normalize, quat_to_matrix
-from ..errors import InvalidInput
+from ..errors import InvalidInput, as_floats
 
 __all__ = ["RigidBodies"]
 
@@ -93,10 +93,10 @@ class RigidBodies(Bodies):
 
     def __init__(self, mass, inertia, positions=None, orientations=None, velocities=None,
                  angular_velocities=None, *, static=None) -> None:
-        m_in = np.atleast_1d(np.asarray(mass, dtype=float))
+        m_in = np.atleast_1d(as_floats("mass", mass))
         if m_in.size == 0 or m_in.ndim != 1:
             raise InvalidInput(f"mass must be a positive number or one per body (N ≥ 1), got {mass!r}")
-        I_in = np.asarray(inertia, dtype=float)
+        I_in = as_floats("inertia", inertia)
         cands = [m_in.shape[0] if m_in.ndim == 1 and m_in.size > 1 else 1]
         for arr in (positions, orientations, velocities, angular_velocities):
             if arr is not None:
