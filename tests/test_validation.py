@@ -307,7 +307,7 @@ def test_text_where_numbers_go_is_named():
         "t_end": lambda: pbanim.Scene(ps, []).simulate("x", 0.1),
         "normal": lambda: pbanim.Plane("abc"),
         "A": lambda: pbanim.solve_lcp("a", "b"),
-        "a and b": lambda: pbanim.make_contacts("a", [-1], [[0, 0, 0]], [[0, 0, 1]]),
+        "a must be": lambda: pbanim.make_contacts("a", [-1], [[0, 0, 0]], [[0, 0, 1]]),
         "restitution": lambda: pbanim.Collisions(obstacles=[pbanim.Plane([0, 1])], restitution="x"),
         "positions": lambda: pbanim.ParticleSystem("abc"),
         "mass": lambda: pbanim.RigidBodies("a", [1.0, 1.0, 1.0]),
