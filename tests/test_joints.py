@@ -115,3 +115,49 @@ def test_figure_cost_vs_links(figure_data):
     for key in ("aba", "crba_solve", "aba_batched", "maximal"):
         assert np.all(np.isfinite(d[key])) and np.all(d[key] > 0)
     assert np.all(d["aba_batched"] < d["aba"])          # one batch step per state beats one call per state
+
+
+# --- contact for articulated trees (pbanim.articulated.contact) -------------------------------------------
+def test_floating_box_rests_on_its_corners_with_its_weight():
+    # ORACLES D4: a box (floating base) dropped onto the ground comes to rest on its four bottom corners; at
+    # rest the normal impulses per step sum to m g h and nothing sinks (measured gap 0, speed 0)
+    from pbanim.articulated.contact import ArticulatedContact
+
+    m, h = 2.0, 1e-3
+    tree = ArticulatedTree(gravity=(0, 0, -G))
+    tree.add("box", -1, "floating", mass=m, inertia=[0.2, 0.3, 0.4])
+    q0 = tree.neutral()
+    q0[6] = 0.3
+    corners = [(0, [sx * 0.3, sy * 0.2, -0.1]) for sx in (-1, 1) for sy in (-1, 1)]
+    ac = ArticulatedContact(ArticulatedSystem(tree, q0), corners, friction=0.5)
+    res = ac.simulate(1.0, h)
+    assert res.y[6, -1] == pytest.approx(0.1, abs=1e-6)
+    assert np.abs(res.y[7:, -1]).max() < 1e-9
+    assert res.diagnostics["min_gap"].min() > -1e-3
+    assert ac.last["impulses"][0::3].sum() == pytest.approx(m * G * h, rel=1e-6)
+
+
+def test_ragdoll_falls_and_lands_without_gaining_energy():
+    # the ragdoll (11 links, floating pelvis, damped hinges) dropped from 1.2 m: energy never grows (contact
+    # and damping only dissipate), it does not sink more than a few mm, and it has landed by the end
+    from pbanim.articulated.contact import ArticulatedContact
+    from pbanim.models.articulated import ragdoll, ragdoll_contact_points
+
+    tree = ragdoll(damping=3.0)
+    q0 = tree.neutral()
+    q0[:4] = quat_from_axis_angle([1, 0.3, 0], 0.6)
+    q0[4:7] = [0, 0, 1.2]
+    q0[7:] = np.random.default_rng(0).uniform(-0.5, 0.5, tree.nq - 7)
+    ac = ArticulatedContact(ArticulatedSystem(tree, q0), ragdoll_contact_points(tree), friction=0.8)
+    res = ac.simulate(1.2, 5e-3, record_every=4)
+    E = res.diagnostics["energy"]
+    assert np.all(np.diff(E) <= 1e-6 * E[0])
+    assert res.diagnostics["min_gap"].min() > -5e-3
+    assert E[-1] < 0.2 * E[0] and res.y[6, -1] < 0.5
+
+
+def test_figure_ragdoll_fall(figure_data):
+    d = figure_data("ch08_ragdoll_fall")
+    E = np.asarray(d["energy"])
+    assert np.all(np.diff(E) <= 1e-6 * E[0]) and E[-1] < 0.5 * E[0]
+    assert np.min(d["min_gap"]) > -5e-3 and d["frames"] >= 6

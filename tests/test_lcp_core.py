@@ -191,3 +191,23 @@ def test_impulse_residual_is_the_core_certificate(friction_model):
     if friction_model == "staggered":   # the normal impulses certify the normal LCP (n·J up to roundoff)
         f = res.normal_impulse
         assert natural_map_residual(f, A @ f + u0n) <= tol
+
+
+def test_pgs_box_friction_meets_its_conditions():
+    # normal impulses complementary to separation, tangential impulses inside [−μf, μf] with zero slip where
+    # strictly inside, for random well-posed contact problems (A = J Jᵀ + δ1)
+    from pbanim.lcp import pgs_box_friction
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        m = int(rng.integers(1, 6))
+        J = rng.normal(size=(3 * m, 3 * m + 2))
+        A = J @ J.T + 1e-3 * np.eye(3 * m)
+        b = rng.normal(size=3 * m)
+        z, res, sweeps = pgs_box_friction(A, b, 0.7, max_iter=5000, tol=1e-10)
+        w = A @ z + b
+        f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
+        assert np.all(f >= 0) and np.all(np.abs(t) <= 0.7 * f[:, None] + 1e-12)
+        assert res < 1e-6 and np.abs(np.minimum(f, w[0::3])).max() < 1e-6
+    with pytest.raises(Exception, match="3 rows per contact"):
+        pgs_box_friction(np.eye(2), np.ones(2), 0.5)

@@ -82,6 +82,46 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
     return f, "max_iter", int(max_iter)
 
 
+def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8) -> tuple:
+    """Projected Gauss–Seidel for contact with box friction; unknowns per contact i: (fᵢ, tᵢ₁, tᵢ₂).
+
+    w = A z + b with z ordered [f₁, t₁₁, t₁₂, f₂, …]: fᵢ ≥ 0 ⊥ w_fᵢ ≥ 0 and each tangential impulse
+    in [−μ fᵢ, μ fᵢ] with w = 0 inside (the friction pyramid aligned with (t₁, t₂)). Each row is clamped
+    in turn, w updated incrementally; at most ``max_iter`` sweeps. Returns (z, residual, sweeps) with the
+    residual the largest violation of those conditions (the caller decides what it accepts).
+    """
+    A, b = _check(A, b)
+    n = b.size
+    if n % 3:
+        raise InvalidInput(f"pgs_box_friction needs 3 rows per contact (normal, two tangents), got {n}")
+    mu = np.broadcast_to(np.asarray(mu, dtype=float), (n // 3,))
+    diag = np.diag(A).copy()
+    if np.any(diag <= 0):
+        raise InvalidInput("pgs_box_friction needs A with a positive diagonal (add a little regularization)")
+    z, w = np.zeros(n), b.copy()
+    for sweep in range(1, int(max_iter) + 1):
+        for r in range(n):
+            i, kind = divmod(r, 3)
+            lo, hi = (0.0, np.inf) if kind == 0 else (-mu[i] * z[3 * i], mu[i] * z[3 * i])
+            new = min(max(z[r] - w[r] / diag[r], lo), hi)
+            if new != z[r]:
+                w += A[:, r] * (new - z[r])
+                z[r] = new
+        res = _box_residual(z, w, mu)
+        if res <= tol * _scale(b):
+            return z, res, sweep
+    return z, _box_residual(z, w, mu), int(max_iter)
+
+
+def _box_residual(z, w, mu) -> float:
+    f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
+    wn, wt = w[0::3], np.stack([w[1::3], w[2::3]], axis=1)
+    inside = np.abs(t) < (mu * f)[:, None] * (1 - 1e-12)
+    r_n = np.abs(np.minimum(f, wn)) if f.size else np.zeros(0)
+    r_t = np.where(inside, np.abs(wt), 0.0)
+    return float(max(np.max(r_n, initial=0.0), np.max(r_t, initial=0.0)))
+
+
 # ---------------------------------------------------------------------------------------------
 # QP: min ½ fᵀAf + bᵀf, f ≥ 0
 # ---------------------------------------------------------------------------------------------

@@ -27,7 +27,7 @@ import numpy as np
 from ..articulated.tree import ArticulatedTree
 from ..errors import InvalidInput, check_count
 
-__all__ = ["pendulum_chain", "ragdoll", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
+__all__ = ["pendulum_chain", "ragdoll", "ragdoll_contact_points", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
 
 
 def box_inertia(mass: float, size) -> np.ndarray:
@@ -57,26 +57,39 @@ def pendulum_chain(n: int = 3, lengths=1.0, masses=1.0, g: float = 9.81) -> Arti
     return tree
 
 
-def _segment(tree, name, parent, kind, axis, p, mass, length, R=None, down=True):
+def _segment(tree, name, parent, kind, axis, p, mass, length, R=None, down=True, damping=0.0):
     """A limb segment hanging from its joint along −z (``down``) or rising along +z, box-shaped."""
     com = [0.0, 0.0, -0.5 * length if down else 0.5 * length]
     size = (0.1 * length + 0.04, 0.1 * length + 0.04, length)
-    return tree.add(name, parent, kind, axis=axis, p=p, R=R, mass=mass, com=com, inertia=box_inertia(mass, size))
+    return tree.add(name, parent, kind, axis=axis, p=p, R=R, mass=mass, com=com, inertia=box_inertia(mass, size),
+                    damping=damping)
 
 
-def ragdoll(g: float = 9.81) -> ArticulatedTree:
-    """A 70 kg ragdoll on a floating pelvis (z up); every joint a hinge (shoulders and hips about y)."""
+def ragdoll(g: float = 9.81, damping: float = 0.0) -> ArticulatedTree:
+    """A 70 kg ragdoll on a floating pelvis (z up); every joint a hinge (shoulders and hips about y), each
+    with viscous ``damping`` (N m s/rad; 0 in the shipped URDF)."""
     tree = ArticulatedTree(gravity=(0.0, 0.0, -g))
+    d = dict(damping=damping)
     pelvis = tree.add("pelvis", -1, "floating", mass=10.0, inertia=box_inertia(10.0, (0.3, 0.2, 0.15)))
-    torso = _segment(tree, "torso", pelvis, "revolute", [0, 1, 0], [0, 0, 0.08], 25.0, 0.45, down=False)
-    _segment(tree, "head", torso, "revolute", [0, 1, 0], [0, 0, 0.5], 5.0, 0.25, down=False)
+    torso = _segment(tree, "torso", pelvis, "revolute", [0, 1, 0], [0, 0, 0.08], 25.0, 0.45, down=False, **d)
+    _segment(tree, "head", torso, "revolute", [0, 1, 0], [0, 0, 0.5], 5.0, 0.25, down=False, **d)
     for side, y in (("left", 0.2), ("right", -0.2)):
-        upper = _segment(tree, f"{side}_upper_arm", torso, "revolute", [0, 1, 0], [0, y, 0.42], 2.0, 0.3)
-        _segment(tree, f"{side}_forearm", upper, "revolute", [0, 1, 0], [0, 0, -0.3], 1.5, 0.28)
+        upper = _segment(tree, f"{side}_upper_arm", torso, "revolute", [0, 1, 0], [0, y, 0.42], 2.0, 0.3, **d)
+        _segment(tree, f"{side}_forearm", upper, "revolute", [0, 1, 0], [0, 0, -0.3], 1.5, 0.28, **d)
     for side, y in (("left", 0.1), ("right", -0.1)):
-        thigh = _segment(tree, f"{side}_thigh", pelvis, "revolute", [0, 1, 0], [0, y, -0.08], 7.0, 0.45)
-        _segment(tree, f"{side}_shin", thigh, "revolute", [0, 1, 0], [0, 0, -0.45], 4.0, 0.43)
+        thigh = _segment(tree, f"{side}_thigh", pelvis, "revolute", [0, 1, 0], [0, y, -0.08], 7.0, 0.45, **d)
+        _segment(tree, f"{side}_shin", thigh, "revolute", [0, 1, 0], [0, 0, -0.45], 4.0, 0.43, **d)
     return tree
+
+
+def ragdoll_contact_points(tree: ArticulatedTree) -> list:
+    """(link, point) pairs for ground contact: both ends of every segment (its centre of mass ± itself)."""
+    pts = []
+    for i, lk in enumerate(tree.links):
+        c = np.asarray(lk.com, dtype=float)
+        pts += [(i, np.zeros(3)), (i, 2.0 * c)] if np.any(c) else [(i, np.array([sx * 0.15, sy * 0.1, -0.075]))
+                                                                  for sx in (-1, 1) for sy in (-1, 1)]
+    return pts
 
 
 def planar_biped(g: float = 9.81) -> ArticulatedTree:
