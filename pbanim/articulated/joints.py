@@ -23,6 +23,12 @@ J̇u collects the velocity-product terms: ω × (ω × r) for anchors, (ω_a × 
 2(ω_a × t)·(ω_b × â_b) + t·(ω_b × (ω_b × â_b)) for the hinge rows, and the slider's rows likewise.
 Baumgarte gains (k_s, k_d) make the error obey C̈ + k_d Ċ + k_s C = 0 (tested against its closed form).
 
+Joint limits (hinge angle or slide, measured from the configuration at ``bind``) are unilateral rows
+C = θ − θ_lo ≥ 0, C = θ_hi − θ ≥ 0 with λ ≥ 0 ⊥ J u̇ + k_s C + k_d Ċ ≥ 0: the equality multipliers are
+eliminated exactly and the rest goes to the LCP core (Lemke). At the acceleration level a stop cannot
+cancel an approach speed at once: it acts as a stiff spring-damper of gains (k_s, k_d) and dissipates.
+A ``motor`` is a constant torque about the hinge axis (force along the slider axis) between a and b.
+
 References: Witkin, "Constrained dynamics", SIGGRAPH course notes; Baraff, "Linear-time dynamics using
 Lagrange multipliers", SIGGRAPH 1996; Catto, "Modeling and solving constraints", GDC 2009 (joint rows).
 """
@@ -33,9 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularConstraintError, check_count
+from ..errors import InvalidInput, SingularConstraintError, check_count, check_number
 from ..geometry import cross, skew, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
+from ..lcp import solve_lcp
 from ..scene import Effect
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
@@ -54,6 +61,8 @@ class RigidJoint:
     anchor_b: np.ndarray
     axis_a: np.ndarray
     axis_b: np.ndarray
+    limits: tuple | None = None        # (lower, upper) angle (hinge, rad) or slide (slider, m), 0 at bind
+    motor: float = 0.0                 # constant torque about the hinge axis / force along the slider axis
 
 
 def _vec(v, name):
@@ -73,7 +82,7 @@ class RigidJoints(Effect):
     name = "joints"
     phase = "constraint"
 
-    def __init__(self, joints, ks: float = 0.0, kd: float = 0.0) -> None:
+    def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3) -> None:
         self.joints = [j if isinstance(j, RigidJoint) else self._joint(j) for j in joints]
         if not self.joints:
             raise InvalidInput("joints must hold at least one joint")
@@ -81,7 +90,9 @@ class RigidJoints(Effect):
             if not (np.isfinite(g) and g >= 0):
                 raise InvalidInput(f"{name} must be a finite number >= 0, got {g}")
         self.ks, self.kd = float(ks), float(kd)
+        self.limit_margin = check_number("limit_margin", limit_margin, low=0.0)
         self.last_lambda = None
+        self.last_limit_lambda = None
 
     @staticmethod
     def _joint(d) -> RigidJoint:
@@ -95,9 +106,21 @@ class RigidJoints(Effect):
                 raise InvalidInput(f"a {kind} joint's {nm} must be non-zero, got {ax}")
         a = check_count("joint body a", d.get("a", 0), minimum=-1)
         b = check_count("joint body b", d.get("b", -1), minimum=-1)
+        limits = d.get("limits")
+        if limits is not None:
+            if kind not in ("hinge", "slider"):
+                raise InvalidInput(f"limits apply to hinge and slider joints, got a {kind} joint with limits")
+            lo, hi = (check_number(f"limits[{k}]", v, low=-1e100, high=1e100) for k, v in enumerate(limits))
+            if not lo < hi:
+                raise InvalidInput(f"limits must be (lower, upper) with lower < upper, got {limits}")
+            limits = (lo, hi)
+        motor = check_number("motor", d.get("motor", 0.0), low=-1e100, high=1e100)
+        if motor and kind not in ("hinge", "slider"):
+            raise InvalidInput(f"a motor drives a hinge or a slider, got a {kind} joint with motor = {motor}")
         return RigidJoint(kind, a, b, _vec(d.get("anchor_a", (0, 0, 0)), "anchor_a"),
                           _vec(d.get("anchor_b", (0, 0, 0)), "anchor_b"),
-                          axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300))
+                          axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300),
+                          limits, motor)
 
     def bind(self, system) -> None:
         if getattr(system, "kind", None) != "rigid":
@@ -175,8 +198,56 @@ class RigidJoints(Effect):
         return C, J, bias, J @ u
 
     # -- the constraint phase ------------------------------------------------------------------
+    def coordinate(self, y: np.ndarray, j: RigidJoint, qrel0) -> tuple[float, np.ndarray, float]:
+        """The joint coordinate (hinge angle about â_b, or slide along â_b), its row on u, and its rate."""
+        s = self.system
+        x, q, _, _ = s.unpack(y)
+        v, w = s.velocities(y)
+        N = s.N
+        pick = lambda arr, k, z: arr[k] if k >= 0 else z  # noqa: E731
+        qa, qb = pick(q, j.a, np.array([1.0, 0, 0, 0])), pick(q, j.b, np.array([1.0, 0, 0, 0]))
+        Rb = quat_to_matrix(qb)
+        axis = Rb @ j.axis_b
+        row = np.zeros(6 * N)
+        if j.kind == "hinge":
+            qe = quat_multiply(quat_conjugate(qb), quat_multiply(qa, quat_conjugate(qrel0)))
+            value = 2.0 * np.arctan2(qe[1:] @ j.axis_b, qe[0])
+            lin = np.zeros(3)
+            ang = axis
+        else:
+            pa = pick(x, j.a, np.zeros(3)) + quat_to_matrix(qa) @ j.anchor_a
+            pb = pick(x, j.b, np.zeros(3)) + Rb @ j.anchor_b
+            value = float((pa - pb) @ axis)
+            lin, ang = axis, np.zeros(3)
+        for k, sign in ((j.a, 1.0), (j.b, -1.0)):
+            if k >= 0:
+                ra = (quat_to_matrix(q[k]) @ (j.anchor_a if sign > 0 else j.anchor_b)) if j.kind == "slider" else 0
+                row[6 * k:6 * k + 3] += sign * lin
+                row[6 * k + 3:6 * k + 6] += sign * (ang + (cross(ra, lin) if j.kind == "slider" else 0.0))
+        u = np.hstack([v, w]).ravel()
+        return float(value), row, float(row @ u)
+
+    def _motors(self, y, Q):
+        for j, qrel0 in zip(self.joints, self._qrel0):
+            if j.motor:
+                _, row, _ = self.coordinate(y, j, qrel0)
+                Q = Q + j.motor * row.reshape(Q.shape)        # generalized force of torque/force along the axis
+        return Q
+
+    def _limit_rows(self, y):
+        C, J, Cd = [], [], []
+        for j, qrel0 in zip(self.joints, self._qrel0):
+            if j.limits is None:
+                continue
+            value, row, rate = self.coordinate(y, j, qrel0)
+            for c, sign in ((value - j.limits[0], 1.0), (j.limits[1] - value, -1.0)):
+                if c < self.limit_margin:                       # near or past the stop: an active unilateral row
+                    C.append(c), J.append(sign * row), Cd.append(sign * rate)
+        return np.array(C), np.array(J).reshape(len(C), 6 * self.system.N), np.array(Cd)
+
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         s = self.system
+        Q = self._motors(y, Q)
         C, J, jdot, Cdot = self.rows(y)
         Wb = s.inverse_mass_blocks(y)                                    # (N, 6, 6)
         v, w = s.velocities(y)
@@ -191,6 +262,20 @@ class RigidJoints(Effect):
         if rank < len(C) and np.linalg.norm(A @ lam - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
             raise SingularConstraintError(range(len(C)), float(np.linalg.norm(A @ lam - rhs)),
                                           "joint rows are dependent and inconsistent")
+        Cu, Ju, Cdu = self._limit_rows(y)
+        if Cu.size:
+            # joint limits: unilateral rows with λ_u ≥ 0 ⊥ w_u ≥ 0 (w_u = J_u u̇ + k_s C + k_d Ċ); the equality
+            # multipliers are eliminated exactly (Schur complement), the rest is an LCP for the one core
+            WJu = np.einsum("nij,knj->kni", Wb, Ju.reshape(len(Cu), s.N, 6)).reshape(len(Cu), -1)
+            Aeu, Auu = J @ WJu.T, Ju @ WJu.T
+            Ainv = np.linalg.pinv(A, rcond=1e-12)
+            M = Auu - Aeu.T @ Ainv @ Aeu
+            bu = Ju @ WQ + self.ks * Cu + self.kd * Cdu + Aeu.T @ lam
+            lam_u = solve_lcp(0.5 * (M + M.T) + 1e-12 * max(1.0, float(np.abs(M).max())) * np.eye(len(Cu)), bu,
+                              "lemke", tol=1e-9).f
+            lam = lam - Ainv @ (Aeu @ lam_u)
+            self.last_limit_lambda = lam_u
+            Q = Q + (Ju.T @ lam_u).reshape(Q.shape)
         self.last_lambda = lam
         return Q + (J.T @ lam).reshape(Q.shape)
 
