@@ -200,3 +200,36 @@ def test_hinge_limit_stops_the_swing_and_never_adds_energy():
         RigidJoints([dict(kind="ball", limits=(0, 1))])
     with pytest.raises(InvalidInput, match="lower < upper"):
         RigidJoints([dict(kind="hinge", limits=(1, 0))])
+
+
+def test_four_bar_loop_holds_by_the_full_solve():
+    # a closed chain (parallelogram four-bar, the ground as the fourth bar): four hinges give 20 rows for
+    # 18 freedoms, redundant but consistent; the J W Jᵀ solve (least squares on the redundant rows) keeps the
+    # loop closed and RK4 keeps the energy (measured joint error 1e-11, energy drift 1e-9 J over 1 s)
+    from pbanim.rigid.quat import quat_from_axis_angle
+
+    th = -1.0
+    P = {"O1": np.zeros(3), "O2": np.array([2.0, 0, 0])}
+    P["A"] = np.array([np.cos(th), np.sin(th), 0.0])
+    P["B"] = P["A"] + [2.0, 0, 0]
+    bars = [("O1", "A"), ("A", "B"), ("O2", "B")]
+    x, q, inertia, lengths = [], [], [], []
+    for p, r in bars:
+        d = P[r] - P[p]
+        length = np.linalg.norm(d)
+        u = d / length
+        x.append((P[p] + P[r]) / 2), q.append(quat_from_axis_angle([0, 0, 1], np.arctan2(u[0], -u[1])))
+        inertia.append(np.diag([length ** 2 / 12, 1e-3, length ** 2 / 12])), lengths.append(length)
+    rb = RigidBodies(1.0, np.array(inertia), positions=x, orientations=q)
+    top = lambda i: [0, lengths[i] / 2, 0]  # noqa: E731
+    bottom = lambda i: [0, -lengths[i] / 2, 0]  # noqa: E731
+    joints = RigidJoints([
+        dict(kind="hinge", a=0, b=-1, anchor_a=top(0), anchor_b=P["O1"], axis_a=[0, 0, 1]),
+        dict(kind="hinge", a=1, b=0, anchor_a=top(1), anchor_b=bottom(0), axis_a=[0, 0, 1]),
+        dict(kind="hinge", a=2, b=1, anchor_a=bottom(2), anchor_b=bottom(1), axis_a=[0, 0, 1]),
+        dict(kind="hinge", a=2, b=-1, anchor_a=top(2), anchor_b=P["O2"], axis_a=[0, 0, 1])])
+    res = RigidScene(rb, [RigidGravity([0, -G, 0]), joints]).simulate(1.0, 1e-3, "rk4")
+    E = res.diagnostics["energy"]
+    assert res.diagnostics["joint_error"].max() < 1e-8
+    assert np.abs(E - E[0]).max() < 1e-6
+    assert np.ptp(res.y[1]) > 0.05                              # it does swing (measured 0.079 m)
