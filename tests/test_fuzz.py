@@ -620,3 +620,18 @@ def test_articulated(data):
     scene = call("RigidJoints", joint_scene, check=None)
     if scene is not None:
         call("RigidJoints.simulate", lambda: scene.simulate(0.01, 1e-3, "rk4"), check=None)
+    lo, hi = data.draw(number), data.draw(number)
+    call("RigidJoints(limits, motor)", lambda: RigidJoints([dict(kind=jk, limits=(lo, hi), motor=mass)]), check=None)
+
+    def contact_run():
+        from pbanim.articulated import ArticulatedSystem
+        from pbanim.articulated.contact import ArticulatedContact
+
+        tree = ArticulatedTree()
+        tree.add("box", -1, "floating", mass=1.0, inertia=[0.1, 0.1, 0.1])
+        q0 = tree.neutral()
+        q0[6] = 0.2
+        ac = ArticulatedContact(ArticulatedSystem(tree, q0), [(parent, [cx, 0.0, -0.1])], friction=mass, erp=iz)
+        return ac.simulate(0.01, 1e-3).y[:, -1]
+
+    call("ArticulatedContact", contact_run)
