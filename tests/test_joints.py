@@ -233,3 +233,19 @@ def test_four_bar_loop_holds_by_the_full_solve():
     assert res.diagnostics["joint_error"].max() < 1e-8
     assert np.abs(E - E[0]).max() < 1e-6
     assert np.ptp(res.y[1]) > 0.05                              # it does swing (measured 0.079 m)
+
+
+def test_velocity_motor_reaches_its_speed_within_its_force_limit():
+    # a velocity motor drives θ̇ to ω* with θ̈ = (ω* − θ̇)/τ_m: ω(t) = ω*(1 − e^(−t/τ_m)) while the torque stays
+    # below motor_max; with a small motor_max it saturates and θ̈ = motor_max / I_O (no gravity)
+    I_O = IC[2, 2] + M * (L / 2) ** 2
+
+    def omega_at(t_end, fmax):
+        joints = RigidJoints([dict(kind="hinge", a=0, b=-1, anchor_a=[0, L / 2, 0], axis_a=[0, 0, 1],
+                                   motor_speed=2.0, motor_max=fmax)], motor_time=0.05)
+        y = RigidScene(_rods([0.0], [0.0]), [joints]).simulate(t_end, 1e-3, "rk4").y[:, -1]
+        rb = _rods([0.0], [0.0])
+        return rb.velocities(y)[1][0, 2]
+
+    assert omega_at(0.1, 1e3) == pytest.approx(2.0 * (1 - np.exp(-0.1 / 0.05)), rel=1e-6)
+    assert omega_at(0.1, 0.05) == pytest.approx(0.05 * 0.1 / I_O, rel=1e-6)

@@ -211,3 +211,20 @@ def test_pgs_box_friction_meets_its_conditions():
         assert res < 1e-6 and np.abs(np.minimum(f, w[0::3])).max() < 1e-6
     with pytest.raises(Exception, match="3 rows per contact"):
         pgs_box_friction(np.eye(2), np.ones(2), 0.5)
+
+
+def test_pgs_bounded_meets_its_conditions():
+    # box-constrained problems: w = 0 where lo < z < hi, w ≥ 0 at lo, w ≤ 0 at hi
+    from pbanim.lcp import pgs_bounded
+
+    rng = np.random.default_rng(6)
+    for _ in range(20):
+        n = int(rng.integers(1, 8))
+        J = rng.normal(size=(n, n + 2))
+        A, b = J @ J.T + 1e-3 * np.eye(n), rng.normal(size=n)
+        lo, hi = -rng.uniform(0, 1, n), rng.uniform(0, 1, n)
+        z, res, _ = pgs_bounded(A, b, lo, hi, max_iter=20000, tol=1e-12)
+        w = A @ z + b
+        assert np.all(z >= lo - 1e-15) and np.all(z <= hi + 1e-15) and res < 1e-8
+        free = (z > lo + 1e-12) & (z < hi - 1e-12)
+        assert np.all(np.abs(w[free]) < 1e-8) and np.all(w[z <= lo + 1e-12] > -1e-8) and np.all(w[z >= hi - 1e-12] < 1e-8)

@@ -27,7 +27,9 @@ Joint limits (hinge angle or slide, measured from the configuration at ``bind``)
 C = θ − θ_lo ≥ 0, C = θ_hi − θ ≥ 0 with λ ≥ 0 ⊥ J u̇ + k_s C + k_d Ċ ≥ 0: the equality multipliers are
 eliminated exactly and the rest goes to the LCP core (Lemke). At the acceleration level a stop cannot
 cancel an approach speed at once: it acts as a stiff spring-damper of gains (k_s, k_d) and dissipates.
-A ``motor`` is a constant torque about the hinge axis (force along the slider axis) between a and b.
+A ``motor`` is a constant torque about the hinge axis (force along the slider axis) between a and b; a
+velocity motor (``motor_speed``, ``motor_max``) is a row θ̈ = (θ̇* − θ̇)/τ_m whose multiplier is bounded by
+±motor_max, solved with the limits by the core's box-constrained Gauss–Seidel (:func:`pbanim.lcp.pgs_bounded`).
 
 References: Witkin, "Constrained dynamics", SIGGRAPH course notes; Baraff, "Linear-time dynamics using
 Lagrange multipliers", SIGGRAPH 1996; Catto, "Modeling and solving constraints", GDC 2009 (joint rows).
@@ -42,7 +44,7 @@ import numpy as np
 from ..errors import InvalidInput, SingularConstraintError, check_count, check_number
 from ..geometry import cross, skew, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
-from ..lcp import solve_lcp
+from ..lcp import pgs_bounded, solve_lcp
 from ..scene import Effect
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
@@ -63,6 +65,8 @@ class RigidJoint:
     axis_b: np.ndarray
     limits: tuple | None = None        # (lower, upper) angle (hinge, rad) or slide (slider, m), 0 at bind
     motor: float = 0.0                 # constant torque about the hinge axis / force along the slider axis
+    motor_speed: float | None = None   # velocity motor: target joint rate, reached with ...
+    motor_max: float = 0.0             # ... at most this torque / force
 
 
 def _vec(v, name):
@@ -82,7 +86,8 @@ class RigidJoints(Effect):
     name = "joints"
     phase = "constraint"
 
-    def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3) -> None:
+    def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3,
+                 motor_time: float = 0.01) -> None:
         self.joints = [j if isinstance(j, RigidJoint) else self._joint(j) for j in joints]
         if not self.joints:
             raise InvalidInput("joints must hold at least one joint")
@@ -91,6 +96,7 @@ class RigidJoints(Effect):
                 raise InvalidInput(f"{name} must be a finite number >= 0, got {g}")
         self.ks, self.kd = float(ks), float(kd)
         self.limit_margin = check_number("limit_margin", limit_margin, low=0.0)
+        self.motor_time = check_number("motor_time", motor_time, low=0.0, low_open=True)
         self.last_lambda = None
         self.last_limit_lambda = None
 
@@ -115,12 +121,15 @@ class RigidJoints(Effect):
                 raise InvalidInput(f"limits must be (lower, upper) with lower < upper, got {limits}")
             limits = (lo, hi)
         motor = check_number("motor", d.get("motor", 0.0), low=-1e100, high=1e100)
-        if motor and kind not in ("hinge", "slider"):
-            raise InvalidInput(f"a motor drives a hinge or a slider, got a {kind} joint with motor = {motor}")
+        speed = d.get("motor_speed")
+        speed = None if speed is None else check_number("motor_speed", speed, low=-1e100, high=1e100)
+        fmax = check_number("motor_max", d.get("motor_max", 0.0), low=0.0, high=1e100)
+        if (motor or speed is not None) and kind not in ("hinge", "slider"):
+            raise InvalidInput(f"a motor drives a hinge or a slider, got a {kind} joint with a motor")
         return RigidJoint(kind, a, b, _vec(d.get("anchor_a", (0, 0, 0)), "anchor_a"),
                           _vec(d.get("anchor_b", (0, 0, 0)), "anchor_b"),
                           axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300),
-                          limits, motor)
+                          limits, motor, speed, fmax)
 
     def bind(self, system) -> None:
         if getattr(system, "kind", None) != "rigid":
@@ -235,15 +244,22 @@ class RigidJoints(Effect):
         return Q
 
     def _limit_rows(self, y):
-        C, J, Cd = [], [], []
+        """Inequality rows: active limits (λ ≥ 0, bias k_s C + k_d Ċ) and velocity motors (|λ| ≤ max,
+        bias −(target − rate)/τ_m). Returns (bias, J, lo, hi)."""
+        bias, J, lo, hi = [], [], [], []
         for j, qrel0 in zip(self.joints, self._qrel0):
-            if j.limits is None:
+            if j.limits is None and j.motor_speed is None:
                 continue
             value, row, rate = self.coordinate(y, j, qrel0)
-            for c, sign in ((value - j.limits[0], 1.0), (j.limits[1] - value, -1.0)):
-                if c < self.limit_margin:                       # near or past the stop: an active unilateral row
-                    C.append(c), J.append(sign * row), Cd.append(sign * rate)
-        return np.array(C), np.array(J).reshape(len(C), 6 * self.system.N), np.array(Cd)
+            if j.limits is not None:
+                for c, sign in ((value - j.limits[0], 1.0), (j.limits[1] - value, -1.0)):
+                    if c < self.limit_margin:                   # near or past the stop: an active unilateral row
+                        bias.append(self.ks * c + self.kd * sign * rate), J.append(sign * row)
+                        lo.append(0.0), hi.append(np.inf)
+            if j.motor_speed is not None:                       # drive the rate to the target in time τ_m
+                bias.append(-(j.motor_speed - rate) / self.motor_time), J.append(row)
+                lo.append(-j.motor_max), hi.append(j.motor_max)
+        return np.array(bias), np.array(J).reshape(len(bias), 6 * self.system.N), np.array(lo), np.array(hi)
 
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         s = self.system
@@ -262,17 +278,21 @@ class RigidJoints(Effect):
         if rank < len(C) and np.linalg.norm(A @ lam - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
             raise SingularConstraintError(range(len(C)), float(np.linalg.norm(A @ lam - rhs)),
                                           "joint rows are dependent and inconsistent")
-        Cu, Ju, Cdu = self._limit_rows(y)
-        if Cu.size:
+        bu0, Ju, lo, hi = self._limit_rows(y)
+        if bu0.size:
             # joint limits: unilateral rows with λ_u ≥ 0 ⊥ w_u ≥ 0 (w_u = J_u u̇ + k_s C + k_d Ċ); the equality
             # multipliers are eliminated exactly (Schur complement), the rest is an LCP for the one core
-            WJu = np.einsum("nij,knj->kni", Wb, Ju.reshape(len(Cu), s.N, 6)).reshape(len(Cu), -1)
+            k = bu0.size
+            WJu = np.einsum("nij,knj->kni", Wb, Ju.reshape(k, s.N, 6)).reshape(k, -1)
             Aeu, Auu = J @ WJu.T, Ju @ WJu.T
             Ainv = np.linalg.pinv(A, rcond=1e-12)
             M = Auu - Aeu.T @ Ainv @ Aeu
-            bu = Ju @ WQ + self.ks * Cu + self.kd * Cdu + Aeu.T @ lam
-            lam_u = solve_lcp(0.5 * (M + M.T) + 1e-12 * max(1.0, float(np.abs(M).max())) * np.eye(len(Cu)), bu,
-                              "lemke", tol=1e-9).f
+            M = 0.5 * (M + M.T) + 1e-12 * max(1.0, float(np.abs(M).max())) * np.eye(k)
+            bu = Ju @ WQ + bu0 + Aeu.T @ lam
+            if np.all(lo == 0.0) and np.all(np.isinf(hi)):      # limits only: an LCP for Lemke
+                lam_u = solve_lcp(M, bu, "lemke", tol=1e-9).f
+            else:                                               # motor force bounds: box-constrained PGS
+                lam_u = pgs_bounded(M, bu, lo, hi, max_iter=500, tol=1e-12)[0]
             lam = lam - Ainv @ (Aeu @ lam_u)
             self.last_limit_lambda = lam_u
             Q = Q + (Ju.T @ lam_u).reshape(Q.shape)

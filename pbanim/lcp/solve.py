@@ -113,6 +113,38 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
     return z, _box_residual(z, w, mu), int(max_iter)
 
 
+def pgs_bounded(A: np.ndarray, b: np.ndarray, lo, hi, *, max_iter: int = 500, tol: float = 1e-10) -> tuple:
+    """Projected Gauss–Seidel for the box-constrained problem w = A z + b, loᵢ ≤ zᵢ ≤ hiᵢ, with wᵢ ≥ 0 at
+    zᵢ = loᵢ, wᵢ ≤ 0 at zᵢ = hiᵢ and wᵢ = 0 in between (joint limits: [0, ∞); motors: [−F, F]).
+
+    Returns (z, residual, sweeps); at most ``max_iter`` sweeps (the caller decides what it accepts).
+    """
+    A, b = _check(A, b)
+    n = b.size
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), (n,))
+    hi = np.broadcast_to(np.asarray(hi, dtype=float), (n,))
+    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
+        raise InvalidInput(f"bounds must satisfy lo <= hi, got lo = {lo}, hi = {hi}")
+    diag = np.diag(A).copy()
+    if np.any(diag <= 0):
+        raise InvalidInput("pgs_bounded needs A with a positive diagonal")
+    z = np.clip(np.zeros(n), lo, hi)
+    w = A @ z + b
+    res = np.inf
+    for sweep in range(1, int(max_iter) + 1):
+        for r in range(n):
+            new = min(max(z[r] - w[r] / diag[r], lo[r]), hi[r])
+            if new != z[r]:
+                w += A[:, r] * (new - z[r])
+                z[r] = new
+        free = (z > lo) & (z < hi)
+        res = float(np.max(np.abs(np.where(free, w, np.where(z <= lo, np.minimum(w, 0), np.maximum(w, 0)))),
+                           initial=0.0))
+        if res <= tol * _scale(b):
+            return z, res, sweep
+    return z, res, int(max_iter)
+
+
 def _box_residual(z, w, mu) -> float:
     f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
     wn, wt = w[0::3], np.stack([w[1::3], w[2::3]], axis=1)
