@@ -87,7 +87,7 @@ class RigidJoints(Effect):
     phase = "constraint"
 
     def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3,
-                 motor_time: float = 0.01) -> None:
+                 motor_time: float = 0.01, solver: str = "dense") -> None:
         self.joints = [j if isinstance(j, RigidJoint) else self._joint(j) for j in joints]
         if not self.joints:
             raise InvalidInput("joints must hold at least one joint")
@@ -97,6 +97,13 @@ class RigidJoints(Effect):
         self.ks, self.kd = float(ks), float(kd)
         self.limit_margin = check_number("limit_margin", limit_margin, low=0.0)
         self.motor_time = check_number("motor_time", motor_time, low=0.0, low_open=True)
+        if solver not in ("dense", "linear"):
+            raise InvalidInput(f"solver must be 'dense' or 'linear', got {solver!r}")
+        if solver == "linear" and any(j.limits is not None or j.motor_speed is not None for j in self.joints):
+            raise InvalidInput("solver='linear' handles equality joints only; limits and velocity motors need "
+                               "solver='dense'")
+        self.solver = solver
+        self._order = None
         self.last_lambda = None
         self.last_limit_lambda = None
 
@@ -147,8 +154,8 @@ class RigidJoints(Effect):
         self._qrel0 = [quat_multiply(quat_conjugate(qw[j.b]), qw[j.a]) for j in self.joints]
 
     # -- rows -----------------------------------------------------------------------------------
-    def rows(self, y: np.ndarray):
-        """(C, J (k, 6N), J̇u (k,), Ċ (k,)) at state y."""
+    def rows(self, y: np.ndarray, sparse: bool = False):
+        """(C, J (k, 6N), J̇u (k,), Ċ (k,)) at state y; J as a scipy.sparse CSR matrix with ``sparse``."""
         s = self.system
         N = s.N
         x, q, _, _ = s.unpack(y)
@@ -156,15 +163,15 @@ class RigidJoints(Effect):
         R = quat_to_matrix(q)
         xw, Rw = np.vstack([x, np.zeros(3)]), np.concatenate([R, np.eye(3)[None]])
         vw, ww, qw = np.vstack([v, np.zeros(3)]), np.vstack([w, np.zeros(3)]), np.vstack([q, [1.0, 0, 0, 0]])
-        C, J, bias = [], [], []
+        C, bias = [], []
+        ri, ci, vals = [], [], []                # J in coordinate form: each row touches ≤ 2 bodies
 
         def row(ja, jb, a, b, c, jdot):          # ja, jb: 6-vectors on bodies a, b
-            r = np.zeros(6 * N)
-            if a >= 0:
-                r[6 * a:6 * a + 6] += ja
-            if b >= 0:
-                r[6 * b:6 * b + 6] -= jb
-            C.append(c), J.append(r), bias.append(jdot)
+            k = len(C)
+            for body, blk in ((a, ja), (b, -np.asarray(jb))):
+                if body >= 0:
+                    ri.extend([k] * 6), ci.extend(range(6 * body, 6 * body + 6)), vals.extend(blk)
+            C.append(c), bias.append(jdot)
 
         for j, qrel0 in zip(self.joints, self._qrel0):
             a, b = j.a, j.b
@@ -202,9 +209,12 @@ class RigidJoints(Effect):
                     acc = cross(ww[a], cross(ww[a], ra)) - cross(ww[b], cross(ww[b], rb))
                     jd = t @ acc + 2 * cross(ww[b], t) @ dd + cross(ww[b], cross(ww[b], t)) @ d
                     row(ga, gb, a, b, t @ d, jd)
-        C, J, bias = np.array(C), np.array(J), np.array(bias)
+        import scipy.sparse as sp
+
+        C, bias = np.array(C), np.array(bias)
+        J = sp.csr_matrix((vals, (ri, ci)), shape=(len(C), 6 * N))   # duplicates (a = b rows) are summed
         u = np.hstack([v, w]).ravel()
-        return C, J, bias, J @ u
+        return C, (J if sparse else J.toarray()), bias, J @ u
 
     # -- the constraint phase ------------------------------------------------------------------
     def coordinate(self, y: np.ndarray, j: RigidJoint, qrel0) -> tuple[float, np.ndarray, float]:
@@ -264,6 +274,8 @@ class RigidJoints(Effect):
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         s = self.system
         Q = self._motors(y, Q)
+        if self.solver == "linear":
+            return self._constrain_linear(y, Q)
         C, J, jdot, Cdot = self.rows(y)
         Wb = s.inverse_mass_blocks(y)                                    # (N, 6, 6)
         v, w = s.velocities(y)
@@ -298,6 +310,58 @@ class RigidJoints(Effect):
             Q = Q + (Ju.T @ lam_u).reshape(Q.shape)
         self.last_lambda = lam
         return Q + (J.T @ lam).reshape(Q.shape)
+
+    def _constrain_linear(self, y, Q):
+        """Baraff's linear-time solve for joint trees: A = J W Jᵀ is block sparse (joints sharing a body),
+        and eliminating the joints leaves first — deepest body first — creates no fill, so a sparse LDLᵀ in
+        that order (natural ordering, no pivoting) costs O(n). Limits and motors use the dense path."""
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import splu
+
+        s = self.system
+        C, J, jdot, Cdot = self.rows(y, sparse=True)
+        Wb = s.inverse_mass_blocks(y)
+        v, w = s.velocities(y)
+        Iw = np.linalg.pinv(Wb[:, 3:, 3:])
+        gyro = np.zeros_like(Q)
+        gyro[:, 3:] = -cross(w, np.einsum("nij,nj->ni", Iw, w))
+        WQ = np.einsum("nij,nj->ni", Wb, Q + gyro).ravel()
+        W = sp.block_diag(list(Wb), format="csr")
+        A = (J @ W @ J.T).tocsc()
+        rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
+        order = self._leaves_first(len(C))
+        try:
+            lu = splu(A[order][:, order].tocsc(), permc_spec="NATURAL", diag_pivot_thresh=0.0,
+                      options={"SymmetricMode": True})
+            lam = np.empty_like(rhs)
+            lam[order] = lu.solve(rhs[order])
+        except RuntimeError:                    # dependent rows (a loop): not a tree, use the dense solve
+            raise SingularConstraintError(range(len(C)), float("nan"), "solver='linear' needs a tree of joints "
+                                          "(a closed loop makes the rows dependent); use solver='dense'") from None
+        self.last_lambda = lam
+        return Q + (J.T @ lam).reshape(Q.shape)
+
+    def _leaves_first(self, k: int) -> np.ndarray:
+        """Row order: joints by decreasing depth of their deeper body (the world has depth 0)."""
+        if getattr(self, "_order", None) is None or self._order.size != k:
+            depth = {-1: 0}
+            pending = list(self.joints)
+            for _ in range(len(self.joints) + 1):             # breadth-first from the world, ≤ n rounds
+                rest = []
+                for j in pending:
+                    if j.a in depth or j.b in depth:
+                        d = max(depth.get(j.a, -1), depth.get(j.b, -1)) + 1
+                        depth.setdefault(j.a, d), depth.setdefault(j.b, d)
+                    else:
+                        rest.append(j)
+                pending = rest
+            n_rows = {"ball": 3, "hinge": 5, "slider": 5, "weld": 6}
+            blocks, start = [], 0
+            for j in self.joints:
+                blocks.append((-max(depth.get(j.a, 0), depth.get(j.b, 0)), np.arange(start, start + n_rows[j.kind])))
+                start += n_rows[j.kind]
+            self._order = np.concatenate([rows for _, rows in sorted(blocks, key=lambda t: t[0])])
+        return self._order
 
     def diagnostics(self, t: float, y: np.ndarray) -> dict:
         C, _, _, Cdot = self.rows(y)
