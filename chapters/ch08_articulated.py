@@ -21,33 +21,16 @@ import time
 import numpy as np
 
 from pbanim.articulated import ArticulatedSystem, ArticulatedTree, RigidJoints, aba, aba_batch, bias_forces, crba
+from pbanim.models.articulated import rod_chain
 from pbanim.plotting import figure
-from pbanim.rigid import RigidBodies, RigidGravity, RigidScene, quat_from_axis_angle, quat_to_matrix
+from pbanim.rigid import quat_from_axis_angle, quat_to_matrix
 
 L, M, G = 0.5, 1.0, 9.81
-IC = np.diag([M * L * L / 12, 1e-3, M * L * L / 12])
 
 
 def chain_models(n: int, theta0: float = 0.9, ks: float = 0.0, kd: float = 0.0):
     """(maximal RigidScene, its RigidBodies, reduced ArticulatedSystem) for n rods released at rest."""
-    x, q = [], []
-    top = np.zeros(3)
-    R = quat_to_matrix(quat_from_axis_angle([0, 0, 1], theta0))
-    for _ in range(n):
-        x.append(top + R @ [0, -L / 2, 0]), q.append(quat_from_axis_angle([0, 0, 1], theta0))
-        top = top + R @ [0, -L, 0]
-    rb = RigidBodies(M, IC, positions=x, orientations=q)
-    joints = [dict(kind="hinge", a=0, b=-1, anchor_a=[0, L / 2, 0], anchor_b=[0, 0, 0], axis_a=[0, 0, 1])]
-    joints += [dict(kind="hinge", a=i, b=i - 1, anchor_a=[0, L / 2, 0], anchor_b=[0, -L / 2, 0], axis_a=[0, 0, 1])
-               for i in range(1, n)]
-    scene = RigidScene(rb, [RigidGravity([0, -G, 0]), RigidJoints(joints, ks=ks, kd=kd)])
-    tree = ArticulatedTree(gravity=(0, -G, 0))
-    for i in range(n):
-        tree.add(f"rod{i}", i - 1, "revolute", axis=[0, 0, 1], p=[0, -L, 0] if i else [0, 0, 0], mass=M,
-                 com=[0, -L / 2, 0], inertia=IC)
-    q0 = np.zeros(n)
-    q0[0] = theta0
-    return scene, rb, ArticulatedSystem(tree, q0)
+    return rod_chain(n, L, M, theta0, G, ks=ks, kd=kd)
 
 
 def _tip_maximal(rb, y):

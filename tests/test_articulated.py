@@ -240,5 +240,6 @@ def test_bench_articulated_smoke():
     assert [g.id for g in rep.goals] == ["articulated-batched-aba-vs-pinocchio", "articulated-aba-vs-pinocchio"]
     rows = rep.tables[0].rows
     assert [r[0] for r in rows] == [2, 5, 10]
-    agree = [r[5] for r in rows if np.isfinite(r[5])]
+    agree = [r[7] for r in rows if np.isfinite(r[7])]
+    assert all(r[4] > 0 and r[5] > 0 for r in rows)
     assert all(a < 1e-10 for a in agree)

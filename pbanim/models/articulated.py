@@ -25,9 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from ..articulated.tree import ArticulatedTree
-from ..errors import InvalidInput, check_count
+from ..errors import InvalidInput, check_count, check_number
 
-__all__ = ["pendulum_chain", "ragdoll", "ragdoll_contact_points", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
+__all__ = ["pendulum_chain", "rod_chain", "ragdoll", "ragdoll_contact_points", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
 
 
 def box_inertia(mass: float, size) -> np.ndarray:
@@ -55,6 +55,34 @@ def pendulum_chain(n: int = 3, lengths=1.0, masses=1.0, g: float = 9.81) -> Arti
         tree.add(f"link{i}", i - 1, "revolute", axis=[0, 0, 1], p=[0.0, -L[i - 1], 0.0] if i else [0, 0, 0],
                  mass=m[i], com=[0.0, -L[i], 0.0], inertia=np.zeros((3, 3)))
     return tree
+
+
+def rod_chain(n: int, length: float = 0.5, mass: float = 1.0, theta0: float = 0.9, g: float = 9.81,
+              ks: float = 0.0, kd: float = 0.0, solver: str = "dense"):
+    """n rods of a chain hung from the origin, released at rest at ``theta0``, both ways: returns
+    (maximal RigidScene with hinge RigidJoints, its RigidBodies, the reduced ArticulatedSystem)."""
+    from ..articulated.joints import RigidJoints
+    from ..articulated.system import ArticulatedSystem
+    from ..rigid import RigidBodies, RigidGravity, RigidScene, quat_from_axis_angle, quat_to_matrix
+
+    n = check_count("n", n, 1, 10_000)
+    L = check_number("length", length, low=0.0, low_open=True, high=1e6)
+    m = check_number("mass", mass, low=0.0, low_open=True, high=1e100)
+    Ic = np.diag([m * L * L / 12, 1e-3 * m * L * L, m * L * L / 12])
+    R = quat_to_matrix(quat_from_axis_angle([0, 0, 1], theta0))
+    x = [R @ [0, -L * (k + 0.5), 0] for k in range(n)]
+    rb = RigidBodies(m, Ic, positions=x, orientations=[quat_from_axis_angle([0, 0, 1], theta0)] * n)
+    joints = [dict(kind="hinge", a=0, b=-1, anchor_a=[0, L / 2, 0], anchor_b=[0, 0, 0], axis_a=[0, 0, 1])]
+    joints += [dict(kind="hinge", a=i, b=i - 1, anchor_a=[0, L / 2, 0], anchor_b=[0, -L / 2, 0], axis_a=[0, 0, 1])
+               for i in range(1, n)]
+    scene = RigidScene(rb, [RigidGravity([0, -g, 0]), RigidJoints(joints, ks=ks, kd=kd, solver=solver)])
+    tree = ArticulatedTree(gravity=(0, -g, 0))
+    for i in range(n):
+        tree.add(f"rod{i}", i - 1, "revolute", axis=[0, 0, 1], p=[0, -L, 0] if i else [0, 0, 0], mass=m,
+                 com=[0, -L / 2, 0], inertia=Ic)
+    q0 = np.zeros(n)
+    q0[0] = theta0
+    return scene, rb, ArticulatedSystem(tree, q0)
 
 
 def _segment(tree, name, parent, kind, axis, p, mass, length, R=None, down=True, damping=0.0):
