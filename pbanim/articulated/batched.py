@@ -16,6 +16,7 @@ import numpy as np
 
 from ..geometry import cross as _cross
 from ..errors import SingularChartError
+from .dynamics import external_forces
 from .tree import ArticulatedTree
 
 __all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
@@ -57,22 +58,11 @@ def link_transforms_batch(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarr
     return [tree.joint_transform(i, q[:, A["qi"][i]]) @ A["XT"][i] for i in range(tree.n)]
 
 
-def _ext(tree, f_ext, K):
-    if f_ext is None:
-        return np.zeros((K, tree.n, 6))
-    f = np.broadcast_to(np.asarray(f_ext, dtype=float), (K, tree.n, 6))
-    if not np.all(np.isfinite(f)):
-        from ..errors import InvalidInput
-
-        raise InvalidInput("f_ext must be finite")
-    return f
-
-
 def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ for K states at once: q (K, nq), q̇ and q̈ (K, nv) → τ (K, nv)."""
     single, q, (qd, qdd) = _batch(tree, q, qd, qdd, names=("qd", "qdd"))
     A, K = tree.arrays(), q.shape[0]
-    fx = _ext(tree, f_ext, K)
+    fx = external_forces(tree, f_ext, K)
     Xup = link_transforms_batch(tree, q)
     v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
     a0 = np.broadcast_to(A["a0"], (K, 6))
@@ -122,8 +112,8 @@ def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ for K states at once by the articulated-body algorithm (joint damping included)."""
     single, q, (qd, tau) = _batch(tree, q, qd, tau, names=("qd", "tau"))
     A, K, n = tree.arrays(), q.shape[0], tree.n
-    fx = _ext(tree, f_ext, K)
-    tau = tau - np.repeat(A["damping"], [s.stop - s.start for s in A["vi"]]) * qd
+    fx = external_forces(tree, f_ext, K)
+    tau = tau - A["damping"] * qd
     Xup = link_transforms_batch(tree, q)
     v, c, IA, pA = [None] * n, [None] * n, [None] * n, [None] * n
     for i in range(n):

@@ -28,7 +28,7 @@ from ..geometry import cross, tangent_basis
 from ..lcp import pgs_box_friction
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
-from .dynamics import bias_forces, crba, link_transforms
+from .dynamics import bias_forces, crba, world_poses
 from .spatial import plucker_inverse
 from .system import ArticulatedSystem
 
@@ -38,19 +38,12 @@ __all__ = ["ArticulatedContact", "point_jacobians"]
 def point_jacobians(tree, q: np.ndarray, links, points) -> tuple[np.ndarray, np.ndarray]:
     """World positions (m, 3) and point Jacobians (m, 3, nv) of link-frame ``points`` on ``links``."""
     A = tree.arrays()
-    Xup = link_transforms(tree, q)
-    X0 = [None] * tree.n
-    for i in range(tree.n):
-        lam = tree.parent[i]
-        X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]
+    _, X0, origins = world_poses(tree, q)
     Xinv = [plucker_inverse(X) for X in X0]                         # ⁰X_i: link i → world
     m = len(links)
     P, J = np.zeros((m, 3)), np.zeros((m, 3, tree.nv))
     for k, (i, r) in enumerate(zip(links, points)):
-        E = X0[i][:3, :3]                                           # world → link rotation
-        # the link origin r in world coordinates, from ⁰X_i = [[Eᵀ, 0], [r× Eᵀ, Eᵀ]]: r× = (⁰X_i)₂₁ E
-        rx = Xinv[i][3:, :3] @ E
-        p = np.array([rx[2, 1], rx[0, 2], rx[1, 0]]) + E.T @ r
+        p = origins[i] + X0[i][:3, :3].T @ r
         P[k] = p
         j = i
         while j >= 0:                                               # the path to the root: < n steps
@@ -100,7 +93,7 @@ class ArticulatedContact:
         s, tree = self.system, self.tree
         q, qd = y[:s.nq], y[s.nq:]
         H = crba(tree, q)
-        tau = s._tau(t, q, qd) - np.repeat(tree.arrays()["damping"], [v.stop - v.start for v in tree._v_index]) * qd
+        tau = s._tau(t, q, qd) - tree.arrays()["damping"] * qd
         u = qd + h * np.linalg.solve(H, tau - bias_forces(tree, q, qd))
         P, Jp = point_jacobians(tree, q, self.links, self.points)
         gap = P @ self.normal - self.offset

@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import SingularChartError
+from ..errors import InvalidInput, SingularChartError
 from .spatial import crf, crm
 from .tree import ArticulatedTree
 
-__all__ = ["link_transforms", "rnea", "crba", "aba", "kinetic_energy", "potential_energy", "bias_forces"]
+__all__ = ["link_transforms", "rnea", "crba", "aba", "kinetic_energy", "potential_energy", "bias_forces",
+           "world_poses", "external_forces"]
 
 
 def link_transforms(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
@@ -34,22 +35,40 @@ def link_transforms(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
     return [tree.joint_transform(i, q[A["qi"][i]]) @ A["XT"][i] for i in range(tree.n)]
 
 
-def _ext(tree, f_ext):
+def external_forces(tree: ArticulatedTree, f_ext, K: int | None = None) -> np.ndarray:
+    """f̂ᵉˣᵗ as (n, 6), or (K, n, 6) for a batch, validated finite (zeros when None)."""
+    shape = (tree.n, 6) if K is None else (K, tree.n, 6)
     if f_ext is None:
-        return np.zeros((tree.n, 6))
+        return np.zeros(shape)
     f = np.asarray(f_ext, dtype=float)
-    if f.shape != (tree.n, 6) or not np.all(np.isfinite(f)):
-        from ..errors import InvalidInput
-
-        raise InvalidInput(f"f_ext must be finite with shape ({tree.n}, 6) (link coordinates), got {f.shape}")
+    try:
+        f = np.broadcast_to(f, shape)
+    except ValueError:
+        raise InvalidInput(f"f_ext must have shape ({tree.n}, 6) (link coordinates), got {f.shape}") from None
+    if not np.all(np.isfinite(f)):
+        raise InvalidInput("f_ext must be finite")
     return f
+
+
+def world_poses(tree: ArticulatedTree, q) -> tuple[list, list, np.ndarray]:
+    """(Xup, X0, origins): the child-from-parent transforms, the link-from-world transforms ⁱX_0 and the
+    link origins in world coordinates (n, 3), from ⁱX_0 = [[E, 0], [−E r×, E]]: r× = −Eᵀ(−E r×)."""
+    Xup = link_transforms(tree, q)
+    X0 = [None] * tree.n
+    origins = np.zeros((tree.n, 3))
+    for i in range(tree.n):
+        lam = tree.parent[i]
+        X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]
+        M = -X0[i][:3, :3].T @ X0[i][3:, :3]
+        origins[i] = (M[2, 1], M[0, 2], M[1, 0])
+    return Xup, X0, origins
 
 
 def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ = ID(q, q̇, q̈): the joint forces that produce the accelerations q̈ (gravity included)."""
     q, qd = tree.check_state(q, qd)
     _, qdd = tree.check_state(q, qdd, name_qd="qdd")
-    A, fx = tree.arrays(), _ext(tree, f_ext)
+    A, fx = tree.arrays(), external_forces(tree, f_ext)
     Xup = link_transforms(tree, q)
     v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
     for i in range(tree.n):
@@ -103,8 +122,8 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ = FD(q, q̇, τ) by the articulated-body algorithm, O(n); joint damping included."""
     q, qd = tree.check_state(q, qd)
     _, tau = tree.check_state(q, tau, name_qd="tau")
-    A, fx = tree.arrays(), _ext(tree, f_ext)
-    tau = tau - np.repeat(A["damping"], [s.stop - s.start for s in A["vi"]]) * qd
+    A, fx = tree.arrays(), external_forces(tree, f_ext)
+    tau = tau - A["damping"] * qd
     Xup = link_transforms(tree, q)
     n = tree.n
     v, c, IA, pA = [None] * n, [None] * n, [None] * n, [None] * n
@@ -168,20 +187,8 @@ def kinetic_energy(tree: ArticulatedTree, q, qd) -> float:
 def potential_energy(tree: ArticulatedTree, q) -> float:
     """V = −Σ m_i g·x_ci, with x_ci the world position of link i's centre of mass."""
     q, _ = tree.check_state(q)
-    Xup = link_transforms(tree, q)
-    X0 = [None] * tree.n
+    _, X0, origins = world_poses(tree, q)
     V = 0.0
-    for i in range(tree.n):
-        lam = tree.parent[i]
-        X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]
-        E = X0[i][:3, :3]                       # world → link rotation
-        r = _origin(X0[i])                      # link origin in world coordinates
-        lk = tree.links[i]
-        V -= lk.mass * tree.gravity @ (r + E.T @ lk.com)
+    for i, lk in enumerate(tree.links):
+        V -= lk.mass * tree.gravity @ (origins[i] + X0[i][:3, :3].T @ lk.com)   # E ᵀ: link → world
     return float(V)
-
-
-def _origin(X: np.ndarray) -> np.ndarray:
-    """The origin r of frame B in A's coordinates from ᴮX_A = [[E, 0], [−E r×, E]]: r× = −Eᵀ(−E r×)."""
-    M = -X[:3, :3].T @ X[3:, :3]
-    return np.array([M[2, 1], M[0, 2], M[1, 0]])

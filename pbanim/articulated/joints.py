@@ -238,11 +238,11 @@ class RigidJoints(Effect):
             pb = pick(x, j.b, np.zeros(3)) + Rb @ j.anchor_b
             value = float((pa - pb) @ axis)
             lin, ang = axis, np.zeros(3)
-        for k, sign in ((j.a, 1.0), (j.b, -1.0)):
-            if k >= 0:
-                ra = (quat_to_matrix(q[k]) @ (j.anchor_a if sign > 0 else j.anchor_b)) if j.kind == "slider" else 0
+        for k, sign, anchor in ((j.a, 1.0, j.anchor_a), (j.b, -1.0, j.anchor_b)):
+            if k >= 0:     # the slide moves the anchor: ω·(r × â); the hinge angle: ω·â (lin = 0 there)
+                r = quat_to_matrix(q[k]) @ anchor
                 row[6 * k:6 * k + 3] += sign * lin
-                row[6 * k + 3:6 * k + 6] += sign * (ang + (cross(ra, lin) if j.kind == "slider" else 0.0))
+                row[6 * k + 3:6 * k + 6] += sign * (ang + cross(r, lin))
         u = np.hstack([v, w]).ravel()
         return float(value), row, float(row @ u)
 
@@ -277,12 +277,7 @@ class RigidJoints(Effect):
         if self.solver == "linear":
             return self._constrain_linear(y, Q)
         C, J, jdot, Cdot = self.rows(y)
-        Wb = s.inverse_mass_blocks(y)                                    # (N, 6, 6)
-        v, w = s.velocities(y)
-        Iw = np.linalg.pinv(Wb[:, 3:, 3:])                               # world inertia (0 for static)
-        gyro = np.zeros_like(Q)
-        gyro[:, 3:] = -cross(w, np.einsum("nij,nj->ni", Iw, w))
-        WQ = np.einsum("nij,nj->ni", Wb, Q + gyro).ravel()
+        Wb, WQ = self._free_acceleration(y, Q)
         WJt = np.einsum("nij,knj->kni", Wb, J.reshape(len(C), s.N, 6)).reshape(len(C), -1)
         A = J @ WJt.T
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
@@ -311,6 +306,17 @@ class RigidJoints(Effect):
         self.last_lambda = lam
         return Q + (J.T @ lam).reshape(Q.shape)
 
+    def _free_acceleration(self, y, Q):
+        """(W blocks (N, 6, 6), u̇_free = W (Q + Q_gyro) flat) with Q_gyro = (0, −ω × I_world ω)."""
+        s = self.system
+        Wb = s.inverse_mass_blocks(y)
+        R = quat_to_matrix(s.unpack(y)[1])
+        Iw = R @ s.I_body @ np.swapaxes(R, 1, 2)                         # world inertia
+        w = s.velocities(y)[1]
+        gyro = np.zeros_like(Q)
+        gyro[:, 3:] = np.where(s.static[:, None], 0.0, -cross(w, np.einsum("nij,nj->ni", Iw, w)))
+        return Wb, np.einsum("nij,nj->ni", Wb, Q + gyro).ravel()
+
     def _constrain_linear(self, y, Q):
         """Baraff's linear-time solve for joint trees: A = J W Jᵀ is block sparse (joints sharing a body),
         and eliminating the joints leaves first — deepest body first — creates no fill, so a sparse LDLᵀ in
@@ -320,12 +326,7 @@ class RigidJoints(Effect):
 
         s = self.system
         C, J, jdot, Cdot = self.rows(y, sparse=True)
-        Wb = s.inverse_mass_blocks(y)
-        v, w = s.velocities(y)
-        Iw = np.linalg.pinv(Wb[:, 3:, 3:])
-        gyro = np.zeros_like(Q)
-        gyro[:, 3:] = -cross(w, np.einsum("nij,nj->ni", Iw, w))
-        WQ = np.einsum("nij,nj->ni", Wb, Q + gyro).ravel()
+        Wb, WQ = self._free_acceleration(y, Q)
         W = sp.block_diag(list(Wb), format="csr")
         A = (J @ W @ J.T).tocsc()
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot

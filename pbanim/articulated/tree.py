@@ -153,7 +153,7 @@ class ArticulatedTree:
                     S.append(np.eye(6))
             self._cache = {"XT": XT, "I": I, "S": S, "qi": self._q_index, "vi": self._v_index,
                            "a0": np.concatenate([np.zeros(3), -self.gravity]),
-                           "damping": np.array(self.damping)}
+                           "damping": np.repeat(self.damping, [v.stop - v.start for v in self._v_index])}
         return self._cache
 
     def joint_transform(self, i: int, qi: np.ndarray) -> np.ndarray:
