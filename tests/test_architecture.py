@@ -41,8 +41,8 @@ LAYERS: dict[str, int] = {
     "control": 6, "design": 6,
     # 7: canonical systems with their exact answers (the oracles)
     "models": 7,
-    # 8: work-precision sweeps, test assertions, figure styling and registry
-    "accuracy": 8, "testing": 8, "plotting": 8,
+    # 8: work-precision sweeps, test assertions, figure styling and registry, the engine comparison harness
+    "accuracy": 8, "testing": 8, "plotting": 8, "compare": 8,
     # 9: benchmark families, the command line, and the facade pbanim/__init__.py (it re-exports from the
     #    subpackages, so only the top layers may import ``pbanim`` itself)
     "bench": 9, "cli": 9, "__init__": 9,
