@@ -43,9 +43,9 @@ LAYERS: dict[str, int] = {
     "models": 7,
     # 8: work-precision sweeps, test assertions, figure styling and registry, the engine comparison harness
     "accuracy": 8, "testing": 8, "plotting": 8, "compare": 8,
-    # 9: benchmark families, the command line, and the facade pbanim/__init__.py (it re-exports from the
+    # 9: benchmark families, the command line, the course tools (assignments, grader), and the facade pbanim/__init__.py (it re-exports from the
     #    subpackages, so only the top layers may import ``pbanim`` itself)
-    "bench": 9, "cli": 9, "__init__": 9,
+    "bench": 9, "cli": 9, "course": 9, "__init__": 9,
     # 10: the lecture chapters, outside the package; public names only
     "chapters": 10,
 }
