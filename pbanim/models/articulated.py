@@ -8,8 +8,9 @@ model                         what it is
                               (relative joint angles here, absolute angles there)
 ``ragdoll()``                 a floating pelvis with a torso, a head, two arms (shoulder, elbow) and two
                               legs (hip, knee), 11 links, 16 joint coordinates plus the floating base
-``planar_biped()``            the 7-link planar biped of the characters lecture: the trunk on a planar
-                              base (x, y slides and a pitch hinge), hips, knees and ankles about z
+``planar_biped()``            the 7-link planar biped of the characters lecture (SIMBICON's 2-D model;
+                              :mod:`pbanim.models.biped`): the torso on a planar base (x, y slides and a
+                              hinge), hips, knees and ankles about z
 ============================  ==========================================================================
 
 The URDF copies live in ``pbanim/models/urdf/`` (:func:`urdf_path`); ``tests/test_articulated.py`` loads
@@ -26,6 +27,7 @@ import numpy as np
 
 from ..articulated.tree import ArticulatedTree
 from ..errors import InvalidInput, check_count, check_number
+from .biped import planar_biped
 
 __all__ = ["pendulum_chain", "rod_chain", "ragdoll", "ragdoll_contact_points", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
 
@@ -118,23 +120,6 @@ def ragdoll_contact_points(tree: ArticulatedTree) -> list:
         pts += [(i, np.zeros(3)), (i, 2.0 * c)] if np.any(c) else [(i, np.array([sx * 0.15, sy * 0.1, -0.075]))
                                                                   for sx in (-1, 1) for sy in (-1, 1)]
     return pts
-
-
-def planar_biped(g: float = 9.81) -> ArticulatedTree:
-    """The planar biped (x forward, y up, joints about z): a 3-DOF planar base carries the trunk."""
-    tree = ArticulatedTree(gravity=(0.0, -g, 0.0))
-    tiny = dict(mass=1e-6, inertia=np.full(3, 1e-9))            # the base's slides carry no real mass
-    bx = tree.add("base_x", -1, "prismatic", axis=[1, 0, 0], p=[0, 1.0, 0], **tiny)
-    by = tree.add("base_y", bx, "prismatic", axis=[0, 1, 0], **tiny)
-    trunk = tree.add("trunk", by, "revolute", axis=[0, 0, 1], mass=40.0, com=[0, 0.25, 0],
-                     inertia=box_inertia(40.0, (0.2, 0.5, 0.3)))
-    down = np.array([[1.0, 0, 0], [0, 0, 1.0], [0, -1.0, 0]])    # link z along the parent's −y
-    for side in ("left", "right"):
-        thigh = _segment(tree, f"{side}_thigh", trunk, "revolute", [0, -1, 0], [0, 0, 0], 7.0, 0.45, R=down)
-        shin = _segment(tree, f"{side}_shin", thigh, "revolute", [0, 1, 0], [0, 0, -0.45], 4.0, 0.45)
-        tree.add(f"{side}_foot", shin, "revolute", axis=[0, 1, 0], p=[0, 0, -0.45], mass=1.0, com=[0.05, 0, -0.03],
-                 inertia=box_inertia(1.0, (0.2, 0.08, 0.06)))
-    return tree
 
 
 def to_urdf(tree: ArticulatedTree, name: str) -> str:

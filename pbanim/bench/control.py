@@ -1,0 +1,80 @@
+"""Characters: what a control step costs, and how fast the walking biped runs (chapter 08, part 2).
+
+Tables:
+
+* one control step of the planar biped [µs]: SIMBICON's servos explicit and stable (the controller alone),
+  the contact step that integrates them (closed-form planar dynamics + velocity-level contact), and the
+  QP controller per installed qpsolvers backend (building and solving one QP);
+* the walking biped (SIMBICON walk, 10 s; quick: 3 s) for each servo at the steps where it walks:
+  wall time, real-time factor, mean speed.
+
+Goals (issue 16): the SIMBICON biped simulates at least 5× faster than real time (the paper's explicit PD
+servos at h = 1 ms, where the walk's speed is within 1 % of its h = 0.5 ms value); one QP control step of
+the planar biped solves in ≤ 1 ms with proxsuite.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import Goal, Report, Table, median_time
+from ..articulated.planar import PlanarKernel
+from ..articulated.planar_step import PlanarContactStep
+from ..control import WALK, Simbicon, simulate_walk
+from ..control.biped import biped_contact_points, planar_biped
+
+__all__ = ["run"]
+
+
+def _walking_state(h: float = 2e-3):
+    """A state in the middle of a walk (the controller's machine in step with it)."""
+    r = simulate_walk(WALK, 2.0, h, servo="stable", record_every=1)
+    return r.q[-1], r.qd[-1]
+
+
+def run(quick: bool = False) -> Report:
+    rep = Report("control")
+    repeats = 3 if quick else 7
+    tree = planar_biped()
+    kernel = PlanarKernel(tree)
+    step = PlanarContactStep(kernel, biped_contact_points(tree))
+    q, qd = _walking_state()
+    rows = []
+    for servo in ("explicit", "stable"):
+        ctrl = Simbicon(kernel, WALK, servo=servo)
+        kin = kernel.kinematics(q)
+        kernel.com_jacobians(kin)
+        t_ctrl = median_time(lambda: ctrl.torques(0.0, q, qd, (), kin, 1e-3), repeats, min_time=0.05)
+        tau, k = ctrl.torques(0.0, q, qd, (), kin, 1e-3)
+        t_step = median_time(lambda: step.step(q, qd, 1e-3, tau, k if np.any(k) else None), repeats, min_time=0.05)
+        rows.append([f"SIMBICON, {servo} PD", t_ctrl * 1e6, t_step * 1e6, (t_ctrl + t_step) * 1e6])
+    qp_time, qp_note = np.nan, "the QP controller is not available"
+    try:
+        from . import _qp
+    except ImportError:
+        _qp = None
+    if _qp is not None:
+        for r in _qp.qp_step_rows(quick):
+            rows.append([f"QP controller, {r[0]}", *r[1:]] if len(r) >= 4 else [f"QP controller, {r[0]}", r[1], np.nan, np.nan])
+        qp_time = _qp.qp_step_time_proxsuite(quick)
+        qp_note = "" if np.isfinite(qp_time) else "proxsuite is not installed"
+    rep.tables.append(Table("one control step of the planar biped [µs]",
+                            ["controller", "controller", "contact step (h = 1 ms)", "total"], rows))
+    t_end = 2.0 if quick else 10.0
+    walk_rows, rt = [], {}
+    for servo, h in (("explicit", 1e-3), ("stable", 1e-3), ("explicit", 4e-3), ("stable", 4e-3), ("explicit", 8e-3),
+                     ("stable", 8e-3)):
+        res = simulate_walk(WALK, t_end, h, servo=servo, record_every=100)
+        rt[(servo, h)] = res.realtime_factor
+        walk_rows.append([f"{servo} PD", h * 1e3, res.wall_time, res.realtime_factor,
+                          res.speed(min(5.0, t_end / 2)), "fell" if res.fell else "walked"])
+    rep.tables.append(Table(f"SIMBICON walk, {t_end:g} s simulated", ["servos", "h [ms]", "wall [s]",
+                                                                      "real-time factor", "speed [m/s]", "outcome"],
+                            walk_rows))
+    rep.notes.append("explicit PD walks up to h = 4 ms and falls at 8 ms; stable PD still walks at 8 ms, faster "
+                     "than it should (its servos lag by a step: the accuracy that the longer step costs)")
+    rep.goals.append(Goal("control-simbicon-realtime", rt[("explicit", 1e-3)], 5.0, ">=", "x",
+                          "simulated seconds per wall-clock second, the paper's explicit PD servos at h = 1 ms"))
+    rep.goals.append(Goal("control-qp-step-proxsuite", qp_time * 1e3 if np.isfinite(qp_time) else np.nan, 1.0, "<=",
+                          " ms", "one QP control step of the planar biped (build + solve)", skipped=qp_note))
+    return rep

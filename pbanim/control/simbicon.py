@@ -1,0 +1,164 @@
+"""SIMBICON: a planar biped walks with PD servos, a four-state machine and balance feedback (chapter 08).
+
+Yin, Loken & van de Panne (SIGGRAPH 2007) make a biped walk with three ideas:
+
+1. **A finite state machine** of four states per stride: right stance for δt seconds (state 0), right
+   stance until the left foot strikes the ground (state 1), then the mirror images (states 2, 3). Each
+   state holds targets θ̄ for the swing hip (swh), swing knee (swk), swing ankle (swa), stance knee (stk),
+   stance ankle (sta) and the torso (tor); joint-space PD servos track them.
+2. **The torso and the swing hip are servoed in the world frame**: τ_torso = k_p(θ̄_tor − φ) − k_v φ̇ is the
+   torque the torso needs, and since only the hips can give it, the stance hip supplies the rest:
+   τ_stance = −τ_torso − τ_swing.
+3. **Balance feedback** on the swing hip's world-frame target:
+
+       θ̄_swh = θ̄_swh,0 + c_d d + c_v v,
+
+   d the horizontal distance from the stance ankle to the centre of mass, v the centre of mass's
+   horizontal velocity. Falling forward (d, v > 0) places the swing foot further ahead, which catches
+   the fall; with c_d = c_v = 0 the same servos and machine fall within a few steps (tested).
+
+A gait is a handful of numbers (:class:`Gait`): :data:`WALK` takes the paper's walk parameters (their
+Table 2, as we read it: δt = 0.3 s; states 0/2: swh 0.5, swk −1.1, swa 0.6, stk −0.05, sta 0, c_v 0.2;
+states 1/3: swh −0.1, swk −0.05, swa 0.15, stk −0.1, sta 0, c_d 2.2); :data:`FAST_WALK` is ours.
+The servos are explicit PD (the paper's), or stable PD (:mod:`.pd`) for the joint-space joints.
+
+Notation: φ torso angle (world, positive leaning back); θ joint angles (hips relative to the torso, knees
+and ankles relative to the segment above); d, v as above; δt the timed states' duration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import InvalidInput, check_number
+from .biped import BIPED_JOINTS as JI
+from .fsm import StateMachine, Transition
+from .pd import _gains
+
+__all__ = ["Phase", "Gait", "WALK", "FAST_WALK", "Simbicon"]
+
+
+@dataclass(frozen=True)
+class Phase:
+    """Targets of one state (radians) and its balance-feedback gains."""
+
+    swh: float
+    swk: float
+    swa: float
+    stk: float
+    sta: float
+    tor: float = 0.0
+    cd: float = 0.0
+    cv: float = 0.0
+
+
+@dataclass(frozen=True)
+class Gait:
+    """δt, the two phases (timed, then until foot strike), and PD gains per joint kind."""
+
+    name: str
+    dt: float
+    phases: tuple
+    kp: dict = field(default_factory=lambda: {"hip": 300.0, "knee": 300.0, "ankle": 30.0, "torso": 300.0})
+    kv: dict = field(default_factory=lambda: {"hip": 30.0, "knee": 30.0, "ankle": 3.0, "torso": 30.0})
+    limit: float = 400.0
+
+    def __post_init__(self):
+        check_number("dt", self.dt, low=0.0, low_open=True, high=5.0)
+        if len(self.phases) != 2 or not all(isinstance(p, Phase) for p in self.phases):
+            raise InvalidInput(f"gait {self.name!r}: phases must be two Phase objects, got {self.phases!r}")
+        for d, label in ((self.kp, "kp"), (self.kv, "kv")):
+            if set(d) != {"hip", "knee", "ankle", "torso"}:
+                raise InvalidInput(f"gait {self.name!r}: {label} must give hip, knee, ankle and torso gains, got {sorted(d)}")
+            _gains(label, list(d.values()), 4)
+        check_number("limit", self.limit, low=0.0, low_open=True)
+
+
+WALK = Gait("walk", 0.3, (Phase(swh=0.5, swk=-1.1, swa=0.6, stk=-0.05, sta=0.0, cv=0.2),
+                          Phase(swh=-0.1, swk=-0.05, swa=0.15, stk=-0.1, sta=0.0, cd=2.2)))
+FAST_WALK = Gait("fast walk", 0.2, (Phase(swh=0.5, swk=-1.1, swa=0.6, stk=-0.05, sta=0.0, tor=-0.1, cv=0.2),
+                                    Phase(swh=-0.1, swk=-0.05, swa=0.15, stk=-0.1, sta=0.0, tor=-0.1, cd=2.2)))
+
+SIDES = {"R": ("right", "left"), "L": ("left", "right")}       # state prefix → (stance, swing)
+
+
+class Simbicon:
+    """The controller: ``torques(t, q, qd, events, kin)`` → (τ₀, k) with τ = τ₀ − k ⊙ q̇⁺ (k = 0: explicit).
+
+    ``feedback``: the balance feedback on (the paper's) or off (c_d = c_v = 0); ``servo``: "explicit" or
+    "stable" (stable PD on knees and ankles); ``kernel``: the biped's :class:`PlanarKernel`.
+    """
+
+    def __init__(self, kernel, gait: Gait = WALK, *, feedback: bool = True, servo: str = "explicit",
+                 start: str = "R0") -> None:
+        if not isinstance(gait, Gait):
+            raise InvalidInput(f"gait must be a Gait, got {type(gait).__name__}")
+        if servo not in ("explicit", "stable"):
+            raise InvalidInput(f"servo must be 'explicit' or 'stable', got {servo!r}")
+        self.kernel, self.gait, self.feedback, self.servo = kernel, gait, bool(feedback), servo
+        p0, p1 = gait.phases
+        states = {"R0": p0, "R1": p1, "L0": p0, "L1": p1}
+        self.fsm = StateMachine(states, [Transition("R0", "R1", after=gait.dt), Transition("R1", "L0", on="left_strike"),
+                                         Transition("L0", "L1", after=gait.dt), Transition("L1", "R0", on="right_strike")],
+                                initial=start)
+        names = [lk.name for lk in kernel.tree.links]
+        self.ankle_link = {s: names.index(f"{s}_foot") for s in ("left", "right")}
+        self.history: list = []
+
+    def sides(self) -> tuple[str, str]:
+        return SIDES[self.fsm.state[0]]
+
+    def balance(self, q, qd, kin=None) -> tuple[float, float]:
+        """(d, v): the centre of mass's horizontal offset from the stance ankle, and its horizontal velocity."""
+        k = self.kernel
+        kin = k.kinematics(q) if kin is None else kin
+        com, vcom = k.centre_of_mass(q, qd, kin)
+        stance = self.sides()[0]
+        return float(com[0] - kin["o"][self.ankle_link[stance]][0]), float(vcom[0])
+
+    def torques(self, t, q, qd, events=(), kin=None, h: float = 0.0):
+        """Joint forces for the state (q, q̇) at time t after the events of the last step; ``h`` the step
+        (stable PD). Records (t, state, d, v, {joint: (target, angle)}) in :attr:`history` (hips and torso
+        in the world frame)."""
+        self.fsm.update(t, events)
+        ph: Phase = self.fsm.payload
+        stance, swing = self.sides()
+        g = self.gait
+        kp, kv = g.kp, g.kv
+        tau, k = np.zeros(q.size), np.zeros(q.size)
+        d, v = self.balance(q, qd, kin)
+        fb = (ph.cd * d + ph.cv * v) if self.feedback else 0.0
+        rec = {}
+        # joint-space servos: swing knee and ankle, stance knee and ankle
+        for joint, target, kind in ((f"{swing}_knee", ph.swk, "knee"), (f"{swing}_ankle", ph.swa, "ankle"),
+                                    (f"{stance}_knee", ph.stk, "knee"), (f"{stance}_ankle", ph.sta, "ankle")):
+            i = JI[joint]
+            rec[joint] = (target, q[i])
+            if self.servo == "stable":
+                tau[i], k[i] = kp[kind] * (target - q[i] - h * qd[i]), kv[kind]
+            else:
+                tau[i] = kp[kind] * (target - q[i]) - kv[kind] * qd[i]
+        # world-frame torso and swing hip; the stance hip balances the torso
+        phi, phid = q[JI["torso"]], qd[JI["torso"]]
+        tau_torso = kp["torso"] * (ph.tor - phi) - kv["torso"] * phid
+        sw, st = JI[f"{swing}_hip"], JI[f"{stance}_hip"]
+        tau_swing = kp["hip"] * (ph.swh + fb - (phi + q[sw])) - kv["hip"] * (phid + qd[sw])
+        tau[sw] = tau_swing
+        tau[st] = -tau_torso - tau_swing
+        rec["torso"] = (ph.tor, phi)
+        rec[f"{swing}_hip"] = (ph.swh + fb, phi + q[sw])                # world frame
+        rec[f"{stance}_hip"] = (np.nan, phi + q[st])
+        lim = g.limit
+        np.clip(tau, -lim, lim, out=tau)
+        self.history.append((t, self.fsm.state, d, v, rec))
+        return tau, k
+
+    def reset(self, t: float = 0.0) -> None:
+        self.fsm.reset(t)
+        self.history = []
+
+    def with_gait(self, **changes) -> "Simbicon":
+        """A fresh controller with gait fields replaced (e.g. ``dt=0.25``)."""
+        return Simbicon(self.kernel, replace(self.gait, **changes), feedback=self.feedback, servo=self.servo)

@@ -1,0 +1,186 @@
+"""Running a character: the controller, the contact step and the fall detector in one loop (chapter 08).
+
+Each step of length h: the controller reads the state and the events of the last step (which foot
+struck the ground) and returns joint forces; :class:`~pbanim.articulated.planar_step.PlanarContactStep`
+advances the biped with contact and friction; then the fall detector looks at the new state. A fall is
+reported as a fall — its time and its cause (the torso tipped past 1 rad, the hips dropped below half
+their standing height, a knee or the torso touched the ground) — and the run stops there; a state that
+is no longer finite raises :class:`~pbanim.errors.SimulationDiverged`. Runs use the one fixed-step
+driver (:mod:`pbanim.ode.driver`): its step grid, its cap on the number of steps, its finiteness check.
+
+A push is an impulse on the torso's centre of mass, P (N s, horizontal), applied at a chosen phase of a
+chosen step: Δq̇ = H⁻¹ J_cᵀ P. The phase runs from 0 at a right-foot strike (the machine enters R0) to 1
+at the next left-foot strike, measured with the duration of the step before.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..articulated.planar import PlanarKernel
+from ..articulated.planar_step import PlanarContactStep, PlanarGround
+from ..errors import InvalidInput, check_number
+from .biped import BIPED_JOINTS as JI, biped_contact_points, planar_biped
+from ..ode.driver import MAX_STEPS, drive, step_grid
+from .simbicon import WALK, Gait, Simbicon
+
+__all__ = ["Push", "WalkResult", "simulate_walk", "Fell", "stick_figure"]
+
+
+class Fell(Exception):
+    """Raised inside the loop to stop it at a fall (caught by :func:`simulate_walk`)."""
+
+
+@dataclass(frozen=True)
+class Push:
+    """An impulse ``impulse`` (N s, +x forward) on the torso at ``phase`` ∈ [0, 1) of the ``count``-th right
+    step (0: the right foot strikes, 1: the left foot strikes)."""
+
+    impulse: float
+    phase: float = 0.5
+    count: int = 10
+
+    def __post_init__(self):
+        check_number("impulse", self.impulse, low=-1e4, high=1e4)
+        check_number("phase", self.phase, low=0.0, high=1.0, high_open=True)
+        if not isinstance(self.count, int) or self.count < 2:
+            raise InvalidInput(f"push count must be an integer >= 2 (a step before it gives the duration), "
+                               f"got {self.count!r}")
+
+
+@dataclass
+class WalkResult:
+    """What a run gives: states, FSM trace, fall (time and cause) and summary numbers."""
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    trace: list
+    fell: bool
+    fall_time: float | None
+    fall_cause: str
+    wall_time: float
+    h: float
+    com: np.ndarray
+    strikes: list = field(default_factory=list)
+    push_time: float | None = None
+    targets: list = field(default_factory=list)
+
+    def speed(self, last: float = 5.0) -> float:
+        """Mean forward speed of the centre of mass over the last ``last`` seconds (m/s)."""
+        k = self.t >= self.t[-1] - last
+        return float((self.com[k][-1, 0] - self.com[k][0, 0]) / max(self.t[k][-1] - self.t[k][0], 1e-12))
+
+    @property
+    def realtime_factor(self) -> float:
+        return float(self.t[-1] / self.wall_time) if self.wall_time > 0 else float("inf")
+
+
+def _fall_cause(kernel, kin, q, ground) -> str:
+    if abs(q[JI["torso"]]) > 1.0:
+        return f"torso tipped to {q[JI['torso']]:.2f} rad"
+    o = kin["o"]
+    names = [lk.name for lk in kernel.tree.links]
+    hip = ground.gap(o[names.index("torso")][None])[0]
+    if hip < 0.5 * (kernel.tree.joints[0].p[1]):
+        return f"hips dropped to {hip:.2f} m"
+    for nm in ("left_shin", "right_shin"):
+        if ground.gap(o[names.index(nm)][None])[0] < 0.02:
+            return f"{nm.split('_')[0]} knee touched the ground"
+    return ""
+
+
+def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, slope: float = 0.0,
+                  feedback: bool = True, push: Push | None = None, servo: str = "explicit",
+                  friction: float = 0.9, record_every: int = 20, max_steps: int = MAX_STEPS,
+                  controller: Simbicon | None = None) -> WalkResult:
+    """Walk the planar biped with SIMBICON on a ground of slope ``slope`` (rad) from a standing start."""
+    tree = planar_biped()
+    kernel = PlanarKernel(tree)
+    ground = PlanarGround(slope, friction)
+    stepper = PlanarContactStep(kernel, biped_contact_points(tree), ground)
+    ctrl = controller or Simbicon(kernel, gait, feedback=feedback, servo=servo)
+    ctrl.reset()
+    grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
+    q0 = np.zeros(tree.nq)
+    q0[1] = float(ground.height(0.0)) + 1e-4
+    # start from a light forward speed with the right leg ahead, as a walk in progress
+    split = 0.2
+    q0[JI["right_hip"]], q0[JI["left_hip"]] = split, -split
+    q0[JI["right_ankle"]], q0[JI["left_ankle"]] = -split, split           # feet flat
+    q0[1] -= (1 - np.cos(split)) * 0.87                                   # hip above the ankles (0.45 + 0.42)
+    qd0 = np.zeros(tree.nv)
+    qd0[0] = 0.4
+    ts, qs, qds, coms = [0.0], [q0.copy()], [qd0.copy()], [kernel.centre_of_mass(q0)]
+    state = {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
+    names = [lk.name for lk in tree.links]
+    foot_points = {"left": [0, 1], "right": [2, 3]}
+
+    def advance(t, y, hh):
+        q, qd = y[:9], y[9:]
+        before = ctrl.fsm.state
+        kin = state.pop("kin", None) or kernel.kinematics(q)
+        kernel.com_jacobians(kin)                                  # cached in kin: shared by controller and step
+        tau, kd = ctrl.torques(t, q, qd, state["events"], kin, hh)
+        if ctrl.fsm.state != before:
+            state["entries"][ctrl.fsm.state] = state["entries"].get(ctrl.fsm.state, 0) + 1
+            state["enter"][ctrl.fsm.state] = t
+            if ctrl.fsm.state == "L0" and "R0" in state["enter"]:
+                state["step"] = t - state["enter"]["R0"]            # duration of the last right step
+        if push is not None and state["pushed"] is None and ctrl.fsm.state in ("R0", "R1") \
+                and state["entries"].get("R0", 0) == push.count and state["step"] is not None \
+                and t - state["enter"]["R0"] >= push.phase * state["step"]:
+            links = np.array([names.index("torso")])
+            Jc = kernel.jacobians(kin, links, kin["c"][links])[0]
+            H, _, _ = kernel.dynamics(q, qd)
+            qd = qd + np.linalg.solve(H, Jc.T @ np.array([push.impulse, 0.0]))
+            state["pushed"] = t
+        q1, u1 = stepper.step(q, qd, hh, tau, kd if np.any(kd) else None, kin)
+        f = stepper.contact_forces(hh)
+        events = tuple(f"{side}_strike" for side, idx in foot_points.items() if np.any(f[idx] > 0))
+        for side in ("left", "right"):
+            if f"{side}_strike" in events and ctrl.fsm.state[0] != side[0].upper() and \
+                    (ctrl.fsm.state.endswith("1")):
+                state["strikes"].append((t + hh, side))
+        state["events"] = events
+        state["kin"] = kin1 = kernel.kinematics(q1)
+        cause = _fall_cause(kernel, kin1, q1, ground)
+        if cause:
+            state["fall"] = (t + hh, cause)
+            raise Fell(cause)
+        return np.concatenate([q1, u1])
+
+    def record(t1, y1):
+        ts.append(t1), qs.append(y1[:9].copy()), qds.append(y1[9:].copy())
+        coms.append(kernel.centre_of_mass(y1[:9]))
+
+    start = time.perf_counter()
+    fell, fall_time, cause = False, None, ""
+    try:
+        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every)
+    except Fell:
+        fell, (fall_time, cause) = True, state["fall"]
+    wall = time.perf_counter() - start
+    return WalkResult(t=np.array(ts), q=np.array(qs), qd=np.array(qds), trace=list(ctrl.fsm.trace), fell=fell,
+                      fall_time=fall_time, fall_cause=cause, wall_time=wall, h=h, com=np.array(coms),
+                      strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]))
+
+
+def stick_figure(kernel: PlanarKernel, q) -> list:
+    """Line segments (each a (k, 2) array) drawing the biped at q: torso, thighs, shins, feet (heel–ankle–toe)."""
+    kin = kernel.kinematics(np.asarray(q, dtype=float))
+    names = [lk.name for lk in kernel.tree.links]
+    o = kin["o"]
+    i = names.index("torso")
+    top = o[i] + 2.0 * (kin["c"][i] - o[i])                    # the torso's centre is halfway up
+    segs = [np.array([o[i], top])]
+    pts = biped_contact_points(kernel.tree)
+    heel_toe = kernel.point_positions(kin, np.array([lk for lk, _ in pts]), np.array([p for _, p in pts]))
+    for k, side in enumerate(("left", "right")):
+        th, sh, ft = (names.index(f"{side}_{s}") for s in ("thigh", "shin", "foot"))
+        segs.append(np.array([o[th], o[sh], o[ft]]))
+        segs.append(np.array([heel_toe[2 * k], o[ft], heel_toe[2 * k + 1], heel_toe[2 * k]]))
+    return segs
