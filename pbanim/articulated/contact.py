@@ -32,7 +32,40 @@ from .dynamics import bias_forces, crba, world_poses
 from .spatial import plucker_inverse
 from .system import ArticulatedSystem
 
-__all__ = ["ArticulatedContact", "point_jacobians"]
+__all__ = ["ArticulatedContact", "point_jacobians", "Plane", "Staircase"]
+
+
+class Plane:
+    """The ground n·x = offset (n normalized): gap n·p − offset, normal n everywhere."""
+
+    def __init__(self, normal=(0.0, 0.0, 1.0), offset: float = 0.0) -> None:
+        n = np.asarray(normal, dtype=float)
+        if n.shape != (3,) or not np.all(np.isfinite(n)) or not np.linalg.norm(n) > 0:
+            raise InvalidInput(f"normal must be a non-zero finite 3-vector, got {normal!r}")
+        self.normal = n / np.linalg.norm(n)
+        self.offset = check_number("offset", offset)
+
+    def gap_normal(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return P @ self.normal - self.offset, np.broadcast_to(self.normal, P.shape)
+
+
+class Staircase:
+    """Stairs going down along +x (z up): height 0 for x < ``start``, then treads ``run`` long, each
+    ``rise`` lower, ``steps`` of them, then flat. A point touches the tread below it (normal +z); the
+    risers are not modelled (a point moving back into a riser passes through it)."""
+
+    def __init__(self, rise: float = 0.2, run: float = 0.4, steps: int = 5, start: float = 0.0) -> None:
+        self.rise = check_number("rise", rise, low=0.0)
+        self.run = check_number("run", run, low=0.0, low_open=True)
+        self.steps = check_count("steps", steps, minimum=0, maximum=10_000)
+        self.start = check_number("start", start)
+
+    def height(self, x) -> np.ndarray:
+        k = np.clip(np.floor((np.asarray(x, dtype=float) - self.start) / self.run) + 1, 0, self.steps)
+        return -self.rise * k
+
+    def gap_normal(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return P[:, 2] - self.height(P[:, 0]), np.broadcast_to(np.array([0.0, 0.0, 1.0]), P.shape)
 
 
 def point_jacobians(tree, q: np.ndarray, links, points) -> tuple[np.ndarray, np.ndarray]:
@@ -58,11 +91,12 @@ class ArticulatedContact:
     """Velocity-level contact stepping of an :class:`ArticulatedSystem` on a ground plane.
 
     ``contact_points``: list of (link index, point in the link frame). ``normal``, ``offset``: the plane
-    n·x = offset (default: up against gravity through the origin). ``friction`` μ ≥ 0.
+    n·x = offset (default: up against gravity through the origin), or ``terrain``: any object with
+    ``gap_normal(P) -> (gaps (m,), unit normals (m, 3))`` such as :class:`Staircase`. ``friction`` μ ≥ 0.
     """
 
     def __init__(self, system: ArticulatedSystem, contact_points, *, friction: float = 0.5,
-                 normal=None, offset: float = 0.0, erp: float = 0.2, margin: float = 0.02,
+                 normal=None, offset: float = 0.0, terrain=None, erp: float = 0.2, margin: float = 0.02,
                  cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-8) -> None:
         if not isinstance(system, ArticulatedSystem):
             raise InvalidInput(f"system must be an ArticulatedSystem, got {type(system).__name__}")
@@ -81,6 +115,9 @@ class ArticulatedContact:
             raise InvalidInput(f"normal must be a non-zero 3-vector, got {normal!r}")
         self.normal = n / np.linalg.norm(n)
         self.offset = check_number("offset", offset)
+        if terrain is not None and not callable(getattr(terrain, "gap_normal", None)):
+            raise InvalidInput(f"terrain must have a gap_normal(P) method, got {type(terrain).__name__}")
+        self.terrain = Plane(self.normal, self.offset) if terrain is None else terrain
         self.mu = check_number("friction", friction, low=0.0)
         self.erp = check_number("erp", erp, low=0.0, high=1.0)
         self.margin = check_number("margin", margin, low=0.0)
@@ -96,13 +133,13 @@ class ArticulatedContact:
         tau = s._tau(t, q, qd) - tree.arrays()["damping"] * qd
         u = qd + h * np.linalg.solve(H, tau - bias_forces(tree, q, qd))
         P, Jp = point_jacobians(tree, q, self.links, self.points)
-        gap = P @ self.normal - self.offset
-        speed = np.einsum("kij,j->ki", Jp, u) @ self.normal           # normal speed of each point at u*
+        gap, nrm = self.terrain.gap_normal(P)
+        speed = np.einsum("kij,j,ki->k", Jp, u, nrm)                  # normal speed of each point at u*
         near = np.flatnonzero(gap < self.margin + h * np.abs(speed))
         if near.size:
             m = near.size
-            t1, t2 = tangent_basis(np.broadcast_to(self.normal, (m, 3)))
-            rows = np.stack([np.einsum("i,kij->kj", self.normal, Jp[near]), np.einsum("ki,kij->kj", t1, Jp[near]),
+            t1, t2 = tangent_basis(nrm[near])
+            rows = np.stack([np.einsum("ki,kij->kj", nrm[near], Jp[near]), np.einsum("ki,kij->kj", t1, Jp[near]),
                              np.einsum("ki,kij->kj", t2, Jp[near])], axis=1).reshape(3 * m, -1)   # [n, t₁, t₂]·J
             HinvJt = np.linalg.solve(H, rows.T)
             A = rows @ HinvJt
@@ -138,4 +175,4 @@ class ArticulatedContact:
 
     def _min_gap(self, y) -> float:
         P, _ = point_jacobians(self.tree, y[:self.system.nq], self.links, self.points)
-        return float(np.min(P @ self.normal - self.offset))
+        return float(np.min(self.terrain.gap_normal(P)[0]))
