@@ -313,3 +313,40 @@ def test_bad_terrain_is_named():
         Staircase(run=0.0)
     with pytest.raises(InvalidInput, match="normal"):
         Plane([0, 0, 0])
+
+
+def _ball_on_post(x0):
+    from pbanim.articulated.contact import ArticulatedContact, Plane
+
+    t = ArticulatedTree(gravity=(0, 0, -9.81))
+    post = t.add("post", -1, "fixed", p=[0, 0, 0.5], mass=5.0, inertia=np.full(3, 0.1))
+    ball = t.add("ball", -1, "floating", mass=2.0, inertia=np.full(3, 0.4 * 2 * 0.04))
+    q0 = t.neutral()
+    q0[-3:] = [x0, 0, 1.05]
+    return t, ArticulatedContact(ArticulatedSystem(t, q0), [(ball, [0, 0, -0.2])], terrain=Plane([0, 0, 1], -10),
+                                 spheres=[(post, [0, 0, 0], 0.3), (ball, [0, 0, 0], 0.2)], friction=0.5)
+
+
+def test_links_touch_each_other_a_ball_rests_on_a_sphere():
+    # ORACLES D4 between links: a 2 kg ball (r = 0.2) dropped on a fixed sphere (r = 0.3, centre 0.5) rests at
+    # centre height 0.5 + 0.3 + 0.2 = 1.0 with a normal impulse m g h per step (measured exact to 1e-15)
+    t, ac = _ball_on_post(0.0)
+    res = ac.simulate(1.0, 1e-3, record_every=100)
+    assert res.y[6, -1] == pytest.approx(1.0, abs=1e-6)
+    assert ac.last["sphere_contacts"] == 1
+    assert ac.last["impulses"][0::3].sum() == pytest.approx(2.0 * 9.81 * 1e-3, rel=1e-9)
+    # placed 5 cm off the top, it rolls off and falls past the sphere's equator
+    _, ac = _ball_on_post(0.05)
+    res = ac.simulate(1.5, 1e-3, record_every=100)
+    assert res.y[4, -1] > 0.5 and res.y[6, -1] < 0.5
+
+
+def test_bad_spheres_are_named():
+    from pbanim.articulated.contact import ArticulatedContact
+
+    t = ArticulatedTree(gravity=(0, 0, -9.81))
+    t.add("a", -1, "floating", mass=1.0, inertia=np.full(3, 0.1))
+    for bad, match in ((["x"], "spheres\\[0\\]"), ([(0, [0, 0], 0.1)], "centre"), ([(0, [0, 0, 0], -1.0)], "radius"),
+                       ([(5, [0, 0, 0], 1.0)], "link")):
+        with pytest.raises(InvalidInput, match=match):
+            ArticulatedContact(ArticulatedSystem(t), [(0, [0, 0, 0])], spheres=bad)

@@ -1,6 +1,9 @@
 """Contact and friction for articulated trees: velocity-level time stepping (chapter 08).
 
-Points fixed on links touch a ground plane n·x = offset. Each step (Stewart & Trinkle 1996, as the
+Points fixed on links touch the ground (a plane n·x = offset, or any terrain that gives a gap and a
+normal per point, such as :class:`Staircase`), and spheres fixed on links touch the spheres of other links
+(self-collision; a link and its parent never collide, they meet at their joint). A box on a link is its
+eight corners as points. Each step (Stewart & Trinkle 1996, as the
 rigid-body :class:`~pbanim.contact.TimeStepping` of chapter 07, but with the tree's coupled mass matrix):
 
     u* = q̇ + h H(q)⁻¹ (τ − b q̇ − C(q, q̇))                    (free velocity; C from RNEA: gravity, Coriolis)
@@ -9,8 +12,10 @@ rigid-body :class:`~pbanim.contact.TimeStepping` of chapter 07, but with the tre
     |tₖ| ≤ μ f, J_tₖ u⁺ = 0 while |tₖ| < μ f                  (box friction along two tangents t₁, t₂)
     q⁺ = q + h q̇(q, u⁺)                                       (floating quaternions renormalized)
 
-The point Jacobian J_p (3 × nv) of a point p on link i has, for every joint j on the path from the root
-to i, the columns ω_j × p + v_j of the joint's motion subspace expressed in world Plücker coordinates
+A sphere pair (i, j) with centres cᵢ, cⱼ, radii rᵢ, rⱼ has gap |cᵢ − cⱼ| − rᵢ − rⱼ, normal n = (cᵢ − cⱼ)/|cᵢ − cⱼ|
+and the relative Jacobian J(pᵢ) − J(pⱼ) at the surface points pᵢ = cᵢ − rᵢn, pⱼ = cⱼ + rⱼn: the same rows as a
+ground contact, so the same solve. The point Jacobian J_p (3 × nv) of a point p on link i has, for every
+joint j on the path from the root to i, the columns ω_j × p + v_j of the joint's motion subspace expressed in world Plücker coordinates
 (⁰X_j S_j = (ω_j, v_j), v_j the velocity of the point at the world origin). The impulses come from the
 core's projected Gauss–Seidel with box friction (:func:`pbanim.lcp.pgs_box_friction`, capped sweeps, its
 residual kept in ``last``): Lemke on the Stewart–Trinkle form stops on secondary rays when a ragdoll's
@@ -97,7 +102,7 @@ class ArticulatedContact:
 
     def __init__(self, system: ArticulatedSystem, contact_points, *, friction: float = 0.5,
                  normal=None, offset: float = 0.0, terrain=None, erp: float = 0.2, margin: float = 0.02,
-                 cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-8) -> None:
+                 cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-8, spheres=()) -> None:
         if not isinstance(system, ArticulatedSystem):
             raise InvalidInput(f"system must be an ArticulatedSystem, got {type(system).__name__}")
         self.system, self.tree = system, system.tree
@@ -119,12 +124,32 @@ class ArticulatedContact:
             raise InvalidInput(f"terrain must have a gap_normal(P) method, got {type(terrain).__name__}")
         self.terrain = Plane(self.normal, self.offset) if terrain is None else terrain
         self.mu = check_number("friction", friction, low=0.0)
+        self._set_spheres(list(spheres))
         self.erp = check_number("erp", erp, low=0.0, high=1.0)
         self.margin = check_number("margin", margin, low=0.0)
         self.cfm = check_number("cfm", cfm, low=0.0, high=1e-2)
         self.max_iter = check_count("max_iter", max_iter, maximum=100_000)
         self.tol = check_number("tol", tol, low=0.0, low_open=True, high=1.0)
         self.last = None
+
+    def _set_spheres(self, spheres: list) -> None:
+        """Spheres (link, centre in the link frame, radius) that collide with the spheres of other links,
+        except across a joint (a link and its parent always touch there)."""
+        links, centres, radii = [], [], []
+        for k, sp in enumerate(spheres):
+            if not (isinstance(sp, (tuple, list)) and len(sp) == 3):
+                raise InvalidInput(f"spheres[{k}] must be (link, centre, radius), got {sp!r}")
+            links.append(check_count(f"spheres[{k}] link", sp[0], minimum=0, maximum=self.tree.n - 1))
+            c = np.asarray(sp[1], dtype=float)
+            if c.shape != (3,) or not np.all(np.isfinite(c)):
+                raise InvalidInput(f"spheres[{k}] centre must be a finite 3-vector, got {sp[1]!r}")
+            centres.append(c)
+            radii.append(check_number(f"spheres[{k}] radius", sp[2], low=0.0, low_open=True))
+        self.sphere_links, self.sphere_centres, self.radii = links, np.array(centres).reshape(-1, 3), np.array(radii)
+        par = self.tree.parent
+        self.pairs = np.array([(a, b) for a in range(len(links)) for b in range(a + 1, len(links))
+                               if links[a] != links[b] and par[links[a]] != links[b] and par[links[b]] != links[a]],
+                              dtype=int).reshape(-1, 2)
 
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         s, tree = self.system, self.tree
@@ -136,21 +161,27 @@ class ArticulatedContact:
         gap, nrm = self.terrain.gap_normal(P)
         speed = np.einsum("kij,j,ki->k", Jp, u, nrm)                  # normal speed of each point at u*
         near = np.flatnonzero(gap < self.margin + h * np.abs(speed))
-        if near.size:
-            m = near.size
-            t1, t2 = tangent_basis(nrm[near])
-            rows = np.stack([np.einsum("ki,kij->kj", nrm[near], Jp[near]), np.einsum("ki,kij->kj", t1, Jp[near]),
-                             np.einsum("ki,kij->kj", t2, Jp[near])], axis=1).reshape(3 * m, -1)   # [n, t₁, t₂]·J
+        blocks = [(nrm[near], Jp[near], gap[near])] if near.size else []
+        if self.pairs.size:
+            blocks += self._sphere_blocks(q, u, h)
+        if blocks:
+            nn = np.concatenate([b[0] for b in blocks])
+            JJ = np.concatenate([b[1] for b in blocks])
+            g = np.concatenate([b[2] for b in blocks])
+            m = g.size
+            t1, t2 = tangent_basis(nn)
+            rows = np.stack([np.einsum("ki,kij->kj", nn, JJ), np.einsum("ki,kij->kj", t1, JJ),
+                             np.einsum("ki,kij->kj", t2, JJ)], axis=1).reshape(3 * m, -1)   # [n, t₁, t₂]·J
             HinvJt = np.linalg.solve(H, rows.T)
             A = rows @ HinvJt
             # a touch of constraint-force mixing keeps A positive definite with redundant contacts
             A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(3 * m)
-            g = gap[near]
             bias = rows @ u
             bias[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
             z, residual, sweeps = pgs_box_friction(A, bias, self.mu, max_iter=self.max_iter, tol=self.tol)
             u = u + HinvJt @ z
-            self.last = {"impulses": z, "residual": residual, "sweeps": sweeps, "contacts": near}
+            self.last = {"impulses": z, "residual": residual, "sweeps": sweeps, "contacts": near,
+                         "sphere_contacts": m - near.size}
         else:
             self.last = None
         q1 = q + h * s.qdot(q, u)
@@ -172,6 +203,27 @@ class ArticulatedContact:
         return SimResult(t=np.array(ts), y=np.array(ys).T, wall_time=time.perf_counter() - start,
                          method="velocity-level (articulated)", nsteps=grid.n_steps,
                          diagnostics={"energy": np.array(es), "min_gap": np.array(gaps)})
+
+    def _sphere_blocks(self, q, u, h) -> list:
+        """Contacts between spheres on different links: normal n from sphere j to sphere i, the relative
+        Jacobian J_i(pᵢ) − J_j(pⱼ) at the two surface points pᵢ = cᵢ − rᵢ n, pⱼ = cⱼ + rⱼ n."""
+        C, Jc = point_jacobians(self.tree, q, self.sphere_links, self.sphere_centres)
+        i, j = self.pairs[:, 0], self.pairs[:, 1]
+        d = C[i] - C[j]
+        dist = np.linalg.norm(d, axis=1)
+        gap = dist - self.radii[i] - self.radii[j]
+        n = d / np.maximum(dist, 1e-12)[:, None]
+        closing = np.einsum("ki,kij,j->k", n, Jc[i] - Jc[j], u)
+        near = np.flatnonzero(gap < self.margin + h * np.maximum(-closing, 0.0))
+        if not near.size:
+            return []
+        i, j, n = i[near], j[near], n[near]
+        pi, pj = C[i] - self.radii[i][:, None] * n, C[j] + self.radii[j][:, None] * n
+        _, X0, origins = world_poses(self.tree, q)
+        li, lj = [self.sphere_links[k] for k in i], [self.sphere_links[k] for k in j]
+        loc = [X0[lk][:3, :3] @ (p - origins[lk]) for lk, p in zip(li + lj, list(pi) + list(pj))]
+        _, J = point_jacobians(self.tree, q, li + lj, loc)
+        return [(n, J[:near.size] - J[near.size:], gap[near])]
 
     def _min_gap(self, y) -> float:
         P, _ = point_jacobians(self.tree, y[:self.system.nq], self.links, self.points)
