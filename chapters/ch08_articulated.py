@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 08 (part 1) — articulated bodies: the same chain in maximal and in reduced coordinates.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch08 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 08 (part 1) — articulated bodies: the same chain in maximal and in reduced coordinates.
 
 Figures:
@@ -6,9 +14,9 @@ Figures:
   by hinge joints (maximal coordinates, multipliers, with and without Baumgarte feedback) and as an
   articulated tree (reduced coordinates, ABA): the tip trajectories agree (ORACLES G1), the energy
   error of each, and the joint drift that only the maximal form has.
-* ``ragdoll_fall``: the 11-link ragdoll of :func:`pbanim.models.articulated.ragdoll` dropped onto the
-  ground (contact with friction at the ends of every segment, damped hinges): an animation, its energy
-  (never growing) and the height of its lowest point.
+* ``ragdoll_fall``: the 11-link ragdoll of :func:`pbanim.models.articulated.ragdoll` thrown forward
+  over the top of a staircase (contact with friction at the ends of every segment, damped hinges): an
+  animation, its energy (never growing) and the height of its lowest point above the tread under it.
 * ``cost_vs_links``: the cost of one forward-dynamics evaluation vs the number of links for ABA (O(n)),
   CRBA + Cholesky solve, the batched ABA per state, and the maximal-coordinate joint solve (5 rows per
   hinge: the dense J W Jᵀ solve and Baraff's leaves-first sparse elimination).
@@ -43,6 +51,17 @@ def _tip_reduced(q):
     return np.array([L * np.sin(th).sum(), -L * np.cos(th).sum(), 0.0])
 
 
+# %% [markdown]
+# ## Figure `ch08_chain_maximal_vs_reduced`
+#
+# A chain of rods in maximal and in reduced coordinates.
+#
+# A chain of n rods swinging under gravity, simulated as rigid bodies held by hinge joints (maximal
+# coordinates, multipliers, with and without Baumgarte feedback) and as an articulated tree (reduced
+# coordinates, ABA): the tip trajectories agree (ORACLES G1), the energy error of each, and the
+# joint drift that only the maximal form has.
+
+# %%
 @figure("ch08", "chain_maximal_vs_reduced", "A chain of rods in maximal and in reduced coordinates")
 def chain_maximal_vs_reduced(ctx):
     n, h = (3, 2e-3) if ctx.quick else (5, 1e-3)
@@ -61,13 +80,14 @@ def chain_maximal_vs_reduced(ctx):
     axs[0].plot(tip_r[:, 0], tip_r[:, 1], lw=2, label="reduced (ABA)")
     axs[0].plot(tip_m[:, 0], tip_m[:, 1], "--", lw=1, label="maximal (hinges)")
     axs[0].set_aspect("equal"), axs[0].set_title("tip path"), axs[0].legend()
+    axs[0].set(xlabel="x [m]", ylabel="y [m]")
     for key, lab in (("energy_maximal", "maximal"), ("energy_reduced", "reduced")):
         E = data[key]
         axs[1].semilogy(rm.t, np.abs(E - E[0]) + 1e-18, label=lab)
-    axs[1].set_xlabel("t [s]"), axs[1].set_title("|E − E₀| [J]"), axs[1].legend()
+    axs[1].set(xlabel="t [s]", ylabel="|E − E₀| [J]", title="energy error"), axs[1].legend()
     axs[2].semilogy(rm.t, data["joint_error"] + 1e-18, label="no feedback")
     axs[2].semilogy(rs.t, data["joint_error_baumgarte"] + 1e-18, label="Baumgarte k_s = 400, k_d = 40")
-    axs[2].set_xlabel("t [s]"), axs[2].set_title("max |C| of the joints [m]"), axs[2].legend()
+    axs[2].set(xlabel="t [s]", ylabel="max |C| of the joints [m]", title="joint drift"), axs[2].legend()
     ctx.save(fig)
     return data
 
@@ -81,6 +101,16 @@ def _median(fn, repeats=5):
     return float(np.median(ts))
 
 
+# %% [markdown]
+# ## Figure `ch08_cost_vs_links`
+#
+# Cost of one forward-dynamics evaluation vs number of links.
+#
+# The cost of one forward-dynamics evaluation vs the number of links for ABA (O(n)), CRBA + Cholesky
+# solve, the batched ABA per state, and the maximal-coordinate joint solve (5 rows per hinge: the
+# dense J W Jᵀ solve and Baraff's leaves-first sparse elimination).
+
+# %%
 @figure("ch08", "cost_vs_links", "Cost of one forward-dynamics evaluation vs number of links")
 def cost_vs_links(ctx):
     ns = [2, 4, 8] if ctx.quick else [2, 4, 8, 16, 32]
@@ -104,25 +134,38 @@ def cost_vs_links(ctx):
                      ("maximal", "maximal: hinge rows + dense J W Jᵀ solve"),
                      ("maximal_linear", "maximal: leaves-first sparse solve (Baraff 1996)")):
         ax.loglog(ns, np.array(rows[key]) * 1e6, "o-", label=lab)
-    ax.set_xlabel("links n"), ax.set_ylabel("µs per evaluation")
+    ax.set_xlabel("links n [count]"), ax.set_ylabel("time per evaluation [µs]")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))     # outside: never over the data
     ctx.save(fig)
     return {k: np.asarray(v, dtype=float) for k, v in rows.items()}
 
 
-@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) falling onto the ground")
+# %% [markdown]
+# ## Figure `ch08_ragdoll_fall`
+#
+# A ragdoll (11 links, damped hinges) thrown down a staircase.
+#
+# The 11-link ragdoll of :func:`pbanim.models.articulated.ragdoll` thrown forward over the top of a
+# staircase (contact with friction at the ends of every segment, damped hinges): an animation, its
+# energy (never growing) and the height of its lowest point above the tread under it.
+
+# %%
+@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase")
 def ragdoll_fall(ctx):
-    from pbanim.articulated import link_transforms
-    from pbanim.articulated.contact import ArticulatedContact
+    from pbanim.articulated.contact import ArticulatedContact, Staircase
     from pbanim.models.articulated import ragdoll, ragdoll_contact_points
 
     tree = ragdoll(damping=3.0)
     q0 = tree.neutral()
-    q0[:4] = quat_from_axis_angle([1, 0.3, 0], 0.6)
-    q0[4:7] = [0, 0, 1.2]
-    q0[7:] = np.random.default_rng(0).uniform(-0.5, 0.5, tree.nq - 7)
-    ac = ArticulatedContact(ArticulatedSystem(tree, q0), ragdoll_contact_points(tree), friction=0.8)
-    t_end, h = (1.0, 5e-3) if ctx.quick else (2.5, 2e-3)
+    q0[:4] = quat_from_axis_angle([0, 1, 0], 0.3)
+    q0[4:7] = [-0.1, 0, 1.1]
+    q0[7:] = np.random.default_rng(0).uniform(-0.3, 0.3, tree.nq - 7)
+    qd0 = np.zeros(tree.nv)
+    qd0[3] = 1.5                                              # thrown forward at 1.5 m/s (pelvis axes)
+    stairs = Staircase(rise=0.15, run=0.35, steps=6)
+    ac = ArticulatedContact(ArticulatedSystem(tree, q0, qd0), ragdoll_contact_points(tree), friction=0.8,
+                            terrain=stairs)
+    t_end, h = (1.0, 5e-3) if ctx.quick else (3.0, 2e-3)
     res = ac.simulate(t_end, h, record_every=10 if ctx.quick else 20)
     frames = np.unique(np.linspace(0, res.y.shape[1] - 1, 6 if ctx.quick else 50).astype(int))
 
@@ -133,7 +176,8 @@ def ragdoll_fall(ctx):
         P, _ = point_jacobians(tree, y[:tree.nq], [lk for lk, _ in pts], [p for _, p in pts])
         return P
 
-    fig, ax = ctx.subplots(figsize=(4, 4))
+    fig, ax = ctx.subplots(figsize=(5, 4))
+    xs = np.linspace(-1.0, 2.8, 800)
 
     def draw(j):
         ax.clear()
@@ -141,8 +185,9 @@ def ragdoll_fall(ctx):
         for a in range(4, len(P), 2):                 # each limb segment: its two end points
             ax.plot(P[a:a + 2, 0], P[a:a + 2, 2], "o-", color="C0", lw=3, ms=3)
         ax.plot(P[:4, 0], P[:4, 2], "s", color="C1", ms=4)
-        ax.axhline(0, color="k")
-        ax.set_xlim(-1.2, 1.2), ax.set_ylim(-0.1, 2.0), ax.set_aspect("equal")
+        ax.fill_between(xs, stairs.height(xs), -1.2, step="post", color="0.8")
+        ax.plot(xs, stairs.height(xs), color="k", lw=1)
+        ax.set_xlim(-1.0, 2.8), ax.set_ylim(-1.1, 1.6), ax.set_aspect("equal")
         ax.set_xlabel("x (m)"), ax.set_ylabel("z (m)"), ax.set_title(f"t = {res.t[frames[j]]:.2f} s")
 
     ctx.save_gif(fig, draw, len(frames), fps=10)
@@ -151,7 +196,22 @@ def ragdoll_fall(ctx):
     ax2.set_xlabel("t (s)"), ax2.set_ylabel("E (J)")
     ax3 = ax2.twinx()
     ax3.plot(res.t, 1e3 * res.diagnostics["min_gap"], color="C1", label="lowest point (mm)")
-    ax3.set_ylabel("lowest contact point above the ground (mm)")
+    ax3.set_ylabel("lowest contact point above its tread (mm)")
     ctx.save(fig2)
     return {"t": res.t, "energy": res.diagnostics["energy"], "min_gap": res.diagnostics["min_gap"],
             "frames": len(frames)}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch08"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 08 (part 2) — characters: PD servos, a state machine and SIMBICON's planar biped.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch08 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 08 (part 2) — characters: PD servos, a state machine and SIMBICON's planar biped.
 
 Figures:
@@ -26,6 +34,14 @@ from pbanim.plotting import figure
 STATE_COLOURS = {"R0": "#dbe9f6", "R1": "#9ecae1", "L0": "#fde0c5", "L1": "#fdae6b"}
 
 
+# %% [markdown]
+# ## Figure `ch08_pd_stability_map`
+#
+# The largest stable step against k_p for explicit, stable and implicit PD (measured from each servo's
+# step map; lines: the closed forms of ORACLES F1), and the error of each servo against the exact
+# servo's response as the step shrinks.
+
+# %%
 @figure("ch08", "pd_stability_map", "Explicit, stable and implicit PD: largest stable step and tracking cost")
 def pd_stability_map(ctx):
     kps = np.logspace(0, 8, 9 if ctx.quick else 33)
@@ -67,6 +83,13 @@ def pd_stability_map(ctx):
             "track_error": {s: track[s][0] for s in SERVOS}, "track_wall": {s: track[s][1] for s in SERVOS}}
 
 
+# %% [markdown]
+# ## Figure `ch08_biped_walk`
+#
+# SIMBICON's walk and fast walk on flat ground: an animation, a strip of stick figures and the
+# centre of mass's speed (ORACLES F4).
+
+# %%
 def _draw_biped(ax, segments, **kw):
     for seg in segments:
         ax.plot(seg[:, 0], seg[:, 1], "-", lw=kw.get("lw", 2), color=kw.get("color", "k"), alpha=kw.get("alpha", 1))
@@ -111,6 +134,13 @@ def biped_walk(ctx):
             for name, rr in res.items()}
 
 
+# %% [markdown]
+# ## Figure `ch08_walk_targets`
+#
+# Joint angles against their targets with the machine's states shaded; the swing hip's target moves
+# with the balance feedback θ̄ = θ̄₀ + c_d d + c_v v.
+
+# %%
 @figure("ch08", "walk_targets", "Joint angles and their targets, machine states shaded")
 def walk_targets(ctx):
     r = simulate_walk(WALK, 3.0, 2e-3, servo="stable", record_every=5)
@@ -143,6 +173,12 @@ def _intervals(trace, t_end):
     return [(t0, trace[k + 1][0] if k + 1 < len(trace) else t_end, s) for k, (t0, s) in enumerate(trace)]
 
 
+# %% [markdown]
+# ## Figure `ch08_push_envelope`
+#
+# Pushes on the torso at several impulses and phases of a step: recovered or fell (ORACLES F6).
+
+# %%
 @figure("ch08", "push_envelope", "Push recovery: impulse on the torso against the phase of the step")
 def push_envelope(ctx):
     if ctx.quick:
@@ -164,3 +200,18 @@ def push_envelope(ctx):
     ax.legend(fontsize=8, loc="center right")
     ctx.save(fig)
     return {"phases": np.array(phases), "impulses": np.array(impulses, float), "recovered": grid}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch08"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -130,3 +130,25 @@ def test_machines_with_wrong_graphs_are_refused():
         Transition("A", "B", after=-1.0)
     with pytest.raises(InvalidMachine, match="initial"):
         StateMachine({"A": 0}, [Transition("A", "A", after=1.0)], "Z")
+
+
+def test_world_frame_servo_on_a_planar_biped_matches_simbicons_swing_hip():
+    # a world-frame hip servo measures φ_torso + θ_hip (the thigh's absolute angle), as SIMBICON does
+    from pbanim.articulated import PlanarKernel
+    from pbanim.control.biped import BIPED_JOINTS, planar_biped
+
+    k = PlanarKernel(planar_biped())
+    thigh = [lk.name for lk in k.tree.links].index("left_thigh")
+    hip = BIPED_JOINTS["left_hip"]
+    servo = PDServo({"left_hip": hip}, 9, kp=300.0, kv=30.0, world=["left_hip"], angles={"left_hip": k.Phi[thigh]})
+    q, qd = np.zeros(9), np.zeros(9)
+    q[2], q[hip], qd[2], qd[hip] = 0.2, 0.1, 1.0, -0.5
+    assert servo.angles(q)[0] == pytest.approx(0.3)
+    tau = servo.explicit(q, qd, {"left_hip": 0.5})
+    assert tau[hip] == pytest.approx(300 * (0.5 - 0.3) - 30 * 0.5)
+    tau0, kk = servo.stable(q, qd, {"left_hip": 0.5}, h=0.01)      # τ = τ₀ − k θ̇⁺_hip reproduces it at θ̇⁺ = θ̇
+    assert tau0[hip] - kk[hip] * qd[hip] == pytest.approx(300 * (0.5 - 0.3 - 0.01 * 0.5) - 30 * 0.5)
+    with pytest.raises(UnknownJoint, match="knee"):
+        PDServo({"left_hip": hip}, 9, 1.0, 1.0, world=["knee"])
+    with pytest.raises(InvalidInput, match="angles"):
+        PDServo({"left_hip": hip}, 9, 1.0, 1.0, world=["left_hip"], angles={"left_hip": [1.0]})

@@ -62,9 +62,14 @@ class PDServo:
     """Servos on the generalized coordinates ``joints`` (names → index in q) of a system with ``nv`` DOFs.
 
     ``kp``, ``kv``: one value or one per joint (≥ 0, finite); ``limits``: |τ| ≤ limit (may be inf).
+    ``world``: names of joints whose targets are angles in the world frame, with ``angles`` the matrix
+    whose row gives that angle as a linear function of q (for a planar tree, the row of
+    :attr:`pbanim.articulated.PlanarKernel.Phi` of the joint's link: φ = Σ of the hinge angles above it).
+    A world-frame servo measures θ = row · q and θ̇ = row · q̇ and applies its torque at its own joint (stable
+    PD then treats only the joint's own velocity implicitly).
     """
 
-    def __init__(self, joints: dict, nv: int, kp, kv, limits=np.inf) -> None:
+    def __init__(self, joints: dict, nv: int, kp, kv, limits=np.inf, world=None, angles=None) -> None:
         if not isinstance(joints, dict) or not joints:
             raise InvalidInput(f"joints must be a non-empty dict name -> coordinate index, got {joints!r}")
         idx = np.array(list(joints.values()))
@@ -77,6 +82,20 @@ class PDServo:
         self.kp = _gains("kp", kp, n)
         self.kv = _gains("kv", kv, n)
         self.limits = _gains("limits", limits, n, allow_inf=True)
+        self.A = np.zeros((n, self.nv))                                  # θ = A q for every servo
+        self.A[np.arange(n), idx] = 1.0
+        for name in (world or ()):
+            if name not in joints:
+                raise UnknownJoint(f"world names joint {name!r} that the servo does not have; it has {self.names}")
+            row = None if angles is None else np.asarray(angles.get(name) if isinstance(angles, dict) else None)
+            if row is None or row.shape != (self.nv,) or not np.all(np.isfinite(row.astype(float))):
+                raise InvalidInput(f"angles[{name!r}] must be a finite row of {self.nv} numbers (the world angle "
+                                   f"as a function of q), got {None if row is None else row.shape}")
+            self.A[self.names.index(name)] = row
+
+    def angles(self, q) -> np.ndarray:
+        """The servoed angles θ = A q (joint angles, or world angles for world-frame servos)."""
+        return self.A @ np.asarray(q, dtype=float)
 
     def target_vector(self, targets) -> np.ndarray:
         """θ̄ per servoed joint from a dict name → angle (missing joints: 0) or an array."""
@@ -94,7 +113,7 @@ class PDServo:
         """τ (nv,) = k_p (θ̄ − θ) − k_v θ̇ on the servoed joints, clipped to the limits; zero elsewhere."""
         th = self.target_vector(targets)
         tau = np.zeros(self.nv)
-        tau[self.index] = np.clip(self.kp * (th - q[self.index]) - self.kv * qd[self.index], -self.limits, self.limits)
+        tau[self.index] = np.clip(self.kp * (th - self.A @ q) - self.kv * (self.A @ qd), -self.limits, self.limits)
         return tau
 
     def stable(self, q, qd, targets, h: float, implicit: bool = False) -> tuple[np.ndarray, np.ndarray]:
@@ -108,10 +127,12 @@ class PDServo:
         th = self.target_vector(targets)
         tau0, k = np.zeros(self.nv), np.zeros(self.nv)
         i = self.index
+        # the joint's own velocity is implicit; a world servo's other terms (row entries off the joint) explicit
+        other = (self.A @ qd) - qd[i]
         if implicit:
-            tau0[i], k[i] = self.kp * (th - q[i]), self.kv + h * self.kp
+            tau0[i], k[i] = self.kp * (th - self.A @ q - h * other) - self.kv * other, self.kv + h * self.kp
         else:
-            tau0[i], k[i] = self.kp * (th - q[i] - h * qd[i]), self.kv
+            tau0[i], k[i] = self.kp * (th - self.A @ q - h * (self.A @ qd)) - self.kv * other, self.kv
         tau0[i] = np.clip(tau0[i], -self.limits, self.limits)
         return tau0, k
 
