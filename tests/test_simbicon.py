@@ -129,3 +129,40 @@ def test_control_benchmark_smoke_run_prints_its_goals():
     assert "goal control-simbicon-realtime:" in text and "goal control-qp-step-proxsuite:" in text
     walk = rep.tables[1].rows
     assert [r[-1] for r in walk if r[1] == 1.0] == ["walked", "walked"]      # both servos walk at 1 ms
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.floats(0.05, 0.6), st.floats(-1.0, 1.0), st.floats(-2.0, 0.0), st.floats(-0.5, 0.5), st.floats(0.0, 3.0),
+       st.floats(-0.2, 0.2), st.sampled_from(["explicit", "stable"]))
+def test_any_gait_walks_or_reports_a_fall_never_nan(dt, swh, swk, tor, cd, slope, servo):
+    # G3 / nothing silent: whatever the gait, the run ends walking or with a fall (time and cause), finite
+    g = Gait("random", dt, (Phase(swh=swh, swk=swk, swa=0.3, stk=-0.05, sta=0.0, tor=tor, cv=0.2),
+                            Phase(swh=-0.1, swk=-0.05, swa=0.15, stk=-0.1, sta=0.0, tor=tor, cd=cd)))
+    r = simulate_walk(g, 1.0, 4e-3, servo=servo, slope=slope, record_every=25)
+    assert np.all(np.isfinite(r.q)) and np.all(np.isfinite(r.qd))
+    if r.fell:
+        assert r.fall_cause and 0 < r.fall_time <= 1.0 + 1e-9
+    else:
+        assert r.t[-1] == pytest.approx(1.0)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4), st.booleans()), min_size=1, max_size=10))
+def test_state_machines_are_refused_or_run(edges):
+    # a random graph on states s0..s4: either refused by name at construction or it runs and traces
+    from pbanim.control import InvalidMachine, StateMachine, Transition
+
+    states = {f"s{k}": k for k in range(5)}
+    trs = [Transition(f"s{a}", f"s{b}", after=0.1) if timed else Transition(f"s{a}", f"s{b}", on="e")
+           for a, b, timed in edges]
+    try:
+        m = StateMachine(states, trs, "s0")
+    except InvalidMachine as exc:
+        assert "reachable" in str(exc) or "no way out" in str(exc)
+        return
+    for k in range(20):
+        m.update(0.1 * (k + 1), {"e"})
+    assert m.trace[0] == (0.0, "s0") and all(s in states for _, s in m.trace)
