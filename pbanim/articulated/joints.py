@@ -27,6 +27,8 @@ Joint limits (hinge angle or slide, measured from the configuration at ``bind``)
 C = θ − θ_lo ≥ 0, C = θ_hi − θ ≥ 0 with λ ≥ 0 ⊥ J u̇ + k_s C + k_d Ċ ≥ 0: the equality multipliers are
 eliminated exactly and the rest goes to the LCP core (Lemke). At the acceleration level a stop cannot
 cancel an approach speed at once: it acts as a stiff spring-damper of gains (k_s, k_d) and dissipates.
+With ``projection=True`` a post-step stage (:mod:`.projection`) moves positions back onto C = 0 and
+velocities onto J u = 0 after every step, as chapter 03's projection does for particles.
 A ``motor`` is a constant torque about the hinge axis (force along the slider axis) between a and b; a
 velocity motor (``motor_speed``, ``motor_max``) is a row θ̈ = (θ̇* − θ̇)/τ_m whose multiplier is bounded by
 ±motor_max, solved with the limits by the core's box-constrained Gauss–Seidel (:func:`pbanim.lcp.pgs_bounded`).
@@ -87,7 +89,8 @@ class RigidJoints(Effect):
     phase = "constraint"
 
     def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3,
-                 motor_time: float = 0.01, solver: str = "dense") -> None:
+                 motor_time: float = 0.01, solver: str = "dense", projection: bool = False,
+                 projection_tol: float = 1e-12, projection_max_iter: int = 20) -> None:
         self.joints = [j if isinstance(j, RigidJoint) else self._joint(j) for j in joints]
         if not self.joints:
             raise InvalidInput("joints must hold at least one joint")
@@ -103,6 +106,9 @@ class RigidJoints(Effect):
             raise InvalidInput("solver='linear' handles equality joints only; limits and velocity motors need "
                                "solver='dense'")
         self.solver = solver
+        self.projection = bool(projection)
+        self._projection_args = (check_number("projection_tol", projection_tol, low=0.0, low_open=True),
+                                 check_count("projection_max_iter", projection_max_iter, maximum=1000))
         self._order = None
         self.last_lambda = None
         self.last_limit_lambda = None
@@ -137,6 +143,12 @@ class RigidJoints(Effect):
                           _vec(d.get("anchor_b", (0, 0, 0)), "anchor_b"),
                           axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300),
                           limits, motor, speed, fmax)
+
+    def stages(self) -> list:
+        """Itself, plus the post-step projection onto C = 0, J u = 0 when ``projection`` is on."""
+        from .projection import JointProjection
+
+        return [self, JointProjection(self, *self._projection_args)] if self.projection else [self]
 
     def bind(self, system) -> None:
         if getattr(system, "kind", None) != "rigid":
