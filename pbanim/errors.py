@@ -36,6 +36,8 @@ __all__ = [
     "SingularChartError",
     "InfeasibleContact",
     "InconsistentContact",
+    "NonFiniteResult",
+    "check_result",
     "check_count",
     "check_number",
     "check_positive",
@@ -269,3 +271,20 @@ class InconsistentContact(PbanimError, RuntimeError):
         msg = ("acceleration-level contact problem is inconsistent (no contact forces satisfy the "
                f"complementarity conditions){_tail(detail)}; use the velocity-level scheme")
         super().__init__(msg)
+
+
+class NonFiniteResult(PbanimError, FloatingPointError):
+    """A computation on finite inputs produced NaN or Inf: the inputs are too large for double precision
+    (a length of 1e300 m squared in an inertia, a speed of 1e200 m/s squared in a Coriolis term)."""
+
+    def __init__(self, what: str, detail: str = "") -> None:
+        self.what = what
+        super().__init__(f"{what} is not finite although every input was{_tail(detail)}; the inputs are too "
+                         "large for double precision (rescale the model)")
+
+
+def check_result(what: str, value, detail: str = ""):
+    """``value`` when every entry is finite, else :class:`NonFiniteResult` naming ``what``."""
+    if not np.all(np.isfinite(value)):
+        raise NonFiniteResult(what, detail)
+    return value

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularChartError
+from ..errors import InvalidInput, SingularChartError, check_result
 from .spatial import crf, crm
 from .tree import ArticulatedTree
 
@@ -85,7 +85,7 @@ def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         lam = tree.parent[i]
         if lam >= 0:
             f[lam] = f[lam] + Xup[i].T @ f[i]
-    return tau
+    return check_result("rnea", tau, "of a tree and state with huge entries")
 
 
 def bias_forces(tree: ArticulatedTree, q, qd, f_ext=None) -> np.ndarray:
@@ -115,7 +115,7 @@ def crba(tree: ArticulatedTree, q) -> np.ndarray:
             j = tree.parent[j]
             H[vi, A["vi"][j]] = F.T @ A["S"][j]
             H[A["vi"][j], vi] = H[vi, A["vi"][j]].T
-    return H
+    return check_result("crba", H, "of a tree and state with huge entries")
 
 
 def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
@@ -158,7 +158,7 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     if not np.all(np.isfinite(qdd)):
         raise SingularChartError(np.inf, q.tolist(), "ABA's accelerations are not finite (a joint whose "
                                  "subtree has no inertia about its axis, or overflowing inputs)")
-    return qdd
+    return check_result("aba", qdd, "of a tree and state with huge entries")
 
 
 def _inverse(D: np.ndarray, i: int, q) -> np.ndarray:

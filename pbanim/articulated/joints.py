@@ -43,7 +43,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularConstraintError, check_count, check_number
+from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError, check_count, check_number
 from ..geometry import cross, skew, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
@@ -71,10 +71,10 @@ class RigidJoint:
     motor_max: float = 0.0             # ... at most this torque / force
 
 
-def _vec(v, name):
+def _vec(v, name, bound: float = 1e50):
     a = np.asarray(v, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{name} must be a finite 3-vector, got {v!r}")
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(np.abs(a) > bound):
+        raise InvalidInput(f"{name} must be a finite 3-vector with entries of at most {bound:g} (m), got {v!r}")
     return a
 
 
@@ -293,6 +293,8 @@ class RigidJoints(Effect):
         WJt = np.einsum("nij,knj->kni", Wb, J.reshape(len(C), s.N, 6)).reshape(len(C), -1)
         A = J @ WJt.T
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rhs))):
+            raise NonFiniteResult("the joint system J W Jᵀ λ = b", "the state or the bodies are too large")
         lam, res, rank, _ = np.linalg.lstsq(A, rhs, rcond=1e-12)
         if rank < len(C) and np.linalg.norm(A @ lam - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
             raise SingularConstraintError(range(len(C)), float(np.linalg.norm(A @ lam - rhs)),
