@@ -1,13 +1,31 @@
-"""Characters and controllers (chapter 08, part 2): PD servos, state machines, SIMBICON, QP control."""
+"""Characters and controllers (chapter 08, part 2): PD servos, state machines, SIMBICON, QP control.
+
+=====================  =====================================================================================
+module                 what it holds
+=====================  =====================================================================================
+:mod:`.pd`             explicit, stable and implicit PD servos; their stability regions (ORACLES F1)
+:mod:`.fsm`            state machines with timed and event transitions, checked when built
+:mod:`.biped`          the 7-link planar biped (SIMBICON's 2-D model), also as URDF
+:mod:`.simbicon`       SIMBICON's controller and two gaits; :mod:`.walk` runs it with contact and pushes
+:mod:`.qp`             the optimization controller after de Lasa et al. 2010 (weighted or prioritized QPs),
+                       with :mod:`.qp_tasks`, :mod:`.qp_features`, :mod:`.qp_solve`, :mod:`.qp_balance`
+=====================  =====================================================================================
+
+qpsolvers and proxsuite load the first time a QP is solved.
+"""
 
 from __future__ import annotations
 
 from .fsm import InvalidMachine, StateMachine, Transition
 from .pd import (SERVOS, InvalidGains, PDServo, UnknownJoint, explicit_pd_stable, largest_stable_step, pd_step,
                  servo_track, stable_pd_acceleration, stable_pd_stable)
+from .qp import InfeasibleControl, InvalidTask, QPController, QPResult, Task, UnknownTask
+from .qp_balance import BalanceResult, simulate_balance
 from .simbicon import FAST_WALK, WALK, Gait, Phase, Simbicon
 from .walk import Push, WalkResult, simulate_walk
 
 __all__ = ["PDServo", "InvalidGains", "UnknownJoint", "SERVOS", "pd_step", "explicit_pd_stable", "stable_pd_stable",
            "largest_stable_step", "stable_pd_acceleration", "servo_track", "StateMachine", "Transition", "InvalidMachine",
-           "Gait", "Phase", "WALK", "FAST_WALK", "Simbicon", "Push", "WalkResult", "simulate_walk"]
+           "Gait", "Phase", "WALK", "FAST_WALK", "Simbicon", "Push", "WalkResult", "simulate_walk",
+           "QPController", "QPResult", "Task", "InfeasibleControl", "InvalidTask", "UnknownTask", "BalanceResult",
+           "simulate_balance"]

@@ -27,7 +27,7 @@ from .biped import BIPED_JOINTS as JI, biped_contact_points, planar_biped
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .simbicon import WALK, Gait, Simbicon
 
-__all__ = ["Push", "WalkResult", "simulate_walk", "Fell", "stick_figure"]
+__all__ = ["Push", "WalkResult", "simulate_walk", "Fell", "stick_figure", "fall_cause"]
 
 
 class Fell(Exception):
@@ -76,10 +76,14 @@ class WalkResult:
 
     @property
     def realtime_factor(self) -> float:
-        return float(self.t[-1] / self.wall_time) if self.wall_time > 0 else float("inf")
+        """Simulated seconds (up to the fall, if it fell) per wall-clock second."""
+        t_sim = self.fall_time if self.fell else self.t[-1]
+        return float(t_sim / self.wall_time) if self.wall_time > 0 else float("inf")
 
 
-def _fall_cause(kernel, kin, q, ground) -> str:
+def fall_cause(kernel, kin, q, ground) -> str:
+    """Why the biped at q has fallen ("" while it stands): the torso tipped past 1 rad, the hips dropped
+    below half their standing height, or a knee touched the ground."""
     if abs(q[JI["torso"]]) > 1.0:
         return f"torso tipped to {q[JI['torso']]:.2f} rad"
     o = kin["o"]
@@ -147,7 +151,7 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
                 state["strikes"].append((t + hh, side))
         state["events"] = events
         state["kin"] = kin1 = kernel.kinematics(q1)
-        cause = _fall_cause(kernel, kin1, q1, ground)
+        cause = fall_cause(kernel, kin1, q1, ground)
         if cause:
             state["fall"] = (t + hh, cause)
             raise Fell(cause)

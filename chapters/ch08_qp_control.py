@@ -1,0 +1,105 @@
+# %% [markdown]
+# # Chapter 08 (part 2) — the optimization controller: one QP per step keeps the planar biped standing.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch08 DIR`.
+# Running it draws every figure of the file in quick mode into `figures/`.
+
+# %%
+"""Chapter 08 (part 2) — the optimization controller of de Lasa, Mordatch & Hertzmann (2010).
+
+At every control step one QP over joint accelerations, torques and contact forces tracks the centre of
+mass, the angular momentum about it and a posture, under the equations of motion, the friction cones
+and the torque limits (:mod:`pbanim.control.qp`). The planar biped stands on both feet with bent knees
+and is pushed on the torso (:func:`pbanim.control.qp_balance.simulate_balance`).
+
+Figures:
+
+* ``qp_push_balance``: a push of 20 N s is recovered and one of 30 N s is not (ORACLES F14): the centre
+  of mass against the edges of the feet; the contact forces of every QP step inside their friction
+  cones |fₜ| ≤ μ fₙ (ORACLES F10); the normal forces of heel and toe (the centre of pressure moves to the
+  toe, then back: the ankle strategy). In full mode also the outcome against the impulse, with the
+  capture-point bound P = M √(g/z) d of a linear inverted pendulum.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pbanim.control.qp_balance import simulate_balance
+from pbanim.models.biped import planar_biped
+from pbanim.plotting import figure
+
+
+def capture_impulse(run) -> float:
+    """M √(g/z) d: the largest push a linear inverted pendulum of height z stops inside a half-foot d."""
+    mass, g = sum(link.mass for link in planar_biped().links), 9.81
+    return float(mass * np.sqrt(g / run.com_target[1]) * 0.5 * (run.support[1] - run.support[0]))
+
+
+def _summary(run) -> dict:
+    return {"t": run.t, "com": run.com, "forces": run.forces, "sim_forces": run.sim_forces, "outcome": run.outcome,
+            "end_time": run.end_time, "cause": run.cause, "com_error": run.com_error(0.5), "push": run.push,
+            "qp_ms_per_step": 1e3 * run.qp_time / max(len(run.t) * 5, 1)}
+
+
+# %% [markdown]
+# ## Figure `ch08_qp_push_balance`
+#
+# The QP controller's centre of mass and contact forces inside their cones during a push.
+
+# %%
+@figure("ch08", "qp_push_balance", "QP balance controller: a push recovered, a larger one not; forces in their cones")
+def qp_push_balance(ctx):
+    t_end = 2.5
+    small, large = simulate_balance(20.0, t_end), simulate_balance(30.0, t_end)
+    mu = small.mu
+    f = small.forces.reshape(-1, 2)
+    loaded = f[:, 0] > 1.0
+    ratio = float(np.max(np.abs(f[loaded, 1]) / f[loaded, 0])) if loaded.any() else 0.0
+    fs = small.sim_forces.reshape(-1, 2)
+    sim_loaded = fs[:, 0] > 1.0
+    sim_ratio = float(np.max(np.abs(fs[sim_loaded, 1]) / fs[sim_loaded, 0])) if sim_loaded.any() else 0.0
+    envelope = None
+    if not ctx.quick:
+        impulses = np.arange(-32.0, 33.0, 4.0)
+        envelope = {"impulse": impulses,
+                    "recovered": np.array([simulate_balance(p, t_end).recovered for p in impulses])}
+    ncols = 3 if ctx.quick else 4
+    fig, axs = ctx.subplots(1, ncols, figsize=(4.2 * ncols, 3.8))
+    a, b, c = axs[:3]
+    lo, hi = np.array(small.support) - small.com_target[0]
+    for run, col in ((small, "C0"), (large, "C3")):
+        a.plot(run.t, run.com[:, 0] - run.com_target[0], color=col,
+               label=f"P = {run.push:g} N s: {run.outcome}" + (f" at {run.end_time:.2f} s" if not run.recovered else ""))
+    a.axhline(lo, color="0.4", ls="--", lw=1, label="heel / toe")
+    a.axhline(hi, color="0.4", ls="--", lw=1)
+    a.axvline(small.push_time, color="0.6", lw=0.8)
+    a.set(xlabel="t [s]", ylabel="centre of mass x − target [m]", ylim=(1.6 * lo, 1.6 * hi))
+    a.legend(fontsize=7, loc="lower left")
+    fn = np.linspace(0.0, 1.05 * f[:, 0].max(), 2)
+    b.fill_between(fn, -mu * fn, mu * fn, color="C2", alpha=0.15, label=f"friction cone μ = {mu:g}")
+    names = ("left heel", "left toe", "right heel", "right toe")
+    for j in (0, 1):
+        b.plot(small.forces[:, j, 0], small.forces[:, j, 1], ".", ms=2, label=f"{names[j]} (QP)")
+    b.set(xlabel="normal force fₙ [N]", ylabel="tangential force fₜ [N]")
+    b.legend(fontsize=7, loc="upper left")
+    for j, col in ((0, "C0"), (1, "C1")):
+        c.plot(small.t, small.forces[:, j, 0], color=col, label=f"{names[j]}, QP")
+        c.plot(small.t, small.sim_forces[:, j, 0], color=col, ls=":", label=f"{names[j]}, simulated")
+    c.axvline(small.push_time, color="0.6", lw=0.8)
+    c.set(xlabel="t [s]", ylabel="normal force [N]")
+    c.legend(fontsize=7)
+    if envelope is not None:
+        d = axs[3]
+        ok = envelope["recovered"]
+        d.plot(envelope["impulse"][ok], np.ones(ok.sum()), "o", color="C0", label="recovered")
+        d.plot(envelope["impulse"][~ok], np.zeros((~ok).sum()), "x", color="C3", label="fell / infeasible")
+        for s in (-1, 1):
+            d.axvline(s * capture_impulse(small), color="0.4", ls="--", lw=1)
+        d.set(xlabel="push P [N s]", ylabel="recovered (1) or not (0) [–]", ylim=(-0.3, 1.5))
+        d.legend(fontsize=7)
+    ctx.save(fig)
+    return {"recovered": _summary(small), "fallen": _summary(large), "mu": mu, "max_cone_ratio": ratio,
+            "max_sim_cone_ratio": sim_ratio, "capture_impulse": capture_impulse(small), "support": small.support,
+            "envelope": envelope}

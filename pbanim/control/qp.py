@@ -1,0 +1,384 @@
+"""Optimization-based control: one QP per control step over q̈, τ and f (chapter 08, part 2).
+
+The lecture's second kind of controller computes the torques by optimization at every step (de Lasa,
+Mordatch & Hertzmann, "Feature-Based Locomotion Controllers", SIGGRAPH 2010). The unknowns are the joint
+accelerations q̈, the actuated torques τ and, for each contact point j on the ground, its normal and
+tangential force fⱼ = (fₙ, fₜ); the QP is
+
+    min   Σₖ wₖ ‖J_k q̈ + J̇_k q̇ − ÿₖ*‖² + ε (‖q̈‖² + ‖τ/τ_s‖² + ‖f/f_s‖²)       (tasks, :mod:`.qp_tasks`)
+    s.t.  M q̈ + C = Sᵀ τ + J_cᵀ f                    (equations of motion; C: Coriolis and gravity)
+          J_c q̈ + J̇_c q̇ = 0                          (a contact point on the ground does not accelerate)
+          |fₜ| ≤ μ fₙ,   fₙ ≥ fₙ,min ≥ 0             (friction cone, exact in the plane; no pulling)
+          |τ| ≤ τ_max                                (torque limits)
+
+with J_c the rows n·Jⱼ, t·Jⱼ of the contact points (n, t the ground's normal and tangent; a foot flat on
+the ground has four such rows for three degrees of freedom, so only a full-rank subset of them is kept,
+chosen by QR with column pivoting), S the selection of the actuated coordinates (the planar base — two
+sliders and a hinge — is not actuated) and τ_s = M|g|·1 m, f_s = M|g| scales for the small
+regularization ε that makes the solution unique.
+
+Two ways to combine tasks (``mode``):
+
+* **weighted**: one QP with the sum above;
+* **prioritized**: one QP per priority level ℓ = 0, 1, …, each minimizing only its own tasks subject to the
+  constraints *and* to A_ℓ' x = A_ℓ' x*_ℓ' (± ``priority_tol``) for every level ℓ' above: for a convex
+  least-squares objective over a polyhedron the optimal set is exactly {x feasible : A x = A x*}, so a lower
+  level can use only what the higher ones leave free (ORACLES F13). A last QP minimizes the regularization.
+
+The result (:class:`QPResult`) says what happened, never only a number: ``"met"`` (every task's desired
+acceleration reached), ``"compromise"`` (the constraints hold but some target cannot be met: the
+least-squares compromise, with each task's error named in the message; ORACLES F12) or ``"infeasible"``
+(the constraints are inconsistent or the solver failed: which constraint group is violated and by how
+much). Every answer is judged by residuals computed here, not by the solver's claim (ORACLES F10).
+
+=========  ==================  ==============  ===========================================================
+symbol     code                shape           meaning
+=========  ==================  ==============  ===========================================================
+q̈, τ, f    ``x``               (nv + na + 2m)  the unknowns, in this order; f = (fₙ₁, fₜ₁, fₙ₂, …)
+M, C       ``H``, ``C``        (nv, nv), (nv)  mass matrix and bias forces (PlanarKernel.dynamics)
+S          ``S``               (na, nv)        actuated coordinates
+J_c        ``Jnt``             (2m, nv)        normal and tangential rows of the active contact points
+μ          ``ground.mu``       scalar          Coulomb friction
+wₖ, ÿₖ*    ``Task``            —               weights and desired feature accelerations
+=========  ==================  ==============  ===========================================================
+
+Limiting cases: no contact — the base accelerates under gravity alone (the unactuated rows); one task
+at weight 1 with all others zero — that task is met whenever the constraints allow it; μ = 0 — only normal
+forces, so the centre of mass cannot accelerate sideways.
+
+Backends (``backend``): ``"proxqp"`` with ``native=True`` calls proxsuite's dense ProxQP directly with its
+own box constraints (the conventions of :func:`pbanim.lcp.solve_lcp`'s QP route); any other name in
+``qpsolvers.available_solvers`` (or ``native=False``) goes through ``qpsolvers.solve_problem``.
+
+References: de Lasa, Mordatch & Hertzmann 2010 (features, prioritized optimization); M. de Lasa and
+A. Hertzmann, "Prioritized optimization for task-space control", IROS 2009; Y. Abe, M. da Silva,
+J. Popović, "Multiobjective control with frictional contacts", SCA 2007; A. Bambade et al., "PROX-QP",
+RSS 2022.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..articulated.planar import PlanarKernel
+from ..articulated.planar_step import PlanarGround
+from ..errors import InvalidInput, PbanimError, check_number
+from .biped import BIPED_JOINTS
+from .pd import _gains
+from .qp_features import centroidal, check_state
+from .qp_solve import contact_rows, keep_level, solve_qp
+from .qp_tasks import InvalidTask, Task, UnknownTask, check_tasks, task_rows
+
+__all__ = ["MODES", "InfeasibleControl", "InvalidTask", "QPController", "QPResult", "Task", "UnknownTask"]
+
+MODES = ("weighted", "prioritized")
+STATUSES = ("met", "compromise", "infeasible")
+
+
+class InfeasibleControl(PbanimError, RuntimeError):
+    """A control QP had no solution that satisfies its constraints (``result`` says which failed)."""
+
+    def __init__(self, result: QPResult) -> None:
+        self.result = result
+        super().__init__(result.message)
+
+
+@dataclass
+class QPResult:
+    """One control step: torques, accelerations, contact forces, and what happened.
+
+    ``tau`` and ``qdd`` have one entry per coordinate (zero torque on unactuated ones); ``forces`` (m, 2)
+    the (normal, tangential) force of every contact point (zero where ``active`` is False). ``residuals``
+    holds the largest violation of each constraint group ("dynamics" N or N m, "contact" m/s², "cone" and
+    "limits"), ``task_errors`` each task's ‖J q̈ + J̇ q̇ − ÿ*‖ at the answer. When ``status`` is "infeasible"
+    the arrays hold the solver's last iterate, for diagnosis only (:meth:`QPController.torques` raises
+    :class:`InfeasibleControl` instead of returning them).
+    """
+
+    status: str
+    message: str
+    tau: np.ndarray
+    qdd: np.ndarray
+    forces: np.ndarray
+    active: np.ndarray
+    task_errors: dict
+    residuals: dict
+    tolerances: dict
+    solver_status: list = field(default_factory=list)
+    iterations: int = 0
+    build_time: float = 0.0
+    solve_time: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        """True when the constraints hold (status "met" or "compromise")."""
+        return self.status != "infeasible"
+
+
+class QPController:
+    """The QP controller of a planar character (see the module docstring).
+
+    ``points``: the contact candidates, (link index, point in the link frame (3,)) pairs (e.g.
+    :func:`pbanim.models.biped.biped_contact_points`); a point is active when its gap to the ground is at
+    most ``contact_tol`` and it does not leave the ground faster than ``contact_speed`` (or as given to
+    :meth:`solve`). ``joints``: names → coordinates for posture tasks
+    (default: the biped's :data:`BIPED_JOINTS` when the tree is the biped, else each link's own name).
+    """
+
+    def __init__(self, kernel: PlanarKernel, points, ground: PlanarGround | None = None, tasks=(), *,
+                 mode: str = "weighted", actuated=None, joints: dict | None = None, torque_limits=np.inf,
+                 min_normal: float = 0.0, contact_tol: float = 2e-3, contact_speed: float = 0.05, regularization: float = 1e-6,
+                 priority_tol: float = 1e-6, task_tol: float = 1e-4, feasibility_tol: float = 1e-6,
+                 backend: str = "proxqp", native: bool = True, eps_abs: float = 1e-9, max_iter: int = 2000):
+        if not isinstance(kernel, PlanarKernel):
+            raise InvalidInput(f"kernel must be a PlanarKernel, got {type(kernel).__name__}")
+        self.kernel, nv = kernel, kernel.nv
+        pts = list(points)
+        self.links = np.array([int(lk) for lk, _ in pts], dtype=int)
+        self.local = np.array([np.asarray(p, dtype=float) for _, p in pts]).reshape(len(pts), -1)
+        if np.any(self.links < 0) or np.any(self.links >= kernel.n) or self.local.shape[1:] != (3,) \
+                or not np.all(np.isfinite(self.local)):
+            raise InvalidInput(f"points must be (link in 0..{kernel.n - 1}, finite 3-vector) pairs, got links "
+                               f"{self.links.tolist()} and points of shape {self.local.shape}")
+        if ground is not None and not isinstance(ground, PlanarGround):
+            raise InvalidInput(f"ground must be a PlanarGround, got {type(ground).__name__}")
+        self.ground = ground or PlanarGround()
+        if mode not in MODES:
+            raise InvalidInput(f"mode must be one of {MODES}, got {mode!r}")
+        self.mode = mode
+        act = np.arange(3, nv) if actuated is None else np.asarray(actuated)
+        if act.dtype.kind not in "iu" or act.ndim != 1 or np.any(act < 0) or np.any(act >= nv) \
+                or len(set(act.tolist())) != act.size:
+            raise InvalidInput(f"actuated must be distinct coordinate indices in 0..{nv - 1}, got {actuated!r}")
+        self.actuated, self.na = act.astype(int), int(act.size)
+        self.S = np.zeros((self.na, nv))
+        self.S[np.arange(self.na), self.actuated] = 1.0
+        names = [lk.name for lk in kernel.tree.links]
+        if joints is None:
+            joints = dict(BIPED_JOINTS) if names[-1] == "right_foot" and nv == len(BIPED_JOINTS) else \
+                {nm: int(kernel.vidx[i]) for i, nm in enumerate(names) if kernel.vidx[i] >= 0}
+        self.joints = dict(joints)
+        self.torque_limits = _gains("torque_limits", torque_limits, self.na, allow_inf=True)
+        self.min_normal = check_number("min_normal", min_normal, low=0.0)
+        self.contact_tol = check_number("contact_tol", contact_tol, low=0.0)
+        self.contact_speed = check_number("contact_speed", contact_speed, low=0.0)
+        self.eps = check_number("regularization", regularization, low=0.0, low_open=True)
+        self.priority_tol = check_number("priority_tol", priority_tol, low=0.0, low_open=True)
+        self.task_tol = check_number("task_tol", task_tol, low=0.0, low_open=True)
+        self.feasibility_tol = check_number("feasibility_tol", feasibility_tol, low=0.0, low_open=True)
+        self.eps_abs = check_number("eps_abs", eps_abs, low=0.0, low_open=True)
+        self.max_iter = int(check_number("max_iter", max_iter, low=1))
+        self.native = bool(native)
+        self.backend = _check_backend(backend, self.native)
+        self.tasks = check_tasks(tasks, kernel, self.joints)
+        M = float(kernel.mass.sum())
+        self.f_scale = M * max(float(np.linalg.norm(kernel.g)), 1.0)
+
+    # -- tasks -------------------------------------------------------------------------------
+    def task(self, name: str) -> Task:
+        """The task called ``name`` (:class:`UnknownTask` when there is none)."""
+        for t in self.tasks:
+            if t.name == name:
+                return t
+        raise UnknownTask(f"no task named {name!r}; the controller has {[t.name for t in self.tasks]}")
+
+    def _replace(self, name: str, new: Task) -> None:
+        self.task(name)
+        self.tasks = check_tasks([new if t.name == name else t for t in self.tasks], self.kernel, self.joints)
+
+    def set_target(self, name: str, target) -> None:
+        """Give the task ``name`` a new target (validated)."""
+        self._replace(name, self.task(name).with_target(target))
+
+    def set_weight(self, name: str, weight) -> None:
+        """Give the task ``name`` a new weight (≥ 0, finite)."""
+        self._replace(name, self.task(name).with_weight(weight))
+
+    # -- the problem ------------------------------------------------------------------------
+    def active_contacts(self, q: np.ndarray, qd: np.ndarray, kin: dict | None = None) -> np.ndarray:
+        """Which contact points are on the ground, a boolean mask (m,): gap ≤ ``contact_tol`` and not
+        leaving it (normal speed ≤ ``contact_speed``; a heel that lifts while the foot rolls is not held)."""
+        kin = self.kernel.kinematics(q) if kin is None else kin
+        return self._contacts(kin, qd)[0]
+
+    def _contacts(self, kin: dict, qd: np.ndarray) -> tuple:
+        """(active mask, Jacobians (m, 2, nv), biases J̇q̇ (m, 2)) of every contact point."""
+        k = self.kernel
+        p = k.point_positions(kin, self.links, self.local)
+        J = k.jacobians(kin, self.links, p)
+        vn = (J @ qd) @ self.ground.normal
+        active = (self.ground.gap(p) <= self.contact_tol) & (vn <= self.contact_speed)
+        return active, J, k.bias_acceleration(kin, self.links, p, qd)
+
+    def _mask(self, contacts, kin, qd) -> tuple:
+        active, J, Jb = self._contacts(kin, qd)
+        m = self.links.size
+        if contacts is None:
+            return active, J, Jb
+        c = np.asarray(contacts)
+        if c.dtype == bool and c.shape == (m,):
+            return c.copy(), J, Jb
+        if c.ndim == 1 and c.dtype.kind in "iu" and np.all((c >= 0) & (c < m)):
+            mask = np.zeros(m, bool)
+            mask[c] = True
+            return mask, J, Jb
+        raise InvalidInput(f"contacts must be a boolean mask of {m} points or indices in 0..{m - 1}, got {contacts!r}")
+
+    def build(self, q, qd, kin: dict | None = None, contacts=None) -> dict:
+        """The QP's matrices at (q, q̇): equalities (``Aeq``, ``beq``), cone rows (``G`` x ≤ 0), bounds
+        (``lb``, ``ub``), task rows (``tasks``: (task, A, b) with error A x − b) and the pieces they came from."""
+        k = self.kernel
+        q, qd = check_state(k, q, qd)
+        kin = k.kinematics(q) if kin is None else kin
+        H, C, kin = k.dynamics(q, qd, kin)
+        cf = centroidal(k, q, qd, kin)
+        active, J, Jb = self._mask(contacts, kin, qd)
+        Jnt, bnt, keep = contact_rows(J[active], Jb[active], self.ground)
+        nv, na, m2 = k.nv, self.na, Jnt.shape[0]
+        N = nv + na + m2
+        Aeq = np.zeros((nv + keep.size, N))
+        Aeq[:nv, :nv], Aeq[:nv, nv:nv + na], Aeq[:nv, nv + na:] = H, -self.S.T, -Jnt.T
+        Aeq[nv:, :nv] = Jnt[keep]
+        beq = np.concatenate([-C, -bnt[keep]])
+        mu = self.ground.mu
+        G = np.zeros((m2, N))                                   # fₜ − μ fₙ ≤ 0 and −fₜ − μ fₙ ≤ 0
+        for j in range(m2 // 2):
+            cn, ct = nv + na + 2 * j, nv + na + 2 * j + 1
+            G[2 * j, [cn, ct]] = -mu, 1.0
+            G[2 * j + 1, [cn, ct]] = -mu, -1.0
+        lb = np.concatenate([np.full(nv, -np.inf), -self.torque_limits, np.tile([self.min_normal, -np.inf], m2 // 2)])
+        ub = np.concatenate([np.full(nv, np.inf), self.torque_limits, np.full(m2, np.inf)])
+        rows = []
+        for t in self.tasks:
+            J, bias, ydes = task_rows(t, k, kin, q, qd, cf, self.joints)
+            A = np.zeros((J.shape[0], N))
+            A[:, :nv] = J
+            rows.append((t, A, ydes - bias))
+        R = np.concatenate([np.ones(nv), np.full(na, self.f_scale ** -2), np.full(m2, self.f_scale ** -2)])
+        return {"Aeq": Aeq, "beq": beq, "G": G, "lb": lb, "ub": ub, "tasks": rows, "R": R, "active": active,
+                "H": H, "C": C, "Jnt": Jnt, "bnt": bnt, "keep": keep, "N": N}
+
+    # -- solving ----------------------------------------------------------------------------
+    def solve(self, q, qd, kin: dict | None = None, contacts=None, *, raise_on_failure: bool = False) -> QPResult:
+        """Solve the control QP at (q, q̇) (weighted or prioritized by ``mode``); see :class:`QPResult`."""
+        t0 = time.perf_counter()
+        P = self.build(q, qd, kin, contacts)
+        t1 = time.perf_counter()
+        N, R, statuses, iters = P["N"], P["R"], [], 0
+        common = {"Aeq": P["Aeq"], "beq": P["beq"], "lb": P["lb"], "ub": P["ub"], "scale": R ** -0.5,
+                  "backend": self.backend, "native": self.native, "eps_abs": self.eps_abs, "max_iter": self.max_iter}
+        live = [(t, A, b) for t, A, b in P["tasks"] if t.weight > 0]
+        if self.mode == "weighted":
+            Q = self.eps * np.diag(R)
+            g = np.zeros(N)
+            for t, A, b in live:
+                Q += t.weight * A.T @ A
+                g -= t.weight * A.T @ b
+            x, st, it = solve_qp(Q, g, C=P["G"], l=np.full(P["G"].shape[0], -np.inf), u=np.zeros(P["G"].shape[0]),
+                                 **common)
+            statuses.append(st)
+            iters += it
+        else:
+            x, statuses, iters = self._prioritized(P, live, common)
+        result = self._judge(P, x, statuses, iters, t1 - t0, time.perf_counter() - t1)
+        if raise_on_failure and not result.success:
+            raise InfeasibleControl(result)
+        return result
+
+    def _prioritized(self, P: dict, live: list, common: dict) -> tuple[np.ndarray, list, int]:
+        """One QP per priority level, then the regularization, each keeping the optima above (module docstring).
+
+        A level whose solve does not come back feasible (ProxQP can misreport a feasible but badly
+        conditioned level as infeasible) keeps the answer of the level above, which satisfies everything
+        required so far; its status says so ("… kept level above").
+        """
+        G, zero, N = P["G"], np.zeros(P["G"].shape[0]), P["N"]
+        Aeq, beq, x, statuses, iters = P["Aeq"], P["beq"], None, [], 0
+        levels = [[(t, A, b) for t, A, b in live if t.priority == lv] for lv in sorted({t.priority for t, _, _ in live})]
+        for here in levels + [None]:
+            if here is None:                                   # the last level: the regularization
+                Q, g = np.diag(P["R"]), np.zeros(N)
+            else:
+                Q = sum(t.weight * A.T @ A for t, A, _ in here)
+                g = -sum(t.weight * A.T @ b for t, A, b in here)
+            xk, st, it = solve_qp(Q, g, C=G, l=zero - np.inf, u=zero, **dict(common, Aeq=Aeq, beq=beq, x0=x))
+            iters += it
+            if x is not None and not self._feasible(xk, Aeq, beq, G, P["lb"], P["ub"]) \
+                    and self._feasible(x, Aeq, beq, G, P["lb"], P["ub"]):
+                statuses.append(f"{st} (kept level above)")
+                continue
+            x = xk
+            statuses.append(st)
+            if not np.all(np.isfinite(x)):
+                break
+            if here is not None:                               # keep this optimum (rows Aeq does not fix yet)
+                Aeq, beq = keep_level(Aeq, beq, np.vstack([A for _, A, _ in here]), x)
+        return x, statuses, iters
+
+    def _feasible(self, x, Aeq, beq, G, lb, ub) -> bool:
+        """x satisfies the equalities, the cone rows and the bounds to ``feasibility_tol`` (force scale)."""
+        if not np.all(np.isfinite(x)):
+            return False
+        tol = self.feasibility_tol * (self.f_scale + np.abs(beq).max(initial=0.0))
+        return bool(np.abs(Aeq @ x - beq).max(initial=0.0) <= tol and (G @ x).max(initial=0.0) <= tol
+                    and np.maximum(lb - x, x - ub).max(initial=0.0) <= tol)
+
+    def torques(self, q, qd, kin: dict | None = None) -> np.ndarray:
+        """τ (nv,) of one control step; :class:`InfeasibleControl` when the QP has no feasible answer."""
+        return self.solve(q, qd, kin, raise_on_failure=True).tau
+
+    def _judge(self, P, x, statuses, iters, t_build, t_solve) -> QPResult:
+        """The answer checked against every constraint and task, with a status and a message."""
+        nv, na = self.kernel.nv, self.na
+        finite = np.all(np.isfinite(x))
+        x = np.where(np.isfinite(x), x, 0.0)
+        qdd, tau_a, f = x[:nv], x[nv:nv + na], x[nv + na:]
+        fn, ft = f[0::2], f[1::2]
+        res = {"dynamics": float(np.abs(P["Aeq"][:nv] @ x - P["beq"][:nv]).max()),
+               "contact": float(np.abs(P["Aeq"][nv:] @ x - P["beq"][nv:]).max(initial=0.0)),
+               "cone": float(np.maximum(np.abs(ft) - self.ground.mu * fn, self.min_normal - fn).max(initial=0.0)),
+               "limits": float((np.abs(tau_a) - self.torque_limits).max(initial=0.0))}
+        tol = {"dynamics": self.feasibility_tol * (self.f_scale + np.abs(P["C"]).max()),
+               "contact": self.feasibility_tol * (1.0 + np.abs(P["bnt"]).max(initial=0.0)),
+               "cone": self.feasibility_tol * self.f_scale, "limits": self.feasibility_tol * self.f_scale}
+        errors = {t.name: float(np.linalg.norm(A @ x - b)) for t, A, b in P["tasks"]}
+        bad = [g for g in res if not res[g] <= tol[g]]
+        tau = np.zeros(nv)
+        tau[self.actuated] = tau_a
+        forces = np.zeros((self.links.size, 2))
+        forces[P["active"]] = f.reshape(-1, 2)
+        if bad or not finite:
+            status = "infeasible"
+            what = "; ".join(f"{g} violated by {res[g]:.3g} (tolerance {tol[g]:.1e})" for g in bad) or "no finite answer"
+            msg = (f"the control QP's constraints are inconsistent or the solver failed ({', '.join(statuses)}): "
+                   f"{what}; relax the limits or targets, or check the contacts")
+        else:
+            missed = {t.name: errors[t.name] for t, A, b in P["tasks"]
+                      if t.weight > 0 and errors[t.name] > self.task_tol * (1.0 + np.linalg.norm(b))}
+            status = "compromise" if missed else "met"
+            msg = ("every task met" if not missed else "least-squares compromise: " + ", ".join(
+                f"task {n!r} misses its desired acceleration by {e:.3g}" for n, e in missed.items()))
+        return QPResult(status=status, message=msg, tau=tau, qdd=qdd.copy(), forces=forces, active=P["active"],
+                        task_errors=errors, residuals=res, tolerances=tol, solver_status=statuses,
+                        iterations=int(iters), build_time=t_build, solve_time=t_solve)
+
+
+def _check_backend(backend: str, native: bool) -> str:
+    """``backend`` when it can be called (proxsuite for the native route, else an installed qpsolvers solver)."""
+    if backend == "proxqp" and native:
+        try:
+            import proxsuite  # noqa: F401  (lazy: only a controller that solves needs it)
+        except ImportError:
+            raise InvalidInput("backend 'proxqp' (native) needs proxsuite: pip install proxsuite") from None
+        return backend
+    try:
+        import qpsolvers
+    except ImportError:
+        raise InvalidInput(f"backend {backend!r} needs qpsolvers: pip install qpsolvers") from None
+    if backend not in qpsolvers.available_solvers:
+        raise InvalidInput(f"backend must be an installed qpsolvers solver, one of {qpsolvers.available_solvers}, "
+                           f"got {backend!r}")
+    return backend

@@ -1,0 +1,209 @@
+"""Standing balance under a push with the QP controller on the planar biped (chapter 08, part 2).
+
+The biped stands with bent knees on both feet; the QP controller (:mod:`.qp`) tracks three features:
+
+    centre of mass    c̈* = k_p (c̄ − c) − k_d ċ          c̄ above the middle of the feet (priority 0)
+    angular momentum  L̇* = −k_L L                        about the centre of mass (priority 1)
+    posture           q̈ⱼ* = k_q (q̄ⱼ − qⱼ) − k_q' q̇ⱼ      the standing pose and an upright torso (priority 1)
+
+and the simulation is the velocity-level contact step of chapter 08
+(:class:`~pbanim.articulated.planar_step.PlanarContactStep`: Coulomb friction, heel and toe points), the
+QP's torques applied for ``control_every`` steps. At ``push_time`` an impulse P (N s, +x forward) hits the
+torso's centre of mass: Δq̇ = M⁻¹ J_cᵀ P (as in :mod:`.walk`). The centre of mass must come back to c̄
+(ORACLES F14); how far it can be pushed depends on the feet: the centre of pressure cannot leave them, so
+the controller first uses the ankles (the centre of pressure moves to the toe or the heel) and then the
+whole body's angular momentum (the hip strategy: the torso swings to produce the horizontal force).
+
+A linear inverted pendulum of height z gives the scale: after Δv = P/M the centre of mass stops before
+the edge of the foot when Δv/ω < (distance from c to the edge), ω = √(g/z) (the capture point).
+
+Runs use the one fixed-step driver (:func:`pbanim.ode.driver.drive`: its grid, its cap, its finiteness
+check). A fall is reported as a fall (time and cause, the walk's detector) and the run stops there; a
+control QP without a feasible answer stops the run too, with the QP's message (outcome "infeasible").
+
+Limiting cases: P = 0 — the crouched stance is an equilibrium (every task met, the state does not move);
+μ = 0 — the feet cannot push sideways, so the centre of mass cannot be brought back (only the posture
+moves); a push inside the capture-point bound but a controller solved every k steps — the torques are held
+between solves and the recovery degrades as k grows.
+
+Notation: c, ċ centre of mass and its velocity; c̄ its target; L angular momentum about c; P the push.
+
+References: de Lasa, Mordatch & Hertzmann 2010; B. Stephens, "Humanoid push recovery", Humanoids 2007
+(ankle and hip strategies); J. Pratt et al., "Capture point", Humanoids 2006.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..articulated.planar import PlanarKernel
+from ..articulated.planar_step import PlanarContactStep, PlanarGround
+from ..errors import check_count, check_number
+from ..ode.driver import MAX_STEPS, drive, step_grid
+from .biped import BIPED_JOINTS as JI
+from .biped import biped_contact_points, planar_biped
+from .qp import InfeasibleControl, QPController
+from .qp_tasks import Task
+from .walk import fall_cause
+
+__all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance"]
+
+
+class _Stop(Exception):
+    """Ends the loop at a fall or an infeasible control QP (caught by :func:`simulate_balance`)."""
+
+
+def crouched_state(kernel: PlanarKernel, knee: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """(q, q̇) at rest on both feet, flat on y = 0, knees bent by ``knee`` rad, torso upright, and the centre
+    of mass above the middle of the feet (the thighs' lean a found by bisection: hip a, knee −``knee``,
+    ankle ``knee`` − a)."""
+    knee = check_number("knee", knee, low=0.0, high=1.2)
+    pts = biped_contact_points(kernel.tree)
+    links, local = [lk for lk, _ in pts], [p for _, p in pts]
+
+    def pose(a: float) -> tuple[np.ndarray, float]:
+        q = np.zeros(kernel.nv)
+        for side in ("left", "right"):
+            q[JI[f"{side}_hip"]], q[JI[f"{side}_knee"]], q[JI[f"{side}_ankle"]] = a, -knee, knee - a
+        soles = kernel.points(q, links, local)
+        q[1] -= soles[:, 1].min()
+        return q, float(kernel.centre_of_mass(q)[0] - 0.5 * (soles[:, 0].min() + soles[:, 0].max()))
+
+    lo, hi = -0.6, 0.6 + knee                      # the offset changes sign between these leans
+    for _ in range(60):                             # bisection: a cap known before it starts
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if (pose(mid)[1] > 0) == (pose(lo)[1] > 0) else (lo, mid)
+    return pose(0.5 * (lo + hi))[0], np.zeros(kernel.nv)
+
+
+def balance_tasks(com_target, posture: dict, *, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
+                  posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
+                  momentum_weight: float = 1e-3) -> list:
+    """The three tasks of the module docstring (the centre of mass at priority 0, the rest at 1)."""
+    return [Task("com", target=com_target, kp=kp, kd=kd, weight=1.0, priority=0),
+            Task("momentum", kd=momentum, weight=momentum_weight, priority=1),
+            Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=posture_weight, priority=1)]
+
+
+@dataclass
+class BalanceResult:
+    """States, centre of mass, contact forces (the QP's and the simulation's) and the outcome of a run.
+
+    ``forces`` / ``sim_forces``: (k, m, 2) normal and tangential force per contact point (QP answer /
+    simulated impulse ÷ h); ``status``: the QP's status per recorded step; ``outcome``: "balanced",
+    "fell" or "infeasible", with ``end_time`` and ``cause``.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    com: np.ndarray
+    vcom: np.ndarray
+    com_target: np.ndarray
+    forces: np.ndarray
+    sim_forces: np.ndarray
+    status: list
+    residuals: np.ndarray            # (k, 4): dynamics, contact, cone, limits of the recorded QP answers
+    outcome: str
+    end_time: float
+    cause: str
+    push_time: float
+    push: float
+    support: tuple
+    mu: float
+    h: float
+    wall_time: float
+    qp_time: float
+
+    def com_error(self, last: float = 0.5) -> float:
+        """Largest |c − c̄| over the last ``last`` seconds (m)."""
+        k = self.t >= self.t[-1] - last
+        return float(np.abs(self.com[k] - self.com_target).max())
+
+    @property
+    def recovered(self) -> bool:
+        return self.outcome == "balanced"
+
+
+def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, push_time: float = 0.5,
+                     mode: str = "weighted", control_every: int = 1, friction: float = 0.9, knee: float = 0.3,
+                     torque_limits=300.0, record_every: int = 5, backend: str = "proxqp",
+                     max_steps: int = MAX_STEPS, **task_options) -> BalanceResult:
+    """Stand the planar biped with the QP controller and push it (``push`` N s at ``push_time`` s).
+
+    ``task_options`` go to :func:`balance_tasks` (gains and weights).
+    """
+    push = check_number("push", push, low=-1e4, high=1e4)
+    push_time = check_number("push_time", push_time, low=0.0)
+    every = check_count("control_every", control_every)
+    tree = planar_biped()
+    kernel = PlanarKernel(tree)
+    ground = PlanarGround(0.0, friction)
+    pts = biped_contact_points(tree)
+    stepper = PlanarContactStep(kernel, pts, ground)
+    q0, qd0 = crouched_state(kernel, knee)
+    soles = kernel.points(q0, [lk for lk, _ in pts], [p for _, p in pts])
+    support = (float(soles[:, 0].min()), float(soles[:, 0].max()))
+    target = kernel.centre_of_mass(q0)                       # above the middle of the feet
+    names = [lk.name for lk in tree.links]
+    torso = np.array([names.index("torso")])
+    posture = {nm: float(q0[i]) for nm, i in JI.items() if i >= 2}
+    ctrl = QPController(kernel, pts, ground, balance_tasks(target, posture, **task_options), mode=mode,
+                        torque_limits=torque_limits, backend=backend)
+    grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
+    m = len(pts)
+    rec = {k: [] for k in ("t", "q", "com", "vcom", "f", "fs", "status", "res")}
+    state = {"tau": np.zeros(kernel.nv), "last": None, "k": 0, "pushed": False, "qp": 0.0, "stop": None}
+
+    def advance(t, y, hh):
+        q, qd = y[:kernel.nv], y[kernel.nv:]
+        kin = kernel.kinematics(q)
+        if not state["pushed"] and push != 0.0 and t >= push_time - 1e-12:
+            H, _, kin = kernel.dynamics(q, qd, kin)
+            Jc = kernel.jacobians(kin, torso, kin["c"][torso])[0]
+            qd = qd + np.linalg.solve(H, Jc.T @ np.array([push, 0.0]))
+            state["pushed"] = True
+        if state["k"] % every == 0:
+            start = time.perf_counter()
+            try:
+                res = ctrl.solve(q, qd, kin, raise_on_failure=True)
+            except InfeasibleControl as exc:
+                state["stop"] = ("infeasible", t, str(exc))
+                raise _Stop from None
+            state["qp"] += time.perf_counter() - start
+            state["tau"], state["last"] = res.tau, res
+        state["k"] += 1
+        q1, u1 = stepper.step(q, qd, hh, state["tau"], None, kin)
+        cause = fall_cause(kernel, kernel.kinematics(q1), q1, ground)
+        if cause:
+            state["stop"] = ("fell", t + hh, cause)
+            raise _Stop
+        return np.concatenate([q1, u1])
+
+    def record(t1, y1):
+        q1 = y1[:kernel.nv]
+        c, v = kernel.centre_of_mass(q1, y1[kernel.nv:])
+        res = state["last"]
+        fs = np.zeros((m, 2))
+        near = stepper.last.get("near")
+        if near is not None and near.size:
+            fs[near] = stepper.last["impulses"].reshape(-1, 2) / h
+        rec["t"].append(t1), rec["q"].append(q1.copy()), rec["com"].append(c), rec["vcom"].append(v)
+        rec["f"].append(res.forces), rec["fs"].append(fs), rec["status"].append(res.status)
+        rec["res"].append([res.residuals[g] for g in ("dynamics", "contact", "cone", "limits")])
+
+    start = time.perf_counter()
+    outcome, end, cause = "balanced", float(t_end), ""
+    try:
+        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every)
+    except _Stop:
+        outcome, end, cause = state["stop"]
+    wall = time.perf_counter() - start
+    arr = lambda key, shape: np.array(rec[key]).reshape((-1,) + shape)
+    return BalanceResult(t=np.array(rec["t"]), q=arr("q", (kernel.nv,)), com=arr("com", (2,)), vcom=arr("vcom", (2,)),
+                         com_target=target, forces=arr("f", (m, 2)), sim_forces=arr("fs", (m, 2)),
+                         status=rec["status"], residuals=arr("res", (4,)), outcome=outcome, end_time=float(end),
+                         cause=cause, push_time=push_time, push=push, support=support, mu=ground.mu, h=h,
+                         wall_time=wall, qp_time=state["qp"])

@@ -1,0 +1,180 @@
+"""Tasks of the QP controller: a feature, a target, PD gains, a weight and a priority (chapter 08).
+
+Each task asks one feature y of the character (:mod:`.qp_features`) to accelerate as a PD servo in feature
+space would make it (de Lasa, Mordatch & Hertzmann 2010, section 4):
+
+    ÿ* = ÿ_ref + k_p (ȳ − y) + k_d (ẏ_ref − ẏ)           (the desired feature acceleration)
+    e(q̈) = J_y q̈ + J̇_y q̇ − ÿ*                          (linear in q̈: a least-squares row block of the QP)
+
+=============  =====================================  ==================================================
+kind           feature y                              target ȳ
+=============  =====================================  ==================================================
+``com``        centre of mass c (2,)                  a position (2,) [m]
+``momentum``   angular momentum about c, L (1,)       L̄ [kg m²/s]; only k_d acts: L̇* = k_d (L̄ − L)
+``point``      a point p on ``link`` at ``local``     a position (2,) [m] (an end effector, a hand, a foot)
+``posture``    named joint coordinates θ              a dict name → angle [rad] (joint-space PD)
+=============  =====================================  ==================================================
+
+``weight`` w ≥ 0 scales the task's term w‖e‖² of the weighted QP; ``priority`` 0, 1, 2, … orders the
+levels of the prioritized solve (0 first: it is never degraded by a later level). A task with k_p = k_d = 0
+and no reference acceleration asks its feature not to accelerate.
+
+Limiting cases: weight 0 removes the task from a weighted QP; all tasks at one priority level make the
+prioritized solve equal to the weighted one (up to the final regularization level).
+
+Bad input is refused by name: an unknown kind (:class:`UnknownTask`), a negative or non-finite weight or
+gain, a target of the wrong shape, a priority that is not a non-negative integer (:class:`InvalidTask`).
+
+References: M. de Lasa, I. Mordatch, A. Hertzmann, "Feature-Based Locomotion Controllers", SIGGRAPH 2010
+(features and their PD targets, section 4); O. Khatib, "A unified approach for motion and force control of
+robot manipulators: the operational space formulation", IEEE J. Robotics and Automation 1987.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import InvalidInput, as_floats, check_number
+from .pd import UnknownJoint
+from .qp_features import Centroidal, point_feature
+
+__all__ = ["TASK_KINDS", "InvalidTask", "Task", "UnknownTask", "task_rows"]
+
+TASK_KINDS = ("com", "momentum", "point", "posture")
+
+
+class UnknownTask(InvalidInput):
+    """A task kind, or a task name, that the controller does not know."""
+
+
+class InvalidTask(InvalidInput):
+    """A task with a bad weight, gain, priority or target (the message says which and what came in)."""
+
+
+def _vector2(name: str, value) -> np.ndarray:
+    v = as_floats(name, value, ndmin=1)
+    if v.shape != (2,) or not np.all(np.isfinite(v)):
+        raise InvalidTask(f"{name} must be a finite 2-vector (x, y) [m], got {value!r}")
+    return v
+
+
+@dataclass(frozen=True)
+class Task:
+    """One objective of the QP controller (see the module docstring for the kinds and their targets).
+
+    >>> Task("com", target=(0.05, 0.95), kp=100.0, kd=20.0).name
+    'com'
+    >>> Task("balance")
+    Traceback (most recent call last):
+    ...
+    pbanim.control.qp_tasks.UnknownTask: task kind must be one of ('com', 'momentum', 'point', 'posture'), got 'balance'
+    """
+
+    kind: str
+    target: object = None
+    kp: float = 0.0
+    kd: float = 0.0
+    weight: float = 1.0
+    priority: int = 0
+    name: str = ""
+    link: int = -1                                   # point tasks: the link index and the point in its frame
+    local: tuple = (0.0, 0.0, 0.0)
+    acceleration: object = None                      # ÿ_ref, feed-forward (same shape as the feature)
+    velocity: object = None                          # ẏ_ref (default zero)
+    _target: np.ndarray = field(default=None, init=False, repr=False, compare=False)
+
+    def __post_init__(self):
+        if self.kind not in TASK_KINDS:
+            raise UnknownTask(f"task kind must be one of {TASK_KINDS}, got {self.kind!r}")
+        set_ = lambda k, v: object.__setattr__(self, k, v)
+        set_("name", self.name or self.kind)
+        if not isinstance(self.name, str):
+            raise InvalidTask(f"task name must be a string, got {self.name!r}")
+        for g in ("kp", "kd", "weight"):
+            try:
+                set_(g, check_number(f"task {self.name!r}: {g}", getattr(self, g), low=0.0))
+            except InvalidInput as exc:
+                raise InvalidTask(str(exc)) from None
+        if isinstance(self.priority, bool) or not isinstance(self.priority, (int, np.integer)) or self.priority < 0:
+            raise InvalidTask(f"task {self.name!r}: priority must be an integer >= 0 (0 first), got {self.priority!r}")
+        size = self.size
+        if self.kind == "posture":
+            if not isinstance(self.target, dict) or not self.target:
+                raise InvalidTask(f"task {self.name!r}: a posture target must be a non-empty dict joint name -> "
+                                  f"angle [rad], got {self.target!r}")
+            vals = as_floats(f"task {self.name!r}: posture angles", list(self.target.values()))
+            if not np.all(np.isfinite(vals)):
+                raise InvalidTask(f"task {self.name!r}: posture angles must be finite, got {self.target!r}")
+            tgt = vals
+        elif self.kind == "momentum":
+            tgt = np.array([check_number(f"task {self.name!r}: target", 0.0 if self.target is None else self.target)])
+        else:
+            tgt = _vector2(f"task {self.name!r}: target", self.target)
+        set_("_target", tgt)
+        for ref in ("acceleration", "velocity"):
+            v = getattr(self, ref)
+            arr = np.zeros(size) if v is None else as_floats(f"task {self.name!r}: {ref}", v, ndmin=1)
+            if arr.shape != (size,) or not np.all(np.isfinite(arr)):
+                raise InvalidTask(f"task {self.name!r}: {ref} must be {size} finite numbers, got {v!r}")
+            set_(ref, arr)
+        if self.kind == "point":
+            loc = as_floats(f"task {self.name!r}: local", self.local, ndmin=1)
+            if loc.shape != (3,) or not np.all(np.isfinite(loc)):
+                raise InvalidTask(f"task {self.name!r}: local must be a finite 3-vector, got {self.local!r}")
+            set_("local", tuple(loc))
+
+    @property
+    def size(self) -> int:
+        """Rows of the task (feature dimension)."""
+        return {"com": 2, "momentum": 1, "point": 2}.get(self.kind, len(self.target) if isinstance(self.target, dict) else 0)
+
+    def with_target(self, target) -> Task:
+        """A copy with a new target (validated like the original; a posture of another size drops its references)."""
+        keep = self.kind != "posture" or (isinstance(target, dict) and len(target) == self.size)
+        return replace(self, target=target, acceleration=self.acceleration if keep else None,
+                       velocity=self.velocity if keep else None)
+
+    def with_weight(self, weight) -> Task:
+        """A copy with a new weight (≥ 0, finite)."""
+        return replace(self, weight=weight)
+
+
+def check_tasks(tasks, kernel, joints: dict) -> list:
+    """The tasks as a list, names unique, links and posture joints known (:class:`UnknownJoint` otherwise)."""
+    tasks = list(tasks)
+    names = [t.name for t in tasks if isinstance(t, Task)]
+    if len(names) != len(tasks):
+        bad = [type(t).__name__ for t in tasks if not isinstance(t, Task)]
+        raise InvalidTask(f"tasks must be Task objects, got {bad}")
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise InvalidTask(f"task names must be unique; repeated: {dup} (give each a name=)")
+    for t in tasks:
+        if t.kind == "point" and not (0 <= t.link < kernel.n):
+            raise InvalidTask(f"task {t.name!r}: link must be a link index in 0..{kernel.n - 1}, got {t.link}")
+        if t.kind == "posture":
+            unknown = sorted(set(t.target) - set(joints))
+            if unknown:
+                raise UnknownJoint(f"task {t.name!r} names joints {unknown} that the model does not have; it has "
+                                   f"{list(joints)}")
+    return tasks
+
+
+def task_rows(task: Task, kernel, kin: dict, q: np.ndarray, qd: np.ndarray, cf: Centroidal,
+              joints: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(J_y (r, nv), J̇_y q̇ (r,), ÿ* (r,)): the task's error is e = J_y q̈ + J̇_y q̇ − ÿ*."""
+    t = task
+    if t.kind == "com":
+        y, yd, J, bias = cf.com, cf.vcom, cf.J, cf.bias
+    elif t.kind == "momentum":
+        return cf.A[None, :], np.array([cf.L_bias]), t.acceleration + t.kd * (t._target - cf.L)
+    elif t.kind == "point":
+        y, yd, J, bias = point_feature(kernel, kin, qd, t.link, t.local)
+    else:
+        idx = np.array([joints[nm] for nm in t.target])
+        J = np.zeros((idx.size, kernel.nv))
+        J[np.arange(idx.size), idx] = 1.0
+        y, yd, bias = q[idx], qd[idx], np.zeros(idx.size)
+    return J, bias, t.acceleration + t.kp * (t._target - y) + t.kd * (t.velocity - yd)
