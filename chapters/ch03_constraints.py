@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 03 — constrained dynamics: Lagrange multipliers, the KKT system, Baumgarte stabilization.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch03 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 03 — constrained dynamics: Lagrange multipliers, the KKT system, Baumgarte stabilization.
 
 Figures:
@@ -28,6 +36,15 @@ from pbanim.plotting import figure
 from pbanim.scene import Scene
 
 
+# %% [markdown]
+# ## Figure `ch03_bead_tension`
+#
+# Bead on a wire: simulated λ vs the analytic tension.
+#
+# Bead on a wire released from horizontal; simulated −λR against m(v²/R + g cos θ) at the simulated
+# state and the energy closed form 3mg cos θ (ORACLES B1).
+
+# %%
 @figure("ch03", "bead_tension", "Bead on a wire: simulated λ vs the analytic tension")
 def bead_tension(ctx):
     h = 2e-3 if ctx.quick else 5e-4
@@ -51,6 +68,14 @@ def bead_tension(ctx):
             "rel_err_energy": float(np.max(np.abs(T_sim - T_energy)) / (3 * 9.81)), "T_max": float(T_sim.max())}
 
 
+# %% [markdown]
+# ## Figure `ch03_drift`
+#
+# Constraint drift |C(t)|: none vs Baumgarte vs projection.
+#
+# Constraint error |C(t)| of a swinging chain for no feedback, Baumgarte and projection (B2).
+
+# %%
 @figure("ch03", "drift", "Constraint drift |C(t)|: none vs Baumgarte vs projection")
 def drift(ctx):
     n, t_end, h = (3, 2.0, 1e-2) if ctx.quick else (5, 5.0, 1e-2)
@@ -88,6 +113,15 @@ def _plane_outcome(method, wh, zeta, steps, h=0.01, C0=1e-3):
     return bool(res.diagnostics["C_max"][-1] > C0)
 
 
+# %% [markdown]
+# ## Figure `ch03_baumgarte_stability`
+#
+# Baumgarte feedback's own stability: ρ of the discrete map vs simulation.
+#
+# Spectral radius of the discrete feedback map over (ω_b h, ζ) for symplectic Euler and RK4, with
+# simulated outcomes overlaid (B2).
+
+# %%
 @figure("ch03", "baumgarte_stability", "Baumgarte feedback's own stability: ρ of the discrete map vs simulation")
 def baumgarte_stability(ctx):
     nw, nz = (40, 25) if ctx.quick else (90, 50)
@@ -124,6 +158,14 @@ def baumgarte_stability(ctx):
     return out
 
 
+# %% [markdown]
+# ## Figure `ch03_chain_tension`
+#
+# Hanging chain (masses 1 : 1000): tension vs g·Σ(masses below).
+#
+# Hanging chain, masses alternating 1 : 1000, tension vs g·Σ(masses below) (B3).
+
+# %%
 @figure("ch03", "chain_tension", "Hanging chain (masses 1 : 1000): tension vs g·Σ(masses below)")
 def chain_tension(ctx):
     n = 200 if ctx.quick else 1000
@@ -152,6 +194,14 @@ def chain_tension(ctx):
     return out
 
 
+# %% [markdown]
+# ## Figure `ch03_swinging_chain`
+#
+# A 100-link chain released horizontal (projection, linear-time λ).
+#
+# A 100-link chain released horizontal (projection, linear-time solver).
+
+# %%
 @figure("ch03", "swinging_chain", "A 100-link chain released horizontal (projection, linear-time λ)")
 def swinging_chain(ctx):
     # RK4: symplectic Euler is unstable here at these steps (the whip's J̇q̇ = |ḋ|² term is velocity-dependent)
@@ -177,6 +227,14 @@ def swinging_chain(ctx):
             "energy_change": float((E.max() - E[0]) / (mod.system.m.sum() * 9.81))}
 
 
+# %% [markdown]
+# ## Figure `ch03_cloth`
+#
+# A cloth patch of rods pinned at two corners.
+#
+# A cloth patch of rods pinned at two corners, falling under gravity.
+
+# %%
 @figure("ch03", "cloth", "A cloth patch of rods pinned at two corners")
 def cloth(ctx):
     nx, t_end, h = (7, 0.4, 4e-3) if ctx.quick else (12, 1.0, 2e-3)
@@ -201,6 +259,14 @@ def cloth(ctx):
             "z_min": float(Pend[:, 2].min()), "t_end": t_end}
 
 
+# %% [markdown]
+# ## Figure `ch03_solver_cost`
+#
+# Per-step cost of λ vs chain length for every solver (log-log).
+#
+# Per-step cost (assembly + λ) vs n for every solver, log-log (Baraff 1996).
+
+# %%
 @figure("ch03", "solver_cost", "Per-step cost of λ vs chain length for every solver (log-log)")
 def solver_cost(ctx):
     ns = [10, 100, 1000] if ctx.quick else [10, 100, 1000, 10_000, 100_000]
@@ -219,6 +285,14 @@ def solver_cost(ctx):
             "slope_linear": loglog_slope(ns[-3:], costs["linear"][-3:])}
 
 
+# %% [markdown]
+# ## Figure `ch03_work_precision`
+#
+# Work-precision: drift and energy error vs wall time per stabilization.
+#
+# Drift and energy error vs wall time for none / Baumgarte / projection.
+
+# %%
 @figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization")
 def work_precision_fig(ctx):
     wp = work_precision(ctx.quick)
@@ -241,3 +315,18 @@ def work_precision_fig(ctx):
     ax.legend(fontsize=6, loc="lower left", ncol=2)
     ctx.save(fig)
     return {"rows": rows, "hs": wp["hs"]}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch03"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 04 — reduced coordinates and Lagrangian mechanics: same physics, different cost and accuracy.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch04 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 04 — reduced coordinates and Lagrangian mechanics: same physics, different cost and accuracy.
 
 Figures:
@@ -32,6 +40,15 @@ def _down(t, y):
 _down.direction = -1
 
 
+# %% [markdown]
+# ## Figure `ch04_period_amplitude`
+#
+# Pendulum period vs amplitude: simulated vs 4√(L/g)K(sin²(θ₀/2)).
+#
+# Pendulum period vs amplitude, simulated in reduced coordinates (event-located zero crossings)
+# against 4√(L/g)K(m), m = sin²(θ₀/2) (ORACLES A5), and the small-angle 2π√(L/g).
+
+# %%
 @figure("ch04", "period_amplitude", "Pendulum period vs amplitude: simulated vs 4√(L/g)K(sin²(θ₀/2))")
 def period_amplitude(ctx):
     degs = np.array([10, 60, 120, 170, 179] if ctx.quick else [5, 20, 40, 60, 80, 100, 120, 140, 160, 170, 175, 179])
@@ -76,6 +93,15 @@ def _three(mod, t_end, n_out, rtol=1e-10):
     return t_eval, xa, xb, xc
 
 
+# %% [markdown]
+# ## Figure `ch04_double_pendulum_formulations`
+#
+# Double pendulum: maximal vs reduced vs Lagrangian.
+#
+# The double pendulum as constrained particles (ch03), in reduced coordinates and from the
+# Lagrangian: tip trajectories overlaid and their differences (ORACLES G1).
+
+# %%
 @figure("ch04", "double_pendulum_formulations", "Double pendulum: maximal vs reduced vs Lagrangian")
 def double_pendulum_formulations(ctx):
     t_end = 2.0 if ctx.quick else 6.0
@@ -99,6 +125,15 @@ def double_pendulum_formulations(ctx):
             "max_diff_maximal_reduced": float(d_ab.max()), "max_diff_reduced_lagrangian": float(d_bc.max())}
 
 
+# %% [markdown]
+# ## Figure `ch04_energy_error`
+#
+# Double pendulum: energy error per formulation and integrator.
+#
+# Relative energy error of the double pendulum per formulation and integrator (RK4 drifts, implicit
+# midpoint stays bounded; symplectic Euler is not symplectic for M(u) ≠ const).
+
+# %%
 @figure("ch04", "energy_error", "Double pendulum: energy error per formulation and integrator")
 def energy_error(ctx):
     t_end, h = (5.0, 0.02) if ctx.quick else (30.0, 0.01)
@@ -131,6 +166,15 @@ def energy_error(ctx):
     return out
 
 
+# %% [markdown]
+# ## Figure `ch04_cost_vs_n`
+#
+# n-link pendulum: cost per simulated second at equal accuracy.
+#
+# Wall time per simulated second at equal accuracy (RK4, tip error ≤ 1e-8 m) for the n-link pendulum
+# in maximal, reduced and Lagrangian form.
+
+# %%
 @figure("ch04", "cost_vs_n", "n-link pendulum: cost per simulated second at equal accuracy")
 def cost_vs_n(ctx):
     ns = [2, 3] if ctx.quick else [2, 5, 10, 20, 50]
@@ -161,6 +205,15 @@ def cost_vs_n(ctx):
             **{f"h_{f}": np.array(v) for f, v in hs.items()}, **{f"err_{f}": np.array(v) for f, v in errs.items()}}
 
 
+# %% [markdown]
+# ## Figure `ch04_derivation_time`
+#
+# Deriving + compiling the n-link pendulum: pbanim vs sympy.physics.mechanics.
+#
+# Deriving and compiling the n-link pendulum's equations: pbanim.reduced.lagrangian vs
+# sympy.physics.mechanics (KanesMethod, LagrangesMethod), each in a fresh process.
+
+# %%
 @figure("ch04", "derivation_time", "Deriving + compiling the n-link pendulum: pbanim vs sympy.physics.mechanics")
 def derivation_time(ctx):
     ns = [2, 3] if ctx.quick else [2, 5, 10, 20]
@@ -187,3 +240,18 @@ def derivation_time(ctx):
     ctx.save(fig)
     return {"n": np.array(ns), **{f"time_{k}": np.array(v) for k, v in times.items()},
             **{f"rhs_{k}": v for k, v in values.items()}}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch04"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

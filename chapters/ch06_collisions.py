@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 06 — collisions: detection, impulses with restitution ε and friction, time of impact.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch06 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 06 — collisions: detection, impulses with restitution ε and friction, time of impact.
 
 Figures: bouncing-ball apex heights vs ε^(2k) h₀; Newton's cradle, sequential vs simultaneous impulses; a
@@ -17,6 +25,12 @@ from pbanim.models.collision import bouncing_ball, newtons_cradle
 from pbanim.plotting import figure
 
 
+# %% [markdown]
+# ## Figure `ch06_bouncing_heights`
+#
+# Bouncing ball: apex heights vs ε^(2k) h₀ (event location vs fixed steps).
+
+# %%
 @figure("ch06", "bouncing_heights", "Bouncing ball: apex heights vs ε^(2k) h₀ (event location vs fixed steps)")
 def bouncing_heights(ctx):
     bb = bouncing_ball(h0=1.0, restitution=0.8)
@@ -40,6 +54,12 @@ def bouncing_heights(ctx):
     return {"k": k, "apex_event": apex_event, "apex_fixed": apex_fixed, "h0": bb.h0, "restitution": bb.restitution}
 
 
+# %% [markdown]
+# ## Figure `ch06_newtons_cradle`
+#
+# Newton's cradle: sequential vs simultaneous impulses (3 balls, ε = 1).
+
+# %%
 @figure("ch06", "newtons_cradle", "Newton's cradle: sequential vs simultaneous impulses (3 balls, ε = 1)")
 def newtons_cradle_fig(ctx):
     model = newtons_cradle(3, v0=1.0)
@@ -77,6 +97,12 @@ def _rack(radius: float):
     return np.array(pos)
 
 
+# %% [markdown]
+# ## Figure `ch06_billiards_break`
+#
+# Billiards break: momentum and energy through the impacts (ε = 1, μ = 0).
+
+# %%
 @figure("ch06", "billiards_break", "Billiards break: momentum and energy through the impacts (ε = 1, μ = 0)")
 def billiards_break(ctx):
     from pbanim.particles import ParticleSystem
@@ -120,6 +146,12 @@ def billiards_break(ctx):
             "impacts": int(len(res.t_events[0]) + len(col.log))}
 
 
+# %% [markdown]
+# ## Figure `ch06_toi_accuracy`
+#
+# Time of impact: error in the 3rd apex height vs wall time.
+
+# %%
 @figure("ch06", "toi_accuracy", "Time of impact: error in the 3rd apex height vs wall time")
 def toi_accuracy(ctx):
     bb = bouncing_ball(h0=1.0, restitution=0.8)
@@ -147,6 +179,12 @@ def toi_accuracy(ctx):
     return out
 
 
+# %% [markdown]
+# ## Figure `ch06_boxes_tumbling`
+#
+# Boxes tumbling onto the ground (ε = 0.3, μ = 0.5).
+
+# %%
 @figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)")
 def boxes_tumbling(ctx):
     from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
@@ -194,3 +232,18 @@ def boxes_tumbling(ctx):
     ctx.save_gif(fig, update, frames=len(frames), fps=8)
     return {"min_height": float(verts[..., 2].min()), "final_speed": float(speed[:, -1].max()),
             "max_speed": float(speed.max()), "t": res.t}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch06"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 07 — resting contact: contact forces by QP and LCP, friction, stacks.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch07 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 07 — resting contact: contact forces by QP and LCP, friction, stacks.
 
 Figures: interface forces in a box stack vs the weights above (every solver); a box on an incline,
@@ -21,6 +29,12 @@ from pbanim.scene import Scene
 SOLVER_STYLE = {"qp": ("o", "C0"), "lemke": ("s", "C1"), "dantzig": ("^", "C2"), "pgs": ("x", "C3")}
 
 
+# %% [markdown]
+# ## Figure `ch07_stack_forces`
+#
+# Box stack (10 boxes, masses 1:100 alternating): interface force vs weight above.
+
+# %%
 @figure("ch07", "stack_forces", "Box stack (10 boxes, masses 1:100 alternating): interface force vs weight above")
 def stack_forces(ctx):
     sc = box_stack(10, 100.0)
@@ -50,6 +64,12 @@ def stack_forces(ctx):
     return out
 
 
+# %% [markdown]
+# ## Figure `ch07_incline_stick_slip`
+#
+# Box on an incline (μ = 0.5): stick/slip vs angle, velocity-level time stepping.
+
+# %%
 @figure("ch07", "incline_stick_slip", "Box on an incline (μ = 0.5): stick/slip vs angle, velocity-level time stepping")
 def incline_stick_slip(ctx):
     mu, h = 0.5, 1e-3
@@ -86,6 +106,12 @@ def incline_stick_slip(ctx):
             "friction_exact": np.array([incline_expected(t, mu)["friction_per_mass"] for t in angles])}
 
 
+# %% [markdown]
+# ## Figure `ch07_solver_residual_time`
+#
+# What accuracy costs: natural-map residual vs time for every LCP solver.
+
+# %%
 @figure("ch07", "solver_residual_time", "What accuracy costs: natural-map residual vs time for every LCP solver")
 def solver_residual_time(ctx):
     m = 60 if ctx.quick else 200
@@ -141,6 +167,12 @@ def _box_outline(x, R, h):
     return p[:, 0], p[:, 2]
 
 
+# %% [markdown]
+# ## Figure `ch07_stack_settling`
+#
+# A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5).
+
+# %%
 @figure("ch07", "stack_settling", "A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5)")
 def stack_settling(ctx):
     n = 3 if ctx.quick else 6
@@ -188,6 +220,12 @@ def stack_settling(ctx):
             "final_speed": float(np.abs(final[7 * n:10 * n]).max()), "frames": len(frames)}
 
 
+# %% [markdown]
+# ## Figure `ch07_sphere_pile`
+#
+# Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps).
+
+# %%
 @figure("ch07", "sphere_pile", "Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps)")
 def sphere_pile(ctx):
     n, T, h = (20, 0.4, 4e-3) if ctx.quick else (100, 1.2, 4e-3)
@@ -228,3 +266,18 @@ def sphere_pile(ctx):
     return {"kinetic_energy": ke, "max_penetration": float(res.diagnostics["max_penetration"].max()), "radius": r,
             "unconverged_fraction": float(np.mean(res.diagnostics["lcp_unconverged"][1:])),
             "final_z": z, "box_half": L, "final_x": res.y[0:3 * n:3, -1], "final_y": res.y[1:3 * n:3, -1]}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch07"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -15,6 +15,22 @@ finds and imports them, and their figures register themselves here)::
 
 matplotlib is imported here lazily, the first time a figure is drawn: ``import pbanim`` never loads it.
 Output is deterministic: Agg backend, fixed DPI, metadata scrubbed, fixed seeds (``ctx.rng``).
+
+Formats and styles (``pbanim figures … --format svg --dpi 200 --style slides``):
+
+==========  ================================================================================
+option      effect
+==========  ================================================================================
+format      ``png`` (default), ``svg`` or ``pdf`` for stills (vector output for slides and papers);
+            animations are always GIFs
+dpi         resolution of PNG stills (default 110) and GIFs (default 60 paper, 100 slides)
+style       ``paper`` (default: 9 pt text, thin lines) or ``slides`` (16 pt text, 2.5 pt lines,
+            bigger markers: readable from the back of a lecture hall; also applied to GIFs)
+==========  ================================================================================
+
+Every style places legends with ``loc="best"`` (the spot that covers the fewest data points) unless a
+figure says otherwise, and :func:`axes_without_units` lists axes whose label has no unit in
+parentheses or brackets (``"t (s)"``, ``"E [J]"``; dimensionless axes say ``"(1)"`` or ``"(–)"``).
 """
 
 from __future__ import annotations
@@ -26,7 +42,7 @@ from typing import Any, Callable
 import numpy as np
 
 __all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "write_index",
-           "pyplot"]
+           "pyplot", "STYLES", "FORMATS", "axes_without_units"]
 
 DPI = 110
 STYLE = {
@@ -41,8 +57,17 @@ STYLE = {
     "lines.linewidth": 1.4,
     "savefig.bbox": "tight",
     "svg.hashsalt": "pbanim",
+    "svg.fonttype": "none",
+    "pdf.compression": 6,
     "path.simplify": False,
+    "legend.loc": "best",
 }
+SLIDES = {**STYLE, "figure.figsize": (8.0, 5.0), "font.size": 16, "axes.titlesize": 17, "axes.labelsize": 16,
+          "xtick.labelsize": 14, "ytick.labelsize": 14, "legend.fontsize": 13, "lines.linewidth": 2.5,
+          "lines.markersize": 8, "axes.linewidth": 1.2, "grid.linewidth": 0.8}
+STYLES = {"paper": STYLE, "slides": SLIDES}
+FORMATS = ("png", "svg", "pdf")
+GIF_DPI = {"paper": 60, "slides": 100}
 
 
 @dataclass(frozen=True)
@@ -92,9 +117,15 @@ class FigureContext:
     quick: bool = False
     rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(12345))
     files: list[Path] = field(default_factory=list)
+    fmt: str = "png"
+    dpi: float | None = None
+    style: str = "paper"
+    issues: list[str] = field(default_factory=list)     # axes without units (see axes_without_units)
 
     def subplots(self, *args, **kwargs):
-        return pyplot().subplots(*args, **kwargs)
+        plt = pyplot()
+        plt.rcParams.update(STYLES[self.style])
+        return plt.subplots(*args, **kwargs)
 
     def _path(self, suffix: str, ext: str) -> Path | None:
         if self.out_dir is None:
@@ -103,14 +134,17 @@ class FigureContext:
         return self.out_dir / f"{self.spec.key}{suffix}.{ext}"
 
     def save(self, fig, suffix: str = "") -> Path | None:
-        """Save ``fig`` as PNG with scrubbed metadata (same code → same bytes), then close it."""
-        path = self._path(suffix, "png")
+        """Save ``fig`` in the context's format with scrubbed metadata (same code → same bytes), then close it."""
+        path = self._path(suffix, self.fmt)
         if fig.get_suptitle() == "" and len(fig.axes) > 1:
             fig.suptitle(self.spec.title)
         elif len(fig.axes) == 1 and not fig.axes[0].get_title():
             fig.axes[0].set_title(self.spec.title)
+        self.issues += [f"{self.spec.key}{suffix}: {m} has no unit" for m in axes_without_units(fig)]
         if path is not None:
-            fig.savefig(path, dpi=DPI, metadata={"Software": None})
+            meta = {"Software": None} if self.fmt == "png" else (
+                {"Creator": None, "Producer": None, "CreationDate": None} if self.fmt == "pdf" else {"Creator": None, "Date": None})
+            fig.savefig(path, dpi=self.dpi or DPI, metadata=meta, format=self.fmt)
             self.files.append(path)
         pyplot().close(fig)
         return path
@@ -122,7 +156,7 @@ class FigureContext:
             from matplotlib.animation import FuncAnimation, PillowWriter
 
             anim = FuncAnimation(fig, update, frames=frames, blit=False)
-            anim.save(path, writer=PillowWriter(fps=fps), dpi=60)
+            anim.save(path, writer=PillowWriter(fps=fps), dpi=self.dpi or GIF_DPI[self.style])
             self.files.append(path)
         pyplot().close(fig)
         return path
@@ -138,26 +172,87 @@ def figures_of(chapters: set[str] | list[str] | None = None) -> dict[str, Figure
     return {k: s for k, s in sorted(FIGURES.items()) if wanted is None or s.chapter in wanted}
 
 
-def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False) -> tuple[dict, list[Path]]:
-    """Run one figure with a fresh seeded context; return (data, files written)."""
+def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, fmt: str = "png",
+               dpi: float | None = None, style: str = "paper", issues: list | None = None) -> tuple[dict, list[Path]]:
+    """Run one figure with a fresh seeded context; return (data, files written).
+
+    ``fmt`` in :data:`FORMATS`, ``dpi`` in [10, 1200] (None: the style's default), ``style`` in
+    :data:`STYLES`; ``issues``, when given, receives one line per axis without a unit.
+    """
+    from .errors import InvalidInput, check_number
+
+    if fmt not in FORMATS:
+        raise InvalidInput(f"format must be one of {list(FORMATS)}, got {fmt!r}")
+    if style not in STYLES:
+        raise InvalidInput(f"style must be one of {sorted(STYLES)}, got {style!r}")
+    if dpi is not None:
+        dpi = check_number("dpi", dpi, low=10.0, high=1200.0)
     plt = pyplot()
-    with plt.rc_context(STYLE):
-        ctx = FigureContext(spec=spec, out_dir=out_dir, quick=quick)
+    with plt.rc_context(STYLES[style]):
+        ctx = FigureContext(spec=spec, out_dir=out_dir, quick=quick, fmt=fmt, dpi=dpi, style=style)
         data = spec.func(ctx)
+    if issues is not None:
+        issues.extend(ctx.issues)
     if not isinstance(data, dict):
         raise TypeError(f"figure {spec.key} must return a dict of its data, got {type(data).__name__}")
     return data, ctx.files
 
 
-def write_index(specs: dict[str, FigureSpec], out_dir: Path, files: dict[str, list[Path]]) -> Path:
-    """figures/README.md: one line per figure (chapter, file, what it shows)."""
-    lines = ["# Figures", "", "Generated by `pbanim figures`; do not edit by hand.", "",
-             "| chapter | figure | shows |", "| --- | --- | --- |"]
+def axes_without_units(fig) -> list[str]:
+    """Labels of the axes of ``fig`` that have no unit: "axes 0 x: 'time'" (empty list: all have one).
+
+    A unit is anything in parentheses or brackets at the end of the label; an empty label counts as
+    missing (an axis of a 3-D plot or an image may be exempted by turning it off), unless the axis is
+    shared with another axes whose label has a unit (``sharex`` columns, ``twinx`` pairs).
+    """
+    import re
+
+    def has_unit(label: str) -> bool:
+        return bool(re.search(r"[(\[][^()\[\]]*[)\]]\s*$", label.strip()))
+
+    missing = []
+    for k, ax in enumerate(fig.axes):
+        if not ax.axison:
+            continue
+        for which, label in (("x", ax.get_xlabel()), ("y", ax.get_ylabel())):
+            if has_unit(label):
+                continue
+            shared = ax.get_shared_x_axes() if which == "x" else ax.get_shared_y_axes()
+            twins = [o for o in fig.axes if o is not ax and shared.joined(ax, o)]
+            if not label.strip() and any(has_unit(o.get_xlabel() if which == "x" else o.get_ylabel()) for o in twins):
+                continue
+            missing.append(f"axes {k} {which}: {label!r}")
+    return missing
+
+
+def write_index(specs: dict[str, FigureSpec], out_dir: Path, files: dict[str, list[Path]],
+                checked_by: dict[str, list[str]] | None = None) -> Path:
+    """figures/README.md: one entry per figure — its file, a caption (what it shows), and the tests that
+    check its data (``checked_by[key]``: "tests/test_x.py::test_name", found by the command line)."""
+    lines = ["# Figures", "", "Generated by `pbanim figures`; do not edit by hand. Each figure's data is checked "
+             "by the tests named in its caption (they run every figure in quick mode).", "",
+             "| chapter | figure | caption | data checked by |", "| --- | --- | --- | --- |"]
+    esc = lambda text: str(text).replace("|", "\\|")  # noqa: E731 - a pipe inside a cell would split the table
     for key, spec in specs.items():
         fl = files.get(key) or []
         links = ", ".join(f"[{p.name}]({p.name})" for p in fl) or "—"
-        title = spec.title.replace("|", "\\|")  # a pipe inside a cell would split the table
-        lines.append(f"| {spec.chapter} | {links} | {title} |")
+        tests = (checked_by or {}).get(key) or []
+        by = ", ".join(f"`{t}`" for t in tests) or "—"
+        lines.append(f"| {spec.chapter} | {links} | {esc(_caption(spec))} | {esc(by)} |")
     path = out_dir / "README.md"
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def _caption(spec: FigureSpec) -> str:
+    """The title, then what the figure shows: its entry ``* ``name``: …`` in the chapter's module docstring,
+    else the first paragraph of the figure function's docstring."""
+    import re
+    import sys
+
+    mod_doc = getattr(sys.modules.get(spec.func.__module__), "__doc__", None) or ""
+    m = re.search(rf"^\* ``{re.escape(spec.name)}``:\s*(.+?)(?=^\* |\n\n|\Z)", mod_doc, flags=re.M | re.S)
+    doc = m.group(1) if m else (spec.func.__doc__ or "").strip().split("\n\n")[0]
+    text = " ".join(doc.split())
+    title = spec.title.rstrip(".")
+    return f"{title}. {text[:1].upper() + text[1:]}" if text else f"{title}."

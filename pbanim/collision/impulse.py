@@ -162,8 +162,10 @@ def contact_velocity(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     >>> contact_velocity(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))
     array([[-2.,  0., -2.]])
     """
+    # BEGIN SOLUTION contact_velocity
     ra, rb = _lever(bodies, c)
     return (bodies.v[c.a] + np.cross(bodies.omega[c.a], ra)) - (bodies.v[c.b] + np.cross(bodies.omega[c.b], rb))
+    # END SOLUTION
 
 
 def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
@@ -175,10 +177,12 @@ def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     >>> np.diag(collision_matrix(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))[0])
     array([3.5, 3.5, 1. ])
     """
+    # BEGIN SOLUTION collision_matrix
     ra, rb = _lever(bodies, c)
     Sa, Sb = skew(ra), skew(rb)
     lin = (bodies.inv_mass[c.a] + bodies.inv_mass[c.b])[:, None, None] * np.eye(3)
     return lin - Sa @ bodies.inv_I[c.a] @ Sa - Sb @ bodies.inv_I[c.b] @ Sb
+    # END SOLUTION
 
 
 def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
@@ -192,6 +196,7 @@ def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
     array([[0., 0., 0.],
            [0., 0., 0.]])
     """
+    # BEGIN SOLUTION apply_impulses
     J = np.asarray(J, float).reshape(-1, 3)
     ra, rb = _lever(bodies, c)
     dv = np.zeros_like(bodies.v)
@@ -202,6 +207,7 @@ def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
     np.add.at(dw, c.b, -np.einsum("kij,kj->ki", bodies.inv_I[c.b], np.cross(rb, J)))
     bodies.v += dv
     bodies.omega += dw
+    # END SOLUTION
 
 
 def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: float,
@@ -216,6 +222,7 @@ def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: fl
     >>> J, stick
     (array([0., 0., 3.]), False)
     """
+    # BEGIN SOLUTION contact_impulse
     vn = float(n @ u)
     if vn >= 0 or float(n @ K @ n) <= 0:      # separating, or two static bodies (nothing can move)
         return np.zeros(3), False
@@ -231,6 +238,7 @@ def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: fl
     t = ut / nt if nt > 0 else -Jt / np.linalg.norm(Jt)
     d = n - friction * t
     return (-(1 + restitution) * vn / float(n @ K @ d)) * d, False
+    # END SOLUTION
 
 
 def _tangent_friction(K: np.ndarray, u: np.ndarray, n: np.ndarray, jn: float, mu: float):

@@ -133,8 +133,10 @@ def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system,
     x, v = system.unpack(np.asarray(y, float))
     Qf = np.zeros(cset.n) if Q is None else np.asarray(Q, float).ravel()
     asm = cset.assemble(x, v, pairs=cset.blocks)
+    # BEGIN SOLUTION solve_multipliers
     c = -asm.Jdv - ks * asm.C - kd * asm.Cdot
     return solve_lambda(asm.J, cset.Wq, Qf, c, solver, cset=cset, asm=asm, tol=tol, max_iter=max_iter)
+    # END SOLUTION
 
 
 class Constraints(Effect):
@@ -220,10 +222,12 @@ class Constraints(Effect):
             if not cmax <= self.max_violation:
                 raise SimulationDiverged(t, -1, "constraint violation C",
                                          f"max|C| = {cmax:.3e} > max_violation = {self.max_violation:.3e}")
+        # BEGIN SOLUTION Constraints._solve
         c = -asm.Jdv - ks * asm.C - kd * asm.Cdot
         sol = solve_lambda(asm.J, cset.Wq, Qf, c, self.solver, cset=cset, asm=asm, tol=self.tol,
                            max_iter=self.max_iter)
         return sol, asm
+        # END SOLUTION
 
     def constrain(self, t, y, Q):
         x, v = self.system.unpack(y)

@@ -62,6 +62,7 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
     Stops when the natural-map residual ≤ :func:`residual_threshold` ("converged"), else after ``max_iter``
     sweeps with status "max_iter" — it never claims a convergence it did not reach. Needs Aᵢᵢ > 0.
     """
+    # BEGIN SOLUTION pgs
     m = b.size
     diag = np.diag(A).copy()
     if np.any(diag <= 0):
@@ -80,6 +81,7 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
         if natural_map_residual(f, A @ f + b) <= thresh:
             return f, "converged", sweep
     return f, "max_iter", int(max_iter)
+    # END SOLUTION
 
 
 def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8) -> tuple:

@@ -174,6 +174,7 @@ def explicit_rk_step(tableau: Tableau | str, fun: Callable, t: float, y: np.ndar
     >>> float(explicit_rk_step("rk4", f, 0.0, np.array([1.0]), 0.1)[0])  # 1 − h + h²/2 − h³/6 + h⁴/24
     0.9048375
     """
+    # BEGIN SOLUTION explicit_rk_step
     tab = TABLEAUX[tableau] if isinstance(tableau, str) else tableau
     y = np.asarray(y)
     K = np.zeros((tab.stages,) + y.shape, dtype=np.result_type(y, float))
@@ -181,6 +182,7 @@ def explicit_rk_step(tableau: Tableau | str, fun: Callable, t: float, y: np.ndar
         yi = y + h * np.tensordot(tab.A[i, :i], K[:i], axes=1) if i else y
         K[i] = fun(t + tab.C[i] * h, yi)
     return y + h * np.tensordot(tab.B, K, axes=1)
+    # END SOLUTION
 
 
 def euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None, jac=None) -> np.ndarray:
@@ -189,7 +191,9 @@ def euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | No
     >>> euler_step(lambda t, y: -y, 0.0, np.array([1.0]), 0.1)
     array([0.9])
     """
+    # BEGIN SOLUTION euler_step
     return y + h * fun(t, y)
+    # END SOLUTION
 
 
 euler_step.nfev = 1
@@ -226,6 +230,7 @@ def symplectic_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spli
     >>> symplectic_euler_step(lambda t, y: np.array([y[1], -y[0]]), 0.0, np.array([1.0, 0.0]), 0.1)
     array([ 0.99, -0.1 ])
     """
+    # BEGIN SOLUTION symplectic_euler_step
     s = _split(y, split)
     k = fun(t, y)
     y1 = np.array(y, dtype=np.result_type(y, float), copy=True)
@@ -233,6 +238,7 @@ def symplectic_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spli
     k2 = fun(t, y1)
     y1[..., :s] = y[..., :s] + h * k2[..., :s]
     return y1
+    # END SOLUTION
 
 
 symplectic_euler_step.nfev = 2
@@ -247,6 +253,7 @@ def verlet_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | N
     >>> verlet_step(lambda t, y: np.array([y[1], -y[0]]), 0.0, np.array([1.0, 0.0]), 0.1)
     array([ 0.995    , -0.0997500])
     """
+    # BEGIN SOLUTION verlet_step
     s = _split(y, split)
     half = 0.5 * h
     y1 = np.array(y, dtype=np.result_type(y, float), copy=True)
@@ -254,6 +261,7 @@ def verlet_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | N
     y1[..., :s] += h * fun(t + half, y1)[..., :s]
     y1[..., s:] += half * fun(t + h, y1)[..., s:]
     return y1
+    # END SOLUTION
 
 
 verlet_step.nfev = 3

@@ -150,10 +150,12 @@ class ParticleSystem(Bodies):
 
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """dy/dt = [v, W Q]."""
+        # BEGIN SOLUTION ParticleSystem.derivative
         dy = np.empty_like(y)
         dy[: self.split] = y[self.split:]
         np.multiply(Q.reshape(-1), self._Wflat, out=dy[self.split:])
         return dy
+        # END SOLUTION
 
     def kick_drift(self, y: np.ndarray, Q: np.ndarray, h: float, out: np.ndarray, lo: int = 0,
                    hi: int | None = None) -> np.ndarray:
@@ -163,6 +165,7 @@ class ParticleSystem(Bodies):
         :func:`pbanim.ode.symplectic_euler_step` on :meth:`derivative` (equal to roundoff; h W is cached
         per h), in four passes with no temporaries — the lean path of :meth:`pbanim.scene.Scene.step`.
         """
+        # BEGIN SOLUTION ParticleSystem.kick_drift
         hi = self.N if hi is None else hi
         if h != self._h_cached:
             self._hW, self._h_cached = h * self._Wflat, h
@@ -174,6 +177,7 @@ class ParticleSystem(Bodies):
         np.multiply(vo, h, out=a)
         np.add(y[i:j], a, out=out[i:j])
         return out
+        # END SOLUTION
 
     # -- diagnostics -------------------------------------------------------------------------------
     def kinetic_energy(self, y: np.ndarray) -> float:
@@ -266,15 +270,19 @@ class Gravity(Effect):
         self._mg = system.m[:, None] * g
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
+        # BEGIN SOLUTION Gravity.apply
         Q += self._mg
+        # END SOLUTION
 
     def affine(self) -> tuple[np.ndarray, None]:
         """Q = c + d v with c = m g, d = 0 (lets :class:`pbanim.scene.Scene` fold it into one update)."""
         return self._mg, None
 
     def potential_energy(self, y: np.ndarray) -> float:
+        # BEGIN SOLUTION Gravity.potential_energy
         x, _ = self.system.unpack(y)
         return float(-np.sum(self._mg * x))
+        # END SOLUTION
 
     def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:
         return ForceJacobian(None, None)
@@ -313,6 +321,7 @@ class Drag(Effect):
         self._k0 = float(self.kd[0])
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
+        # BEGIN SOLUTION Drag.apply
         _, v = self.system.unpack(y)
         if self._scalar:
             Q -= self._k0 * v
@@ -321,6 +330,7 @@ class Drag(Effect):
             Qf -= self._kdflat * v.reshape(-1)
         else:
             Q -= self.kd[:, None] * v
+        # END SOLUTION
 
     def affine(self) -> tuple[None, np.ndarray]:
         """Q = c + d v with c = 0, d = −k_d (lets :class:`pbanim.scene.Scene` fold it into one update)."""

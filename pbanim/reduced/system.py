@@ -265,12 +265,14 @@ class ReducedSystem:
         except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
             raise SingularChartError(np.inf, u.tolist(), f"the chart cannot be evaluated ({exc}); "
                                      "outside its domain") from None
+        # BEGIN SOLUTION ReducedSystem._solve
         Q = self._forces(t, q, qd)
         mJ = self.m[:, None] * J
         A = J.T @ mJ
         r = J.T @ (Q - self.m * b)
         udd = self.guard.solve(A, r, u)
         return udd, q, qd, J, b, Q
+        # END SOLUTION
 
     def rhs(self, t: float, y) -> np.ndarray:
         """dy/dt = [u̇, ü] with (JᵀMJ) ü = Jᵀ(Q − M b)."""
@@ -285,8 +287,10 @@ class ReducedSystem:
 
     def constraint_force(self, t: float, y) -> np.ndarray:
         """Q_C = M q̈ − Q (N, dim): the workless force that keeps the particles on the chart."""
+        # BEGIN SOLUTION ReducedSystem.constraint_force
         udd, q, qd, J, b, Q = self._solve(t, y)
         return (self.m * (J @ udd + b) - Q).reshape(self.N, self.dim)
+        # END SOLUTION
 
     # -- energy ---------------------------------------------------------------------------------
     def kinetic_energy(self, y, t: float = 0.0) -> float:

@@ -194,14 +194,18 @@ class RigidBodies(Bodies):
 
     def inv_inertia_world(self, y: np.ndarray) -> np.ndarray:
         """I⁻¹_world = R I⁻¹_body Rᵀ, shape (N, 3, 3) (zero for static bodies)."""
+        # BEGIN SOLUTION RigidBodies.inv_inertia_world
         R = self.rotations(y)
         return R @ self.inv_I_body @ np.swapaxes(R, 1, 2)
+        # END SOLUTION
 
     def velocities(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(v = P/m, ω = I⁻¹_world L), each (N, 3); ω = R (I⁻¹_body (Rᵀ L)) without forming I⁻¹_world."""
+        # BEGIN SOLUTION RigidBodies.velocities
         _, q, P, L = self.unpack(y)
         R = quat_to_matrix(q)
         return self.inv_mass[:, None] * P, _matvec(R, _matvec(self.inv_I_body, _matTvec(R, L)))
+        # END SOLUTION
 
     # -- body protocol (pbanim.bodies): u = (v, ω), Wᵢ = diag(Iᵈ/mᵢ, I⁻¹_world,i); zero for static bodies ----
     kind = "rigid"
@@ -289,6 +293,7 @@ class RigidBodies(Bodies):
 
     def derivative_and_omega(self, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ẏ, ω): the derivative and the world angular velocities it used (one pass)."""
+        # BEGIN SOLUTION RigidBodies.derivative_and_omega
         N = self.N
         q = y[3 * N:7 * N].reshape(N, 4)
         P = y[7 * N:10 * N].reshape(N, 3)
@@ -309,6 +314,7 @@ class RigidBodies(Bodies):
             Q = Q * self._dyn
         dy[7 * N:].reshape(2, N, 3)[:] = Q.reshape(N, 2, 3).transpose(1, 0, 2)   # [F rows; τ rows]
         return dy, w
+        # END SOLUTION
 
     def derivative_readable(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """The same ẏ, one body at a time, written as in Baraff's notes (for teaching; tests compare)."""

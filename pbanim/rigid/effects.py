@@ -146,11 +146,13 @@ class PointForce(Effect):
         self._idx = self.bodies
 
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
+        # BEGIN SOLUTION PointForce.apply
         rb = self.system
         f = np.asarray(self.force(t, y) if callable(self.force) else self.force, dtype=float).reshape(-1, 3)
         x, q, _, _ = rb.unpack(y)
         r = _matvec(rb.quat_to_matrix(q)[self.bodies], self.points)  # p − x in world axes
         _accumulate(Q, rb.N, self._idx, f, _cross(r, f))
+        # END SOLUTION
 
 
 class RigidSprings(Effect):
@@ -270,6 +272,8 @@ class QuaternionRenormalize(Effect):
         self.system = _require_rigid(self, system)
 
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        # BEGIN SOLUTION QuaternionRenormalize.post_step
         q = self.system.unpack(y)[1]
         q /= np.sqrt(np.sum(q * q, axis=1, keepdims=True))
         return y
+        # END SOLUTION

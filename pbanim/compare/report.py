@@ -1,0 +1,109 @@
+"""Tables of a comparison: markdown for people, JSON for programs (``pbanim compare --markdown/--json``).
+
+Per scene, one markdown table with a row per (engine, step h):
+
+    | engine | h (s) | error (the scene's measure and unit) | other metrics | wall (s) | µs/step | status |
+
+and one summary table over all scenes, one column per engine, each cell "error at the finest step ·
+observed order p · µs per step" (or the row's status: *not installed*, *unsupported*, …). The JSON holds
+the same rows with every number (NaN written as ``null``), the date, the mode and the versions.
+
+Limiting cases: a comparison with no rows gives the header and an empty summary; a row that did not run
+shows its status and reason instead of numbers.
+
+References: A. Boeing, T. Bräunl, GRAPHITE 2007 (their tables: error and cost per engine and scene).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+__all__ = ["markdown", "as_json", "summary_markdown", "write"]
+
+
+def _num(x: float, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "—"
+    return f"{x:.{digits}g}"
+
+
+def _esc(text: str) -> str:
+    return str(text).replace("|", "\\|")
+
+
+def summary_markdown(cmp) -> str:
+    """The summary table: one line per scene, one column per engine."""
+    engines = list(dict.fromkeys(r.engine for r in cmp.rows))
+    lines = ["| scene | error measure | " + " | ".join(engines) + " |",
+             "| --- | --- | " + " | ".join("---" for _ in engines) + " |"]
+    by = {(s["scene"], s["engine"]): s for s in cmp.summary()}
+    for name, sc in cmp.scenes.items():
+        cells = []
+        for e in engines:
+            s = by.get((name, e))
+            if s is None:
+                cells.append("—")
+            elif s["status"] != "ok":
+                cells.append(_esc(s["status"]))
+            else:
+                order = f" · p {s['order']:.2g}" if math.isfinite(s["order"]) else ""
+                cells.append(f"{_num(s['error'], 2)} (h {s['h']:g}{order} · {_num(s['us_per_step'], 2)} µs/step)")
+        lines.append(f"| {name} | {_esc(sc.error_name)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def markdown(cmp) -> str:
+    """The whole report: header (date, mode, versions), the summary, one table per scene."""
+    vers = ", ".join(f"{k} {v}" for k, v in cmp.versions.items())
+    out = [f"# pbanim compare — {cmp.date}", "",
+           f"Mode: {'quick' if cmp.quick else 'full'}. Versions: {vers}.", "",
+           "## Summary (finest step of each sweep)", "", summary_markdown(cmp), ""]
+    for name, sc in cmp.scenes.items():
+        out += [f"## {name} — {sc.spec.title}", "", f"Exact answer: {sc.spec.notes}.", "",
+                f"| engine | h (s) | {_esc(sc.error_name)} | other metrics | wall (s) | µs/step | status |",
+                "| --- | --- | --- | --- | --- | --- | --- |"]
+        for r in cmp.rows_of(name):
+            metrics = ", ".join(f"{k} {_num(v)}" for k, v in r.metrics.items()) or "—"
+            status = r.status if r.status == "ok" else f"{r.status}: {r.reason}"
+            out.append(f"| {r.engine} | {r.h:g} | {_num(r.error)} | {_esc(metrics)} | {_num(r.wall)} | "
+                       f"{_num(r.us_per_step)} | {_esc(status)} |")
+        settings = dict.fromkeys(f"{r.engine}: {r.settings}" for r in cmp.rows_of(name) if r.settings)
+        if settings:
+            out += [""] + [f"- {_esc(s)}" for s in settings]
+        out.append("")
+    return "\n".join(out)
+
+
+def as_json(cmp) -> dict:
+    """The comparison as plain JSON types (NaN → null)."""
+    def clean(v):
+        if isinstance(v, float):
+            return v if math.isfinite(v) else None
+        if isinstance(v, dict):
+            return {k: clean(x) for k, x in v.items()}
+        if isinstance(v, (list, tuple)):
+            return [clean(x) for x in v]
+        return v
+
+    return clean({"date": cmp.date, "quick": cmp.quick, "versions": cmp.versions,
+                  "scenes": {n: {"title": sc.spec.title, "error_name": sc.error_name, "exact": sc.spec.notes,
+                                 "params": {k: v for k, v in sc.spec.params.items() if isinstance(v, (int, float, str))},
+                                 "rows": [r.to_json() for r in cmp.rows_of(n)]}
+                             for n, sc in cmp.scenes.items()},
+                  "summary": cmp.summary()})
+
+
+def write(cmp, markdown_path=None, json_path=None) -> list[Path]:
+    """Write the markdown and/or JSON report; returns the paths written."""
+    out = []
+    if markdown_path:
+        p = Path(markdown_path)
+        p.write_text(markdown(cmp) + "\n", encoding="utf-8")
+        out.append(p)
+    if json_path:
+        p = Path(json_path)
+        p.write_text(json.dumps(as_json(cmp), indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        out.append(p)
+    return out

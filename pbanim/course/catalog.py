@@ -1,0 +1,80 @@
+"""The assignments of the course, one or more per chapter (registered on import of this module).
+
+=====================  =======  ================================  =========================================
+assignment             chapter  reference module                  the student writes
+=====================  =======  ================================  =========================================
+ch01_particles         01       pbanim/particles/system.py        ẏ = [v, WQ], gravity, drag, symplectic Euler
+ch02_integrators       02       pbanim/ode/methods.py             Euler, symplectic Euler, Verlet, RK tableau
+ch03_constraints       03       pbanim/constraints/effect.py      the multiplier solve with Baumgarte
+ch04_reduced           04       pbanim/reduced/system.py          (JᵀMJ)ü = Jᵀ(Q − M J̇u̇) and Q_C
+ch05_rigid_body        05       pbanim/rigid/bodies.py            I⁻¹_world, ω, Baraff's ẏ
+ch05_rigid_step        05       pbanim/rigid/effects.py           torque of a point force, renormalization
+ch06_impulses          06       pbanim/collision/impulse.py       u, K, Newton's impulse law
+ch07_lcp               07       pbanim/lcp/solve.py               projected Gauss–Seidel for the contact LCP
+ch08_pd_control        08       pbanim/control/                   (pending) a PD controller
+ch09_pressure          09       pbanim/fluids/                    (pending) the pressure projection
+ch10_impact_gradient   10       pbanim/design/                    (pending) ∂S/∂u through an impact
+=====================  =======  ================================  =========================================
+
+A pending assignment becomes ready when its chapter's reference module carries solution markers and a
+checks module is added here: an :class:`~pbanim.course.registry.Assignment` with ``checks`` (100 points),
+``mutants`` (typical bugs and the checks that catch them) and ``status="ready"``.
+"""
+
+from __future__ import annotations
+
+from . import checks_constraints, checks_contact, checks_ode, checks_particles, checks_rigid
+from .registry import ASSIGNMENTS, Assignment, register
+
+__all__ = ["ASSIGNMENTS"]
+
+
+def _ready(name, chapter, title, module, summary, checks_module, prefix=""):
+    checks = getattr(checks_module, f"{prefix}CHECKS")
+    mutants = getattr(checks_module, f"{prefix}MUTANTS")
+    return register(Assignment(name, chapter, title, module, summary, tuple(checks), tuple(mutants)))
+
+
+_ready("ch01_particles", "ch01", "Force objects and a particle step", "pbanim.particles.system",
+       "Write Newton's law as a first-order system (ParticleSystem.derivative), the gravity and drag force "
+       "objects (Gravity.apply, Gravity.potential_energy, Drag.apply) and the in-place symplectic Euler step "
+       "ParticleSystem.kick_drift (kick the velocity with the force, then drift the position with the new "
+       "velocity).", checks_particles)
+_ready("ch02_integrators", "ch02", "Integrators", "pbanim.ode.methods",
+       "Write explicit Euler, symplectic Euler (kick then drift), velocity Verlet and the generic explicit "
+       "Runge–Kutta step from a Butcher tableau (explicit_rk_step).", checks_ode)
+_ready("ch03_constraints", "ch03", "Constraint multipliers with Baumgarte stabilization",
+       "pbanim.constraints.effect",
+       "Write the right-hand side c = −J̇q̇ − k_s C − k_d Ċ of the multiplier system J W Jᵀ λ = c − J W Q and "
+       "solve it (solve_multipliers and Constraints._solve; the linear solve solve_lambda is given).",
+       checks_constraints, "CH03_")
+_ready("ch04_reduced", "ch04", "A pendulum in reduced coordinates", "pbanim.reduced.system",
+       "Write the reduced equations of motion (JᵀMJ) ü = Jᵀ(Q − M J̇u̇) in ReducedSystem._solve and the "
+       "constraint force Q_C = M q̈ − Q in ReducedSystem.constraint_force.", checks_constraints, "CH04_")
+_ready("ch05_rigid_body", "ch05", "The rigid-body state and its derivative", "pbanim.rigid.bodies",
+       "Write the world-frame inverse inertia R I⁻¹_body Rᵀ, the velocities v = P/m and ω = I⁻¹_world L, and "
+       "Baraff's derivative ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies (RigidBodies.derivative_and_omega).",
+       checks_rigid, "BODY_")
+_ready("ch05_rigid_step", "ch05", "Torques and the quaternion step", "pbanim.rigid.effects",
+       "Write the force and torque of a force applied at a body point (PointForce.apply: F += f, τ += r × f "
+       "with r = R r_body) and the post-step quaternion renormalization q ← q/|q| "
+       "(QuaternionRenormalize.post_step).", checks_rigid, "STEP_")
+_ready("ch06_impulses", "ch06", "Collision impulses", "pbanim.collision.impulse",
+       "Write the relative contact velocity u = ṗ_a − ṗ_b, the collision matrix K, the application of impulses "
+       "to velocities, and Newton's impulse law with Coulomb friction (contact_impulse).",
+       checks_contact, "CH06_")
+_ready("ch07_lcp", "ch07", "The contact LCP by projected Gauss–Seidel", "pbanim.lcp.solve",
+       "Write projected Gauss–Seidel for w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 (pgs): sweep the contacts, set "
+       "fᵢ ← max(0, fᵢ − ω wᵢ/Aᵢᵢ), stop when the natural-map residual is below the threshold.",
+       checks_contact, "CH07_")
+
+for _name, _ch, _title, _module, _why in (
+        ("ch08_pd_control", "ch08", "A PD controller for a character", "pbanim.control",
+         "chapter 08 part 2 (controllers in pbanim/control/) is being written; it lands with solution markers "
+         "and a checks module"),
+        ("ch09_pressure", "ch09", "The pressure projection", "pbanim.fluids",
+         "chapter 09 (pbanim/fluids/) is being written; it lands with solution markers and a checks module"),
+        ("ch10_impact_gradient", "ch10", "∂S/∂u through an impact", "pbanim.design",
+         "chapter 10 (pbanim/design/) is being written; it lands with solution markers and a checks module")):
+    if _name not in ASSIGNMENTS:
+        register(Assignment(_name, _ch, _title, _module, "", status="pending", pending_reason=_why))
