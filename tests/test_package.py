@@ -26,7 +26,9 @@ def test_cli_lists_figures_and_benchmarks():
 
     out = subprocess.run([sys.executable, "-m", "pbanim.cli", "list", "bench"], capture_output=True, text=True,
                          check=True)
-    assert out.stdout.split() == [w for name in available() for w in ("bench", name)]
+    rows = [line.split(maxsplit=2) for line in out.stdout.splitlines() if line.strip()]
+    assert [r[:2] for r in rows] == [["bench", name] for name in available()]
+    assert all(len(r) == 3 and r[2].strip() for r in rows), "every benchmark has its one-line description"
 
 
 def test_cli_rejects_unknown_benchmark():
