@@ -37,6 +37,7 @@ simulation of rigid body systems*, PhD thesis 1996 (ch. 4, the articulated-body 
 from __future__ import annotations
 
 from .batched import aba_batch, crba_batch, rnea_batch
+from .fast import aba_fast
 from .dynamics import aba, bias_forces, crba, kinetic_energy, link_transforms, potential_energy, rnea
 from .joints import JOINTS, RigidJoint, RigidJoints
 from .planar import NotPlanarError, PlanarKernel
@@ -48,5 +49,5 @@ from .tree import JOINT_TYPES, ArticulatedTree, Joint, Link
 
 __all__ = ["PlanarKernel", "NotPlanarError", "PlanarContactStep", "PlanarGround", "solve_planar_contact",
            "ArticulatedTree", "ArticulatedSystem", "RigidJoints", "RigidJoint", "JOINTS", "load_urdf", "rpy_matrix", "Joint", "Link", "JOINT_TYPES", "rnea", "crba", "aba", "bias_forces",
-           "kinetic_energy", "potential_energy", "link_transforms", "rnea_batch", "crba_batch", "aba_batch",
+           "kinetic_energy", "potential_energy", "link_transforms", "rnea_batch", "crba_batch", "aba_batch", "aba_fast",
            "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation"]

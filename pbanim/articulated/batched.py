@@ -8,6 +8,10 @@ paid once per batch instead of once per state. Cross products are applied direct
     v̂ × ŵ = (ω × w_ω,  v × w_ω + ω × w_v),     v̂ ×* f̂ = (ω × n + v × f,  ω × f),
 
 instead of forming the 6 × 6 matrices. ``q`` of shape (nq,) is treated as K = 1 and the result squeezed.
+
+Forward dynamics over a batch is :func:`aba_batch`, which runs the world-frame ABA of
+:mod:`pbanim.articulated.fast` (one numpy operation per step for all K states, no 6 × 6 transform in its
+sweeps: see :mod:`pbanim.articulated.fastplan` for why that is the same q̈).
 """
 
 from __future__ import annotations
@@ -15,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry import cross as _cross
-from ..errors import SingularChartError
 from .dynamics import external_forces
+from .fast import aba_fast
 from .tree import ArticulatedTree
 
 __all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
@@ -109,50 +113,8 @@ def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
 
 
 def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
-    """q̈ for K states at once by the articulated-body algorithm (joint damping included)."""
-    single, q, (qd, tau) = _batch(tree, q, qd, tau, names=("qd", "tau"))
-    A, K, n = tree.arrays(), q.shape[0], tree.n
-    fx = external_forces(tree, f_ext, K)
-    tau = tau - A["damping"] * qd
-    Xup = link_transforms_batch(tree, q)
-    v, c, IA, pA = [None] * n, [None] * n, [None] * n, [None] * n
-    for i in range(n):
-        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
-        vJ = qd[:, vi] @ S.T
-        v[i] = (_mv(Xup[i], v[lam]) if lam >= 0 else 0.0) + vJ
-        c[i] = _crm(v[i], vJ)
-        IA[i] = np.broadcast_to(A["I"][i], (K, 6, 6)).copy()
-        pA[i] = _crf(v[i], v[i] @ A["I"][i].T) - fx[:, i]
-    U, Dinv, u = [None] * n, [None] * n, [None] * n
-    for i in reversed(range(n)):
-        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
-        U[i] = IA[i] @ S                                        # (K, 6, d)
-        D = S.T @ U[i]                                          # (K, d, d)
-        if S.shape[1]:
-            if not np.all(np.isfinite(D)) or np.any(np.abs(np.linalg.det(D)) < 1e-280):
-                raise SingularChartError(np.inf, None, f"joint {i} has (nearly) zero articulated inertia about "
-                                         "its axis in some state of the batch")
-            Dinv[i] = np.linalg.inv(D)
-        else:
-            Dinv[i] = np.zeros((K, 0, 0))
-        u[i] = tau[:, vi] - pA[i] @ S                           # (K, d)
-        if lam >= 0:
-            UD = U[i] @ Dinv[i]
-            Ia = IA[i] - UD @ np.swapaxes(U[i], 1, 2)
-            pa = pA[i] + _mv(Ia, c[i]) + np.einsum("kij,kj->ki", UD, u[i])
-            XT = np.swapaxes(Xup[i], 1, 2)
-            IA[lam] += XT @ Ia @ Xup[i]
-            pA[lam] = pA[lam] + _mv(XT, pa)
-    qdd = np.zeros((K, tree.nv))
-    a = [None] * n
-    a0 = np.broadcast_to(A["a0"], (K, 6))
-    for i in range(n):
-        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
-        ap = _mv(Xup[i], a[lam] if lam >= 0 else a0) + c[i]
-        qi = np.einsum("kij,kj->ki", Dinv[i], u[i] - np.einsum("kji,kj->ki", U[i], ap))
-        qdd[:, vi] = qi
-        a[i] = ap + qi @ S.T
-    if not np.all(np.isfinite(qdd)):
-        raise SingularChartError(np.inf, None, "ABA's accelerations are not finite (singular joint inertia or "
-                                 "overflowing inputs)")
-    return qdd[0] if single else qdd
+    """q̈ for K states at once: q (K, nq), q̇ and τ (K, nv) → q̈ (K, nv), joint damping and external forces
+    included. This is the world-frame ABA of :func:`~pbanim.articulated.fast.aba_fast` (equations in
+    :mod:`~pbanim.articulated.fastplan`), whose sweeps need no 6 × 6 transforms; the link-coordinate
+    recursion to read is :func:`~pbanim.articulated.dynamics.aba`. ``q`` of shape (nq,) is one state."""
+    return aba_fast(tree, q, qd, tau, f_ext)

@@ -24,6 +24,7 @@ from ..ode import get_method
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 from .batched import aba_batch
+from .fast import aba_fast
 from .dynamics import aba, kinetic_energy, potential_energy
 from .tree import ArticulatedTree
 
@@ -97,7 +98,7 @@ class ArticulatedSystem:
         self.nfev += 1
         q, qd = y[..., :self.nq], y[..., self.nq:]
         tau = self._tau(t, q, qd)
-        qdd = aba(self.tree, q, qd, tau) if y.ndim == 1 else aba_batch(self.tree, q, qd, tau)
+        qdd = aba_fast(self.tree, q, qd, tau) if y.ndim == 1 else aba_batch(self.tree, q, qd, tau)
         return np.concatenate([self.qdot(q, qd), qdd], axis=-1)
 
     def energy(self, y: np.ndarray) -> float:
