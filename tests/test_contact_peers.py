@@ -14,7 +14,10 @@ from pbanim.bench import Goal, Report, available, format_report
 from pbanim.bench import contact as bench
 from pbanim.bench import contact_peers
 
-COST_GOAL = "contact-stack-cost-vs-pybullet"
+COST_GOAL = "contact-equal-step-vs-pybullet"
+PEER_GOALS = ("contact-equal-step-vs-pybullet", "contact-stack-cost-at-0.0001m-vs-peers",
+              "contact-stack-cost-at-1e-06m-vs-peers", "contact-pile-cost-at-0.0001m-vs-peers",
+              "contact-pile-cost-at-1e-06m-vs-peers")
 
 
 def _table(rep: Report, title_start: str):
@@ -45,7 +48,7 @@ def test_bench_without_peers_skips_with_notes_and_no_fake_goal(monkeypatch):
         raise AssertionError("a peer ran although it is 'not installed'")
 
     monkeypatch.setattr(contact_peers, "have", lambda name: False)
-    for fn in ("pybullet_stack", "mujoco_stack", "mujoco_pour"):
+    for fn in ("pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run"):
         monkeypatch.setattr(contact_peers, fn, boom)
     rep = bench.run(quick=True)
     stack, pour = _rows(rep, "10-box stack"), _rows(rep, "20 spheres")
@@ -59,14 +62,13 @@ def test_bench_without_peers_skips_with_notes_and_no_fake_goal(monkeypatch):
     assert "not measured (pybullet not installed)" in line and not line.rstrip().endswith(("met", "missed"))
     js = next(g for g in rep.to_json()["goals"] if g["id"] == COST_GOAL)
     assert js["met"] is False and js["skipped"] == "pybullet not installed"
-    # the other goals are measured as before
-    assert all(np.isfinite(g.measured) and g.met for g in rep.goals if g.id != COST_GOAL)
-    # the step sweep: an exact acceleration-level solve holds the stack still at every step up to one frame
-    steps = _table(rep, "10-box stack at rest for 0.1 s: cost per simulated second vs step h")
-    assert {(r[0], r[1]) for r in steps.rows} == {(s, h) for s in bench.DIRECT for h in bench.STACK_STEPS}
-    for r in steps.rows:
-        row = dict(zip(steps.header, r))
-        assert row["top drift (m)"] <= 1e-9 and row["max penetration (m)"] <= 1e-9 and row["counts"] == "yes"
+    # every peer goal says why it was not measured; the other goals are measured
+    assert all(g.skipped and not g.met for g in rep.goals if g.id in PEER_GOALS)
+    assert all(np.isfinite(g.measured) for g in rep.goals if g.id not in PEER_GOALS)
+    # the work-precision tables hold pbanim rows only, each with a finite cost and accuracy
+    for scene in ("10-box stack dropped", "20 rigid spheres"):
+        tab = _table(rep, f"work-precision for contact: {scene}")
+        assert tab.rows and all(r[0] == "pbanim" and np.isfinite(r[4]) and np.isfinite(r[7]) for r in tab.rows)
 
 
 @pytest.fixture(scope="module")
@@ -89,19 +91,14 @@ def test_bench_with_peers_has_rows_and_the_cost_goal(peer_report):
     mj = pour["MuJoCo (peer)"]
     assert mj["cost per step (ms)"] > 0 and mj["status"] == "ok"
     assert mj["steps"] == pour["pbanim (velocity level, pgs)"]["steps"]
-    # the goal is the ratio of the table's numbers, measured in this run: the cheapest direct run of the step
-    # sweep that kept drift and penetration <= 1e-9 m over PyBullet at h = 1/1000
+    # the equal-step goal is the ratio of the work-precision table's numbers at h = 1e-3, measured in this run
     goal = next(g for g in rep.goals if g.id == COST_GOAL)
-    sweep = _table(rep, "10-box stack at rest for 0.1 s: cost per simulated second vs step h")
-    counted = [dict(zip(sweep.header, r)) for r in sweep.rows if r[-1] == "yes"]
-    assert all(r["top drift (m)"] <= 1e-9 and r["max penetration (m)"] <= 1e-9 for r in counted)
-    cheapest = min(r["cost per sim. second (s)"] for r in counted)
-    assert not goal.skipped and np.isfinite(goal.measured)
-    assert goal.measured == pytest.approx(cheapest / stack["PyBullet (peer)"]["cost per sim. second (s)"], rel=1e-12)
-    # PyBullet at the same steps is in the sweep too, never counted
-    peer_rows = [r for r in sweep.rows if r[0] == "PyBullet (peer)"]
-    assert [r[1] for r in peer_rows] == list(bench.STACK_STEPS) and all(r[-1] == "peer" for r in peer_rows)
-    assert any(n.startswith("at equal steps (h = 1/1000)") for n in rep.notes)
+    tab = _table(rep, "work-precision for contact: 10-box stack dropped")
+    rows = [dict(zip(tab.header, r)) for r in tab.rows if r[2] == 1e-3]
+    ours = next(r for r in rows if r["engine"] == "pbanim" and r["solver"] == "active_set")
+    theirs = next(r for r in rows if r["engine"] == "pybullet" and r["solver"].endswith("50 it."))
+    assert goal.measured == pytest.approx(ours["cost per step (ms)"] / theirs["cost per step (ms)"], rel=1e-9)
+    assert all(not g.skipped for g in rep.goals)
     assert not any("not installed" in n for n in rep.notes)
     json.dumps(rep.to_json(), default=float)           # the peer rows serialize for --json
 

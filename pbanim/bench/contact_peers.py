@@ -38,7 +38,7 @@ import time
 import numpy as np
 from ..errors import InvalidInput
 
-__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour"]
+__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run"]
 
 G = 9.81
 
@@ -185,3 +185,98 @@ def mujoco_pour(n: int = 100, t_end: float = 1.2, h: float = 4e-3) -> dict:
     inside = bool(np.all(np.abs(xs[:, :2]) <= L + r) and np.all(xs[:, 2] >= -r))
     return {"per_step": elapsed / steps, "steps": steps, "penetration": pen, "mean_contacts": contacts / steps,
             "inside": inside, "radius": r, "settings": f"{_mj_solver(model)}, condim 1 (frictionless)"}
+
+
+# ---------------------------------------------------------------------------------------------
+# Issue 14: the dropped stack and the sphere pile (pbanim.contact.scenes), drift and penetration after settling
+# ---------------------------------------------------------------------------------------------
+def _new_scene(scene: str, quick: bool) -> dict:
+    """Geometry, start and duration of ``dropped_stack(10)`` / ``sphere_pile(20 | 50)``, as pbanim runs them."""
+    from ..contact.scenes import dropped_stack, sphere_pile
+
+    if scene not in ("stack", "pile"):
+        raise InvalidInput(f"scene must be 'stack' or 'pile', got {scene!r}")
+    sc = dropped_stack(10) if scene == "stack" else sphere_pile(20 if quick else 50)
+    N = sc.system.N
+    t_end = (0.3 if scene == "stack" else 0.6) if quick else (1.5 if scene == "stack" else 3.0)
+    return {"x0": np.array(sc.system.unpack(sc.system.state())[0], float), "N": N, "t_end": t_end, "mu": sc.friction,
+            "half": sc.info.get("half_extents"), "radius": sc.info.get("radius"), "L": sc.info.get("box_half")}
+
+
+def _mjcf_new(scene: str, S: dict, h: float, iterations: int) -> str:
+    mu = S["mu"]
+    if scene == "stack":
+        geom = f'type="box" size="{_v(*S["half"])}"'
+        walls = '    <geom name="ground" type="plane" size="10 10 0.1"/>'
+    else:
+        geom = f'type="sphere" size="{_v(S["radius"])}"'
+        L = S["L"]
+        walls = "\n".join(f'    <geom type="plane" size="{_v(L, L, 0.1)}" pos="{_v(*p)}" zaxis="{_v(*z)}"/>' for p, z in
+                          (((0, 0, 0), (0, 0, 1)), ((-L, 0, 0), (1, 0, 0)), ((L, 0, 0), (-1, 0, 0)),
+                           ((0, -L, 0), (0, 1, 0)), ((0, L, 0), (0, -1, 0))))
+    bodies = "\n".join(f'    <body name="b{k}" pos="{_v(*x)}"><freejoint/><geom {geom} mass="1"/></body>'
+                       for k, x in enumerate(S["x0"]))
+    return (f'<mujoco model="pbanim-{scene}">\n  <option timestep="{_v(h)}" gravity="{_v(0, 0, -G)}" '
+            f'iterations="{int(iterations)}"/>\n  <default><geom friction="{_v(mu)} 0.005 0.0001"/></default>\n'
+            f"  <worldbody>\n{walls}\n{bodies}\n  </worldbody>\n</mujoco>\n")
+
+
+def settle_run(engine: str, scene: str, quick: bool, h: float, iterations: int) -> dict:
+    """One peer run of the dropped stack or the sphere pile: cost per step and per simulated second (the
+    stepping call alone), drift of the top box (stack) or of the highest centre (pile) and the deepest
+    contact over the last third of the run (the engine's own contact distances)."""
+    if engine not in ("pybullet", "mujoco"):
+        raise InvalidInput(f"engine must be 'pybullet' or 'mujoco', got {engine!r}")
+    S = _new_scene(scene, quick)
+    steps = _steps(S["t_end"], h)
+    k0 = (2 * steps) // 3
+    heights, pens, elapsed = [], [], 0.0
+    if engine == "mujoco":
+        import mujoco
+
+        model = mujoco.MjModel.from_xml_string(_mjcf_new(scene, S, h, iterations))
+        data = mujoco.MjData(model)
+        for k in range(steps):
+            start = time.perf_counter()
+            mujoco.mj_step(model, data)
+            elapsed += time.perf_counter() - start
+            z = data.xpos[1:, 2]
+            heights.append(float(z[-1] if scene == "stack" else z.max()))
+            pens.append(max(0.0, -float(np.min(data.contact.dist))) if data.ncon else 0.0)
+        solver = _mj_solver(model).split(",")[0]
+    else:
+        import pybullet as pb
+
+        cid = pb.connect(pb.DIRECT)
+        try:
+            kw = {"physicsClientId": cid}
+            pb.setGravity(0.0, 0.0, -G, **kw)
+            pb.setTimeStep(h, **kw)
+            pb.setPhysicsEngineParameter(numSolverIterations=int(iterations), **kw)
+            fr = float(np.sqrt(S["mu"]))                 # PyBullet multiplies the two frictions of a pair
+            statics = [pb.createMultiBody(0.0, pb.createCollisionShape(pb.GEOM_PLANE, **kw), **kw)]
+            if scene == "stack":
+                shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=list(map(float, S["half"])), **kw)
+            else:
+                shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=float(S["radius"]), **kw)
+                L = float(S["L"])
+                for p, e in (((-L - 0.05, 0, 0.5), (0.05, L + 0.1, 0.5)), ((L + 0.05, 0, 0.5), (0.05, L + 0.1, 0.5)),
+                             ((0, -L - 0.05, 0.5), (L + 0.1, 0.05, 0.5)), ((0, L + 0.05, 0.5), (L + 0.1, 0.05, 0.5))):
+                    wall = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=list(e), **kw)
+                    statics.append(pb.createMultiBody(0.0, wall, basePosition=list(p), **kw))
+            ids = [pb.createMultiBody(1.0, shape, basePosition=x.tolist(), **kw) for x in S["x0"]]
+            for i in statics + ids:
+                pb.changeDynamics(i, -1, lateralFriction=fr, **kw)
+            for k in range(steps):
+                start = time.perf_counter()
+                pb.stepSimulation(**kw)
+                elapsed += time.perf_counter() - start
+                z = [pb.getBasePositionAndOrientation(i, **kw)[0][2] for i in ids]
+                heights.append(z[-1] if scene == "stack" else max(z))
+                pens.append(max(0.0, -min((c[8] for c in pb.getContactPoints(**kw)), default=0.0)))
+        finally:
+            pb.disconnect(cid)
+        solver = "SI"
+    top = np.array(heights)
+    return {"per_step": elapsed / steps, "cost": elapsed / S["t_end"], "drift": float(np.abs(top[k0:] - top[k0]).max()),
+            "pen": float(max(pens[k0:])), "solver": solver, "steps": steps}

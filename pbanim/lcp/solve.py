@@ -22,7 +22,8 @@ r          residual     scalar      natural-map residual ‖f − max(0, f − w
 Solvers (``solver=``): ``"qp"`` (qpsolvers; ProxQP by default through proxsuite's own box
 constraints), ``"lemke"`` (complementary pivoting, Cottle–Pang–Stone §4.4, lexicographic
 anti-cycling), ``"dantzig"`` (Baraff 1994's principal pivoting, Bland's rule for ties),
-``"pgs"`` (projected Gauss–Seidel with warm start). Limiting cases: b ≥ 0 gives f = 0 for every
+``"pgs"`` (projected Gauss–Seidel with warm start), ``"bpp"`` (block principal pivoting from a guessed
+active set, :mod:`pbanim.lcp.active_set`; symmetric PSD A; a cold QP solve when it cycles). Limiting cases: b ≥ 0 gives f = 0 for every
 solver; a single contact gives f = max(0, −b/A).
 
 Every answer is judged by the natural-map residual computed from A and b (ORACLES D8), never by
@@ -49,7 +50,7 @@ from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["solve_lcp", "LCP_SOLVERS", "residual_threshold"]  # lemke, dantzig, pgs, qp: via this module
 
-LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs")
+LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs", "bpp")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -84,13 +85,15 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
     # END SOLUTION
 
 
-def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8) -> tuple:
+def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8,
+                     warm_start=None) -> tuple:
     """Projected Gauss–Seidel for contact with box friction; unknowns per contact i: (fᵢ, tᵢ₁, tᵢ₂).
 
     w = A z + b with z ordered [f₁, t₁₁, t₁₂, f₂, …]: fᵢ ≥ 0 ⊥ w_fᵢ ≥ 0 and each tangential impulse
     in [−μ fᵢ, μ fᵢ] with w = 0 inside (the friction pyramid aligned with (t₁, t₂)). Each row is clamped
     in turn, w updated incrementally; at most ``max_iter`` sweeps. Returns (z, residual, sweeps) with the
     residual the largest violation of those conditions (the caller decides what it accepts).
+    ``warm_start`` (3m,): the previous impulses (contact persistence), projected onto the bounds first.
     """
     A, b = _check(A, b)
     n = b.size
@@ -100,7 +103,15 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
     diag = np.diag(A).copy()
     if np.any(diag <= 0):
         raise InvalidInput("pgs_box_friction needs A with a positive diagonal (add a little regularization)")
-    z, w = np.zeros(n), b.copy()
+    z = np.zeros(n)
+    if warm_start is not None:
+        z = np.array(warm_start, dtype=float)
+        if z.shape != (n,) or not np.all(np.isfinite(z)):
+            raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
+        z[0::3] = np.maximum(z[0::3], 0.0)
+        lim = mu * z[0::3]
+        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    w = A @ z + b
     for sweep in range(1, int(max_iter) + 1):
         for r in range(n):
             i, kind = divmod(r, 3)
@@ -234,7 +245,25 @@ def delassus(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
     return out
 
 
-_IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp}
+def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: bool = True,
+               **opts: Any) -> tuple[np.ndarray, str, int]:
+    """Block principal pivoting (:func:`pbanim.lcp.active_set.bpp`, symmetric PSD A) for at most ``max_iter``
+    exchange rounds; when it has not found the active set by then (redundant, degenerate stacks can make it
+    cycle), ProxQP runs from a cold start at eps_abs = tol/2 (polished only if that is not enough), and the
+    status says so ("bpp→qp:<status>")."""
+    from .active_set import bpp
+
+    f, status, iters = bpp(A, b, max_iter=max_iter, **opts)
+    if status == "solved" or not qp_fallback:
+        return f, status, iters
+    tol = opts.get("tol", 1e-10)
+    g, st2, it2 = qp(A, b, tol=tol, eps_abs=0.5 * tol * _scale(b), polish=False)
+    if natural_map_residual(g, A @ g + b) > residual_threshold(A, b, g, tol):
+        g = _polish(A, b, g, tol)
+    return g, f"bpp→qp:{st2}", iters + it2
+
+
+_IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp, "bpp": _bpp_route}
 
 
 def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure: bool = True,
@@ -245,7 +274,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
     ----------
     A : array_like, shape (m, m)
     b : array_like, shape (m,)
-    solver : {"qp", "lemke", "dantzig", "pgs"}
+    solver : {"qp", "lemke", "dantzig", "pgs", "bpp"}
         ``"qp"`` needs a symmetric PSD A (frictionless contact); the pivoting methods also take the
         non-symmetric matrices of friction; ``"pgs"`` needs Aᵢᵢ > 0.
     tol : float
@@ -288,7 +317,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         raise InvalidInput(f"tol must be a number in (0, 1) (a residual relative to max(1, ‖b‖∞)), got {tol}")
     A, b = _check(A, b)
     m = b.size
-    if solver == "qp" and m:
+    if solver in ("qp", "bpp") and m:
         # symmetry is always checked (O(m²); a non-symmetric A can keep a QP backend busy for minutes);
         # definiteness (an O(m³) eigenvalue computation) only with validate=True
         asym = float(np.max(np.abs(A - A.T)))
@@ -310,7 +339,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
                 f, status, extra["warm_start_hit"] = g, "solved", True
     if f is None:
         kw = dict(opts)
-        if solver in ("pgs", "qp"):
+        if solver in ("pgs", "qp", "bpp"):
             kw.update(tol=tol, warm_start=warm_start)
         polish = kw.pop("polish", True)
         if solver == "qp":

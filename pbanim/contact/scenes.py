@@ -1,0 +1,248 @@
+"""Contact scenes that are not at rest by construction, and their vectorized narrow phase (chapter 07).
+
+Two scenes for the work-precision benchmark of contact (``pbanim bench contact``):
+
+* :func:`dropped_stack` — n boxes (half extents h = (0.5, 0.5, 0.25) m, 1 kg) dropped from gaps of
+  1 mm (box k centred at z_k = h_z(2k + 1) + (k + 1)·gap) with lateral offsets of a few millimetres
+  (uniform in [−δ, δ] per axis, seeded), friction μ = 0.5. The stack must land, stop and stay.
+* :func:`sphere_pile` — n rigid spheres (r = 0.05 m, 1 kg, I = ⅖ m r²) poured on a jittered lattice
+  into the open box |x|, |y| ≤ L = 0.3 m, z ≥ 0, friction μ = 0.5 (they roll, hit and pile).
+
+Narrow phase, one vectorized pass per kind of pair (no Python loop over pairs or contacts):
+
+* box–plane: the eight corners c of every box, p = x + R c, separation s = n·p − d;
+* box–box (vertex–face): the corners of box a in the frame of box b, p_b = R_bᵀ(p − x_b); a corner
+  inside the slab |p_b,k| ≤ h_k + tol (k = 1, 2, 3; the face's lateral extent widened by ``lateral_tol``
+  so that the overhang of an offset stack keeps its support) touches the face of b along the axis of
+  least penetration k* = argmax_k (|p_b,k| − h_k), normal n = sign(p_b,k*) R_b e_k*, separation
+  s = |p_b,k*| − h_k*. Both directions are computed and, per pair, the one with more corners kept (a
+  face resting on a face: the upper box's four corners). Edge–edge contacts are not generated.
+* sphere–sphere and sphere–plane: s = |x_a − x_b| − 2r and s = n·x − d − r.
+
+Every contact carries a *key* (a, b, feature) that is stable while the contact persists; the
+time stepper uses it to start each step from the previous step's impulses and active set.
+
+=========  ===============  ===========  =============================================
+symbol     code             shape        meaning
+=========  ===============  ===========  =============================================
+h          ``half``         (3,)         box half extents
+δ          ``offset``       scalar       lateral offsets drawn from [−δ, δ] (m)
+s          ``-depth``       (m,)         separation (negative: penetration)
+key        ``keys``         (m,) int     a·K² + b·K + feature, stable across steps
+=========  ===============  ===========  =============================================
+
+Limiting cases: gap = offset = 0 gives the stack of :func:`pbanim.models.contact.box_stack`
+(exactly touching, four corner contacts per interface); one sphere gives a ball dropped in a box.
+
+References: D. Baraff, SIGGRAPH 2001 course notes, rigid body simulation II (vertex–face contacts);
+C. Ericson, *Real-Time Collision Detection* (2005), §4.4 (oriented boxes), §5.2.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..collision.shapes import Contacts
+from ..errors import InvalidInput, check_count, check_number
+
+__all__ = ["ContactScene3D", "dropped_stack", "sphere_pile", "box_plane_contacts", "box_box_contacts",
+           "box_box_contacts_loop", "sphere_contacts"]
+
+_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+@dataclass
+class ContactScene3D:
+    """A rigid-body contact scene: ``detect(y) -> (Contacts, keys)``, gravity, and what it is made of."""
+
+    system: Any
+    detect: Callable
+    forces: list
+    friction: float
+    info: dict = field(default_factory=dict)
+
+
+def _contacts(a, b, p, n, sep, radius=None) -> Contacts:
+    m = len(a)
+    return Contacts(a=np.asarray(a, dtype=np.intp), b=np.asarray(b, dtype=np.intp), point=np.reshape(p, (m, 3)),
+                    normal=np.reshape(n, (m, 3)), depth=-np.asarray(sep, dtype=float),
+                    radius=None if radius is None else np.asarray(radius, dtype=float))
+
+
+def box_plane_contacts(x, R, half, normal, offset, margin, plane_id: int = 0):
+    """Corners of every box within ``margin`` of the plane n·p = d: (a, point, separation, feature)."""
+    pts = x[:, None, :] + np.einsum("nij,kj->nki", R, _CORNERS * half)      # (N, 8, 3)
+    sep = pts @ normal - offset
+    bi, ci = np.nonzero(sep <= margin)
+    return bi, pts[bi, ci], sep[bi, ci], 8 * plane_id + ci
+
+
+def _corner_in_box(x, R, half, ia, ib, margin, lateral_tol):
+    """Corners of boxes ia touching a face of boxes ib (vectorized over pairs): mask (P, 8), points,
+    normals, separations. The face of b: its axis of least overlap k* (the separating-axis test on b's
+    three face normals, overlap_k = h_k + Σⱼ |(R_bᵀR_a)_kj| h_j − |d_k|, d = R_bᵀ(x_a − x_b))."""
+    d = np.einsum("pji,pj->pi", R[ib], x[ia] - x[ib])
+    C = np.einsum("pji,pjk->pik", R[ib], R[ia])
+    overlap = half + np.abs(C) @ half - np.abs(d)
+    k = np.argmin(overlap, axis=1)                                                         # (P,)
+    P = k.size
+    sign = np.where(d[np.arange(P), k] >= 0, 1.0, -1.0)
+    pts = x[ia][:, None, :] + np.einsum("pij,kj->pki", R[ia], _CORNERS * half)            # (P, 8, 3) world
+    loc = np.einsum("pji,pkj->pki", R[ib], pts - x[ib][:, None, :])                      # in b's frame
+    sep = sign[:, None] * loc[np.arange(P), :, k] - half[k][:, None]                       # (P, 8)
+    lateral = np.abs(loc) - half
+    lateral[np.arange(P), :, k] = -np.inf
+    inside = np.all(lateral <= lateral_tol, axis=2) & (sep <= margin) & (sep > -half[k][:, None])
+    normal = sign[:, None] * R[ib][np.arange(P), :, k]                                      # (P, 3)
+    return inside, pts, np.broadcast_to(normal[:, None, :], pts.shape), sep
+
+
+def box_box_contacts(x, R, half, pairs, margin: float, lateral_tol: float):
+    """Vertex–face contacts of the box pairs (i, j) (array (P, 2)); see the module docstring.
+
+    Returns (a, b, point, normal, separation, feature) with the normal from b to a."""
+    pairs = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
+    i, j = pairs[:, 0], pairs[:, 1]
+    in_ij, p_ij, n_ij, s_ij = _corner_in_box(x, R, half, i, j, margin, lateral_tol)   # corners of i on j
+    in_ji, p_ji, n_ji, s_ji = _corner_in_box(x, R, half, j, i, margin, lateral_tol)
+    use_ij = in_ij.sum(1) >= in_ji.sum(1)
+    keep_ij, keep_ji = in_ij & use_ij[:, None], in_ji & ~use_ij[:, None]
+    pi, ci = np.nonzero(keep_ij)
+    pj, cj = np.nonzero(keep_ji)
+    a = np.concatenate([i[pi], j[pj]])
+    b = np.concatenate([j[pi], i[pj]])
+    return (a, b, np.vstack([p_ij[pi, ci], p_ji[pj, cj]]), np.vstack([n_ij[pi, ci], n_ji[pj, cj]]),
+            np.concatenate([s_ij[pi, ci], s_ji[pj, cj]]), np.concatenate([ci, cj]))
+
+
+def box_box_contacts_loop(x, R, half, pairs, margin: float, lateral_tol: float):
+    """Readable per-pair, per-corner version of :func:`box_box_contacts` (same output, same order)."""
+    out = {"ij": [], "ji": []}
+    for i, j in np.asarray(pairs, dtype=int).reshape(-1, 2):
+        found = {}
+        for tag, a, b in (("ij", i, j), ("ji", j, i)):
+            d = R[b].T @ (x[a] - x[b])
+            overlap = [half[k] + np.abs(R[b][:, k] @ R[a]) @ half - abs(d[k]) for k in range(3)]
+            k = int(np.argmin(overlap))
+            sign = 1.0 if d[k] >= 0 else -1.0
+            found[tag] = []
+            for c, corner in enumerate(_CORNERS):
+                p = x[a] + R[a] @ (corner * half)
+                loc = R[b].T @ (p - x[b])
+                sep = sign * loc[k] - half[k]
+                lateral_ok = all(abs(loc[o]) - half[o] <= lateral_tol for o in range(3) if o != k)
+                if lateral_ok and margin >= sep > -half[k]:
+                    found[tag].append((a, b, p, sign * R[b][:, k], sep, c))
+        tag = "ij" if len(found["ij"]) >= len(found["ji"]) else "ji"
+        out[tag] += found[tag]
+    rows = out["ij"] + out["ji"]
+    if not rows:
+        return (np.zeros(0, np.intp),) * 2 + (np.zeros((0, 3)),) * 2 + (np.zeros(0), np.zeros(0, np.intp))
+    a, b, p, n, s, c = zip(*rows)
+    return np.array(a), np.array(b), np.array(p), np.array(n), np.array(s), np.array(c)
+
+
+def sphere_contacts(x, r: float, pairs, margin: float):
+    """Sphere–sphere contacts for the pairs (P, 2): (a, b, point on b's surface, normal b→a, separation)."""
+    i, j = pairs[:, 0], pairs[:, 1]
+    d = x[i] - x[j]
+    dist = np.linalg.norm(d, axis=1)
+    keep = dist - 2 * r <= margin
+    n = d[keep] / dist[keep, None]
+    return i[keep], j[keep], x[j[keep]] + r * n, n, dist[keep] - 2 * r
+
+
+def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction: float = 0.5, seed: int = 0,
+                  half_extents=(0.5, 0.5, 0.25), g: float = 9.81, margin: float = 2e-3,
+                  lateral_tol: float = 1e-2) -> ContactScene3D:
+    """n boxes dropped from ``gap`` above each other with lateral offsets in [−offset, offset] (see module).
+
+    >>> sc = dropped_stack(3)
+    >>> c, keys = sc.detect(sc.system.state()); c.a.size, bool(np.all(c.depth < 0))
+    (4, True)
+    """
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import box_inertia
+
+    n = check_count("n", n, 1, 1000)
+    gap = check_number("gap", gap, low=0.0)
+    offset = check_number("offset", offset, low=0.0)
+    friction = check_number("friction", friction, low=0.0)
+    half = np.asarray(half_extents, dtype=float)
+    if half.shape != (3,) or not np.all(np.isfinite(half) & (half > 0)):
+        raise InvalidInput(f"half_extents must be 3 positive numbers, got {half_extents!r}")
+    if 2 * offset > lateral_tol:
+        raise InvalidInput(f"offset must be ≤ lateral_tol / 2 = {lateral_tol / 2} m (the face extension that keeps an "
+                           f"overhanging corner in contact), got {offset}")
+    rng = np.random.default_rng(seed)
+    k = np.arange(n)
+    pos = np.zeros((n, 3))
+    pos[:, :2] = rng.uniform(-offset, offset, size=(n, 2))
+    pos[:, 2] = half[2] * (2 * k + 1) + (k + 1) * gap
+    bodies = RigidBodies(np.ones(n), np.stack([box_inertia(1.0, 2 * half)] * n), positions=pos)
+    up = np.array([0.0, 0.0, 1.0])
+    pairs = np.stack([k[1:], k[:-1]], axis=1)          # neighbours in the stack (a broad phase by construction)
+    K = n + 1
+
+    def detect(y):
+        x = bodies.unpack(y)[0]
+        R = bodies.rotations(y)
+        g_a, g_p, g_s, g_f = box_plane_contacts(x[:1], R[:1], half, up, 0.0, margin)
+        a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
+        A = np.concatenate([g_a, a])
+        B = np.concatenate([-np.ones(g_a.size, np.intp), b])
+        keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
+        return _contacts(A, B, np.vstack([g_p, p]), np.vstack([np.tile(up, (g_a.size, 1)), nn]),
+                         np.concatenate([g_s, s])), keys
+
+    return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
+                          {"half_extents": half, "top": n - 1, "gap": gap, "offset": offset})
+
+
+def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, friction: float = 0.5, seed: int = 0,
+                g: float = 9.81, margin: float | None = None) -> ContactScene3D:
+    """n rigid spheres poured into the open box |x|, |y| ≤ L, z ≥ 0 (see the module docstring).
+
+    >>> sc = sphere_pile(4)
+    >>> c, keys = sc.detect(sc.system.state()); c.a.size      # all four in the air
+    0
+    """
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import sphere_inertia
+
+    n = check_count("n", n, 1, 5000)
+    r = check_number("radius", radius, low=0.0, low_open=True)
+    L = check_number("box_half", box_half, low=2 * r, low_open=True)
+    friction = check_number("friction", friction, low=0.0)
+    margin = 0.1 * r if margin is None else check_number("margin", margin, low=0.0)
+    rng = np.random.default_rng(seed)
+    per = max(1, int(np.floor(2 * L / (2.2 * r))))
+    i = np.arange(n)
+    pos = np.stack([-L + 1.1 * r + 2.2 * r * (i % per), -L + 1.1 * r + 2.2 * r * ((i // per) % per),
+                    r + 0.05 + 2.4 * r * (i // (per * per))], axis=1)
+    pos[:, :2] += rng.uniform(-0.05 * r, 0.05 * r, size=(n, 2))
+    bodies = RigidBodies(np.ones(n), np.stack([sphere_inertia(1.0, r)] * n), positions=pos)
+    walls_n = np.array([[0, 0, 1.0], [1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -1.0, 0]])
+    walls_d = np.array([0.0, -L, -L, -L, -L])
+    pairs = np.stack(np.triu_indices(n, 1), axis=1)
+    K = n + 1
+
+    def detect(y):
+        x = bodies.unpack(y)[0]
+        sep_w = x @ walls_n.T - walls_d - r
+        bi, wi = np.nonzero(sep_w <= margin)
+        a, b, p, nn, s = sphere_contacts(x, r, pairs, margin)
+        A = np.concatenate([bi, a])
+        B = np.concatenate([-np.ones(bi.size, np.intp), b])
+        keys = (A * K + (B + 1)) * 8 + np.concatenate([wi, np.zeros(a.size, np.intp)])
+        c = _contacts(A, B, np.vstack([x[bi] - r * walls_n[wi], p]), np.vstack([walls_n[wi], nn]),
+                      np.concatenate([sep_w[bi, wi], s]))
+        return c, keys
+
+    return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
+                          {"radius": r, "box_half": L})
