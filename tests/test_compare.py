@@ -114,12 +114,10 @@ def test_cradle_passes_the_velocity_to_the_last_ball(native):
         assert r.error < 1e-12 and abs(r.metrics["energy_loss"]) < 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason="pbanim.collision.toi.simulate_collisions: a pair that touches at the start "
-                                      "of a step is taken as resting and stopped plastically, even when it approaches "
-                                      "at 1 m/s; here the second impact falls exactly on a step boundary")
 def test_cradle_impact_on_a_step_boundary_is_elastic():
-    # ORACLES K6: gap 0.05 m at v₀ = 1 m/s puts the second impact at t = 0.1 s = 400 h; measured final
-    # (0, 0.5, 0.5) v₀ (plastic), expected (0, 0, 1) v₀ to 1e-12
+    # ORACLES K6: gap 0.05 m at v₀ = 1 m/s puts the second impact at t = 0.1 s = 400 h, exactly on a step
+    # boundary; before the fix the pair touching at the start of that step was stopped plastically (final
+    # (0, 0.5, 0.5) v₀); expected (0, 0, 1) v₀ to 1e-12
     from pbanim.compare.scenes import cradle
 
     sc = cradle(gap=0.05)

@@ -101,6 +101,13 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
             f0 = fun(t, y)
             dlt = 1e-7 * max(1.0, float(np.abs(y[:split]).max())) / max(float(np.abs(f0[:split]).max()), 1.0)
             gdot = (col.gaps(y + dlt * f0, pairs) - g) / dlt
+            # a pair already touching at the start of the step but approaching fast is an impact that
+            # fell on the step boundary: respond elastically now (not plastically after the step)
+            if np.any((g <= gap_tol) & (-gdot >= vrest)):
+                y = col.respond(t, y, hk, margin=10 * gap_tol)
+                impact_t.append(t)
+                impact_y.append(y.copy())
+                continue
             active = (g > gap_tol) & ~((g < vrest * hk) & (-gdot < vrest))
             if not active.any():
                 return m.step(fun, t, y, t1 - t, split=split)
