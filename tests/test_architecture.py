@@ -31,13 +31,13 @@ LAYERS: dict[str, int] = {
     "ode": 1, "lcp": 1,
     # 2: the body protocol; Scene, Effect and the step pipeline
     "bodies": 2, "scene": 2,
-    # 3: the systems (fluids reserved)
+    # 3: the systems
     "particles": 3, "rigid": 3, "fluids": 3,
     # 4: Lagrange multipliers, reduced coordinates and the Lagrangian, collision detection and impulses
     "constraints": 4, "reduced": 4, "lagrangian": 4, "collision": 4,
-    # 5: resting contact and friction (articulated bodies reserved)
+    # 5: resting contact and friction, articulated bodies
     "contact": 5, "articulated": 5,
-    # 6: reserved: characters and controllers, motion design
+    # 6: characters and controllers, motion design
     "control": 6, "design": 6,
     # 7: canonical systems with their exact answers (the oracles)
     "models": 7,

@@ -1,0 +1,145 @@
+"""Diffusion (chapter 09): the viscous term ν∇²u, and κ∇²s for a scalar, by implicit Euler.
+
+Stam diffuses implicitly so that no viscosity and no step can make it blow up:
+
+    (I − νΔt ∇²) u¹ = u⁰        (each velocity component; κ in place of ν for a scalar)
+
+An explicit step u¹ = u⁰ + νΔt ∇²u⁰ is stable only for νΔt/Δx² ≤ 1/(2d); the implicit one damps every
+Fourier mode k by 1/(1 − νΔt λ_k) < 1 for any Δt (λ_k ≤ 0 the eigenvalues of the discrete ∇²), which is
+also the decay it gives the Taylor–Green vortex, exp(−2νk²t) in the limit Δt, Δx → 0 (ORACLES E1).
+
+On the MAC grid a component uᵢ lives on faces: along its own axis the wall faces are held at uᵢ = 0,
+across the other axes the wall sits half a cell away and the ghost value 2w − uᵢ enforces no slip with
+the wall's tangential velocity w (the moving lid); faces touching obstacles are held at 0. The lid makes
+the system affine: A u = u⁰ + νΔt ∇²_w 0, the wall part moved to the right-hand side. Scalars have no
+flux through walls and obstacles: their operator is the pressure operator L of :mod:`.grid` with α = 1,
+β = κΔt (:func:`pbanim.fluids.poisson.solve_cells`).
+
+Methods, one signature: ``gauss_seidel`` (Stam: fixed sweeps, red–black), ``jacobi``, ``cg``
+(diagonal preconditioner, to a tolerance, capped), ``fft`` (exact, periodic boxes without obstacles;
+for scalars also ``dct``/``spectral`` on wall boxes).
+
+==========  ======================================================================
+symbol      meaning
+==========  ======================================================================
+ν, κ        kinematic viscosity, scalar diffusivity (≥ 0; 0 means no solve at all)
+Δt          step ``h``
+w           tangential velocity of a sliding wall (``Grid.lids``)
+λ_k         eigenvalues of the discrete Laplacian, Σᵢ (2 cos θᵢ − 2)/Δx²
+==========  ======================================================================
+
+Limiting cases: ν = 0 returns the field untouched (and the scene does not even declare the stage);
+νΔt → ∞ on a periodic box leaves the mean (the k = 0 mode) only.
+
+References: J. Stam, Stable Fluids (1999) §2.3 and Real-Time Fluid Dynamics for Games (2003) ``diffuse``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInput, check_count, check_number, check_positive
+from .grid import check_field
+from .poisson import SolveInfo, _cg, _spectral, relax, solve_cells
+
+__all__ = ["DIFFUSION_METHODS", "FaceOperator", "diffuse_scalar", "diffuse_velocity"]
+
+DIFFUSION_METHODS = ("gauss_seidel", "jacobi", "cg", "fft")
+
+
+class FaceOperator:
+    """A = I − a ∇² for velocity component ``i`` (closed faces: identity), matrix-free, with the sliding
+    walls' ghost values when ``walls`` is True (the affine part) and without them otherwise."""
+
+    def __init__(self, grid, i: int, a: float) -> None:
+        self.grid, self.i, self.a = grid, i, float(a)
+        self.closed = grid.open[i] == 0
+        ghosts = np.zeros(grid.face_shape(i))
+        for ax in range(grid.dim):
+            if grid.periodic[ax] or ax == i:
+                continue
+            for end in (0, -1):
+                idx = [slice(None)] * grid.dim
+                idx[ax] = end
+                ghosts[tuple(idx)] += 1.0
+        self.diag = np.where(self.closed, 1.0, 1.0 + a * (2 * grid.dim + ghosts) / grid.dx ** 2)
+
+    def laplacian(self, x: np.ndarray, walls: bool) -> np.ndarray:
+        g, i = self.grid, self.i
+        lap = -2.0 * g.dim * x
+        for ax in range(g.dim):
+            if g.periodic[ax]:
+                lap += np.roll(x, 1, axis=ax) + np.roll(x, -1, axis=ax)
+                continue
+            view = np.moveaxis(lap, ax, 0)                 # views: lap += lower and upper neighbours
+            xs = np.moveaxis(x, ax, 0)
+            view[1:] += xs[:-1]
+            view[:-1] += xs[1:]
+            if ax == i:                                    # wall faces are held: any value will do
+                view[0] += xs[0]
+                view[-1] += xs[-1]
+                continue
+            for side, end in ((0, 0), (1, -1)):            # ghost 2w − x across a wall half a cell away
+                w = g.lids.get((ax, side)) if walls else None
+                view[end] += (0.0 if w is None else 2.0 * float(w[i])) - xs[end]
+        return lap / g.dx ** 2
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        y = x - self.a * self.laplacian(x, walls=False)
+        return np.where(self.closed, x, y)
+
+    def wall_term(self) -> np.ndarray:
+        """a ∇²_w 0: what the sliding walls add to the right-hand side."""
+        z = np.zeros(self.grid.face_shape(self.i))
+        return np.where(self.closed, 0.0, self.a * self.laplacian(z, walls=True))
+
+
+def _check(grid, nu, h, method, iterations, tol, max_iter, what):
+    nu = check_number(what, nu, low=0.0)
+    h = check_positive("h", h)
+    iterations = check_count("iterations", iterations, minimum=0)
+    tol = check_number("tol", tol, low=0.0, high=1.0, low_open=True)
+    max_iter = 20 * max(grid.shape) + 100 if max_iter is None else check_count("max_iter", max_iter)
+    return nu, h, iterations, tol, max_iter
+
+
+def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, iterations: int = 20,
+                     tol: float = 1e-12, max_iter: int | None = None) -> tuple[list, list]:
+    """Solve (I − νΔt ∇²) u¹ = u⁰ component by component; returns (u¹, [SolveInfo per component])."""
+    nu, h, iterations, tol, max_iter = _check(grid, nu, h, method, iterations, tol, max_iter, "viscosity")
+    if method not in DIFFUSION_METHODS:
+        raise InvalidInput(f"diffusion method must be one of {DIFFUSION_METHODS}, got {method!r}")
+    u = grid.check_velocity(u)
+    if nu == 0:
+        return [c.copy() for c in u], [SolveInfo(method, 0, 0.0) for _ in u]
+    if method == "fft" and (grid.has_obstacles or not all(grid.periodic)):
+        raise InvalidInput(f"diffusion method 'fft' needs a periodic box without obstacles; this grid has "
+                           f"boundary {grid.boundary} and {int(grid.solid.sum())} solid cells (use 'cg')")
+    a = nu * h
+    out, infos = [], []
+    for i, c in enumerate(u):
+        A = FaceOperator(grid, i, a)
+        r = np.where(A.closed, 0.0, c) + A.wall_term()
+        its = 0
+        if method == "fft":
+            x = _spectral(grid, r, 1.0, a)
+        elif method == "cg":
+            x, its = _cg(A, r, c * grid.open[i], tol, max_iter, lambda v, A=A: v / A.diag, "diffusion cg")
+        else:
+            x, its = relax(A, r, c * grid.open[i], method, iterations)
+        res = r - A(x)
+        out.append(x * grid.open[i])
+        infos.append(SolveInfo(method, int(its), float(np.abs(res).max())))
+    return out, infos
+
+
+def diffuse_scalar(grid, s: np.ndarray, kappa: float, h: float, method: str = "cg", *, iterations: int = 20,
+                   tol: float = 1e-12, max_iter: int | None = None) -> tuple[np.ndarray, SolveInfo]:
+    """Solve (I − κΔt L) s¹ = s⁰ (no flux through walls and obstacles); returns (s¹, SolveInfo)."""
+    kappa, h, iterations, tol, max_iter = _check(grid, kappa, h, method, iterations, tol, max_iter, "diffusivity")
+    if method not in DIFFUSION_METHODS + ("dct", "spectral"):
+        raise InvalidInput(f"diffusion method must be one of {DIFFUSION_METHODS + ('dct', 'spectral')}, got {method!r}")
+    s = check_field("s", s, grid.shape)
+    if kappa == 0:
+        return s.copy(), SolveInfo(method, 0, 0.0)
+    return solve_cells(grid, s, 1.0, kappa * h, method, iterations=iterations, tol=tol, max_iter=max_iter, x0=s)
