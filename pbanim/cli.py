@@ -1,8 +1,10 @@
-"""Command line: ``pbanim figures | bench | list | assignment | grade | notebook``.
+"""Command line: ``pbanim figures | bench | compare | list | assignment | grade | notebook``.
 
     pbanim figures [chNN | chNN_name ...] [--quick] [--out DIR]     regenerate lecture figures (chapters or
            [--format png|svg|pdf] [--dpi N] [--style paper|slides]  single figures; one progress line each)
     pbanim bench NAME [--quick] [--json FILE]          run a benchmark family; ends with its goal lines
+    pbanim compare [SCENE ...] [--engines a,b] [--quick] [--markdown F] [--json F]
+                                                       the same scenes in pbanim, PyBullet, MuJoCo vs the exact answer
     pbanim list [figures|bench|assignments]            what can be run, one line each
     pbanim assignment list | make NAME DIR             assignments cut from the reference (pbanim.course)
     pbanim grade NAME PATH [--json F] [--markdown F]   the autograder
