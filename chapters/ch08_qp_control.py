@@ -103,3 +103,18 @@ def qp_push_balance(ctx):
     return {"recovered": _summary(small), "fallen": _summary(large), "mu": mu, "max_cone_ratio": ratio,
             "max_sim_cone_ratio": sim_ratio, "capture_impulse": capture_impulse(small), "support": small.support,
             "envelope": envelope}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this file's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch08"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

@@ -141,3 +141,18 @@ def error_vs_cost(ctx):
     ctx.save(fig)
     return {"rows": rows, "versions": cmp.versions,
             "orders": {f"{n}/{e}": cmp.order(n, e) for n in names for e in _engines(cmp)}}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this file's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch11"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])

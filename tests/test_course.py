@@ -22,7 +22,8 @@ from pbanim.errors import InvalidInput
 REPO = Path(__file__).resolve().parent.parent
 READY = assignments(ready_only=True)
 NOTEBOOK_CHAPTERS = ["ch01_particles", "ch03_constraints", "ch04_reduced", "ch05_rigid", "ch06_collisions",
-                     "ch07_contact", "ch08_articulated"]
+                     "ch07_contact", "ch08_articulated", "ch08_characters", "ch08_qp_control", "ch09_fluids",
+                     "ch11_engines"]
 
 
 def _functions(tree) -> dict:
@@ -126,15 +127,27 @@ def test_make_writes_module_tests_readme_and_refuses_to_overwrite(tmp_path):
     make_assignment("ch03_constraints", tmp_path, overwrite=True)
 
 
-def test_pending_assignments_are_listed_and_refused_with_their_reason(capsys):
-    allp = assignments()
-    for name in ("ch08_pd_control", "ch09_pressure", "ch10_impact_gradient"):
-        assert allp[name].status == "pending"
-        with pytest.raises(InvalidInput, match="pending"):
-            get_assignment(name)
+def test_every_chapter_has_a_ready_assignment():
+    # the issue: at least one assignment per chapter, 01 to 10
+    chapters = {a.chapter for a in READY.values()}
+    assert chapters >= {f"ch{k:02d}" for k in range(1, 11)}, sorted(chapters)
+    assert all(a.status == "ready" for a in assignments().values())
+
+
+def test_pending_assignments_are_listed_and_refused_with_their_reason(capsys, monkeypatch):
+    from pbanim.course.registry import ASSIGNMENTS
+
+    monkeypatch.setitem(ASSIGNMENTS, "ch99_future", Assignment(
+        "ch99_future", "ch99", "A chapter not written yet", "pbanim.errors", "", status="pending",
+        pending_reason="chapter 99 is being written"))
+    with pytest.raises(InvalidInput, match="pending: chapter 99 is being written"):
+        get_assignment("ch99_future")
+    with pytest.raises(InvalidInput, match="pending"):
+        make_assignment("ch99_future", "unused")
     assert main(["assignment", "list"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert len(out) == len(allp) and sum("pending:" in line for line in out) == 3
+    assert len(out) == len(assignments()) and [line for line in out if "pending:" in line] == [
+        "ch99_future            A chapter not written yet — pending: chapter 99 is being written"]
 
 
 def test_register_refuses_inconsistent_assignments():
@@ -146,6 +159,52 @@ def test_register_refuses_inconsistent_assignments():
                             (Mutant("m", "d", (("x", "y"),), ("zzz",)),)))
     with pytest.raises(InvalidInput, match="not found in the module"):
         Mutant("m", "d", (("not there", "y"),), ("a",)).apply("source")
+
+
+# -- the closed forms the checks of chapters 08-10 grade against, across their parameters ------------------
+@settings(max_examples=25, deadline=None)
+@given(st.floats(4.0, 1e4), st.floats(0.0, 3.0), st.floats(0.2, 5.0))
+def test_pd_step_limits_of_the_checks_match_the_measured_ones(kp, zeta, m):
+    # ORACLES F1: the grader's closed-form step limits equal pbanim's measured ones over the gain space
+    from pbanim.control.pd import largest_stable_step
+    from pbanim.course.checks_control import _closed_form_step
+
+    kv = 2 * zeta * np.sqrt(kp * m)
+    for servo in ("explicit", "stable"):
+        got = largest_stable_step(kp, kv, m=m, servo=servo, h_max=100.0)
+        assert got == pytest.approx(_closed_form_step(servo, kp, kv, m), rel=1e-9), servo   # measured ≤ 2e-11
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 7), st.integers(1, 7), st.floats(0.1, 1.0), st.integers(1, 12), st.floats(0.01, 2.0))
+def test_jacobi_mode_factor_of_the_checks_matches_the_reference(kx, ky, omega, sweeps, dx):
+    # ORACLES E2: x_k = (1 − f^k) r/λ for one Fourier mode, f = 1 − ω(1 − (cos θx + cos θy)/2)
+    from pbanim.fluids import Grid
+    from pbanim.fluids.poisson import solve_cells
+
+    n = 16
+    tx, ty = 2 * np.pi * kx / n, 2 * np.pi * ky / n
+    i, j = np.indices((n, n))
+    r = np.cos(tx * i + ty * j)
+    lam = (4 - 2 * np.cos(tx) - 2 * np.cos(ty)) / dx ** 2
+    f = 1 - omega * (1 - (np.cos(tx) + np.cos(ty)) / 2)
+    x, _ = solve_cells(Grid((n, n), dx, "periodic"), r, 0.0, 1.0, "jacobi", iterations=sweeps, omega=omega)
+    want = (1 - f ** sweeps) * r / lam
+    assert np.abs(x - want).max() <= 1e-10 * np.abs(want).max()                     # E2 tol.; measured ≤ 1.4e-14
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.05, 1.0), st.floats(0.1, 10.0), st.floats(0.05, 5.0))
+def test_saltation_of_the_checks_holds_for_the_reference_everywhere(eps, m, h0):
+    # ORACLES H1: S = [[−ε, 0], [−(1+ε)g/v⁻, −ε]] on (z, P_z/m) at every restitution, mass and height
+    import pbanim.design.impact as reference
+    from pbanim.course.checks_design import G, _ball_jump
+
+    Phi, t1 = _ball_jump(reference, eps, m, h0)
+    S = Phi[np.ix_([2, 9], [2, 9])] * [[1.0, m], [1.0 / m, 1.0]]                   # (z, P) → (z, v)
+    want = [[-eps, 0.0], [(1 + eps) / t1, -eps]]                                   # −(1+ε)g/v⁻ = (1+ε)/t₁
+    assert np.abs(S - want).max() <= 1e-12 * max(1.0, (1 + eps) / t1)              # measured ≤ 4e-16
+    assert Phi[9, 13] == pytest.approx(m * G * t1, rel=1e-13)                      # dP⁺/dε = −m v⁻
 
 
 # -- notebooks --------------------------------------------------------------------------------------

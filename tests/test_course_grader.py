@@ -3,8 +3,8 @@ the points of the checks that catch it, and student faults (endless loops, exits
 files, wrong signatures and shapes) each cost their check and become one report line.
 
 The checks themselves compare the student's module with the analytic oracles of the chapters
-(ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8): grading the reference to 100 %
-is the test that those oracles hold for pbanim's own code at the checks' tolerances.
+(ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1): grading the
+reference to 100 % is the test that those oracles hold for pbanim's own code at the checks' tolerances.
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ def _swap(old: str, new: str):
 
 @pytest.mark.parametrize("name", sorted(READY))
 def test_reference_scores_100(name, tmp_path):
-    # ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8: every check's oracle holds for pbanim
+    # ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1: every check's
+    # oracle holds for pbanim
     rep = grade(name, _reference(tmp_path, name))
     bad = [(r.id, r.status, r.message) for r in rep.results if not r.passed]
     assert rep.score == rep.total == 100 and not bad, bad
@@ -81,7 +82,14 @@ def test_every_required_bug_of_the_issue_is_a_mutant():
     for required in [("ch03_constraints", "baumgarte_sign"), ("ch03_constraints", "missing_jdot"),
                      ("ch04_reduced", "missing_jdot"), ("ch06_impulses", "restitution_sign"),
                      ("ch01_particles", "explicit_euler"), ("ch02_integrators", "explicit_euler_as_symplectic"),
-                     ("ch05_rigid_step", "never_renormalized"), ("ch05_rigid_body", "world_inertia_not_rotated")]:
+                     ("ch05_rigid_step", "never_renormalized"), ("ch05_rigid_body", "world_inertia_not_rotated"),
+                     # chapters 08-10: the damping sign, stable PD's spring at θ, the missing h K_v, no torque
+                     # limits; the gradient's sign, Δx missing, boundary cells; the event-time term dropped
+                     ("ch08_pd_control", "damping_sign"), ("ch08_pd_control", "spring_at_theta"),
+                     ("ch08_pd_control", "missing_h_kv"), ("ch08_pd_control", "no_torque_limits"),
+                     ("ch09_pressure", "gradient_sign"), ("ch09_pressure", "divergence_without_dx"),
+                     ("ch09_pressure", "walls_counted_open"), ("ch09_pressure", "obstacle_faces_open"),
+                     ("ch10_impact_gradient", "no_event_time")]:
         assert required in names
 
 
@@ -132,6 +140,25 @@ def test_wrong_signature_and_wrong_shape_are_named(tmp_path):
     assert res["derivative"].status in ("failed", "error") and "shape" in res["derivative"].message
 
 
+@pytest.mark.parametrize("name, old, new, check, expected", [
+    ("ch09_pressure", "        return div / self.dx\n", "        return list(div / self.dx)[:-1]\n", "divergence",
+     "has shape (4, 4), expected (5, 4)"),
+    ("ch09_pressure", "        return out\n        # END SOLUTION", "        return out[0]\n        # END SOLUTION",
+     "gradient", "must be a list of 2 face arrays, got ndarray"),
+    ("ch10_impact_gradient", "    return y1, T1, impact, dtau\n", "    return y1, T1, impact\n", "saltation_matrix",
+     "apply_impact must return (y⁺, T⁺, Impact, δτ), got tuple"),
+    ("ch10_impact_gradient", "    return T1 - dtau[:, None] * flight_rhs(model, y1)[None]\n", "    return None\n",
+     "sphere_pair", "saltation_post(...) is None"),
+    ("ch08_pd_control", "        return tau0, k\n", "        return tau0\n", "stable_split",
+     "PDServo.stable must return (tau0, k), got ndarray"),
+], ids=["ch09-divergence-shape", "ch09-gradient-not-a-list", "ch10-three-returns", "ch10-none", "ch08-one-return"])
+def test_wrong_shapes_and_returns_in_later_chapters_are_one_line(name, old, new, check, expected, tmp_path):
+    # ORACLES G3: a student's wrong return is a named line of the report, not a traceback
+    rep = grade(name, _reference(tmp_path, name, _swap(old, new)), checks=[check], isolation="inline")
+    (r,) = rep.results
+    assert r.status == "failed" and expected in r.message, r.message
+
+
 def test_reports_are_deterministic_and_hold_no_paths(tmp_path):
     # ORACLES G2: identical inputs, identical bytes
     path = _reference(tmp_path, "ch06_impulses", get_assignment("ch06_impulses").mutants[0].apply)
@@ -163,7 +190,7 @@ def test_cli_grade_prints_the_table_and_writes_both_reports(tmp_path, capsys):
 @pytest.mark.parametrize("argv, expected", [
     (["grade", "ch01_particle", "."], "did you mean 'ch01_particles'"),
     (["grade", "ch01_particles", "no/such/file.py"], "not found"),
-    (["grade", "ch09_pressure", "."], "is pending"),
+    (["grade", "ch09_presure", "."], "did you mean 'ch09_pressure'"),
     (["grade", "ch01_particles", ".", "--time-limit", "-1"], "time_limit must be positive"),
     (["assignment", "make", "ch02_integrator", "x"], "did you mean 'ch02_integrators'"),
 ])

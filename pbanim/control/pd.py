@@ -111,10 +111,12 @@ class PDServo:
 
     def explicit(self, q, qd, targets) -> np.ndarray:
         """τ (nv,) = k_p (θ̄ − θ) − k_v θ̇ on the servoed joints, clipped to the limits; zero elsewhere."""
+        # BEGIN SOLUTION PDServo.explicit
         th = self.target_vector(targets)
         tau = np.zeros(self.nv)
         tau[self.index] = np.clip(self.kp * (th - self.A @ q) - self.kv * (self.A @ qd), -self.limits, self.limits)
         return tau
+        # END SOLUTION
 
     def stable(self, q, qd, targets, h: float, implicit: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """The servo split for a step of length h: (τ₀, k) with τ = τ₀ − k θ̇⁺.
@@ -124,6 +126,7 @@ class PDServo:
         implicit damping (:class:`pbanim.articulated.planar_step.PlanarContactStep`) does the rest. Torque
         limits clip τ₀ (the implicit part is bounded by k |θ̇⁺|).
         """
+        # BEGIN SOLUTION PDServo.stable
         th = self.target_vector(targets)
         tau0, k = np.zeros(self.nv), np.zeros(self.nv)
         i = self.index
@@ -135,6 +138,7 @@ class PDServo:
             tau0[i], k[i] = self.kp * (th - self.A @ q - h * (self.A @ qd)) - self.kv * other, self.kv
         tau0[i] = np.clip(tau0[i], -self.limits, self.limits)
         return tau0, k
+        # END SOLUTION
 
 
 def stable_pd_acceleration(M, C, q, qd, target, kp, kv, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -142,9 +146,11 @@ def stable_pd_acceleration(M, C, q, qd, target, kp, kv, h: float) -> tuple[np.nd
     M = np.asarray(M, dtype=float)
     n = M.shape[0]
     kp, kv = _gains("kp", kp, n), _gains("kv", kv, n)
+    # BEGIN SOLUTION stable_pd_acceleration
     tau_p = -kp * (q + h * qd - target) - kv * qd
     qdd = np.linalg.solve(M + h * np.diag(kv), tau_p - C)
     return qdd, tau_p - h * kv * qdd
+    # END SOLUTION
 
 
 def explicit_pd_stable(h: float, kp: float, kv: float, m: float = 1.0) -> bool:
@@ -158,6 +164,7 @@ SERVOS = ("explicit", "stable", "implicit")
 
 def pd_step(x: float, v: float, h: float, kp: float, kv: float, m: float = 1.0, servo: str = "explicit"):
     """One semi-implicit Euler step (θ⁺ = θ + h θ̇⁺) of the servoed mass m θ̈ = τ, target 0."""
+    # BEGIN SOLUTION pd_step
     if servo == "stable":
         v = (v - h * kp * (x + h * v) / m) / (1.0 + h * kv / m)
     elif servo == "implicit":
@@ -167,6 +174,7 @@ def pd_step(x: float, v: float, h: float, kp: float, kv: float, m: float = 1.0, 
     else:
         raise InvalidInput(f"servo must be one of {SERVOS}, got {servo!r}")
     return x + h * v, v
+    # END SOLUTION
 
 
 def servo_track(servo: str, target, kp: float, kv: float, h: float, t_end: float, m: float = 1.0,

@@ -11,19 +11,21 @@ ch05_rigid_body        05       pbanim/rigid/bodies.py            I⁻¹_world, 
 ch05_rigid_step        05       pbanim/rigid/effects.py           torque of a point force, renormalization
 ch06_impulses          06       pbanim/collision/impulse.py       u, K, Newton's impulse law
 ch07_lcp               07       pbanim/lcp/solve.py               projected Gauss–Seidel for the contact LCP
-ch08_pd_control        08       pbanim/control/                   (pending) a PD controller
-ch09_pressure          09       pbanim/fluids/                    (pending) the pressure projection
-ch10_impact_gradient   10       pbanim/design/                    (pending) ∂S/∂u through an impact
+ch08_pd_control        08       pbanim/control/pd.py              explicit, stable, implicit PD; torque limits
+ch09_pressure          09       pbanim/fluids/grid.py             MAC divergence, gradient, open-face counts
+ch10_impact_gradient   10       pbanim/design/impact.py           event time, δj, the saltation's flow term
 =====================  =======  ================================  =========================================
 
-A pending assignment becomes ready when its chapter's reference module carries solution markers and a
-checks module is added here: an :class:`~pbanim.course.registry.Assignment` with ``checks`` (100 points),
-``mutants`` (typical bugs and the checks that catch them) and ``status="ready"``.
+Every chapter's assignment is ready. A new one is registered here once its reference module carries
+solution markers and a checks module exists: an :class:`~pbanim.course.registry.Assignment` with
+``checks`` (100 points), ``mutants`` (typical bugs and the checks that catch them) and ``status="ready"``;
+until then it may be registered with ``status="pending"`` and the reason (``make`` and ``grade`` refuse it).
 """
 
 from __future__ import annotations
 
-from . import checks_constraints, checks_contact, checks_ode, checks_particles, checks_rigid
+from . import (checks_constraints, checks_contact, checks_control, checks_design, checks_fluids, checks_ode,
+               checks_particles, checks_rigid)
 from .registry import ASSIGNMENTS, Assignment, register
 
 __all__ = ["ASSIGNMENTS"]
@@ -67,14 +69,20 @@ _ready("ch07_lcp", "ch07", "The contact LCP by projected Gauss–Seidel", "pbani
        "Write projected Gauss–Seidel for w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 (pgs): sweep the contacts, set "
        "fᵢ ← max(0, fᵢ − ω wᵢ/Aᵢᵢ), stop when the natural-map residual is below the threshold.",
        checks_contact, "CH07_")
-
-for _name, _ch, _title, _module, _why in (
-        ("ch08_pd_control", "ch08", "A PD controller for a character", "pbanim.control",
-         "chapter 08 part 2 (controllers in pbanim/control/) is being written; it lands with solution markers "
-         "and a checks module"),
-        ("ch09_pressure", "ch09", "The pressure projection", "pbanim.fluids",
-         "chapter 09 (pbanim/fluids/) is being written; it lands with solution markers and a checks module"),
-        ("ch10_impact_gradient", "ch10", "∂S/∂u through an impact", "pbanim.design",
-         "chapter 10 (pbanim/design/) is being written; it lands with solution markers and a checks module")):
-    if _name not in ASSIGNMENTS:
-        register(Assignment(_name, _ch, _title, _module, "", status="pending", pending_reason=_why))
+_ready("ch08_pd_control", "ch08", "PD servos: explicit, stable and implicit", "pbanim.control.pd",
+       "Write the lecture's servo τ = k_p(θ̄ − θ) − k_v θ̇ with torque limits (PDServo.explicit), the split "
+       "τ = τ₀ − k θ̇⁺ of stable and implicit PD (PDServo.stable), stable PD on a coupled system "
+       "(M + h K_v) q̈ = −C − K_p(q + h q̇ − q̄) − K_v q̇ (stable_pd_acceleration) and one semi-implicit Euler step "
+       "of a servoed mass for each servo (pd_step), whose stability regions the grader measures.", checks_control)
+_ready("ch09_pressure", "ch09", "The pressure projection on the MAC grid", "pbanim.fluids.grid",
+       "Write the MAC grid's divergence (D u)_c = Σᵢ (uᵢ(c + ½eᵢ) − uᵢ(c − ½eᵢ))/Δx (Grid.divergence), its gradient "
+       "(G p)_f = open_f (p(c + eᵢ) − p(c))/Δx, zero on wall and obstacle faces (Grid.gradient), and the number of "
+       "open faces of each cell, the diagonal of −Δx² L (Grid.neighbours). pbanim's projection u ← u − G p with "
+       "−L p = −D u then runs on your grid, and the grader measures what it leaves.", checks_fluids)
+_ready("ch10_impact_gradient", "ch10", "∂S/∂u through an impact: the saltation jump", "pbanim.design.impact",
+       "Write how the sensitivities Φ = ∂y/∂u jump at an impact: the moving event time δτ = −δg/ġ and "
+       "T_s = T + δτ f⁻ (apply_impact.event_time: define `gdot`, `dtau` and `Ts`, which the given code after it "
+       "uses), the impulse's tangent δj = −(δε v_rel + (1 + ε) δv_rel + "
+       "j δk)/k applied to the momenta (apply_impact.impulse_derivative), and the flow term T⁺ = T₁ − δτ f⁺ "
+       "after the jump (saltation_post). The impulse itself (chapter 6) and the contact quantities' tangents "
+       "are given.", checks_design)

@@ -14,9 +14,11 @@ Rules, checked by :func:`find_regions` (a malformed file raises :class:`MarkerEr
 
 * ``# BEGIN SOLUTION <name>`` and ``# END SOLUTION`` are whole comment lines at the same indentation;
   regions do not nest; every BEGIN has its END; names are unique within a file.
-* A region is the body of a function (after its docstring) or its tail: the lines before BEGIN stay in
-  the starter (set-up the student reads), the lines inside become one ``raise NotImplementedError``
-  at the marker's indentation, so the starter still parses and imports.
+* A region is the body of a function (after its docstring), its tail, or a block in its middle: the
+  lines before BEGIN stay in the starter (set-up the student reads), the lines inside become one
+  ``raise NotImplementedError`` at the marker's indentation, so the starter still parses and imports.
+  A middle block must define the names the given code after it uses (e.g. ``apply_impact.event_time``
+  in :mod:`pbanim.design.impact` defines δτ and the shifted tangents that the rest of the function uses).
 
 :func:`starter_source` also rewrites the module's relative imports (``from ..scene import Effect``) to
 absolute ones (``from pbanim.scene import Effect``): the starter is a stand-alone file in the student's

@@ -183,9 +183,11 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
         dg = dn @ (pc - feat.anchors[other]) + (Ta[0] + cross(dphi_a, s_w[None])) @ n
     else:
         dg = (Ta[0] - T[:, 3 * b:3 * b + 3]) @ n
+    # BEGIN SOLUTION apply_impact.event_time
     gdot = vrel if rate is None else _gap_rate(kind, qa, a, b, n, s_w if kind == "plane" else None, rate, N)
     dtau = -dg / gdot if locate else np.zeros(p)
     Ts = T + dtau[:, None] * f_minus[None]
+    # END SOLUTION
     # ---- tangents of every quantity at the event
     tb = {}
     for i in bodies_ab:
@@ -216,6 +218,7 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
         ac = Iw_inv[i] @ c[i]
         dk += model.dW[:, i] + 2.0 * dc[i] @ ac + 2.0 * dphi @ cross(ac, c[i])
         dk += model.dIinv[:, i] @ (R[i].T @ c[i]) ** 2
+    # BEGIN SOLUTION apply_impact.impulse_derivative
     de = np.zeros(p) if deps is None else deps
     dj = -(de * vrel + (1.0 + eps) * dvrel + j * dk) / kk
     T1 = Ts.copy()
@@ -223,11 +226,14 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
         T1[:, 7 * N + 3 * i:7 * N + 3 * i + 3] += sgn[i] * (np.outer(dj, n) + j * dn)
         T1[:, 10 * N + 3 * i:10 * N + 3 * i + 3] += sgn[i] * (np.outer(dj, c[i]) + j * dc[i])
     return y1, T1, impact, dtau
+    # END SOLUTION
 
 
 def saltation_post(model: FlightModel, y1: np.ndarray, T1: np.ndarray, dtau: np.ndarray) -> np.ndarray:
     """The last term of the saltation, T⁺ −= f(y⁺) δτ (the continuous-flow version)."""
+    # BEGIN SOLUTION saltation_post
     return T1 - dtau[:, None] * flight_rhs(model, y1)[None]
+    # END SOLUTION
 
 
 def _gap_rate(kind, qa, a, b, n, s_w, rate, N):

@@ -196,6 +196,7 @@ class Grid:
     # -- the discrete operators ---------------------------------------------------------------------
     def divergence(self, u: list) -> np.ndarray:
         """(D u)_c = Σᵢ (uᵢ(c + ½eᵢ) − uᵢ(c − ½eᵢ)) / Δx, one value per cell."""
+        # BEGIN SOLUTION Grid.divergence
         div = np.zeros(self.shape)
         for i, c in enumerate(u):
             if self.periodic[i]:
@@ -203,9 +204,11 @@ class Grid:
             else:
                 div += np.diff(c, axis=i)
         return div / self.dx
+        # END SOLUTION
 
     def gradient(self, p: np.ndarray, out: list | None = None) -> list:
         """(G p)_f = open_f (p(c + eᵢ) − p(c)) / Δx on the faces of each axis (0 on closed faces)."""
+        # BEGIN SOLUTION Grid.gradient
         out = out if out is not None else [None] * self.dim
         for i in range(self.dim):
             if self.periodic[i]:
@@ -217,6 +220,7 @@ class Grid:
                 g[tuple(inner)] = np.diff(p, axis=i)
             out[i] = g * (self.open[i] / self.dx)
         return out
+        # END SOLUTION
 
     def laplacian(self, p: np.ndarray) -> np.ndarray:
         """L p = D open G p: the pressure operator (Neumann at walls and obstacles)."""
@@ -224,6 +228,7 @@ class Grid:
 
     def neighbours(self) -> np.ndarray:
         """Σ open over the faces of each cell: the diagonal of −Δx² L."""
+        # BEGIN SOLUTION Grid.neighbours
         s = np.zeros(self.shape)
         for i, o in enumerate(self.open):
             if self.periodic[i]:
@@ -235,6 +240,7 @@ class Grid:
                 hi[i] = slice(1, None)
                 s += o[tuple(lo)] + o[tuple(hi)]
         return s
+        # END SOLUTION
 
     def cells_to_faces(self, c: np.ndarray, i: int) -> np.ndarray:
         """Average of the two cells beside each face of axis i (the wall faces take their one cell)."""
