@@ -42,9 +42,11 @@ Newton step δu = A⁻¹δq.
 
 Parts: :mod:`pbanim.design.scene` (the scene, u ↔ names), :mod:`pbanim.design.flight` (free flight and its
 variational equations), :mod:`pbanim.design.impact` (impulses and the saltation jump),
-:mod:`pbanim.design.simulate` (S and ∂S/∂u), :mod:`pbanim.design.check` (finite differences with
-Richardson extrapolation), :mod:`pbanim.design.control` (goals, the min-norm update, edits, dragging),
-:mod:`pbanim.design.shooting` (single and multiple shooting).
+:mod:`pbanim.design.exact` (the closed-form flight of spheres: exact S, ∂S/∂u and impact times, the default
+where it applies), :mod:`pbanim.design.simulate` (S and ∂S/∂u), :mod:`pbanim.design.check` (finite
+differences with Richardson extrapolation), :mod:`pbanim.design.control` (goals, the min-norm update, edits,
+dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unknowns),
+:mod:`pbanim.design.multiple` (multiple shooting on a sliding time grid started from the sketch).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, Z. Popović, A. Witkin, "Interactive manipulation of rigid
 body simulations", SIGGRAPH 2000; J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of
@@ -59,8 +61,10 @@ from .scene import (DesignBody, DesignScene, GrazingImpactWarning, TooManyImpact
                     left_jacobian, xi)
 from .flight import FlightModel, augmented_step, flight_rhs, flight_tangent
 from .impact import Impact, apply_impact
+from .exact import exact_applies, first_impact, flight_map
 from .simulate import Trajectory, quat_log, simulate
 
 __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "TooManyImpacts", "GrazingImpactWarning",
            "left_jacobian", "xi", "FlightModel", "flight_rhs", "flight_tangent", "augmented_step",
-           "Impact", "apply_impact", "Trajectory", "simulate", "quat_log"]
+           "Impact", "apply_impact", "Trajectory", "simulate", "quat_log", "flight_map", "first_impact",
+           "exact_applies"]

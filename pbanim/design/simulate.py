@@ -9,7 +9,10 @@ The grid is the driver's one step rule (:func:`pbanim.ode.driver.step_grid`) bet
 start, every requested output time, the end. It does not depend on u, so S is a smooth function of u
 as long as the sequence of impacts does not change. A step in which a gap changes sign is split at the
 impact, located by Brent's method on the RK4 partial step (:func:`pbanim.ode.events.crossings`): the
-augmented step runs to the impact, the jump is applied, and the step is finished from there.
+augmented step runs to the impact, the jump is applied, and the step is finished from there. Scenes
+of spheres (isotropic inertia, gravity only) fly in closed form instead (:mod:`pbanim.design.exact`):
+the same grid and driver, but each step is the exact flight map and impact times are quadratic roots —
+exact, and several times cheaper (``flight="auto"``, the default; ``"rk4"`` forces the general path).
 
 What the result offers for design: x_i(t), the orientation q_i(t), their derivatives ∂x/∂u (3 × p) and
 the orientation's in the tangent space, δφ = 2 Ξ(q)ᵀ δq (3 × p), the velocities v, ω and theirs, the
@@ -35,6 +38,7 @@ from ..ode.driver import drive, step_grid
 from ..ode.events import crossings, make_events
 from ..rigid import quat_multiply, quat_conjugate
 from .flight import FlightModel, augmented_step, omega_tangent, plain_step, rotation_tangent, step_rate
+from .exact import ExactFlight, exact_reason
 from .impact import Features, Impact, apply_impact, gaps, saltation_post
 from .scene import DesignScene, GrazingImpactWarning, TooManyImpacts
 
@@ -61,6 +65,7 @@ class Trajectory:
     outputs : dict time → (y, Φᵀ (p, 13N)) at the requested output times and the end
     impacts : list of Impact;  differentiable : bool
     names, N, model, nsteps
+    flight : "exact" (closed-form sphere flight) or "rk4" — the path that computed it
     """
 
     t: np.ndarray
@@ -73,6 +78,7 @@ class Trajectory:
     nsteps: int
     differentiable: bool = True
     notes: list = field(default_factory=list)
+    flight: str = "rk4"
 
     def _out(self, t):
         key = _key(t)
@@ -161,7 +167,8 @@ def _model(scene: DesignScene, d: dict, dm: np.ndarray, dIinv: np.ndarray) -> Fl
 
 def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), h: float = 0.005,
              t0: float = 0.0, sensitivities: bool = True, max_impacts: int = 100, graze_speed: float = 1e-3,
-             contact_tol: float = 1e-9, warn: bool = True, check_start: bool = True) -> Trajectory:
+             contact_tol: float = 1e-9, warn: bool = True, check_start: bool = True,
+             flight: str = "auto") -> Trajectory:
     """Run q(t) = S(t, u) from t0 to t_end (and ∂S/∂u when ``sensitivities``).
 
     Parameters
@@ -173,6 +180,9 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
     times : output times in [t0, t_end] where S and ∂S/∂u are kept (the end is always one)
     h : RK4 step; impacts split steps at their located times
     check_start : refuse an initial state that penetrates (``False``: shooting iterates may, they fly on)
+    flight : ``"rk4"`` (the general RK4 flight), ``"exact"`` (the closed form of :mod:`pbanim.design.exact`:
+        spheres, isotropic inertia, no inertia parameter; else :class:`InvalidInput`) or ``"auto"`` (exact
+        when the scene allows it); the grid h then only sets where states are recorded
 
     >>> from pbanim.collision import Plane, Sphere
     >>> from pbanim.design import DesignBody, DesignScene
@@ -191,6 +201,8 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
     t_end = check_number("t_end", t_end, low=t0, low_open=True)
     h = check_number("h", h, low=0.0, low_open=True)
     max_impacts = check_count("max_impacts", max_impacts)
+    if flight not in ("auto", "rk4", "exact"):
+        raise InvalidInput(f"flight must be 'auto', 'rk4' or 'exact', got {flight!r}")
     out_times = as_floats("times", times, ndmin=1).reshape(-1)
     bad = out_times[~((out_times >= t0) & (out_times <= t_end))]
     if bad.size:
@@ -231,7 +243,25 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
             return plain_step(model, yy, hk), None
         return augmented_step(model, yy, TT, hk)
 
-    def advance(t, Y, hk):
+    def resolve(k, te, ye, Te, rate):
+        """Apply the impact of feature k at te (and any contact touching at the same instant)."""
+        yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
+        g_e = gaps(feat, ye, N, nrm)
+        tol = contact_tol * max(1.0, float(np.abs(ye[:3 * N]).max()))
+        for kk in np.flatnonzero(np.abs(g_e) <= tol):
+            if kk == k:
+                continue          # touching at the same instant: resolve it too; S is not smooth here
+            yy2, TT2, imp2, _ = apply_impact(model, feat, int(kk), te, yy, TT, nrm, dn, eps, deps, locate=False)
+            if imp2.speed > 0:
+                yy, TT = yy2, TT2
+                imp.simultaneous = True
+        imp.grazing = imp.speed < graze_speed
+        impacts.append(imp)
+        if len(impacts) > max_impacts:
+            raise TooManyImpacts(max_impacts, te)
+        return yy, TT, dtau
+
+    def rk4_advance(t, Y, hk):
         """One grid step, split at every impact; δτ of an impact enters the sub-step after it as −rate·δτ."""
         yy, TT = unpack(Y)
         t1 = t + hk
@@ -256,33 +286,26 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
                 rate = step_rate(model, yy, te - t)
                 if dtau is not None:
                     Te -= np.outer(dtau, rate)
-            yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
-            g_e = gaps(feat, ye, N, nrm)
-            tol = contact_tol * max(1.0, float(np.abs(ye[:3 * N]).max()))
-            for kk in np.flatnonzero(np.abs(g_e) <= tol):
-                if kk == k:
-                    continue          # touching at the same instant: resolve it too; S is not smooth here
-                yy2, TT2, imp2, _ = apply_impact(model, feat, int(kk), te, yy, TT, nrm, dn, eps, deps,
-                                                 locate=False)
-                if imp2.speed > 0:
-                    yy, TT = yy2, TT2
-                    imp.simultaneous = True
-            imp.grazing = imp.speed < graze_speed
-            impacts.append(imp)
-            if len(impacts) > max_impacts:
-                raise TooManyImpacts(max_impacts, te)
+            yy, TT, dtau = resolve(k, te, ye, Te, rate)
             t = te
             g0 = gaps(feat, yy, N, nrm)
             if t1 - t <= 1e-14 * max(1.0, abs(t1)):
                 return pack(yy, None if TT is None else saltation_post(model, yy, TT, dtau))
         raise TooManyImpacts(4 * max_impacts, t)
 
+    reason = exact_reason(scene, model)
+    if flight == "exact" and reason:
+        raise InvalidInput(f"flight='exact' needs spheres with isotropic inertia and no inertia parameter: {reason}")
+    use_exact = flight == "exact" or (flight == "auto" and not reason)
+    exact = ExactFlight(model, feat, nrm, resolve, t0, y, T, contact_tol, max_impacts) if use_exact else None
+    advance = exact.advance if use_exact else rk4_advance   # the exact path drives the state alone
+
     breaks = np.unique(np.concatenate([[t0, t_end], out_times]))
     ts, ys = [t0], [y.copy()]
     outputs = {}
     if _key(t0) in {_key(v) for v in out_times}:
         outputs[_key(t0)] = (y.copy(), None if T is None else T.copy())
-    Y = pack(y, T)
+    Y = y.copy() if use_exact else pack(y, T)
     nsteps = 0
 
     def record(t1, Y1):
@@ -293,7 +316,7 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
         grid = step_grid(a, b, h)
         _, Y, k, _ = drive(advance, grid, Y, record=record)
         nsteps += k
-        yy, TT = unpack(Y)
+        yy, TT = exact.current(b) if use_exact else unpack(Y)
         outputs[_key(b)] = (yy.copy(), None if TT is None else TT.copy())
     smooth = not any(i.grazing or i.simultaneous for i in impacts)
     if not smooth:
@@ -303,4 +326,5 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
         notes.append(msg)
         if warn:
             warnings.warn(msg, GrazingImpactWarning, stacklevel=2)
-    return Trajectory(np.array(ts), np.array(ys), outputs, impacts, names, N, model, nsteps, smooth, notes)
+    return Trajectory(np.array(ts), np.array(ys), outputs, impacts, names, N, model, nsteps, smooth, notes,
+                      "exact" if use_exact else "rk4")
