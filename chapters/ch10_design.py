@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 10 — design of rigid-body motion (Popović): S(t, u), ∂S/∂u, min-norm edits, shooting.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch10 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 10 — design of rigid-body motion (Popović): S(t, u), ∂S/∂u, min-norm edits, shooting.
 
 Figures:
@@ -37,6 +45,12 @@ def _ball(v, x0=(0.0, 0.0, 1.0), eps=0.8, walls=True):
     return DesignScene([DesignBody(Sphere(0.1), position=x0, velocity=v)], planes, restitution=eps)
 
 
+# %% [markdown]
+# ## Figure `ch10_s_across_impact`
+#
+# S(t, u) jumps where a bounce appears.
+
+# %%
 @figure("ch10", "s_across_impact", "S(t, u) jumps where a bounce appears")
 def s_across_impact(ctx):
     """Height at T = 1.2 s vs launch speed: discontinuous where the ball gains a bounce before T."""
@@ -58,6 +72,12 @@ def s_across_impact(ctx):
     return {"vz": vz, "z": z, "dz": dz, "impacts": nimp, "T": T}
 
 
+# %% [markdown]
+# ## Figure `ch10_derivative_vs_fd_step`
+#
+# Analytic ∂S/∂u vs finite differences.
+
+# %%
 @figure("ch10", "derivative_vs_fd_step", "Analytic ∂S/∂u vs finite differences")
 def derivative_vs_fd_step(ctx):
     """Max error of centred FD (plain, Richardson) vs the analytic derivative, against the step δ."""
@@ -83,6 +103,12 @@ def derivative_vs_fd_step(ctx):
             "scale": float(np.abs(A).max())}
 
 
+# %% [markdown]
+# ## Figure `ch10_edit_sequence`
+#
+# Dragging a bouncing ball: the trajectory morphs.
+
+# %%
 @figure("ch10", "edit_sequence", "Dragging a bouncing ball: the trajectory morphs")
 def edit_sequence(ctx):
     """One min-norm update per frame while the target moves; then Gauss–Newton edits to 1e-6."""
@@ -106,6 +132,12 @@ def edit_sequence(ctx):
             "edit_success": res.success, "edit_iterations": res.iterations}
 
 
+# %% [markdown]
+# ## Figure `ch10_die_toss`
+#
+# A die thrown off a wall to show a chosen face at a chosen place.
+
+# %%
 @figure("ch10", "die_toss", "A die thrown off a wall to show a chosen face at a chosen place")
 def die_toss(ctx):
     """After its corners hit the wall the die is at (0.5, 0, 1.6) at T = 0.5 s with its −x face up."""
@@ -131,6 +163,12 @@ def die_toss(ctx):
             "position": tr1.position(0, T), "residuals": np.array([r for _, r in res.history])}
 
 
+# %% [markdown]
+# ## Figure `ch10_ball_into_target`
+#
+# A ball bounced off a wall into a target.
+
+# %%
 @figure("ch10", "ball_into_target", "A ball bounced off a wall into a target")
 def ball_into_target(ctx):
     """The launch velocity is edited so that after the floor and the wall the ball is at the target."""
@@ -173,6 +211,12 @@ def shooting_problem(seed: int = 1, T: float = 4.0, sigma: float = 0.03, dt: flo
     return true, ref, sketch, [position_goal(0, T, ref.position(0, T))], guess
 
 
+# %% [markdown]
+# ## Figure `ch10_shooting`
+#
+# Single vs multiple shooting on a many-bounce sketch.
+
+# %%
 @figure("ch10", "shooting", "Single vs multiple shooting on a many-bounce sketch")
 def shooting(ctx):
     """A noisy sketch of six impacts in 4 s, one start s₀ (the state the sketch shows at t = 0): single
@@ -212,3 +256,18 @@ def shooting(ctx):
             "single_v0_error": float(np.abs(r1.u[3:6] - true.nominal["v0"]).max()),
             "multiple_v0_error": float(np.abs(r2.u[3:6] - true.nominal["v0"]).max()),
             "node_times": r2.node_times, "single_history": np.array(r1.history), "multiple_history": np.array(r2.history)}
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch10"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])
