@@ -13,20 +13,23 @@ from pbanim.plotting import figure
 from pbanim.testing import fitted_order
 
 ORDER = ["euler", "symplectic_euler", "implicit_euler", "midpoint", "verlet", "implicit_midpoint",
-         "exponential_euler", "rk4", "dopri5"]
+         "exponential_euler", "rk4", "rodas4", "dopri5", "radau5", "vern7", "dop853"]
+# first step and span of the convergence sweep: in the asymptotic range, errors above the roundoff floor
+H0 = {1: 2.0**-8, 2: 2.0**-4, 4: 2.0**-4, 5: 2.0**-4, 7: 2.0**-1, 8: 2.0**-2}
+H0_BY_NAME = {"rodas4": 2.0**-5}
+SPAN = {5: 6.0, 7: 6.0}
 
 
-@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; dopri5 t = 6): slopes = orders")
+@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6): slopes = orders")
 def convergence(ctx):
     kp = kepler(0.3)
     n_h = 3 if ctx.quick else 6
-    h0 = {1: 2.0**-8, 2: 2.0**-4, 4: 2.0**-4, 5: 2.0**-4}
     data = {"h": {}, "error": {}, "slope": {}, "order": {}}
     for name in ORDER:
         m = METHODS[name]
-        T = 6.0 if m.order == 5 else 2.0  # Dormand–Prince reaches its asymptotic range later
+        T = SPAN.get(m.order, 2.0)  # Dormand–Prince and Verner reach their asymptotic range later
         exact = kp.exact(T)[:, 0]
-        hs = h0[m.order] / 2.0 ** np.arange(n_h)
+        hs = H0_BY_NAME.get(name, H0[m.order]) / 2.0 ** np.arange(n_h)
         errs = []
         for h in hs:
             y = kp.y0.copy()
@@ -83,10 +86,12 @@ def stability(ctx):
     data = {"x": x, "y": yv, "rho": {}, "R_direct": {}}
     for name in ORDER:
         data["rho"][name] = stability_radius(name, Z).reshape(Z.shape)
-        if name in ("euler", "midpoint", "rk4", "dopri5"):  # R(z) from one step of y' = zy, complex y
+        if name in ("euler", "midpoint", "rk4", "dopri5", "vern7", "dop853"):  # R(z): one step of y' = zy, complex y
             step = METHODS[name].step
             data["R_direct"][name] = np.abs(step(lambda t, u: Z * u, 0.0, np.ones_like(Z), 1.0))
-    plt_fig, axes = ctx.subplots(3, 3, figsize=(9, 8.4), sharex=True, sharey=True)
+    plt_fig, axes = ctx.subplots(4, 4, figsize=(11, 11), sharex=True, sharey=True)
+    for ax in axes.ravel()[len(ORDER):]:
+        ax.set_visible(False)
     for ax, name in zip(axes.ravel(), ORDER):
         rho = data["rho"][name]
         ax.contourf(x, yv, (rho <= 1.0).astype(float), levels=[0.5, 1.5], colors=["#8ecae6"])
@@ -135,37 +140,28 @@ def kepler_orbits(ctx):
     return data
 
 
-@figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim vs scipy.solve_ivp")
+@figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)")
 def work_precision(ctx):
-    from pbanim.bench.ode import kepler_problem, runner, stiff_problem
-    from pbanim.accuracy import rows_by_variant, sweep
+    from pbanim.bench.ode import PROBLEMS, sweep_problem
 
     quick = ctx.quick
+    keys = ["kepler", "robertson"] if quick else ["kepler", "pleiades", "van_der_pol", "robertson"]
+    tols = [1e-3, 1e-5, 1e-7] if quick else [10.0 ** (-k / 2) for k in range(6, 25)]
+    fig, axes = ctx.subplots(1, len(keys), figsize=(5.2 * len(keys), 4.4))
     out = {}
-    probs = [("Kepler e = 0.5, 10 periods", kepler_problem(),
-              {"pbanim:dopri5": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
-               "pbanim:rk4": [1000, 4000] if quick else [1000, 2000, 4000, 8000, 16000],
-               "scipy:RK45": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)],
-               "scipy:DOP853": [1e-4, 1e-7, 1e-10] if quick else [10.0 ** -k for k in range(3, 13)]}),
-             ("stiff damped spring k = 1e6", stiff_problem(),
-              {"pbanim:implicit_euler": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
-               "pbanim:implicit_midpoint": [100, 1000] if quick else [100, 300, 1000, 3000, 10000],
-               "pbanim:exponential_euler": [1, 10] if quick else [1, 10, 100],
-               "scipy:Radau": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)],
-               "scipy:LSODA": [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 12)]})]
-    fig, axes = ctx.subplots(1, 2, figsize=(11, 4.4))
-    for ax, (title, (model, t_end, err), params) in zip(axes, probs):
-        rows = sweep(runner(model, t_end), list(params), params, err, repeats=1 if quick else 3)
-        out[title] = rows
-        for v, rs in rows_by_variant(rows).items():
-            ax.loglog([r.wall_time for r in rs], [max(r.error, 1e-16) for r in rs], "o-" if "pbanim" in v else "s--",
-                      ms=3, label=v)
+    for ax, key in zip(np.atleast_1d(axes), keys):
+        title = PROBLEMS[key][0]
+        sweeps = sweep_problem(key, tols, repeats=1 if quick else 3, budget=0.3 if quick else 5.0)
+        out[title] = sweeps
+        for v, pts in sweeps.items():
+            style = "o-" if v.startswith("pbanim") else ("k:" if v == "odeint" else "s--")
+            ax.loglog([p[2] for p in pts], [max(p[1], 1e-16) for p in pts], style, ms=3, label=v)
         ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("error")
+        ax.set_ylabel("error at t_end")
         ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=6)
     ctx.save(fig)
-    return {"rows": out}
+    return {"sweeps": out}
 
 
 @figure("ch02", "stiff_spring", "Stiff spring k = 1e6 at hω = 2.5: Euler and symplectic Euler explode (limit hω < 2), RK4 (limit 2√2) and implicit methods do not")
@@ -174,7 +170,8 @@ def stiff_spring(ctx):
     h = 2.5e-3
     t_end = 0.5 if ctx.quick else 1.0
     data = {"h": h, "omega": 1e3, "t": {}, "x": {}, "diverged_at": {}}
-    for name in ["euler", "symplectic_euler", "rk4", "implicit_euler", "implicit_midpoint", "exponential_euler"]:
+    for name in ["euler", "symplectic_euler", "rk4", "implicit_euler", "implicit_midpoint", "exponential_euler",
+                 "rodas4", "radau5"]:
         meth = METHODS[name]
         ts, xs, y = [0.0], [m.y0[0]], m.y0.copy()
         for k in range(int(round(t_end / h))):  # the method's own steps, stopped at a visible blow-up

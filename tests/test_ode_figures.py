@@ -19,7 +19,9 @@ def test_stability_figure_regions(figure_data):
     # explicit Euler's region is the disk |1 + z| ≤ 1
     d = figure_data("ch02_stability")
     for name, R in d["R_direct"].items():
-        np.testing.assert_allclose(d["rho"][name], R, rtol=1e-10, atol=1e-13)
+        # atol: at a double eigenvalue (z on the real axis) the 2×2 route takes a square root of a roundoff-size
+        # discriminant, √ε·|R| ≈ 1e-11 (measured 8e-13 for the 12-stage DOP853)
+        np.testing.assert_allclose(d["rho"][name], R, rtol=1e-10, atol=1e-11)
     Z = d["x"][None, :] + 1j * d["y"][:, None]
     np.testing.assert_allclose(d["rho"]["euler"], np.abs(1 + Z), rtol=1e-12)
     left = Z.real < -1e-9
@@ -51,20 +53,30 @@ def test_kepler_figure_invariants(figure_data):
 
 
 def test_work_precision_figure(figure_data):
-    # more work buys a smaller error for every variant of the sweep
+    # ORACLES A6 in the figure: for every variant of both libraries, tightening the tolerance buys a smaller
+    # error; the same method in both libraries (Dormand–Prince 8, Radau IIA 5) lands at a comparable error
     d = figure_data("ch02_work_precision")
-    for title, rows in d["rows"].items():
-        by = {}
-        for r in rows:
-            by.setdefault(r.variant, []).append(r)
-        for v, rs in by.items():
-            assert rs[-1].error < rs[0].error and np.all(np.isfinite([r.wall_time for r in rs])), (title, v)
+    assert {"pbanim:dop853", "scipy:DOP853", "odeint"} <= set(d["sweeps"]["Kepler e = 0.5, 10 periods"])
+    for title, sweeps in d["sweeps"].items():
+        for v, pts in sweeps.items():
+            errs = [p[1] for p in pts]
+            assert np.all(np.isfinite([p[2] for p in pts])), (title, v)
+            if len(pts) > 1:
+                assert errs[-1] < errs[0], (title, v)
+    for title, ours, theirs in (("Kepler e = 0.5, 10 periods", "pbanim:dop853", "scipy:DOP853"),
+                                ("Robertson, t in [0, 40]", "pbanim:radau5", "scipy:Radau")):
+        a, b = d["sweeps"][title][ours], d["sweeps"][title][theirs]
+        for (ra, ea, _, _), (rb, eb, _, _) in zip(a, b):
+            assert ra == rb and 0.01 < ea / eb < 50, (title, ra, ea, eb)  # measured 0.095 – 5.6 (same formulas)
 
 
 def test_stiff_spring_figure(figure_data):
     # ORACLES A2 in the figure: at hω = 2.5 explicit and symplectic Euler diverge, RK4 and implicit Euler decay
     d = figure_data("ch02_stiff_spring")
     assert set(d["diverged_at"]) == {"euler", "symplectic_euler"}
+    for name in ("rodas4", "radau5"):   # ORACLES A11: L-stable and accurate: they follow the physical decay e^(−ct/2)
+        x = d["x"][name]
+        assert np.max(np.abs(x)) <= 1.0 + 1e-12 and np.max(np.abs(x[len(x) // 2:])) < 0.1  # measured 0.060
     for name in ("rk4", "implicit_euler"):
         x = d["x"][name]
         assert np.max(np.abs(x[len(x) // 2:])) < 1e-6

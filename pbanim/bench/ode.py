@@ -1,14 +1,19 @@
 """``pbanim bench ode``: what accuracy costs in time for the ODE solvers, against scipy in the same run.
 
-1. Work-precision on the Kepler orbit (e = 0.5, 10 periods; error = max |y(t_end) − y*| from Kepler's
-   equation) and on a stiff damped spring (k = 10⁶, c = 2·10⁵ per unit mass: rates −5 and −2·10⁵ 1/s,
-   t ∈ [0, 1]; error = |x(1) − x*(1)|): at each error level 10⁻³ … 10⁻¹⁰, the cheapest pbanim run vs the
-   cheapest ``solve_ivp`` run (RK45, DOP853, Radau, LSODA; BDF too on the stiff spring, where the explicit
-   RK45/DOP853 are stability-limited and run once, at rtol 1e-3) reaching it. Goal ≤ 0.5×.
-2. Overhead: ``solve(method="rk4")`` on a 2-state oscillator vs a hand-written numpy RK4 loop (same rhs,
-   same stored trajectory). Goal ≤ 1.2×.
-3. Batch: K pendulums (θ₀ from 5° to 175°) in one batch run vs a loop of K ``solve_ivp`` calls, the batch
-   tolerance chosen so its error is no larger than the loop's. Goal ≥ 20×.
+1. Work-precision on five problems — Kepler (e = 0.5, 10 periods), Pleiades, a stiff damped spring
+   (k = 10⁶, c = 2·10⁵ per unit mass), Van der Pol (μ = 1000, t ∈ [0, 3000]) and Robertson's kinetics
+   (t ∈ [0, 40]): every adaptive method of each library sweeps the same tolerances (rtol = 10⁻² …,
+   atol = rtol·scale of the problem, the same pairs for everyone, the analytic Jacobian for every
+   method that uses one — pbanim's, solve_ivp's and odeint's ``Dfun``). A variant stops going tighter once
+   its error is below 10⁻¹¹ or one run exceeds the time budget (the same rule for every variant).
+   Each variant's (error, wall time) points are joined by straight lines in log–log, and at each
+   error level 10⁻³ … 10⁻¹⁰ the time needed is read off the lower envelope; the library's time is
+   its best method's. Goals: pbanim ≤ 0.5× the best ``solve_ivp`` method and ≤ 1× ``odeint`` at every
+   level of every problem (a level pbanim does not reach while the baseline does counts as ∞).
+   The tables give the evaluations of f at each level too, so a ratio reads as (fewer evaluations) ×
+   (less time per evaluation).
+2. Overhead: ``solve(method="rk4")`` on a 2-state oscillator vs a hand-written numpy RK4 loop. Goal ≤ 1.2×.
+3. Batch: K pendulums in one batch run vs a loop of K ``solve_ivp`` calls, at no larger error. Goal ≥ 20×.
 """
 
 from __future__ import annotations
@@ -16,24 +21,22 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from scipy.integrate import solve_ivp
+from scipy.integrate import odeint, solve_ivp
 
-from ..accuracy import best_at_error, rows_by_variant, sweep
 from ..models.ode import damped_oscillator, harmonic_oscillator, kepler, pendulum
 from ..ode import solve
+from ..ode.problems import pleiades, robertson, van_der_pol
 from . import Goal, Report, Table, median_time
 
-__all__ = ["run", "LEVELS", "kepler_problem", "stiff_problem", "runner"]
+__all__ = ["run", "LEVELS", "PROBLEMS", "kepler_problem", "stiff_problem", "runner", "sweep_problem",
+           "time_at_error", "library_curve"]
 
 LEVELS = [10.0 ** -k for k in range(3, 11)]
+FLOOR = 1e-11          # a variant whose error is below this covers every level: it stops sweeping
 
 
 def kepler_problem():
-    """The Kepler work-precision problem: (model, t_end, error), e = 0.5 over 10 periods.
-
-    ``error(y)`` = max |y − y*(t_end)| against the solution of Kepler's equation. Shared with the figure
-    ``ch02_work_precision``.
-    """
+    """The Kepler work-precision problem: (model, t_end, error), e = 0.5 over 10 periods."""
     kp = kepler(0.5)
     t_end = 10 * kp.period
     ref = kp.exact(t_end)[:, 0]
@@ -41,67 +44,162 @@ def kepler_problem():
 
 
 def stiff_problem():
-    """The stiff work-precision problem: (model, t_end, error) for the damped spring k = 10⁶, c = 2·10⁵.
-
-    Rates −5 and −2·10⁵ 1/s over t ∈ [0, 1]; ``error(y)`` = |x(1) − x*(1)|. Shared with ``ch02_work_precision``.
-    """
+    """The stiff spring k = 10⁶, c = 2·10⁵ (rates −5 and −2·10⁵ 1/s) on [0, 1]: (model, t_end, error)."""
     m = damped_oscillator(1e3, 2e5)
     ref = m.exact(1.0)[0, 0]
     return m, 1.0, lambda y: float(abs(y[0] - ref))
 
 
-def runner(model, t_end):
-    """A ``run(variant, param) -> (y(t_end), nfev)`` for :func:`pbanim.accuracy.sweep` on ``model``.
+def _problem(key):
+    """(rhs, jac, y0, t_end, error, atol scale) of a benchmark problem."""
+    if key == "kepler":
+        kp, t_end, err = kepler_problem()
+        return kp.rhs, None, kp.y0, t_end, err, 1e-2
+    if key == "stiff_spring":
+        m, t_end, err = stiff_problem()
+        return m.rhs, m.jac, m.y0, t_end, err, 1e-3
+    p = {"pleiades": pleiades, "van_der_pol": van_der_pol, "robertson": robertson}[key]()
+    return p.rhs, p.jac, p.y0, p.t_end, p.error, (1e-10 if p.relative else 1e-3 if key == "van_der_pol" else 1e-2)
 
-    ``variant`` is ``"pbanim:<method>"`` or ``"scipy:<solve_ivp method>"``; ``param`` is the tolerance rtol
-    (scipy, dopri5; atol = rtol·10⁻²) or the number of steps over [0, t_end] (pbanim fixed-step methods). The
-    analytic Jacobian is passed to the methods that use it.
+
+NONSTIFF = (["pbanim:dop853", "pbanim:vern7", "pbanim:dopri5"], ["RK45", "DOP853", "LSODA"])
+STIFF = (["pbanim:radau5", "pbanim:rodas4"], ["Radau", "BDF", "LSODA"])
+#: key → (title, pbanim variants, solve_ivp methods)
+PROBLEMS = {
+    "kepler": ("Kepler e = 0.5, 10 periods", *NONSTIFF),
+    "pleiades": ("Pleiades, t in [0, 3]", *NONSTIFF),
+    "stiff_spring": ("stiff spring k = 1e6, c = 2e5, t in [0, 1]", *STIFF),
+    "van_der_pol": ("Van der Pol mu = 1000, t in [0, 3000]", *STIFF),
+    "robertson": ("Robertson, t in [0, 40]", *STIFF),
+}
+
+
+class _Cap(Exception):
+    """Raised inside f when a run passes :data:`MAX_EVALS` (the same cap for every library)."""
+
+
+#: most evaluations of f in one run, for every variant (LSODA can stall for minutes at rtol ~ 0.1)
+MAX_EVALS = 2_000_000
+
+
+def runner(rhs, jac, y0, t_end, atol_scale):
+    """``run(variant, rtol) -> (y(t_end), nfev)`` for ``pbanim:<method>``, ``scipy:<solve_ivp method>``, ``odeint``.
+
+    A run that passes :data:`MAX_EVALS` evaluations of f is stopped and returns a NaN state (a failure).
     """
-    J = model.jac
+    failed = np.full(len(y0), np.nan)
 
-    def run(variant, param):
-        lib, method = variant.split(":", 1)
-        if lib == "scipy":
-            opts = {"jac": J} if J is not None and method in ("Radau", "BDF", "LSODA") else {}
-            r = solve_ivp(model.rhs, (0, t_end), model.y0, method=method, rtol=param, atol=param * 1e-2, **opts)
-            return r.y[:, -1], r.nfev
-        if method == "dopri5":
-            r = solve(model.rhs, (0, t_end), model.y0, method=method, rtol=param, atol=param * 1e-2)
-        else:
-            r = solve(model.rhs, (0, t_end), model.y0, method=method, h=t_end / param, jac=J, split=model.split)
-        return r.y[:, -1], r.nfev
+    def run(variant, rtol):
+        atol = rtol * atol_scale
+        count = [0]
+
+        def f(t, y):
+            count[0] += 1
+            if count[0] > MAX_EVALS:
+                raise _Cap
+            return rhs(t, y)
+
+        try:
+            if variant == "odeint":
+                kw = {"Dfun": jac} if jac is not None else {}
+                ys, info = odeint(f, y0, [0.0, t_end], rtol=rtol, atol=atol, tfirst=True, full_output=True,
+                                  mxstep=MAX_EVALS, **kw)
+                ok = info["message"].startswith("Integration successful") and count[0] <= MAX_EVALS
+                return (ys[-1] if ok else failed), int(info["nfe"][-1])
+            lib, method = variant.split(":", 1)
+            if lib == "scipy":
+                kw = {"jac": jac} if jac is not None and method in ("Radau", "BDF", "LSODA") else {}
+                r = solve_ivp(f, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, **kw)
+                return (r.y[:, -1] if r.success else failed), r.nfev
+            r = solve(f, (0.0, t_end), y0, method=method, rtol=rtol, atol=atol, jac=jac, max_steps=MAX_EVALS)
+            return (r.y[:, -1] if r.success else failed), r.nfev
+        except _Cap:
+            return failed, count[0]
 
     return run
 
 
-def _work_precision(name, model, t_end, error, ours, theirs, repeats):
-    run = runner(model, t_end)
-    rows = sweep(run, list(ours) + list(theirs), {**ours, **theirs}, error, repeats=repeats)
-    table = Table(f"work-precision: {name}", ["variant", "param", "error", "wall_time_s", "nfev"],
-                  [r.as_list() for r in rows])
-    by = rows_by_variant(rows)
-    pb = [r for v in ours for r in by[v]]
-    sc = [r for v in theirs for r in by[v]]
-    y0 = np.asarray(model.y0, dtype=float)
-    t_rhs = median_time(lambda: model.rhs(0.0, y0), 5, min_time=0.01)  # one right-hand-side evaluation
-    lv = Table(f"{name}: cheapest run per error level (rhs share = nfev × t_rhs / t_scipy: the part of "
-               f"scipy's time spent in fun itself, t_rhs = {1e6 * t_rhs:.2f} us)",
-               ["level", "pbanim", "t_pbanim_s", "scipy", "t_scipy_s", "ratio", "rhs_share_scipy"])
-    ratios, missing = [], []
+def sweep_problem(key, tols, repeats=1, budget=2.0, variants=None):
+    """Sweep every variant of problem ``key`` over ``tols`` (loose to tight): {variant: [(rtol, error, time, nfev)]}.
+
+    The variants take turns at each tolerance (so a change of machine load hits both libraries alike);
+    each point is the best of ``repeats`` runs (one run when it takes over 0.5 s); a variant stops at its
+    first run below :data:`FLOOR` or over ``budget`` seconds.
+    """
+    rhs, jac, y0, t_end, error, scale = _problem(key)
+    _, ours, theirs = PROBLEMS[key]
+    variants = variants or ours + [f"scipy:{m}" for m in theirs] + ["odeint"]
+    run = runner(rhs, jac, y0, t_end, scale)
+    out = {v: [] for v in variants}
+    active = list(variants)
+    for rtol in tols:
+        for v in list(active):
+            times, value, nfev = [], None, 0
+            while len(times) < repeats and (not times or times[0] < 0.5):   # long runs are timed once
+                start = time.perf_counter()
+                value, nfev = run(v, rtol)
+                times.append(time.perf_counter() - start)
+            err, wall = error(value), float(np.min(times))
+            out[v].append((rtol, err if np.isfinite(err) else np.inf, wall, nfev))
+            if err <= FLOOR or wall > budget:
+                active.remove(v)
+    return out
+
+
+def time_at_error(points, level):
+    """(time, nfev) a variant needs for error ``level``: the lower envelope of its log–log segments.
+
+    ``points`` are (rtol, error, time, nfev) in sweep order; a point with error ≤ level qualifies as is,
+    a segment whose errors bracket the level is interpolated linearly in (log error, log time).
+    Returns (inf, nan) when no point reaches the level.
+    """
+    best = (np.inf, np.nan)
+    for i, (_, e, t, nf) in enumerate(points):
+        if e <= level and t < best[0]:
+            best = (t, nf)
+        if i and e <= level < points[i - 1][1] and e > 0:
+            _, e0, t0, n0 = points[i - 1]
+            w = (np.log(level) - np.log(e0)) / (np.log(e) - np.log(e0))
+            ti = float(np.exp(np.log(t0) + w * (np.log(t) - np.log(t0))))
+            if ti < best[0]:
+                best = (ti, float(np.exp(np.log(n0) + w * (np.log(nf) - np.log(n0)))))
+    return best
+
+
+def library_curve(sweeps, variants, level):
+    """(time, nfev, variant) of the cheapest of ``variants`` at ``level``."""
+    best = (np.inf, np.nan, "-")
+    for v in variants:
+        t, nf = time_at_error(sweeps[v], level)
+        if t < best[0]:
+            best = (t, nf, v)
+    return best
+
+
+def _compare(key, sweeps):
+    """Tables and the two worst ratios (vs solve_ivp, vs odeint) over the levels of one problem."""
+    title, ours, theirs = PROBLEMS[key]
+    raw = Table(f"{title}: every run (rtol, error, wall time, evaluations of f)",
+                ["variant", "rtol", "error", "wall_time_s", "nfev"],
+                [[v, *p] for v, pts in sweeps.items() for p in pts])
+    lv = Table(f"{title}: time to reach each error level (interpolated), best method per library",
+               ["level", "pbanim", "t_pbanim_s", "nfev_pb", "solve_ivp", "t_ivp_s", "nfev_ivp", "t_odeint_s",
+                "nfev_odeint", "pb/ivp", "pb/odeint"])
+    worst = {"ivp": [], "odeint": []}
+    unreached = []
     for L in LEVELS:
-        a, b = best_at_error(pb, L), best_at_error(sc, L)
-        if b is None:  # scipy does not reach this level in the sweep: nothing to compare
-            lv.rows.append([L, a.variant if a else "-", a.wall_time if a else np.nan, "-", np.nan, np.nan, np.nan])
-            continue
-        ratio = a.wall_time / b.wall_time if a else np.inf
-        if a:
-            ratios.append(ratio)
-        else:
-            missing.append(L)
-        lv.rows.append([L, f"{a.variant}@{a.param:g}" if a else "not reached", a.wall_time if a else np.inf,
-                        f"{b.variant}@{b.param:g}", b.wall_time, ratio, b.nfev * t_rhs / b.wall_time])
-    n_sc = len(ratios) + len(missing)
-    return rows, [table, lv], (max(ratios) if ratios else np.nan), (len(ratios) / n_sc if n_sc else np.nan), missing
+        tp, np_, vp = library_curve(sweeps, ours, L)
+        ti, ni, vi = library_curve(sweeps, [f"scipy:{m}" for m in theirs], L)
+        to, no, _ = library_curve(sweeps, ["odeint"], L)
+        r_i = tp / ti if np.isfinite(ti) else np.nan
+        r_o = tp / to if np.isfinite(to) else np.nan
+        for k, r in (("ivp", r_i), ("odeint", r_o)):
+            if not np.isnan(r):       # nan: the baseline does not reach the level
+                worst[k].append(r)
+        if not np.isfinite(tp):
+            unreached.append(L)
+        lv.rows.append([L, vp, tp, np_, vi, ti, ni, to, no, r_i, r_o])
+    return [raw, lv], {k: (max(v) if v else np.nan) for k, v in worst.items()}, unreached
 
 
 def _overhead(quick):
@@ -126,9 +224,8 @@ def _overhead(quick):
 
     ours = lambda: solve(f, (0, N * h), osc.y0, method="rk4", h=h)  # noqa: E731
     assert np.max(np.abs(ours().y[:, -1] - hand()[-1])) < 1e-12
-    reps = 3 if quick else 7
     t_hand, t_ours = [], []
-    for _ in range(reps):  # interleaved, so both sides see the same machine load
+    for _ in range(3 if quick else 7):  # interleaved, so both sides see the same machine load
         t_hand.append(median_time(hand, 1))
         t_ours.append(median_time(ours, 1))
     th, to = float(np.median(t_hand)), float(np.median(t_ours))
@@ -138,70 +235,50 @@ def _overhead(quick):
 
 def _batch(quick):
     K = 40 if quick else 1000
-    th0 = np.radians(np.linspace(5, 175, K))
-    p = pendulum(th0)
+    p = pendulum(np.radians(np.linspace(5, 175, K)))
     t_end = 5.0
-    ref = solve(p.rhs, (0, t_end), p.y0, method="dopri5", rtol=1e-12, atol=1e-13).y[:, :, -1]
-
-    def loop():
-        return np.array([solve_ivp(p.rhs, (0, t_end), p.y0[k], method="RK45", rtol=1e-6, atol=1e-9).y[:, -1]
-                         for k in range(K)])
-
+    ref = solve(p.rhs, (0, t_end), p.y0, method="dop853", rtol=1e-12, atol=1e-13).y[:, :, -1]
     start = time.perf_counter()
-    yl = loop()
+    yl = np.array([solve_ivp(p.rhs, (0, t_end), p.y0[k], method="RK45", rtol=1e-6, atol=1e-9).y[:, -1]
+                   for k in range(K)])
     t_loop = time.perf_counter() - start
     err_loop = float(np.max(np.abs(yl - ref)))
-    table = Table(f"batch: {K} pendulums, t ∈ [0, {t_end}]", ["variant", "error", "wall_time_s"],
+    table = Table(f"batch: {K} pendulums, t in [0, {t_end}]", ["variant", "error", "wall_time_s"],
                   [[f"loop of {K} solve_ivp RK45 (rtol 1e-6)", err_loop, t_loop]])
     best = None
     for rtol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10):
-        fn = lambda rtol=rtol: solve(p.rhs, (0, t_end), p.y0, method="dopri5", rtol=rtol, atol=rtol * 1e-3)  # noqa: E731
+        fn = lambda rtol=rtol: solve(p.rhs, (0, t_end), p.y0, method="dop853", rtol=rtol, atol=rtol * 1e-3)  # noqa: E731
         err = float(np.max(np.abs(fn().y[:, :, -1] - ref)))
         tb = median_time(fn, 3)
-        table.rows.append([f"pbanim batch dopri5 (rtol {rtol:g})", err, tb])
+        table.rows.append([f"pbanim batch dop853 (rtol {rtol:g})", err, tb])
         if err <= err_loop:
             best = tb
             break
     return table, (t_loop / best if best else 0.0)
 
 
-def run(quick: bool = False) -> Report:
-    """Run the ODE benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
+def run(quick: bool = False, problems=None) -> Report:
+    """Run the ODE benchmarks (``quick``: fewer tolerances, one repeat; ``problems``: a subset of keys)."""
     rep = Report("ode")
-    reps = 1 if quick else 3
-    kp, t_end, err = kepler_problem()
-    tols = [1e-4, 1e-7] if quick else [10.0 ** -k for k in range(3, 15)]
-    hs = [2000] if quick else [1000, 2000, 4000, 8000, 16000, 32000]
-    _, tables, r_kep, f_kep, m_kep = _work_precision("Kepler e = 0.5, 10 periods", kp, t_end, err,
-                                       {"pbanim:dopri5": tols, "pbanim:rk4": hs},
-                                       {"scipy:RK45": tols, "scipy:DOP853": tols, "scipy:LSODA": tols,
-                                        "scipy:Radau": tols[:2] if quick else [1e-3, 1e-5, 1e-7]}, reps)
-    rep.tables += tables
-    sm, s_end, serr = stiff_problem()
-    stols = [1e-4, 1e-8] if quick else [10.0 ** -k for k in range(3, 13)]
-    steps = [100, 1000] if quick else [100, 300, 1000, 3000, 10000, 30000]
-    _, tables, r_stiff, f_stiff, m_stiff = _work_precision("stiff damped spring k = 1e6, c = 2e5", sm, s_end, serr,
-                                         {"pbanim:implicit_euler": steps, "pbanim:implicit_midpoint": steps,
-                                          "pbanim:exponential_euler": [1, 10] if quick else [1, 3, 10, 100]},
-                                         {"scipy:Radau": stols, "scipy:BDF": stols, "scipy:LSODA": stols,
-                                          **({} if quick else {"scipy:RK45": [1e-3], "scipy:DOP853": [1e-3]})},
-                                         reps)
-    rep.tables += tables
+    tols = [10.0 ** -k for k in (2, 4, 6, 8, 10)] if quick else [10.0 ** (-k / 2) for k in range(4, 27)]
+    for key in problems or PROBLEMS:
+        sweeps = sweep_problem(key, tols, repeats=1 if quick else 3, budget=0.4 if quick else 3.0)
+        tables, worst, unreached = _compare(key, sweeps)
+        rep.tables += tables
+        if unreached:
+            rep.notes.append(f"{PROBLEMS[key][0]}: levels no pbanim method reached in the sweep: "
+                             + ", ".join(f"{L:.0e}" for L in unreached))
+        rep.goals += [
+            Goal(f"ode-{key}-vs-solve_ivp", worst["ivp"], 0.5, "<=", "x",
+                 "worst level of 1e-3..1e-10: pbanim best / solve_ivp best, equal error"),
+            Goal(f"ode-{key}-vs-odeint", worst["odeint"], 1.0, "<=", "x",
+                 "worst level of 1e-3..1e-10: pbanim best / odeint, equal error"),
+        ]
     t_over, r_over = _overhead(quick)
-    rep.tables.append(t_over)
     t_batch, r_batch = _batch(quick)
-    rep.tables.append(t_batch)
-    rep.notes.append("ratios are wall-time medians measured in this run; the machine is shared, so expect noise")
-    for name, miss in (("Kepler", m_kep), ("stiff spring", m_stiff)):
-        if miss:
-            rep.notes.append(f"{name}: error levels reached by scipy but not by any pbanim run of the sweep: "
-                             + ", ".join(f"{L:.0e}" for L in miss))
-    rep.goals += [
-        Goal("ode-kepler-vs-scipy", r_kep, 0.5, "<=", "x", "worst level of 1e-3..1e-10 reached by both"),
-        Goal("ode-kepler-levels", f_kep, 1.0, ">=", "", "fraction of scipy's error levels pbanim reaches"),
-        Goal("ode-stiff-vs-scipy", r_stiff, 0.5, "<=", "x", "worst level of 1e-3..1e-10 reached by both"),
-        Goal("ode-stiff-levels", f_stiff, 1.0, ">=", "", "fraction of scipy's error levels pbanim reaches"),
-        Goal("ode-rk4-overhead", r_over, 1.2, "<=", "x", "solve(rk4) / hand-written numpy loop"),
-        Goal("ode-batch-vs-loop", r_batch, 20.0, ">=", "x", "loop of solve_ivp / batch dopri5 at equal error"),
-    ]
+    rep.tables += [t_over, t_batch]
+    rep.notes.append("times are the best of 3 runs (1 in quick mode), all variants taking turns at each tolerance "
+                     "in this run; the machine is shared, so expect noise")
+    rep.goals += [Goal("ode-rk4-overhead", r_over, 1.2, "<=", "x", "solve(rk4) / hand-written numpy loop"),
+                  Goal("ode-batch-vs-loop", r_batch, 20.0, ">=", "x", "loop of solve_ivp / batch dop853 at equal error")]
     return rep

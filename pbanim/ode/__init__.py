@@ -21,6 +21,10 @@ name                   order  symplectic  one step
 ``implicit_midpoint``  2      yes         y₁ = y₀ + h f((y₀ + y₁)/2)   (Newton; also non-separable H)
 ``exponential_euler``  2      no          y₁ = y₀ + h φ₁(hJ) f(y₀)   (exact for linear springs)
 ``dopri5``             5      no          Dormand–Prince 5(4), embedded error estimate, adaptive h
+``dop853``             8      no          Dormand–Prince 8(5,3), PI control, dense output of order 7
+``vern7``              7      no          Verner 7(6), PI control, Verner's dense output
+``rodas4``             4      no          Rosenbrock: (1/(hγ) − J)Uᵢ = f(Yᵢ) + Σ cᵢⱼUⱼ/h; one LU/step
+``radau5``             5      no          Radau IIA collocation, simplified Newton, J and LU reused
 =====================  =====  ==========  ========================================================
 
 The explicit Runge–Kutta methods are Butcher tableaux (A, B, C) run by one stepper
@@ -50,16 +54,25 @@ Baraff & Witkin's linearized implicit step (I − hJ)Δy = h f(y₀) is the firs
 Euler, exact for linear forces. The exponential integrator goes further: for a linear spring it *is* the
 exact flow e^(hJ), at any step.
 
-Code map: :mod:`pbanim.ode.methods` (tableaux, explicit and split steps, the registry),
-:mod:`pbanim.ode.implicit` (Newton, implicit and exponential steps), :mod:`pbanim.ode.solve`
-(``solve``: validation, fixed-step loops, scipy delegation), :mod:`pbanim.ode.adaptive` (Dormand–Prince
-error control), :mod:`pbanim.ode.events` (event location, results).
+What accuracy costs (ORACLES A9–A12): an order-p method needs N ∝ ε^(−1/p) steps for an error ε, so
+the tight tolerances belong to the high-order pairs (DOP853, Verner), and stiff problems (a k = 10⁶
+spring, Van der Pol with μ = 1000, Robertson's kinetics) to the L-stable implicit ones (RODAS4, Radau
+IIA), whose step is limited by accuracy only. ``pbanim bench ode`` measures both against scipy.
+
+Code map: :mod:`pbanim.ode.methods` (the registry, split steps), :mod:`pbanim.ode.tableau` (Butcher
+tableaux and their stepper), :mod:`pbanim.ode.high_order` (DOP853, Verner 7(6), dense output),
+:mod:`pbanim.ode.implicit` (Newton, implicit and exponential steps, reusable factorizations),
+:mod:`pbanim.ode.rosenbrock`, :mod:`pbanim.ode.radau` (stiff adaptive methods), :mod:`pbanim.ode.solve`
+(``solve``: validation, fixed-step loops, scipy delegation), :mod:`pbanim.ode.adaptive` and
+:mod:`pbanim.ode.control` (error control, PI controller), :mod:`pbanim.ode.events` (event location,
+results), :mod:`pbanim.ode.problems` (the benchmark problems: Pleiades, Van der Pol, Robertson).
 
 References
 ----------
 Witkin & Baraff, *Physically Based Modeling*, SIGGRAPH course notes ("Differential equation basics",
 "Implicit methods"); Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998; Hairer, Nørsett &
-Wanner, *Solving ODEs I*, §II.1–II.5 (Runge–Kutta, Dormand–Prince, step-size control); Hairer, Lubich &
+Wanner, *Solving ODEs I*, §II.1–II.5 (Runge–Kutta, Dormand–Prince, step-size control); Hairer & Wanner,
+*Solving ODEs II*, §IV.5–IV.8 (Radau IIA, Rosenbrock methods); Hairer, Lubich &
 Wanner, *Geometric Numerical Integration*, §I.1, §VI (symplectic methods, modified energy); Hochbruck &
 Ostermann, "Exponential integrators", Acta Numerica 2010; Michels, Sobottka & Weber, "Exponential
 integrators for stiff elastodynamic problems", ACM TOG 2014.
@@ -76,13 +89,13 @@ from __future__ import annotations
 
 import numpy as np  # noqa: F401  (doctest namespace)
 
-from .methods import (METHODS, TABLEAUX, Method, Tableau, dopri5_step, euler_step, explicit_rk_step,
-                          expm_small, exponential_euler_step, get_method, implicit_euler_step,
-                          implicit_midpoint_step, midpoint_step, newton_solve,
-                          rk4_step, symplectic_euler_step, verlet_step)
+from .methods import (METHODS, TABLEAUX, Method, Tableau, dop853_step, dopri5_step, euler_step,
+                          explicit_rk_step, expm_small, exponential_euler_step, get_method, implicit_euler_step,
+                          implicit_midpoint_step, midpoint_step, newton_solve, radau5_step, rk4_step,
+                          rodas4_step, symplectic_euler_step, verlet_step, vern7_step)
 from .solve import SCIPY_METHODS, solve
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "SCIPY_METHODS", "get_method", "solve",
            "explicit_rk_step", "euler_step", "midpoint_step", "rk4_step", "symplectic_euler_step",
            "verlet_step", "implicit_euler_step", "implicit_midpoint_step", "exponential_euler_step", "dopri5_step",
-           "newton_solve", "expm_small"]
+           "dop853_step", "vern7_step", "rodas4_step", "radau5_step", "newton_solve", "expm_small"]

@@ -1,4 +1,4 @@
-"""The adaptive Dormand–Prince 5(4) loop of :func:`pbanim.solve` (method ``"dopri5"``).
+"""The adaptive loops of the explicit pairs: Dormand–Prince 5(4) (``"dopri5"``), DOP853, Verner 7(6).
 
 Error control (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4): the embedded fourth-order formula gives
 err = ‖h Σ eᵢkᵢ / (atol + rtol·max(|y₀|, |y₁|))‖_RMS (in batch mode the worst trajectory's); a step is
@@ -6,6 +6,14 @@ accepted iff err ≤ 1 and the next one is h·min(10, max(0.2, 0.9·err^(−1/5)
 rejection). The first stage of a step is the last of the previous one (FSAL). A step below 10ε|t| is a
 step-size underflow: the run returns status −1 with a message instead of hanging; so does ``max_steps``.
 Same controller as scipy's RK45, hence the same steps (a test checks it).
+
+The high-order pairs (:func:`solve_pair`, methods ``"dop853"`` and ``"vern7"`` of
+:mod:`pbanim.ode.high_order`) run one leaner loop: the stages live in one preallocated (stages, n)
+array K, each stage sum Σⱼ aᵢⱼkⱼ is one matrix–vector product, the error estimates of a step are one
+matrix product E·K, the step size comes from the PI controller (:mod:`pbanim.ode.control`), and the only
+per-step checks are the step cap and the finiteness of the error (a NaN error rejects the step).
+``t_eval`` and events use the pair's continuous extension, built only for the steps that need it, so
+they never shorten a step (ORACLES A10).
 """
 
 from __future__ import annotations
@@ -14,45 +22,71 @@ import time
 
 import numpy as np
 
+from dataclasses import dataclass
+from typing import Callable
+
+from .control import Controller, emit_step, initial_step, max_steps_message, underflow_message
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_result, start_output
-from .methods import TABLEAUX, _RK_STEPS
+from .high_order import (DOP853, DOP853_A_EXTRA, DOP853_C_EXTRA, DOP853_E3, DOP853_E5, VERN7, VERN7_A_EXTRA,
+                         VERN7_C_EXTRA, dop853_dense, dop853_eval, vern7_dense, vern7_eval)
+from .tableau import Tableau, make_rk_step
 from ..results import SimResult
 
-__all__ = ["solve_adaptive"]
+__all__ = ["solve_adaptive", "solve_pair", "Pair", "PAIRS", "DOPRI5", "dopri5_step"]
 
-_DP = TABLEAUX["dopri5"]
+_F = lambda a, b: a / b  # noqa: E731  (readable rational coefficients)
+
+# Dormand & Prince (1980), the 5(4) pair with the FSAL property (last row of A = B)
+DOPRI5 = Tableau(
+    "dopri5",
+    np.array([
+        [0, 0, 0, 0, 0, 0, 0],
+        [_F(1, 5), 0, 0, 0, 0, 0, 0],
+        [_F(3, 40), _F(9, 40), 0, 0, 0, 0, 0],
+        [_F(44, 45), _F(-56, 15), _F(32, 9), 0, 0, 0, 0],
+        [_F(19372, 6561), _F(-25360, 2187), _F(64448, 6561), _F(-212, 729), 0, 0, 0],
+        [_F(9017, 3168), _F(-355, 33), _F(46732, 5247), _F(49, 176), _F(-5103, 18656), 0, 0],
+        [_F(35, 384), 0, _F(500, 1113), _F(125, 192), _F(-2187, 6784), _F(11, 84), 0]]),
+    np.array([_F(35, 384), 0, _F(500, 1113), _F(125, 192), _F(-2187, 6784), _F(11, 84), 0]),
+    np.array([0, _F(1, 5), _F(3, 10), _F(4, 5), _F(8, 9), 1, 1]), 5,
+    E=np.array([_F(35, 384) - _F(5179, 57600), 0, _F(500, 1113) - _F(7571, 16695),
+                _F(125, 192) - _F(393, 640), _F(-2187, 6784) + _F(92097, 339200),
+                _F(11, 84) - _F(187, 2100), _F(-1, 40)]), embedded_order=4)
+_step5 = make_rk_step(DOPRI5)
+
+
+def dopri5_step(fun, t, y, h, split=None, jac=None):
+    """One fixed step of the fifth-order Dormand–Prince formula (no error control; see :func:`pbanim.solve`)."""
+    return _step5(fun, t, y, h)
+
+
+dopri5_step.nfev = 7
+dopri5_step.tableau = DOPRI5
+
+_DP = DOPRI5
 _DP_ROWS = [_DP.A[i, :i].copy() for i in range(7)]
 _DP_C = _DP.C
 _DP_E = _DP.E
 
 
-def _initial_step(fun, t0, y, f0, direction, rtol, atol, order=5):
-    """Starting step from the sizes of y, f and a difference quotient of f (Hairer–Nørsett–Wanner I, §II.4)."""
-    sc = atol + rtol * np.abs(y)
-    d0 = np.sqrt(np.mean((y / sc) ** 2))
-    d1 = np.sqrt(np.mean((f0 / sc) ** 2))
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    f1 = fun(t0 + direction * h0, y + direction * h0 * f0)
-    d2 = np.sqrt(np.mean(((f1 - f0) / sc) ** 2)) / h0
-    h1 = max(1e-6, h0 * 1e-3) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    return min(100 * h0, h1)
+_initial_step = initial_step
 
 
-def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split) -> SimResult:
+def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
     """Run Dormand–Prince 5(4) with error control from (t0, y) to tf (arguments validated by ``solve``)."""
     direction = 1.0 if tf > t0 else -1.0
     shape = y.shape
     batch = y.ndim == 2
     nfev = 1
     if h is None:
-        h = _initial_step(fun, t0, y, f0, direction, rtol, atol)
+        h = _initial_step(fun, t0, y, f0, direction, rtol, atol, 5)
         nfev += 1
     h = min(abs(h), abs(tf - t0))
     rows, C, E = _DP_ROWS, _DP_C, _DP_E
     size = y.size
     Kf = np.empty((7, size))
     Kf[0] = f0.ravel()
-    step5 = _RK_STEPS["dopri5"]
+    step5 = _step5
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
     t = t0
@@ -135,3 +169,133 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0,) + shape)
     return make_result(ts, Y, nfev, 0, status, message, wall, m.name, evs, nacc, nrej)
+
+
+# ---------------------------------------------------------------------------------------------------
+# the high-order pairs: one lean loop, PI control, dense output
+# ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Pair:
+    """An embedded pair as data: tableau, error weights (rows of ``E``), controller, continuous extension.
+
+    ``a_extra``/``c_extra`` are the stages after the method's own: the first is f(t + h, y₁) (the first
+    stage of the next step), the rest feed only the dense output ``dense(y0, y1, K, h) -> F`` evaluated
+    by ``evaluate(y0, F, θ)``. ``combine`` (DOP853) mixes the order-5 and order-3 estimates.
+    """
+
+    tableau: Tableau
+    E: np.ndarray
+    controller: Controller
+    a_extra: np.ndarray
+    c_extra: np.ndarray
+    dense: Callable
+    evaluate: Callable
+    combine: bool = False
+
+
+PAIRS = {
+    "dop853": Pair(DOP853, np.stack([DOP853_E5, DOP853_E3]), Controller.pi(8.0, fac_min=0.333, fac_max=6.0),
+                   DOP853_A_EXTRA, DOP853_C_EXTRA, dop853_dense, dop853_eval, combine=True),
+    "vern7": Pair(VERN7, VERN7.E[None, :], Controller.pi(7.0, fac_min=0.333, fac_max=6.0),
+                  VERN7_A_EXTRA, VERN7_C_EXTRA, vern7_dense, vern7_eval),
+}
+
+
+def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
+    """Run a high-order pair of :data:`PAIRS` with PI control from (t0, y) to tf (validated by ``solve``)."""
+    pair = PAIRS[m.name]
+    tab, ctrl = pair.tableau, pair.controller
+    s, n_extra = tab.stages, len(pair.c_extra)
+    direction = 1.0 if tf > t0 else -1.0
+    shape, batch, size = y.shape, y.ndim == 2, y.size
+    nfev = [1]
+    if h is None:
+        h = initial_step(fun, t0, y, f0, direction, rtol, atol, tab.embedded_order)
+        nfev[0] += 1
+    h = min(abs(h), abs(tf - t0))
+    K = np.empty((s + n_extra, size))          # every stage of a step, dense-output stages included
+    K[0] = f0.ravel()
+    rows = [tab.A[i, :i].copy() for i in range(s)]
+    C, B, E, combine = tab.C, tab.B, pair.E, pair.combine
+    A_x, C_x = pair.a_extra, pair.c_extra
+    ts, Ys, ie = start_output(t0, y, t_eval)
+    g_old = [float(e.fn(t0, y)) for e in evs]
+    t, yf = t0, y.ravel().copy()
+    status, message = 0, OK_MESSAGE
+    nacc = nrej = 0
+    rejected, err_prev, nonfinite_at = False, 1.0, None
+    eps10 = 10 * np.finfo(float).eps
+    unflat = (lambda v: v.reshape(shape)) if batch else (lambda v: v)  # noqa: E731
+    start = time.perf_counter()
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        while (tf - t) * direction > 0:
+            if nacc + nrej >= max_steps:
+                status, message = -1, max_steps_message(max_steps, t, tf)
+                break
+            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
+                status, message = -1, underflow_message(t, h, nonfinite_at, "the solution may blow up or the "
+                                                        "problem is stiff: try method='radau5' or 'rodas4'")
+                break
+            if (t + direction * h - tf) * direction > 0:
+                h = abs(tf - t)
+            hd = direction * h
+            for i in range(1, s):
+                K[i] = fun(t + C[i] * hd, unflat(yf + np.dot(rows[i] * hd, K[:i]))).ravel()
+            nfev[0] += s - 1
+            y1f = yf + np.dot(B * hd, K[:s])
+            sc = atol + rtol * np.maximum(np.abs(yf), np.abs(y1f))
+            ee = np.dot(E * hd, K[:s]) / sc
+            if batch:
+                sq = np.mean(ee.reshape(len(E), shape[0], shape[1]) ** 2, axis=2)   # (estimates, K)
+                err = sq[0] / np.sqrt(sq[0] + 0.01 * sq[1]) if combine else np.sqrt(sq[0])
+                err = float(np.max(err))
+            else:
+                sq = np.einsum("ij,ij->i", ee, ee) / size
+                err = float(sq[0] / np.sqrt(sq[0] + 0.01 * sq[1]) if combine and sq[0] > 0 else np.sqrt(sq[0]))
+            if not err <= 1.0:                                  # also NaN: reject and shrink
+                nonfinite_at = None if np.isfinite(err) else t
+                h *= ctrl.factor(err, err_prev, True)
+                nrej += 1
+                rejected = True
+                continue
+            t1 = t + hd
+            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
+                t1 = tf
+            y1 = unflat(y1f)
+            nacc += 1
+            K[s] = fun(t1, y1).ravel()                          # f(t + h, y₁): the next step's first stage
+            nfev[0] += 1
+            stop = False
+            if evs or t_eval is not None:
+                dense = _dense_output(fun, pair, K, s, t, yf, y1f, hd, unflat, A_x, C_x, nfev)
+                stop, t1, y1, g_old, ie = emit_step(evs, g_old, t, unflat(yf), t1, y1, hd, dense, t_eval, ie,
+                                                    ts, Ys, direction)
+            else:
+                ts.append(t1), Ys.append(y1)
+            t = t1
+            if stop:
+                status, message = 1, TERMINATED
+                break
+            yf = y1f
+            K[0] = K[s]
+            h *= ctrl.factor(err, err_prev, rejected)
+            err_prev, rejected = max(err, 1e-4), False
+    wall = time.perf_counter() - start
+    Y = np.array(Ys) if Ys else np.empty((0,) + shape)
+    return make_result(ts, Y, nfev[0], 0, status, message, wall, m.name, evs, nacc, nrej)
+
+
+def _dense_output(fun, pair, K, s, t, yf, y1f, hd, unflat, A_x, C_x, nfev):
+    """The continuous extension of one accepted step, its extra stages evaluated on first use."""
+    coef = []
+
+    def at(sv):
+        if not coef:
+            for r in range(1, len(C_x)):
+                i = s + r
+                K[i] = fun(t + C_x[r] * hd, unflat(yf + np.dot(A_x[r, :i] * hd, K[:i]))).ravel()
+            nfev[0] += len(C_x) - 1
+            coef.append(pair.dense(yf, y1f, K.copy(), hd))
+        return unflat(pair.evaluate(yf, coef[0], sv / hd))
+
+    return at

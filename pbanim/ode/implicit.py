@@ -10,6 +10,13 @@ differences (n extra evaluations).
 References: Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998; Hairer & Wanner, *Solving
 ODEs II*, §IV.8 (simplified Newton); Hochbruck & Ostermann, "Exponential integrators", Acta Numerica 2010;
 Higham, "The scaling and squaring method for the matrix exponential revisited", SIMAX 26, 2005.
+
+Shared with the stiff adaptive methods (:mod:`pbanim.ode.rosenbrock`, :mod:`pbanim.ode.radau`):
+:func:`jacobian`, :func:`time_derivative` and :func:`factor`, which returns a solver r ↦ (σI − J)⁻¹r
+for one shift σ, reused for every stage and Newton iteration until h or J changes. For small dense
+systems (n ≤ ``SMALL`` = 12) the reused "factorization" is the explicit inverse: one product per solve
+instead of a LAPACK call whose Python overhead is ~10× its flops at n = 3 (the forward error,
+κ(M)·ε‖x‖, is of the same order as the LU solve's; Golub & Van Loan, *Matrix Computations*, §3.5).
 """
 
 from __future__ import annotations
@@ -22,7 +29,8 @@ import scipy.sparse as sp
 
 from ..errors import ConvergenceError, InvalidInput
 
-__all__ = ["newton_solve", "implicit_euler_step", "implicit_midpoint_step", "expm_small", "exponential_euler_step"]
+__all__ = ["newton_solve", "implicit_euler_step", "implicit_midpoint_step", "expm_small", "exponential_euler_step",
+           "jacobian", "time_derivative", "factor", "SMALL"]
 
 
 def _fd_jacobian(fun, t, z, f0):
@@ -227,3 +235,55 @@ def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spl
     if p == 2:
         aug[..., n, n + 1] = h
     return y + (expm_small(aug) if n < 32 else sla.expm(aug))[..., :n, -1]
+
+
+# ---------------------------------------------------------------------------------------------------
+# Jacobians and reusable factorizations for the stiff adaptive methods
+# ---------------------------------------------------------------------------------------------------
+
+#: systems up to this size are solved through the explicit inverse of M
+SMALL = 12
+
+
+def jacobian(fun, t, y, f, jac):
+    """J = ∂f/∂y at (t, y): ``jac(t, y)``, a constant ``jac`` (array or sparse), or forward differences."""
+    if jac is None:
+        return _fd_jacobian(fun, t, y, f)
+    J = jac(t, y) if callable(jac) else jac
+    if sp.issparse(J):
+        if y.ndim != 1:
+            raise InvalidInput("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
+        return sp.csc_matrix(J)
+    J = np.asarray(J, dtype=float)
+    n = y.shape[-1]
+    if J.shape[-2:] != (n, n):
+        raise InvalidInput(f"jac must return an ({n}, {n}) matrix (∂f/∂y), got shape {J.shape}")
+    return J
+
+
+def time_derivative(fun, t, y, f):
+    """∂f/∂t at (t, y) by a forward difference (one evaluation), or 0 if ``fun.autonomous`` says so."""
+    if getattr(fun, "autonomous", False):
+        return None
+    dt = np.sqrt(np.finfo(float).eps) * max(1.0, abs(t))
+    return (fun(t + dt, y) - f) / dt
+
+
+def factor(sigma, J):
+    """A solver r ↦ (σI − J)⁻¹ r for a real or complex shift σ; batched over leading axes of a dense J."""
+    if sp.issparse(J):
+        n = J.shape[0]
+        lu = sp.linalg.splu(sp.csc_matrix(sigma * sp.identity(n, format="csc", dtype=complex if np.iscomplexobj(sigma) else float) - J))
+        return lu.solve
+    n = J.shape[-1]
+    M = -J.astype(np.result_type(J, sigma))
+    idx = np.arange(n)
+    M[..., idx, idx] += sigma
+    if M.ndim > 2:                       # a batch (K, n, n): one inverse per trajectory
+        Minv = np.linalg.inv(M)
+        return lambda r: np.einsum("kij,kj->ki", Minv, r)
+    if n <= SMALL:
+        Minv = np.linalg.inv(M)
+        return Minv.dot
+    lu = sla.lu_factor(M, check_finite=False)
+    return lambda r: sla.lu_solve(lu, r, check_finite=False)

@@ -6,8 +6,9 @@ See :mod:`pbanim.ode` for the lecture. This module holds the loops:
   steps, the last one shortened to land on t_f); events and ``t_eval`` output are its hooks; with
   neither (and an explicit method) :func:`~pbanim.ode.driver.drive_lean` stores the states into one
   preallocated array and checks finiteness once per block of steps;
-* the adaptive loop (``dopri5``) is in :mod:`pbanim.ode.adaptive`, event location in
-  :mod:`pbanim.ode.events`; ``method="scipy:<name>"`` hands the same call to ``scipy.integrate.solve_ivp``.
+* the adaptive loops are the methods' own (``Method.run``): the explicit pairs in
+  :mod:`pbanim.ode.adaptive`, RODAS4 in :mod:`pbanim.ode.rosenbrock`, Radau IIA in
+  :mod:`pbanim.ode.radau`; event location in :mod:`pbanim.ode.events`; ``method="scipy:<name>"`` hands the same call to ``scipy.integrate.solve_ivp``.
 """
 
 from __future__ import annotations
@@ -18,7 +19,6 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..errors import InvalidInput, SimulationDiverged, as_float, as_floats, check_count
-from .adaptive import solve_adaptive
 from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
 from .methods import Method, get_method
@@ -103,11 +103,12 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
         A name in :data:`pbanim.ode.METHODS`, or ``"scipy:RK45"`` (any solve_ivp method) to delegate to
         scipy (then ``h`` is passed as ``max_step``).
     h : float
-        Step of a fixed-step method (required); first step of ``dopri5`` (optional).
+        Step of a fixed-step method (required); first step of an adaptive method (optional).
     rtol, atol : float
         Tolerances of the adaptive method.
     jac : callable ``jac(t, y)`` or matrix, optional
-        ∂f/∂y (dense or scipy.sparse) for the implicit methods; else finite differences.
+        ∂f/∂y (dense or scipy.sparse) for the implicit methods (``rodas4``, ``radau5`` ...); else
+        forward differences. A right-hand side with ``fun.autonomous = True`` saves Rosenbrock's ∂f/∂t.
     t_eval : array, optional
         Output times (reached by partial steps of the method); default: every step.
     events : callable or list of callables ``event(t, y)``, optional
@@ -149,7 +150,7 @@ def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h:
                          "initial conditions or drop events")
     f0 = _check_f0(fun, t0, y)
     if m.adaptive:
-        return solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split)
+        return m.run(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, int(max_steps), split, jac)
     if h is None:
         raise InvalidInput(f"h must be given for the fixed-step method {m.name!r} (e.g. h=1e-3), got None")
     return _solve_fixed(fun, t0, tf, y, m, h, jac, t_eval, evs, int(max_steps), split)
