@@ -1,3 +1,11 @@
+# %% [markdown]
+# # Chapter 02 — ODE solvers: orders, stability regions, Kepler orbits, work-precision, stiff springs.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch02 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
 """Chapter 02 — ODE solvers: orders, stability regions, Kepler orbits, work-precision, stiff springs.
 
 Each figure computes, plots and returns its data (checked in tests/test_ode_figures.py).
@@ -20,6 +28,12 @@ H0_BY_NAME = {"rodas4": 2.0**-5}
 SPAN = {5: 6.0, 7: 6.0}
 
 
+# %% [markdown]
+# ## Figure `ch02_convergence`
+#
+# Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6): slopes = orders.
+
+# %%
 @figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6): slopes = orders")
 def convergence(ctx):
     kp = kepler(0.3)
@@ -77,6 +91,12 @@ def stability_radius(name, z):
     return np.maximum(np.abs(tr / 2 + disc), np.abs(tr / 2 - disc))
 
 
+# %% [markdown]
+# ## Figure `ch02_stability`
+#
+# Absolute stability regions |R(z)| ≤ 1 (shaded), z = hλ.
+
+# %%
 @figure("ch02", "stability", "Absolute stability regions |R(z)| ≤ 1 (shaded), z = hλ")
 def stability(ctx):
     n = 80 if ctx.quick else 240  # even: the grid avoids the poles z = 1, 2 of the implicit methods
@@ -108,6 +128,12 @@ def stability(ctx):
     return data
 
 
+# %% [markdown]
+# ## Figure `ch02_kepler`
+#
+# Kepler orbit (e = 0.5): trajectories and energy error per method, h = T/400.
+
+# %%
 @figure("ch02", "kepler", "Kepler orbit (e = 0.5): trajectories and energy error per method, h = T/400")
 def kepler_orbits(ctx):
     kp = kepler(0.5)
@@ -140,6 +166,12 @@ def kepler_orbits(ctx):
     return data
 
 
+# %% [markdown]
+# ## Figure `ch02_work_precision`
+#
+# Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted).
+
+# %%
 @figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)")
 def work_precision(ctx):
     from pbanim.bench.ode import PROBLEMS, sweep_problem
@@ -164,6 +196,12 @@ def work_precision(ctx):
     return {"sweeps": out}
 
 
+# %% [markdown]
+# ## Figure `ch02_stiff_spring`
+#
+# Stiff spring k = 1e6 at hω = 2.5: Euler and symplectic Euler explode (limit hω < 2), RK4 (limit 2√2) and implicit methods do not.
+
+# %%
 @figure("ch02", "stiff_spring", "Stiff spring k = 1e6 at hω = 2.5: Euler and symplectic Euler explode (limit hω < 2), RK4 (limit 2√2) and implicit methods do not")
 def stiff_spring(ctx):
     m = damped_oscillator(1e3, 20.0)
@@ -190,3 +228,18 @@ def stiff_spring(ctx):
     ax.legend()
     ctx.save(fig)
     return data
+
+
+# %% [markdown]
+# ## Draw the figures
+#
+# As a script or in a notebook kernel, draw this chapter's figures (quick mode) into `figures/`.
+
+# %%
+if __name__ == "__main__":
+    from pathlib import Path
+
+    from pbanim.plotting import figures_of, run_figure
+
+    for _key, _spec in figures_of({"ch02"}).items():
+        print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])
