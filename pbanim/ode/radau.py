@@ -109,9 +109,9 @@ def radau5_step(fun, t, y, h, split=None, jac=None, tol=1e-13, max_iter=50):
 
     Raises :class:`~pbanim.errors.ConvergenceError` when Newton does not converge in ``max_iter``.
 
-    >>> y = radau5_step(lambda t, y: -y, 0.0, np.array([1.0]), 0.5)
-    >>> bool(abs(y[0] - np.exp(-0.5)) < 1e-6)
-    True
+    >>> y = radau5_step(lambda t, y: -y, 0.0, np.array([1.0]), 0.5)   # R(z) = Padé (2, 3) of e^z
+    >>> float(abs(y[0] - np.exp(-0.5)))                                 # = |R(−0.5) − e^(−0.5)|
+    1.2220914...e-06
     """
     y = np.asarray(y, dtype=float)
     f = fun(t, y)
