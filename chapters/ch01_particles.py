@@ -112,7 +112,7 @@ def spring_energy(ctx):
     for name, r in rel.items():
         ax.plot(times, np.abs(r) + 1e-17, label=name)
     ax.set_yscale("log")
-    ax.set(xlabel="t (s)", ylabel="|E(t) − E₀| / E₀",
+    ax.set(xlabel="t (s)", ylabel="|E(t) − E₀| / E₀ (1)",
            title=f"mass on a spring, hω = {h * omega:.2g}: relative energy error per method")
     ax.legend(ncol=2)
     ctx.save(fig)

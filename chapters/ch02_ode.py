@@ -57,7 +57,7 @@ def convergence(ctx):
         ax.loglog(data["h"][name], data["error"][name], "o-", ms=3,
                   label=f"{name} (slope {data['slope'][name]:.2f}, order {data['order'][name]})")
     ax.set_xlabel("step h [s]")
-    ax.set_ylabel("max |y(t) − y*(t)| at the end")
+    ax.set_ylabel("max |y(t) − y*(t)| at the end (state units)")
     ax.legend(fontsize=7)
     ctx.save(fig)
     return data
@@ -121,9 +121,9 @@ def stability(ctx):
         ax.set_title(name, fontsize=8)
         ax.set_aspect("equal")
     for ax in axes[-1]:
-        ax.set_xlabel("Re z = h Re λ")
+        ax.set_xlabel("Re z = h Re λ (1)")
     for ax in axes[:, 0]:
-        ax.set_ylabel("Im z = h Im λ")
+        ax.set_ylabel("Im z = h Im λ (1)")
     ctx.save(plt_fig)
     return data
 
@@ -156,11 +156,11 @@ def kepler_orbits(ctx):
         a2.semilogy(data["t"][name] / T, np.abs(data["energy_error"][name]) + 1e-17, lw=0.7, label=name)
     a1.set_aspect("equal")
     a1.set_xlabel("x [GM = a = 1 units]")
-    a1.set_ylabel("y")
+    a1.set_ylabel("y [GM = a = 1 units]")
     a1.set_title("orbits")
     a1.legend(fontsize=7)
     a2.set_xlabel("t / T (orbits)")
-    a2.set_ylabel("|E(t) − E*|")
+    a2.set_ylabel("|E(t) − E*| [GM = a = 1 units]")
     a2.set_title("energy error")
     ctx.save(fig)
     return data
@@ -189,7 +189,7 @@ def work_precision(ctx):
             style = "o-" if v.startswith("pbanim") else ("k:" if v == "odeint" else "s--")
             ax.loglog([p[2] for p in pts], [max(p[1], 1e-16) for p in pts], style, ms=3, label=v)
         ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("error at t_end")
+        ax.set_ylabel("error at t_end (state units)")
         ax.set_title(title, fontsize=9)
         ax.legend(fontsize=6)
     ctx.save(fig)

@@ -94,7 +94,7 @@ def drift(ctx):
              "projection": "post-step projection"}
     for label, (t, C) in series.items():
         ax.semilogy(t, np.maximum(C, 1e-18), label=names[label])
-    ax.set(xlabel="t (s)", ylabel="max |C| (m², C = ½(|d|² − L²))", ylim=(1e-18, 1),
+    ax.set(xlabel="t (s)", ylabel="max |C| with C = ½(|d|² − L²) (m²)", ylim=(1e-18, 1),
            title=f"Swinging {n}-link chain, RK4 h = {h} s")
     ax.legend(loc="center right")
     ctx.save(fig)
@@ -148,9 +148,9 @@ def baumgarte_stability(ctx):
         ax.plot(pts[grew, 0], pts[grew, 1], "x", color="k", label="simulated: |C| grows / diverges")
         lim = baumgarte_stability_limit(method, 1.0)
         ax.axvline(lim, color="C2", ls="--", lw=1, label=f"ζ = 1 limit ω_b h = {lim:.3f}")
-        ax.set(xlabel="ω_b h", ylabel="damping ratio ζ", title=f"{method}: log₁₀ ρ (black: ρ = 1)")
+        ax.set(xlabel="ω_b h (1)", ylabel="damping ratio ζ (1)", title=f"{method}: log₁₀ ρ (black: ρ = 1)")
         ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=7)
-        fig.colorbar(im, ax=ax, label="log₁₀ spectral radius")
+        fig.colorbar(im, ax=ax, label="log₁₀ spectral radius (1)")
         clear = np.abs(pts[:, 2] - 1) > 0.02
         out[method] = {"rho": rho, "omega_h": whs, "zeta": zetas, "points": pts, "limit_zeta1": lim,
                        "agreement": float(np.mean((pts[clear, 2] > 1) == grew[clear]))}
@@ -186,7 +186,7 @@ def chain_tension(ctx):
         ax2.semilogy(k, np.maximum(rel, 1e-18), lw=0.8, label=solver)
     ax.set(xlabel="link k (0 = top)", ylabel="tension (N)", title=f"n = {n}, masses 1, 1000, 1, …")
     ax2.axhline(1e-8, color="C3", ls=":", label="test bound 1e-8")
-    ax2.set(xlabel="link k", ylabel="relative error", title="|T − exact| / exact")
+    ax2.set(xlabel="link k (index)", ylabel="relative error (1)", title="|T − exact| / exact")
     ax.legend()
     ax2.legend(loc="upper left")
     ctx.save(fig)
@@ -277,7 +277,7 @@ def solver_cost(ctx):
         ax.loglog(ns, np.array(costs[s]) * 1e3, "o-", label=s)
     ax.loglog(ns, 1e-3 * np.array(ns, float) * costs["linear"][-1] * 1e3 / (1e-3 * ns[-1]), "k:", lw=0.8,
               label="∝ n")
-    ax.set(xlabel="chain links n", ylabel="ms per step (assembly + λ)",
+    ax.set(xlabel="chain links n (count)", ylabel="ms per step (assembly + λ)",
            title="Hanging chain: dense skipped past n = 2000, CG past 10⁴")
     ax.legend()
     ctx.save(fig)

@@ -73,7 +73,7 @@ def period_amplitude(ctx):
     ax.legend(loc="upper left")
     rel = np.abs(T_sim / T_ex - 1)
     ax2.semilogy(degs, np.maximum(rel, 1e-17), "o-")
-    ax2.set(xlabel="amplitude θ₀ (deg)", ylabel="|T_sim / T_exact − 1|", title="relative period error")
+    ax2.set(xlabel="amplitude θ₀ (deg)", ylabel="|T_sim / T_exact − 1| (1)", title="relative period error")
     ctx.save(fig)
     return {"theta0_deg": degs, "T_sim": T_sim, "T_exact": T_ex, "rel_err": rel, "T_small": T0}
 
@@ -159,7 +159,7 @@ def energy_error(ctx):
             t, rel = curves[(f, m)]
             ax.semilogy(t[1:], np.maximum(rel[1:], 1e-17), style, label=f)
         ax.set(xlabel="t (s)", title=f"{m}, h = {h} s")
-    axes[0].set_ylabel("|E − E₀| / |E₀|")
+    axes[0].set_ylabel("|E − E₀| / |E₀| (1)")
     axes[0].legend()
     ctx.save(fig)
     out.update(h=h, t_end=t_end)
@@ -192,9 +192,9 @@ def cost_vs_n(ctx):
     for f, mk in zip(rows, "osd"):
         ax.loglog(ns, rows[f], mk + "-", label=f)
         ax2.loglog(ns, np.array(rows[f]) * np.array(hs[f]), mk + "-", label=f)   # s per RK4 step
-    ax.set(xlabel="number of links n", ylabel="wall time per simulated second (s)",
+    ax.set(xlabel="number of links n (count)", ylabel="wall time per simulated second (s)",
            title=f"RK4 at tip error ≤ {tol:g} m after 1 s")
-    ax2.set(xlabel="number of links n", ylabel="wall time per RK4 step (s)",
+    ax2.set(xlabel="number of links n (count)", ylabel="wall time per RK4 step (s)",
             title="per step (4 rhs evaluations)")
     for a in (ax, ax2):
         a.set_xticks(ns, [str(n) for n in ns])
@@ -233,7 +233,7 @@ def derivation_time(ctx):
         label = {"pbanim": "pbanim.reduced.lagrangian (kinematic route + CSE)", "kane": "sympy KanesMethod + lambdify",
                  "lagrange": "sympy LagrangesMethod + lambdify"}[k]
         ax.semilogy(ns, times[k], mk + "-", label=label)
-    ax.set(xlabel="number of links n", ylabel="derivation + compilation (s)", xticks=ns,
+    ax.set(xlabel="number of links n (count)", ylabel="derivation + compilation (s)", xticks=ns,
            title=(f"{'one process for all' if ctx.quick else 'fresh process each'}, cap {cap:g} s "
                   "(missing point = capped)"))
     ax.legend()

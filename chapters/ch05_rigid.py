@@ -165,7 +165,7 @@ def t_handle_flip(ctx):
     ax.legend(loc="lower left", ncol=2)
     ax2.plot(res.t, T / T[0] - 1, label="T/T₀ − 1")
     ax2.plot(res.t, Lnorm / Lnorm[0] - 1, label="|L|/|L₀| − 1 (exact: Baraff's state)")
-    ax2.set(xlabel="t (s)", ylabel="relative change", title="invariants through the flips (RK4, h = 0.01 s)")
+    ax2.set(xlabel="t (s)", ylabel="relative change (1)", title="invariants through the flips (RK4, h = 0.01 s)")
     ax2.legend()
     ctx.save(fig)
     return {"t": res.t, "omega": w, "omega2_exact": b.omega(res.t)[:, 1], "flips": flips, "period": b.period,
@@ -216,7 +216,7 @@ def quat_drift(ctx):
         ax.semilogy(r.t, d, style, label=f"rk4 + {mode}")
     ax.axhline(np.finfo(float).eps, color="0.5", lw=0.6)
     ax.text(0.2, 3e-16, "machine ε", fontsize=7, color="0.4")
-    ax.set(xlabel="t (s)", ylabel="||q| − 1|", title=f"quaternion drift, torque-free body, h = {h} s",
+    ax.set(xlabel="t (s)", ylabel="||q| − 1| (1)", title=f"quaternion drift, torque-free body, h = {h} s",
            ylim=(1e-17, 10))
     ax.legend(loc="center right", fontsize=7)
     ctx.save(fig)

@@ -98,7 +98,7 @@ def incline_stick_slip(ctx):
     ax2.plot(np.degrees(fine), f_ex, "k-", label="m g sin θ (stick), μ m g cos θ (slip)")
     ax2.plot(np.degrees(angles), fric, "o", mfc="none", label="friction impulse / h")
     ax2.set_xlabel("incline angle θ (deg)")
-    ax2.set_ylabel("friction force (N), m = 1 kg")
+    ax2.set_ylabel("friction force, m = 1 kg (N)")
     ax2.legend()
     ctx.save(fig)
     return {"angles": angles, "acceleration": acc, "friction": fric, "friction_coefficient": mu,
@@ -154,7 +154,7 @@ def solver_residual_time(ctx):
         ax.loglog([out[f"{solver}_time"]], [max(sol.residual, 1e-17)], mk, color=col, ms=9, label=f"{name}: {sol.residual:.0e}")
     ax.axhline(1e-10, color="k", ls=":", lw=1, label="tol 1e-10")
     ax.set_xlabel("wall time (s)")
-    ax.set_ylabel("natural-map residual ‖f − max(0, f − w)‖∞")
+    ax.set_ylabel("natural-map residual ‖f − max(0, f − w)‖∞ (force units)")
     ax.set_title(f"Residual vs wall time, m = {m} redundant frictionless contacts (rank {m // 2 + 1})")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ctx.save(fig)

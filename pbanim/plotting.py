@@ -217,6 +217,8 @@ def axes_without_units(fig) -> list[str]:
         for which, label in (("x", ax.get_xlabel()), ("y", ax.get_ylabel())):
             if has_unit(label):
                 continue
+            if not label.strip() and getattr(ax, "_colorbar", None) is not None:
+                continue                                          # a colorbar's short side carries no label
             shared = ax.get_shared_x_axes() if which == "x" else ax.get_shared_y_axes()
             twins = [o for o in fig.axes if o is not ax and shared.joined(ax, o)]
             if not label.strip() and any(has_unit(o.get_xlabel() if which == "x" else o.get_ylabel()) for o in twins):
