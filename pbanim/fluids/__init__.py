@@ -13,6 +13,7 @@ module              what it holds
 ``poisson``         (αI − βL)x = r: Gauss–Seidel, Jacobi, CG, PCG, multigrid, FFT/DCT, sparse LU
 ``multigrid``       V-cycles for those solves, alone or preconditioning CG (any obstacles)
 ``collocated``      Stam's cell-centred layout and its projection, for comparison with the MAC grid
+``stam``            :class:`StamSolver`: Stam's collocated step (source → diffuse → advect → project)
 ``diffusion``       implicit viscosity for the face velocities and the scalars
 ``effects``         the declared stages: Source, Force, Buoyancy, VorticityConfinement, Diffusion,
                     Advection, Projection
@@ -36,6 +37,7 @@ from .grid import BOUNDARIES, Grid
 from .interpolate import sample
 from .poisson import POISSON_METHODS, SolveInfo, solve_cells
 from .scene import FluidResult, FluidScene, FluidState
+from .stam import STAM_DIFFUSION, StamResult, StamSolver, advect_collocated
 
 __all__ = ["Grid", "BOUNDARIES", "FluidScene", "FluidState", "FluidResult", "FluidEffect", "Source", "Force",
            "Buoyancy", "VorticityConfinement", "Diffusion", "Advection", "Projection", "vorticity",
@@ -43,4 +45,5 @@ __all__ = ["Grid", "BOUNDARIES", "FluidScene", "FluidState", "FluidResult", "Flu
            "semi_lagrangian_loop", "DIFFUSION_METHODS", "diffuse_scalar", "diffuse_velocity", "POISSON_METHODS",
            "SolveInfo", "solve_cells", "sample", "COLLOCATED_STENCILS", "collocated_divergence",
            "collocated_gradient", "project_collocated", "GHIA_RE100", "centreline_u", "lid_driven_cavity",
-           "smoke_plume", "stream_velocity", "taylor_green", "taylor_green_energy"]
+           "smoke_plume", "stream_velocity", "taylor_green", "taylor_green_energy", "STAM_DIFFUSION", "StamResult",
+           "StamSolver", "advect_collocated"]
