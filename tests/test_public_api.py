@@ -91,11 +91,17 @@ def test_every_public_name_in_the_readme_imports(module, name):
     assert hasattr(importlib.import_module(module), name), f"README names {module}.{name}"
 
 
-def test_readme_examples_run():
-    # the code a newcomer copies first must run as printed (blocks run in order, in one fresh process)
+def test_readme_examples_run(tmp_path):
+    # the code a newcomer copies first must run as printed (blocks run in order, in one fresh process, in a
+    # scratch folder: the first example saves energy.png)
+    import os
+
     text = (ROOT / "README.md").read_text()
     code = "\n".join(re.findall(r"```python\n(.*?)```", text, flags=re.S))
     assert "Scene" in code and "solve" in code
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, timeout=120,
+                         env=env)
     assert out.returncode == 0, out.stderr
     assert "('gravity', 'drag', 'integrate')" in out.stdout
+    assert "energy drift 1.06e-02 J" in out.stdout and (tmp_path / "energy.png").stat().st_size > 1000
