@@ -25,7 +25,7 @@ import numpy as np
 from dataclasses import dataclass
 from typing import Callable
 
-from .control import Controller, emit_step, initial_step, max_steps_message, underflow_message
+from .control import Controller, emit_step, initial_step, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_result, start_output
 from .high_order import (DOP853, DOP853_A_EXTRA, DOP853_C_EXTRA, DOP853_E3, DOP853_E5, VERN7, VERN7_A_EXTRA,
                          VERN7_C_EXTRA, dop853_dense, dop853_eval, vern7_dense, vern7_eval)
@@ -94,21 +94,14 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     nacc = nrej = 0
     last_rejected = False
     nonfinite_at = None  # time of the last step rejected because a stage or the error estimate was not finite
-    eps10 = 10 * np.finfo(float).eps
     yf = y.ravel()
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
-            if nacc + nrej >= max_steps:
-                status, message = -1, (f"failed: max_steps = {max_steps} steps reached at t = {t:.6g} before "
-                                       f"t_end = {tf:.6g}; raise max_steps or loosen rtol/atol")
-                break
-            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                cause = ("fun returned non-finite values (NaN or inf) for every trial step from t = "
-                         f"{nonfinite_at:.6g}: the solution blows up there or fun is undefined at the stage "
-                         "points" if nonfinite_at is not None else
-                         "the solution may blow up or the problem is stiff: try an implicit method or scipy:Radau")
-                status, message = -1, f"failed: step size underflow at t = {t:.6g} (h = {h:.3e} < 10ε|t|); {cause}"
+            failure = step_failure(nacc, nrej, max_steps, t, tf, h, nonfinite_at,
+                                   "the solution may blow up or the problem is stiff: try an implicit method or scipy:Radau")
+            if failure:
+                status, message = -1, failure
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
@@ -133,9 +126,7 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
                 nrej += 1
                 last_rejected = True
                 continue
-            t1 = t + hd
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
-                t1 = tf
+            t1 = step_end(t, hd, tf, direction)
             y1 = y1f.reshape(shape)
             nacc += 1
             stop = None
@@ -224,17 +215,14 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, err_prev, nonfinite_at = False, 1.0, None
-    eps10 = 10 * np.finfo(float).eps
     unflat = (lambda v: v.reshape(shape)) if batch else (lambda v: v)  # noqa: E731
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
-            if nacc + nrej >= max_steps:
-                status, message = -1, max_steps_message(max_steps, t, tf)
-                break
-            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                status, message = -1, underflow_message(t, h, nonfinite_at, "the solution may blow up or the "
-                                                        "problem is stiff: try method='radau5' or 'rodas4'")
+            failure = step_failure(nacc, nrej, max_steps, t, tf, h, nonfinite_at,
+                                   "the solution may blow up or the problem is stiff: try method='radau5' or 'rodas4'")
+            if failure:
+                status, message = -1, failure
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
@@ -258,9 +246,7 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
                 nrej += 1
                 rejected = True
                 continue
-            t1 = t + hd
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
-                t1 = tf
+            t1 = step_end(t, hd, tf, direction)
             y1 = unflat(y1f)
             nacc += 1
             K[s] = fun(t1, y1).ravel()                          # f(t + h, y₁): the next step's first stage

@@ -106,6 +106,26 @@ def underflow_message(t: float, h: float, nonfinite_at, hint: str) -> str:
     return f"failed: step size underflow at t = {t:.6g} (h = {h:.3e} < 10ε|t|); {cause}"
 
 
+EPS10 = 10 * np.finfo(float).eps
+
+
+def step_failure(nacc: int, nrej: int, max_steps: int, t: float, tf: float, h: float, nonfinite_at,
+                 hint: str) -> str | None:
+    """Why an adaptive loop must stop before its next step — the step cap, or a step size below 10ε|t| —
+    or None to go on (every adaptive loop asks this first)."""
+    if nacc + nrej >= max_steps:
+        return max_steps_message(max_steps, t, tf)
+    if h < EPS10 * max(abs(t), 1e-300) or h < 1e-300:
+        return underflow_message(t, h, nonfinite_at, hint)
+    return None
+
+
+def step_end(t: float, hd: float, tf: float, direction: float) -> float:
+    """t + hd, snapped to tf when it reaches or passes it (to within 10ε|tf|)."""
+    t1 = t + hd
+    return tf if (t1 - tf) * direction > 0 or abs(t1 - tf) <= EPS10 * abs(tf) else t1
+
+
 def emit_step(evs, g_old, t, y, t1, y1, hd, dense, t_eval, ie, ts, Ys, direction):
     """Events and output of one accepted step [t, t1] through its continuous extension.
 

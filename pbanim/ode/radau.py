@@ -50,7 +50,7 @@ import time
 
 import numpy as np
 
-from .control import emit_step, initial_step, max_steps_message, rms, underflow_message
+from .control import emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
 from .implicit import factor, jacobian
 from ..errors import ConvergenceError, InvalidInput
@@ -162,17 +162,14 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, first = False, True
-    eps10 = 10 * np.finfo(float).eps
     F = np.empty((3, n))
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
-            if nacc + nrej >= max_steps:
-                status, message = -1, max_steps_message(max_steps, t, tf)
-                break
-            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                status, message = -1, underflow_message(t, h, None, "Newton fails at every step size: the "
-                                                        "solution may blow up or jac may be wrong")
+            failure = step_failure(nacc, nrej, max_steps, t, tf, h, None,
+                                   "Newton fails at every step size: the solution may blow up or jac may be wrong")
+            if failure:
+                status, message = -1, failure
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
@@ -238,9 +235,7 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
                     J, fresh, solvers = jacobian(fun, t, y, f, jac), True, None
                     njev, nfev = njev + 1, nfev + (n if jac is None else 0)
                 continue
-            t1 = t + hd
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
-                t1 = tf
+            t1 = step_end(t, hd, tf, direction)
             nacc += 1
             q = _VINV @ Z                        # collocation polynomial of this step
             stop = False

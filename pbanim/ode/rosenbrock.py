@@ -47,7 +47,7 @@ import time
 
 import numpy as np
 
-from .control import Controller, emit_step, initial_step, max_steps_message, rms, underflow_message
+from .control import Controller, emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
 from .implicit import factor, jacobian, time_derivative
 from ..errors import InvalidInput
@@ -137,15 +137,12 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, err_prev, nonfinite_at = False, 1.0, None
-    eps10 = 10 * np.finfo(float).eps
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
-            if nacc + nrej >= max_steps:
-                status, message = -1, max_steps_message(max_steps, t, tf)
-                break
-            if h < eps10 * max(abs(t), 1e-300) or h < 1e-300:
-                status, message = -1, underflow_message(t, h, nonfinite_at, "the solution may blow up")
+            failure = step_failure(nacc, nrej, max_steps, t, tf, h, nonfinite_at, "the solution may blow up")
+            if failure:
+                status, message = -1, failure
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
@@ -164,9 +161,7 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
                 nrej += 1
                 rejected = True
                 continue
-            t1 = t + hd
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= eps10 * abs(tf):
-                t1 = tf
+            t1 = step_end(t, hd, tf, direction)
             nacc += 1
             f1 = fun(t1, y1)
             nfev += 1
