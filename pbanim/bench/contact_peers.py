@@ -32,20 +32,17 @@ Measured (every function returns a small dict):
 
 from __future__ import annotations
 
-import importlib.util
 import time
 
 import numpy as np
+
+from ..compare.harness import have
+from ..compare.peer_mujoco import mjcf_numbers
 from ..errors import InvalidInput
 
 __all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run"]
 
 G = 9.81
-
-
-def have(module: str) -> bool:
-    """True when the optional peer ``module`` ("pybullet", "mujoco") can be imported (no import done)."""
-    return importlib.util.find_spec(module) is not None
 
 
 def _stack_scene(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -97,17 +94,12 @@ def pybullet_stack(n: int = 10, t_end: float = 2.0, h: float = 1e-3) -> dict:
             "settings": f"sequential impulse, {iters} iterations, default ERP and margins, friction {friction:g}"}
 
 
-def _v(*values) -> str:
-    """MJCF number list: shortest round-trip decimal of each value."""
-    return " ".join(repr(float(v)) for v in values)
-
-
 def _mjcf_stack(half, masses, x0, h: float) -> str:
-    size = _v(*half)
+    size = mjcf_numbers(*half)
     bodies = "\n".join(
-        f'    <body name="box{k}" pos="{_v(*x)}"><freejoint/><geom type="box" size="{size}" mass="{_v(m)}"/></body>'
+        f'    <body name="box{k}" pos="{mjcf_numbers(*x)}"><freejoint/><geom type="box" size="{size}" mass="{mjcf_numbers(m)}"/></body>'
         for k, (m, x) in enumerate(zip(masses, x0)))
-    return (f'<mujoco model="pbanim-box-stack">\n  <option timestep="{_v(h)}" gravity="{_v(0, 0, -G)}"/>\n'
+    return (f'<mujoco model="pbanim-box-stack">\n  <option timestep="{mjcf_numbers(h)}" gravity="{mjcf_numbers(0, 0, -G)}"/>\n'
             f'  <worldbody>\n    <geom name="ground" type="plane" size="10 10 0.1"/>\n{bodies}\n'
             "  </worldbody>\n</mujoco>\n")
 
@@ -150,11 +142,11 @@ def _mjcf_pour(x0: np.ndarray, radius: float, box_half: float, mass: float, h: f
     walls = [("floor", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0)), ("wall-x", (-L, 0.0, 0.0), (1.0, 0.0, 0.0)),
              ("wall+x", (L, 0.0, 0.0), (-1.0, 0.0, 0.0)), ("wall-y", (0.0, -L, 0.0), (0.0, 1.0, 0.0)),
              ("wall+y", (0.0, L, 0.0), (0.0, -1.0, 0.0))]
-    geoms = "\n".join(f'    <geom name="{nm}" type="plane" size="{_v(L, L, 0.1)}" pos="{_v(*p)}" zaxis="{_v(*z)}"/>'
+    geoms = "\n".join(f'    <geom name="{nm}" type="plane" size="{mjcf_numbers(L, L, 0.1)}" pos="{mjcf_numbers(*p)}" zaxis="{mjcf_numbers(*z)}"/>'
                       for nm, p, z in walls)
-    bodies = "\n".join(f'    <body name="s{k}" pos="{_v(*x)}"><freejoint/>'
-                       f'<geom type="sphere" size="{_v(radius)}" mass="{_v(mass)}"/></body>' for k, x in enumerate(x0))
-    return (f'<mujoco model="pbanim-sphere-pour">\n  <option timestep="{_v(h)}" gravity="{_v(0, 0, -G)}"/>\n'
+    bodies = "\n".join(f'    <body name="s{k}" pos="{mjcf_numbers(*x)}"><freejoint/>'
+                       f'<geom type="sphere" size="{mjcf_numbers(radius)}" mass="{mjcf_numbers(mass)}"/></body>' for k, x in enumerate(x0))
+    return (f'<mujoco model="pbanim-sphere-pour">\n  <option timestep="{mjcf_numbers(h)}" gravity="{mjcf_numbers(0, 0, -G)}"/>\n'
             '  <default><geom condim="1"/></default>\n'
             f"  <worldbody>\n{geoms}\n{bodies}\n  </worldbody>\n</mujoco>\n")
 
@@ -206,18 +198,18 @@ def _new_scene(scene: str, quick: bool) -> dict:
 def _mjcf_new(scene: str, S: dict, h: float, iterations: int) -> str:
     mu = S["mu"]
     if scene == "stack":
-        geom = f'type="box" size="{_v(*S["half"])}"'
+        geom = f'type="box" size="{mjcf_numbers(*S["half"])}"'
         walls = '    <geom name="ground" type="plane" size="10 10 0.1"/>'
     else:
-        geom = f'type="sphere" size="{_v(S["radius"])}"'
+        geom = f'type="sphere" size="{mjcf_numbers(S["radius"])}"'
         L = S["L"]
-        walls = "\n".join(f'    <geom type="plane" size="{_v(L, L, 0.1)}" pos="{_v(*p)}" zaxis="{_v(*z)}"/>' for p, z in
+        walls = "\n".join(f'    <geom type="plane" size="{mjcf_numbers(L, L, 0.1)}" pos="{mjcf_numbers(*p)}" zaxis="{mjcf_numbers(*z)}"/>' for p, z in
                           (((0, 0, 0), (0, 0, 1)), ((-L, 0, 0), (1, 0, 0)), ((L, 0, 0), (-1, 0, 0)),
                            ((0, -L, 0), (0, 1, 0)), ((0, L, 0), (0, -1, 0))))
-    bodies = "\n".join(f'    <body name="b{k}" pos="{_v(*x)}"><freejoint/><geom {geom} mass="1"/></body>'
+    bodies = "\n".join(f'    <body name="b{k}" pos="{mjcf_numbers(*x)}"><freejoint/><geom {geom} mass="1"/></body>'
                        for k, x in enumerate(S["x0"]))
-    return (f'<mujoco model="pbanim-{scene}">\n  <option timestep="{_v(h)}" gravity="{_v(0, 0, -G)}" '
-            f'iterations="{int(iterations)}"/>\n  <default><geom friction="{_v(mu)} 0.005 0.0001"/></default>\n'
+    return (f'<mujoco model="pbanim-{scene}">\n  <option timestep="{mjcf_numbers(h)}" gravity="{mjcf_numbers(0, 0, -G)}" '
+            f'iterations="{int(iterations)}"/>\n  <default><geom friction="{mjcf_numbers(mu)} 0.005 0.0001"/></default>\n'
             f"  <worldbody>\n{walls}\n{bodies}\n  </worldbody>\n</mujoco>\n")
 
 

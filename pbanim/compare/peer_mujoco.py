@@ -66,7 +66,7 @@ __all__ = ["run_mujoco", "bounce_solref", "mjcf"]
 CONTACT_STEPS = 10            # a bouncing contact lasts this many steps
 
 
-def _v(*values) -> str:
+def mjcf_numbers(*values) -> str:
     """MJCF number list: shortest round-trip decimal of each value."""
     return " ".join(repr(float(v)) for v in values)
 
@@ -91,18 +91,18 @@ def _contact_attrs(spec: SceneSpec, h: float) -> str:
     e = eps.pop() if eps else 0.0
     if e == 0.0:
         return ""
-    return f' solref="{_v(*bounce_solref(e, h))}" solimp="0.99 0.99 0.001"'
+    return f' solref="{mjcf_numbers(*bounce_solref(e, h))}" solimp="0.99 0.99 0.001"'
 
 
 def _inertial(b, com=(0.0, 0.0, 0.0)) -> str:
-    return f'<inertial pos="{_v(*com)}" mass="{_v(b.mass)}" diaginertia="{_v(*b.inertia)}"/>'
+    return f'<inertial pos="{mjcf_numbers(*com)}" mass="{mjcf_numbers(b.mass)}" diaginertia="{mjcf_numbers(*b.inertia)}"/>'
 
 
 def _geom(b, contact: str) -> str:
     if b.shape == "none":
         return ""
     kind = "sphere" if b.shape == "sphere" else "box"
-    return f'<geom type="{kind}" size="{_v(*b.size)}" friction="{_v(b.friction, 0, 0)}" condim="3"{contact}/>'
+    return f'<geom type="{kind}" size="{mjcf_numbers(*b.size)}" friction="{mjcf_numbers(b.friction, 0, 0)}" condim="3"{contact}/>'
 
 
 INTEGRATORS = ("Euler", "RK4", "implicit", "implicitfast")
@@ -114,7 +114,7 @@ def mjcf(spec: SceneSpec, h: float, integrator: str = "Euler") -> str:
 
     contact = _contact_attrs(spec, h)
     lines = [f'<mujoco model="pbanim-{spec.name}">',
-             f'  <option timestep="{_v(h)}" gravity="{_v(*spec.gravity)}" integrator="{integrator}"/>', "  <worldbody>"]
+             f'  <option timestep="{mjcf_numbers(h)}" gravity="{mjcf_numbers(*spec.gravity)}" integrator="{integrator}"/>', "  <worldbody>"]
     if spec.ground:
         lines.append(f'    <geom name="ground" type="plane" size="50 50 0.1" friction="0 0 0"{contact}/>')
     hinges = [j for j in spec.joints if j.kind == "hinge"]
@@ -127,8 +127,8 @@ def mjcf(spec: SceneSpec, h: float, integrator: str = "Euler") -> str:
             pos = quat_to_matrix(prev_q).T @ (np.asarray(b.x) - prev_x)
             rel = quat_multiply(quat_conjugate(prev_q), np.asarray(b.quat))
             pad = "    " + "  " * k
-            lines += [f'{pad}<body name="b{k}" pos="{_v(*pos)}" quat="{_v(*rel)}">',
-                      f'{pad}  <joint type="hinge" pos="{_v(*j.anchor_a)}" axis="{_v(*j.axis)}"/>',
+            lines += [f'{pad}<body name="b{k}" pos="{mjcf_numbers(*pos)}" quat="{mjcf_numbers(*rel)}">',
+                      f'{pad}  <joint type="hinge" pos="{mjcf_numbers(*j.anchor_a)}" axis="{mjcf_numbers(*j.axis)}"/>',
                       f"{pad}  {_inertial(b)}"]
             close.append(f"{pad}</body>")
             prev_x, prev_q = np.asarray(b.x), np.asarray(b.quat)
@@ -140,10 +140,10 @@ def mjcf(spec: SceneSpec, h: float, integrator: str = "Euler") -> str:
                 j = balls[k]
                 if j.b != -1:
                     raise Unsupported("mujoco", "ball joints are translated to the world only")
-                lines += [f'    <body name="b{k}" pos="{_v(*j.anchor_b)}">', '      <joint type="ball"/>',
+                lines += [f'    <body name="b{k}" pos="{mjcf_numbers(*j.anchor_b)}">', '      <joint type="ball"/>',
                           f"      {_inertial(b, -np.asarray(j.anchor_a))} {_geom(b, contact)}", "    </body>"]
             else:
-                lines += [f'    <body name="b{k}" pos="{_v(*b.x)}">', "      <freejoint/>",
+                lines += [f'    <body name="b{k}" pos="{mjcf_numbers(*b.x)}">', "      <freejoint/>",
                           f"      {_inertial(b)} {_geom(b, contact)}", "    </body>"]
     lines += ["  </worldbody>", "</mujoco>", ""]
     return "\n".join(lines)
