@@ -28,10 +28,10 @@ import time
 
 import numpy as np
 
-from pbanim.articulated import ArticulatedSystem, ArticulatedTree, RigidJoints, aba, aba_batch, bias_forces, crba
+from pbanim.articulated import RigidJoints, aba, aba_batch, bias_forces, crba
 from pbanim.models.articulated import rod_chain
 from pbanim.plotting import figure
-from pbanim.rigid import quat_from_axis_angle, quat_to_matrix
+from pbanim.rigid import quat_to_matrix
 
 L, M, G = 0.5, 1.0, 9.81
 
@@ -152,19 +152,10 @@ def cost_vs_links(ctx):
 # %%
 @figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase")
 def ragdoll_fall(ctx):
-    from pbanim.articulated.contact import ArticulatedContact, Staircase
-    from pbanim.models.articulated import ragdoll, ragdoll_contact_points
+    from pbanim.models.articulated import ragdoll_contact_points, ragdoll_down_stairs
 
-    tree = ragdoll(damping=3.0)
-    q0 = tree.neutral()
-    q0[:4] = quat_from_axis_angle([0, 1, 0], 0.3)
-    q0[4:7] = [-0.1, 0, 1.1]
-    q0[7:] = np.random.default_rng(0).uniform(-0.3, 0.3, tree.nq - 7)
-    qd0 = np.zeros(tree.nv)
-    qd0[3] = 1.5                                              # thrown forward at 1.5 m/s (pelvis axes)
-    stairs = Staircase(rise=0.15, run=0.35, steps=6)
-    ac = ArticulatedContact(ArticulatedSystem(tree, q0, qd0), ragdoll_contact_points(tree), friction=0.8,
-                            terrain=stairs)
+    ac, stairs = ragdoll_down_stairs()
+    tree = ac.tree
     t_end, h = (1.0, 5e-3) if ctx.quick else (3.0, 2e-3)
     res = ac.simulate(t_end, h, record_every=10 if ctx.quick else 20)
     frames = np.unique(np.linspace(0, res.y.shape[1] - 1, 6 if ctx.quick else 50).astype(int))

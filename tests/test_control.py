@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from pbanim.control import (SERVOS, InvalidGains, InvalidMachine, PDServo, StateMachine, Transition, UnknownJoint,
+from pbanim.control import (InvalidGains, InvalidMachine, PDServo, StateMachine, Transition, UnknownJoint,
                             explicit_pd_stable, largest_stable_step, pd_step, stable_pd_acceleration,
                             stable_pd_stable)
 from pbanim.errors import InvalidInput

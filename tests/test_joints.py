@@ -280,19 +280,10 @@ def test_ragdoll_tumbles_down_steps_and_comes_to_rest():
     # 2 s, 0 at 3 s); it never sinks into a tread by more than a few mm; energy only ever decreases after
     # the throw except for what gravity gives on the way down (E = T + V never grows)
     from pbanim.articulated import kinetic_energy
-    from pbanim.articulated.contact import ArticulatedContact, Staircase
-    from pbanim.models.articulated import ragdoll, ragdoll_contact_points
+    from pbanim.models.articulated import ragdoll_down_stairs
 
-    tree = ragdoll(damping=3.0)
-    q0 = tree.neutral()
-    q0[:4] = quat_from_axis_angle([0, 1, 0], 0.3)
-    q0[4:7] = [-0.1, 0, 1.1]
-    q0[7:] = np.random.default_rng(0).uniform(-0.3, 0.3, tree.nq - 7)
-    qd0 = np.zeros(tree.nv)
-    qd0[3] = 1.5                                          # 1.5 m/s forward (pelvis axes)
-    stairs = Staircase(rise=0.15, run=0.35, steps=6)
-    ac = ArticulatedContact(ArticulatedSystem(tree, q0, qd0), ragdoll_contact_points(tree), friction=0.8,
-                            terrain=stairs)
+    ac, stairs = ragdoll_down_stairs()
+    tree = ac.tree
     res = ac.simulate(2.5, 5e-3, record_every=10)
     E = res.diagnostics["energy"]
     assert np.all(np.diff(E) <= 1e-6 * abs(E[0]) + 1e-9)

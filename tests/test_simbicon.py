@@ -8,7 +8,7 @@ their margins.
 import numpy as np
 import pytest
 
-from pbanim.control import FAST_WALK, WALK, Gait, Phase, Push, Simbicon, simulate_walk
+from pbanim.control import FAST_WALK, WALK, Gait, Phase, Push, simulate_walk
 from pbanim.errors import InvalidInput
 
 H = 2e-3

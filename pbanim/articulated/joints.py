@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError, check_count, check_number
-from ..geometry import cross, skew, tangent_basis
+from ..geometry import cross, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
 from ..scene import Effect
@@ -338,7 +338,6 @@ class RigidJoints(Effect):
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
 
-        s = self.system
         C, J, jdot, Cdot = self.rows(y, sparse=True)
         Wb, WQ = self._free_acceleration(y, Q)
         W = sp.block_diag(list(Wb), format="csr")

@@ -25,7 +25,7 @@ from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 from .batched import aba_batch
 from .fast import aba_fast
-from .dynamics import aba, kinetic_energy, potential_energy
+from .dynamics import kinetic_energy, potential_energy
 from .tree import ArticulatedTree
 
 __all__ = ["ArticulatedSystem"]

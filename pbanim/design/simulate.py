@@ -36,7 +36,6 @@ import numpy as np
 from ..errors import InvalidInput, as_floats, check_count, check_number
 from ..ode.driver import drive, step_grid
 from ..ode.events import crossings, make_events
-from ..rigid import quat_multiply, quat_conjugate
 from .flight import FlightModel, augmented_step, omega_tangent, plain_step, rotation_tangent, step_rate
 from .exact import ExactFlight, exact_reason
 from .impact import Features, Impact, apply_impact, gaps, saltation_post

@@ -29,7 +29,7 @@ from ..articulated.tree import ArticulatedTree
 from ..errors import InvalidInput, check_count, check_number
 from .biped import planar_biped
 
-__all__ = ["pendulum_chain", "rod_chain", "ragdoll", "ragdoll_contact_points", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
+__all__ = ["pendulum_chain", "rod_chain", "ragdoll", "ragdoll_contact_points", "ragdoll_down_stairs", "planar_biped", "urdf_path", "to_urdf", "box_inertia"]
 
 
 def box_inertia(mass: float, size) -> np.ndarray:
@@ -120,6 +120,25 @@ def ragdoll_contact_points(tree: ArticulatedTree) -> list:
         pts += [(i, np.zeros(3)), (i, 2.0 * c)] if np.any(c) else [(i, np.array([sx * 0.15, sy * 0.1, -0.075]))
                                                                   for sx in (-1, 1) for sy in (-1, 1)]
     return pts
+
+
+def ragdoll_down_stairs(speed: float = 1.5, seed: int = 0):
+    """(ArticulatedContact, Staircase): the damped ragdoll thrown forward at ``speed`` (m/s) over the top of
+    a staircase (rise 0.15 m, run 0.35 m, 6 steps), friction 0.8 — chapter 08's falling-down-steps scene."""
+    from ..articulated.contact import ArticulatedContact, Staircase
+    from ..articulated.system import ArticulatedSystem
+    from ..rigid.quat import quat_from_axis_angle
+
+    tree = ragdoll(damping=3.0)
+    q0 = tree.neutral()
+    q0[:4] = quat_from_axis_angle([0, 1, 0], 0.3)
+    q0[4:7] = [-0.1, 0, 1.1]
+    q0[7:] = np.random.default_rng(seed).uniform(-0.3, 0.3, tree.nq - 7)
+    qd0 = np.zeros(tree.nv)
+    qd0[3] = check_number("speed", speed, low=0.0, high=100.0)          # forward, in the pelvis axes
+    stairs = Staircase(rise=0.15, run=0.35, steps=6)
+    return ArticulatedContact(ArticulatedSystem(tree, q0, qd0), ragdoll_contact_points(tree), friction=0.8,
+                              terrain=stairs), stairs
 
 
 def to_urdf(tree: ArticulatedTree, name: str) -> str:

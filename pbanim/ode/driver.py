@@ -42,7 +42,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, as_float, as_floats, check_count
+from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, as_float, check_count
 
 __all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ..errors import InvalidInput, SimulationDiverged
+from ..errors import InvalidInput
 from ..results import SimResult
 
 __all__ = ["Event", "make_events", "make_result", "crossings", "handle_events", "OK_MESSAGE",
