@@ -18,11 +18,10 @@ cone is exactly this interval), with
     0 ≤ zₙ ⊥ vₙ⁺ + max(gap, 0)/h + β min(gap, 0)/h ≥ 0,      vₜ⁺ = 0 while |zₜ| < μ zₙ,
     zₜ = −μ zₙ sign(vₜ⁺) when sliding.
 
-:func:`solve_planar_contact` first tries the previous step's contact modes (separate, stick, slide ±):
-one linear solve, accepted when every condition above holds to roundoff; a change of modes falls back
-to the core's projected Gauss–Seidel (:func:`pbanim.lcp.pgs_box_friction`) and the modes it finds are
-polished by the same direct solve. While a foot stays planted the guess is right and the step costs one
-factorization of a small matrix.
+:func:`pbanim.lcp.planar.solve_planar_contact` (the LCP core) first tries the previous step's contact modes:
+one linear solve, accepted when every condition above holds to roundoff; failing modes are switched, and
+when that cycles projected Gauss–Seidel finds them. While a foot stays planted the guess is right and the
+step costs one factorization of a small matrix.
 """
 
 from __future__ import annotations
@@ -30,13 +29,11 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInput, check_number
-from ..lcp import pgs_box_friction
+from ..lcp.planar import SEPARATE, SLIDE_NEG, SLIDE_POS, STICK, solve_planar_contact  # noqa: F401 (re-exported)
 from .planar import PlanarKernel
 
 __all__ = ["PlanarGround", "PlanarContactStep", "solve_planar_contact", "SEPARATE", "STICK", "SLIDE_POS",
            "SLIDE_NEG"]
-
-SEPARATE, STICK, SLIDE_POS, SLIDE_NEG = 0, 1, 2, 3        # SLIDE_POS: sliding along +t (friction −μ zₙ)
 
 
 class PlanarGround:
@@ -54,97 +51,6 @@ class PlanarGround:
     def height(self, x) -> np.ndarray:
         """The ground's height y at abscissa x."""
         return np.asarray(x) * np.tan(self.angle)
-
-
-def _check_modes(A, b, z, modes, mu, tol) -> bool:
-    w = A @ z + b
-    scale = tol * (1.0 + np.abs(b).max(initial=0.0))
-    zn, zt, wn, wt = z[0::2], z[1::2], w[0::2], w[1::2]
-    sep = modes == SEPARATE
-    stick = modes == STICK
-    pos, neg = modes == SLIDE_POS, modes == SLIDE_NEG
-    ok = np.all(wn[sep] >= -scale) and np.all(zn[~sep] >= -scale) and np.all(np.abs(wn[~sep]) <= scale)
-    ok = ok and np.all(np.abs(zt[stick]) <= mu * zn[stick] + scale) and np.all(np.abs(wt[stick]) <= scale)
-    return bool(ok and np.all(wt[pos] >= -scale) and np.all(wt[neg] <= scale))
-
-
-def _switch_modes(w, z, modes, mu, eps):
-    """One round of mode changes from the violated conditions (a touching contact pulls: separate; a
-    separated one penetrates: stick; sticking beyond the cone: slide; a slide that reverses: stick)."""
-    zn, zt, wn, wt = z[0::2], z[1::2], w[0::2], w[1::2]
-    new = modes.copy()
-    new[(modes == SEPARATE) & (wn < -eps)] = STICK
-    new[(modes != SEPARATE) & (zn < -eps)] = SEPARATE
-    over = (modes == STICK) & (np.abs(zt) > mu * zn + eps)
-    new[over & (zt > 0)] = SLIDE_NEG
-    new[over & (zt < 0)] = SLIDE_POS
-    new[((modes == SLIDE_POS) & (wt < -eps)) | ((modes == SLIDE_NEG) & (wt > eps))] = STICK
-    return new
-
-
-def _solve_modes(A, b, modes, mu):
-    """z with the contact modes imposed (one linear solve), or None when that system is singular."""
-    m = modes.size
-    z = np.zeros(2 * m)
-    rows = []                                            # equations w_r = 0
-    for i, md in enumerate(modes):
-        if md != SEPARATE:
-            rows.append(2 * i)
-        if md == STICK:
-            rows.append(2 * i + 1)
-    if not rows:
-        return z
-    # unknowns: the normal impulses of touching contacts and the tangential ones of sticking contacts;
-    # a sliding contact's tangential impulse is ∓μ zₙ, folded into its normal column
-    cols = np.array(rows)
-    T = np.zeros((2 * m, cols.size))
-    for c, r in enumerate(cols):
-        T[r, c] = 1.0
-        if r % 2 == 0 and modes[r // 2] in (SLIDE_POS, SLIDE_NEG):
-            T[r + 1, c] = -mu if modes[r // 2] == SLIDE_POS else mu
-    K = A[cols] @ T
-    try:
-        x = np.linalg.solve(K, -b[cols])
-    except np.linalg.LinAlgError:
-        return None
-    return T @ x
-
-
-def solve_planar_contact(A: np.ndarray, b: np.ndarray, mu: float, guess=None, *, tol: float = 1e-9,
-                         max_iter: int = 200) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Impulses z = (zₙ₁, zₜ₁, zₙ₂, …) of planar contacts with w = A z + b (see the module docstring).
-
-    ``guess``: contact modes to try first (previous step's). Modes are switched where a condition fails
-    (at most 3m + 3 rounds); if that cycles, projected Gauss–Seidel finds the modes. Returns (z, modes,
-    info) with info["path"] "guess" (the modes held), "modes" (switched), "pgs+polish" or "pgs" (the
-    polish failed; z is PGS's, with its residual).
-    """
-    m = b.size // 2
-    modes = np.array(guess if guess is not None and len(guess) == m else np.zeros(m, int))
-    for it in range(3 * m + 3):                           # mode switching, a cap known before it starts
-        z = _solve_modes(A, b, modes, mu)
-        if z is None:
-            break
-        if _check_modes(A, b, z, modes, mu, tol):
-            return z, modes, {"path": "guess" if it == 0 else "modes", "sweeps": it}
-        modes = _switch_modes(A @ z + b, z, modes, mu, tol * (1.0 + np.abs(b).max(initial=0.0)))
-    # PGS on the 3-row form (a zero second tangent with unit diagonal), then polish its modes
-    A3 = np.zeros((3 * m, 3 * m))
-    b3 = np.zeros(3 * m)
-    idx = np.arange(3 * m).reshape(m, 3)[:, :2].ravel()
-    A3[np.ix_(idx, idx)] = A
-    A3[2::3, 2::3] = np.eye(m)
-    b3[idx] = b
-    z3, res, sweeps = pgs_box_friction(A3, b3, mu, max_iter=max_iter, tol=tol)
-    z = z3[idx]
-    w = A @ z + b
-    zn, zt, wt = z[0::2], z[1::2], w[1::2]
-    modes = np.where(zn <= 1e-12 * (1 + zn.max(initial=0.0)), SEPARATE,
-                     np.where(np.abs(zt) < mu * zn * (1 - 1e-6), STICK, np.where(wt > 0, SLIDE_POS, SLIDE_NEG)))
-    zp = _solve_modes(A, b, modes, mu)
-    if zp is not None and _check_modes(A, b, zp, modes, mu, tol):
-        return zp, modes, {"path": "pgs+polish", "sweeps": sweeps}
-    return z, modes, {"path": "pgs", "sweeps": sweeps, "residual": res}
 
 
 class PlanarContactStep:

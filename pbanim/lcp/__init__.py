@@ -16,7 +16,8 @@ computed from A and b (ORACLES D8), never by the solver's own claim.
 from __future__ import annotations
 
 from .pivoting import dantzig, enumerate_active_sets, lemke, residual_threshold
+from .planar import solve_planar_contact
 from .solve import LCP_SOLVERS, delassus, pgs_bounded, pgs_box_friction, solve_lcp
 
-__all__ = ["solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "enumerate_active_sets", "residual_threshold",
+__all__ = ["solve_planar_contact", "solve_lcp", "LCP_SOLVERS", "lemke", "dantzig", "enumerate_active_sets", "residual_threshold",
            "delassus", "pgs_box_friction", "pgs_bounded"]
