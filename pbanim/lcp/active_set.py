@@ -46,38 +46,63 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import scipy.linalg as sla
+from scipy.linalg.lapack import dgetrf, dgetrs, dpotrf, dpotrs
 
 from ..errors import InvalidInput
 from ..results import natural_map_residual
 
-__all__ = ["bpp", "box_friction_active_set", "box_friction_residual"]
+__all__ = ["bpp", "dual_active_set", "box_friction_active_set", "box_friction_residual"]
+
+
+def _factor(K: np.ndarray, sym: bool):
+    """A factor of the square matrix K by LAPACK directly (Cholesky when ``sym`` and K is positive
+    definite, LU otherwise): the scipy.linalg wrappers cost ~5 µs per call, more than the work below m ~ 30."""
+    if sym:
+        L, info = dpotrf(K, lower=1, clean=0)
+        if info == 0:
+            return "cho", L
+    lu, piv, info = dgetrf(K)
+    if info < 0:                                       # an illegal argument: a bug, not a singular matrix
+        raise np.linalg.LinAlgError(f"LU factorization failed (LAPACK info {info})")
+    return "lu", (lu, piv)
+
+
+def _solve(factor, r: np.ndarray) -> np.ndarray:
+    kind, fac = factor
+    if kind == "cho":
+        return dpotrs(fac, r, lower=1)[0]
+    return dgetrs(fac[0], fac[1], r)[0]
 
 
 def _prox_solve(M: np.ndarray, rhs: np.ndarray, rho: float, refine: int, factor=None, sym: bool = True):
-    """x with M x = rhs (M possibly singular but consistent): proximal refinement with (M + ρI)⁻¹.
-    Returns (x, factor) so that the factor can be reused."""
+    """x with M x = rhs (M possibly singular but consistent): proximal refinement with (M + ρI)⁻¹,
+    at most ``refine`` corrections, stopped as soon as the residual is at roundoff. Returns (x, factor)
+    so that the factor can be reused."""
     if factor is None:
         K = M.copy()
-        K[np.diag_indices_from(K)] += rho
-        factor = ("cho", sla.cho_factor(K, check_finite=False)) if sym else ("lu", sla.lu_factor(K, check_finite=False))
-    kind, fac = factor
-    solve = (lambda r: sla.cho_solve(fac, r, check_finite=False)) if kind == "cho" else \
-        (lambda r: sla.lu_solve(fac, r, check_finite=False))
-    x = solve(rhs)
+        K.flat[::K.shape[0] + 1] += rho
+        factor = _factor(K, sym)
+    x = _solve(factor, rhs)
+    stop = 1e-14 * max(1.0, abs(rhs).max())
     for _ in range(int(refine)):
-        x = x + solve(rhs - M @ x)
+        r = rhs - M @ x
+        if abs(r).max() <= stop:
+            break
+        x += _solve(factor, r)
     return x, factor
 
 
 def bpp(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, warm_start=None, active=None,
         max_iter: int | None = None, rho_rel: float = 1e-10, refine: int = 3, cache: dict | None = None,
-        **_: Any) -> tuple[np.ndarray, str, int]:
+        handoff: bool = False, **_: Any) -> tuple[np.ndarray, str, int]:
     """Block principal pivoting for the LCP with a symmetric positive semidefinite A (frictionless contact).
 
     ``active`` (bool (m,)) or ``warm_start`` (its support) is the first guess of F, default {bᵢ < 0}.
     Returns ``(f, status, exchanges)``, status "solved" or "max_iter" (at most ``max_iter`` rounds,
-    default 3m + 10, each one factorization). ``cache`` (a dict, optional) keeps the last F and its
+    default 3m + 10, each one factorization); with ``handoff`` it stops with "degenerate" at the first
+    sign that exchanges may cycle — a wrong guess whose A_FF is singular (a Cholesky pivot² below
+    10⁻⁸ max Aᵢᵢ: redundant contacts) or a round that does not reduce the number of infeasible
+    indices — so that a caller can hand the problem to :func:`dual_active_set`, the method for those. ``cache`` (a dict, optional) keeps the last F and its
     factor for the next call and receives ``"active"`` and ``"factorizations"``.
     """
     m = b.size
@@ -92,8 +117,9 @@ def bpp(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, warm_start=None, ac
     else:
         free = b < 0
     cap = 3 * m + 10 if max_iter is None else int(max_iter)
-    rho = rho_rel * max(float(np.max(np.diag(A))), np.finfo(float).tiny)
-    thr = 0.1 * tol * max(1.0, float(np.max(np.abs(b))))
+    dmax = max(float(A.diagonal().max()), np.finfo(float).tiny)
+    rho, singular, singular_rel = rho_rel * dmax, False, 1e-8
+    thr = 0.1 * tol * max(1.0, float(abs(b).max()))
     cache = {} if cache is None else cache
     nbest, patience, nfact = m + 1, 3, 0
     f = np.zeros(m)
@@ -101,16 +127,19 @@ def bpp(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, warm_start=None, ac
         F = np.flatnonzero(free)
         f = np.zeros(m)
         if F.size:
-            same = cache.get("F") is not None and np.array_equal(cache["F"], F) and cache.get("A") is A
+            same = cache.get("A") is A and np.array_equal(cache.get("F"), F)
             fac = cache["factor"] if same else None
-            AFF = A[np.ix_(F, F)]
-            f[F], fac = _prox_solve(AFF, -b[F], rho, refine, fac)
+            f[F], fac = _prox_solve(A[F[:, None], F], -b[F], rho, refine, fac)
             nfact += not same
             cache.update(F=F, factor=fac, A=A)
-        w = A[:, F] @ f[F] + b
-        bad = (free & (f < -thr)) | (~free & (w < -thr))
+            # a pivot at the level of ρ: A_FF is singular (redundant contacts), where exchanges can cycle
+            singular = fac[0] == "cho" and float(fac[1].diagonal().min()) ** 2 < singular_rel * dmax
+        w = A @ f + b
+        bad = np.where(free, f, w) < -thr           # a negative force in F, or a negative w outside F
         nbad = int(np.count_nonzero(bad))
         if nbad == 0 or it == cap:
+            break
+        if handoff and (singular or nbad >= nbest):
             break
         if nbad < nbest:
             nbest, patience = nbad, 3
@@ -122,7 +151,117 @@ def bpp(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, warm_start=None, ac
             bad[i] = True
         free ^= bad
     cache.update(active=free.copy(), factorizations=cache.get("factorizations", 0) + nfact)
-    return np.maximum(f, 0.0), ("solved" if nbad == 0 else "max_iter"), it
+    status = "solved" if nbad == 0 else "max_iter" if it == cap else "degenerate"
+    return np.maximum(f, 0.0), status, it
+
+
+def dual_active_set(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, max_iter: int | None = None,
+                    dep_tol: float = 1e-9, start=None, **_: Any) -> tuple[np.ndarray, str, int]:
+    """Goldfarb–Idnani dual active set for the frictionless contact LCP with a PSD, possibly singular A.
+
+    With A = G Gᵀ the LCP is the optimality condition of the projection  min ½‖v‖²  s.t.  G v + b ≥ 0
+    (v = Gᵀ f, f the multipliers, w = G v + b). The method keeps the multipliers f ≥ 0 and a set S of
+    contacts held at wᵢ = 0 whose rows are linearly independent, and adds the most violated contact p
+    (w_p < 0) by raising f_p by t while S stays at w = 0:
+
+        Δf_S = −r t,   r = A_SS⁻¹ A_Sp,   Δw_p = z t,   z = A_pp − A_pSᵀ r  (= ‖projected row‖²).
+
+    The full step t = −w_p / z makes w_p = 0 and p joins S; if a multiplier of S would go negative first
+    (t = f_j / r_j), j leaves S and p is tried again. A contact whose row depends on S (z ≈ 0: a
+    redundant corner) never joins S, so A_SS stays nonsingular — no least squares, no cycling on
+    rank-deficient stacks. Only G's products enter, so everything is written with A; A_SS⁻¹ is kept
+    and updated by rank-one formulas (O(|S|²) per change). Each round adds or removes one index;
+    at most ``max_iter`` rounds (default 3m + 10). ``start`` (bool (m,), optional) is a guess of S: its
+    contacts with negative forces are dropped (a few re-solves) until f_S ≥ 0, and the method starts from
+    there when A_SS is well conditioned (from S = ∅ otherwise). Returns ``(f, status, rounds)``, status "solved",
+    "infeasible" (w_p < 0 cannot be raised: b is not in the feasible range) or "max_iter".
+
+    References: D. Goldfarb, A. Idnani, "A numerically stable dual method for solving strictly convex
+    quadratic programs", Math. Programming 27 (1983).
+
+    >>> f, status, rounds = dual_active_set(np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([-1.0, -1.0]))
+    >>> f.tolist(), status      # two redundant contacts: one carries the load, w = 0 on both
+    ([1.0, 0.0], 'solved')
+    """
+    m = b.size
+    cap = 3 * m + 10 if max_iter is None else int(max_iter)
+    thr = 0.1 * tol * max(1.0, float(np.max(np.abs(b), initial=0.0)))
+    S = np.zeros(m, dtype=np.intp)       # S[:k]: the held set, in insertion order
+    Hinv = np.zeros((m, m))              # A_SS⁻¹ in the leading k × k block
+    rows = np.zeros((m, m))              # rows[i] = A[S[i]] (A symmetric: w = f_S @ rows + b)
+    fS = np.zeros(m)
+    w = np.array(b, dtype=float)
+    k, p, fp, status, it = 0, -1, 0.0, "max_iter", 0
+    if start is not None and m:          # a valid start: S held, f_S = −A_SS⁻¹ b_S ≥ 0, A_SS well conditioned
+        S0 = np.flatnonzero(np.asarray(start, dtype=bool))
+        for _ in range(min(S0.size, 8)):
+            if not S0.size:
+                break
+            kind, L = _factor(A[S0[:, None], S0], True)
+            if kind != "cho" or float(L.diagonal().min()) ** 2 <= dep_tol * float(A.diagonal()[S0].max()):
+                S0 = S0[:0]              # singular: start from nothing (the method's own start)
+                break
+            x = _solve((kind, L), -b[S0])
+            if x.min() >= 0:
+                k = S0.size
+                S[:k], fS[:k], rows[:k] = S0, x, A[S0]
+                Hinv[:k, :k] = _solve((kind, L), np.eye(k))
+                w = x @ rows[:k] + b
+                break
+            S0 = S0[x > 0]
+    for it in range(cap + 1):
+        if p < 0:                        # the most violated contact
+            p = int(w.argmin()) if m else 0
+            if m == 0 or w[p] >= -thr:
+                p = -1
+                status = "solved"
+                break
+            fp, ap = 0.0, A[p]
+        if it == cap:
+            break
+        t_add, t_drop, j = np.inf, np.inf, -1
+        z = ap[p]
+        if k:
+            a_Sp = rows[:k, p]
+            r = Hinv[:k, :k] @ a_Sp
+            z = ap[p] - a_Sp @ r
+            rmax = r.max()
+            if rmax > 0:
+                pos = np.flatnonzero(r > 1e-14 * rmax)
+                ratio = fS[pos] / r[pos]
+                jj = int(ratio.argmin())
+                j, t_drop = int(pos[jj]), float(ratio[jj])
+        if z > dep_tol * ap[p]:
+            t_add = -w[p] / z
+        if t_add == np.inf and t_drop == np.inf:
+            status = "infeasible"
+            break
+        if t_add <= t_drop:              # full step: w_p = 0, p joins S
+            if k:
+                fS[:k] -= t_add * r
+                u = r / z
+                Hinv[:k, :k] += np.outer(r, u)
+                Hinv[:k, k] = Hinv[k, :k] = -u
+            Hinv[k, k] = 1.0 / z
+            fS[k], S[k], rows[k] = fp + t_add, p, ap
+            k, p = k + 1, -1
+            w = fS[:k] @ rows[:k] + b
+        else:                            # partial step: f_j reaches 0, S[j] leaves
+            fS[:k] -= t_drop * r
+            fp += t_drop
+            h = Hinv[:k, j].copy()
+            Hinv[:k, :k] -= np.outer(h, h) / h[j]
+            for arr in (S, fS, rows):
+                arr[j:k - 1] = arr[j + 1:k]
+            Hinv[j:k - 1, :k] = Hinv[j + 1:k, :k]
+            Hinv[:k, j:k - 1] = Hinv[:k, j + 1:k]
+            k -= 1
+            w = fS[:k] @ rows[:k] + fp * ap + b
+    f = np.zeros(m)
+    f[S[:k]] = fS[:k]
+    if p >= 0:
+        f[p] = fp
+    return np.maximum(f, 0.0), status, it
 
 
 def box_friction_residual(z: np.ndarray, w: np.ndarray, mu) -> float:

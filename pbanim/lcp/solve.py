@@ -248,19 +248,24 @@ def delassus(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
 def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: bool = True,
                **opts: Any) -> tuple[np.ndarray, str, int]:
     """Block principal pivoting (:func:`pbanim.lcp.active_set.bpp`, symmetric PSD A) for at most ``max_iter``
-    exchange rounds; when it has not found the active set by then (redundant, degenerate stacks can make it
-    cycle), ProxQP runs from a cold start at eps_abs = tol/2 (polished only if that is not enough), and the
-    status says so ("bpp→qp:<status>")."""
-    from .active_set import bpp
+    exchange rounds; when it has not found the active set by then, or meets a singular A_FF with a wrong
+    guess (redundant, degenerate stacks can make it cycle), the Goldfarb–Idnani dual active set (:func:`pbanim.lcp.active_set.dual_active_set`, which keeps
+    its held rows independent and cannot cycle on redundancy) takes over from a cold start, and only if its
+    answer fails the certificate does ProxQP run (eps_abs = tol/2, polished if that is not enough). The
+    status says which route answered ("solved", "bpp→dual", "bpp→qp:<status>")."""
+    from .active_set import bpp, dual_active_set
 
-    f, status, iters = bpp(A, b, max_iter=max_iter, **opts)
+    f, status, iters = bpp(A, b, max_iter=max_iter, handoff=True, **opts)
     if status == "solved" or not qp_fallback:
         return f, status, iters
     tol = opts.get("tol", 1e-10)
+    g, st1, it1 = dual_active_set(A, b, tol=tol, start=b < 0)
+    if st1 == "solved" and natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
+        return g, "bpp→dual", iters + it1
     g, st2, it2 = qp(A, b, tol=tol, eps_abs=0.5 * tol * _scale(b), polish=False)
     if natural_map_residual(g, A @ g + b) > residual_threshold(A, b, g, tol):
         g = _polish(A, b, g, tol)
-    return g, f"bpp→qp:{st2}", iters + it2
+    return g, f"bpp→qp:{st2}", iters + it1 + it2
 
 
 _IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp, "bpp": _bpp_route}
