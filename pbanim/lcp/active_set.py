@@ -278,12 +278,17 @@ def box_friction_residual(z: np.ndarray, w: np.ndarray, mu) -> float:
 
 
 def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max_iter: int = 30,
-                            tol: float = 1e-10, rho_rel: float = 1e-10, refine: int = 3) -> tuple:
+                            tol: float = 1e-10, rho_rel: float = 1e-10, refine: int = 3,
+                            patience: int = 3) -> tuple:
     """Active-set solve of the box-friction problem (see the module docstring).
 
     ``state`` (m, 3) ints from the previous step (contact persistence) is the first guess; default: every
     contact with b_f < 0 on and sticking. Returns ``(z, residual, rounds, state)``; ``rounds`` ≤
     ``max_iter`` and ``residual`` is :func:`box_friction_residual` (the caller compares it to its tolerance).
+    The problem is not monotone once contacts slide (the bounds ±μf move with f), and in dense piles the
+    exchanges can wander or cycle: when ``patience`` rounds in a row do not improve on the best residual
+    so far, the solve stops early (rather than spending its whole ``max_iter`` budget) and the residual
+    says so.
     """
     n = b.size
     if n % 3:
@@ -301,6 +306,7 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
     thr = 0.1 * tol * max(1.0, float(np.max(np.abs(b))))
     z = np.zeros(n)
     w = b.copy()
+    best, worse = np.inf, 0
     for it in range(1, int(max_iter) + 1):
         on = s[:, 0] == 1
         # unknowns: f of active contacts, t of their sticking tangents; sliding t = ±μ f (column map P)
@@ -316,9 +322,10 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
         k_f = np.searchsorted(cols_f, 3 * si)
         P[3 * si + 1 + sj, k_f] = s[si, 1 + sj] * mu[si]
         z = np.zeros(n)
-        if unk.size:
-            M = A[unk] @ P
-            x, _ = _prox_solve(M, -b[unk], rho, refine, sym=not si.size)
+        if unk.size and not si.size:         # nothing slides: P selects, the system is A's principal block
+            z[unk], _ = _prox_solve(A[unk[:, None], unk], -b[unk], rho, refine)
+        elif unk.size:
+            x, _ = _prox_solve(A[unk] @ P, -b[unk], rho, refine, sym=False)
             z = P @ x
         w = A @ z + b
         f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
@@ -332,5 +339,12 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
         new[:, 1:] = np.where(new[:, :1] == 1, nt, 0)
         if np.array_equal(new, s):
             break
+        res = box_friction_residual(z, w, mu)
+        if res < best:
+            best, worse = res, 0
+        else:                                # the guesses stopped improving the answer: it may cycle
+            worse += 1
+            if worse >= patience:
+                break
         s = new
     return z, box_friction_residual(z, w, mu), it, s
