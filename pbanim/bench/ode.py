@@ -12,6 +12,13 @@
    level of every problem (a level pbanim does not reach while the baseline does counts as ∞).
    The tables give the evaluations of f at each level too, so a ratio reads as (fewer evaluations) ×
    (less time per evaluation).
+   *The floor.* One call of f takes t_f (median over states along the solution, measured in the same
+   run, the evaluation counter included). A library's floor at a level is N_min·t_f, N_min the fewest
+   evaluations any of its methods needs there: the time it would take if its integrator cost nothing.
+   ``floor/ivp`` = pbanim's floor / solve_ivp's actual time; when it exceeds the goal's 0.5 (or
+   ``floor/odeint`` exceeds 1), no implementation of pbanim's present methods with this f, in any
+   language, meets the goal — only fewer evaluations can; a note per problem says which. ``over_pb_us``
+   is what pbanim's integrator adds per evaluation, t/N − t_f.
 2. Overhead: ``solve(method="rk4")`` on a 2-state oscillator vs a hand-written numpy RK4 loop. Goal ≤ 1.2×.
 3. Batch: K pendulums in one batch run vs a loop of K ``solve_ivp`` calls, at no larger error. Goal ≥ 20×.
 """
@@ -26,10 +33,12 @@ from scipy.integrate import odeint, solve_ivp
 from ..models.ode import damped_oscillator, harmonic_oscillator, kepler, pendulum
 from ..ode import solve
 from ..ode.problems import pleiades, robertson, van_der_pol
+from ..errors import InvalidInput, check_count, check_positive
 from . import Goal, Report, Table, median_time
 
 __all__ = ["run", "LEVELS", "PROBLEMS", "kepler_problem", "stiff_problem", "runner", "sweep_problem",
-           "time_at_error", "library_curve"]
+           "time_at_error", "library_curve", "counting", "f_time", "nfev_at_error", "floor_ratios",
+           "numpy_call_time"]
 
 LEVELS = [10.0 ** -k for k in range(3, 11)]
 FLOOR = 1e-11          # a variant whose error is below this covers every level: it stops sweeping
@@ -82,6 +91,56 @@ class _Cap(Exception):
 MAX_EVALS = 2_000_000
 
 
+def counting(rhs):
+    """(f, count): ``rhs`` behind the evaluation counter every library calls (stops a run at :data:`MAX_EVALS`).
+
+    The wrapper keeps ``rhs.autonomous`` (f does not depend on t), so that RODAS4 skips its ∂f/∂t
+    difference (one evaluation per step) on the autonomous problems; the scipy methods never need ∂f/∂t.
+    """
+    if not callable(rhs):
+        raise InvalidInput(f"rhs must be a callable rhs(t, y), got {type(rhs).__name__}")
+    count = [0]
+
+    def f(t, y):
+        count[0] += 1
+        if count[0] > MAX_EVALS:
+            raise _Cap
+        return rhs(t, y)
+
+    f.autonomous = getattr(rhs, "autonomous", False)
+    return f, count
+
+
+def f_time(key, samples=40, blocks=15):
+    """Median wall time (s) of one call of problem ``key``'s f as every library calls it (counter included), on
+    ``samples`` states along the solution: the median over ``blocks`` blocks of (block time / samples)."""
+    _check_key(key)
+    samples, blocks = check_count("samples", samples), check_count("blocks", blocks)
+    rhs, jac, y0, t_end, _, scale = _problem(key)
+    method = "radau5" if key in ("stiff_spring", "van_der_pol", "robertson") else "dop853"
+    states = solve(rhs, (0.0, t_end), y0, method=method, rtol=1e-6, atol=1e-6 * scale, jac=jac,
+                   t_eval=np.linspace(0.0, t_end, samples)).y.T.copy()
+    f, _ = counting(rhs)
+    per_call = []
+    for _ in range(blocks):
+        start = time.perf_counter()
+        for y in states:
+            f(0.0, y)
+        per_call.append((time.perf_counter() - start) / len(states))
+    return float(np.median(per_call))
+
+
+def _check_key(key):
+    if key not in PROBLEMS:
+        raise InvalidInput(f"problem must be one of {list(PROBLEMS)}, got {key!r}")
+
+
+def nfev_at_error(points, level):
+    """The fewest evaluations of f a variant needs for error ``level`` (log–log interpolation, as for time)."""
+    check_positive("level", level)
+    return time_at_error([(r, e, nf, nf) for r, e, _, nf in points], level)[0]
+
+
 def runner(rhs, jac, y0, t_end, atol_scale):
     """``run(variant, rtol) -> (y(t_end), nfev)`` for ``pbanim:<method>``, ``scipy:<solve_ivp method>``, ``odeint``.
 
@@ -91,13 +150,7 @@ def runner(rhs, jac, y0, t_end, atol_scale):
 
     def run(variant, rtol):
         atol = rtol * atol_scale
-        count = [0]
-
-        def f(t, y):
-            count[0] += 1
-            if count[0] > MAX_EVALS:
-                raise _Cap
-            return rhs(t, y)
+        f, count = counting(rhs)
 
         try:
             if variant == "odeint":
@@ -176,30 +229,88 @@ def library_curve(sweeps, variants, level):
     return best
 
 
-def _compare(key, sweeps):
-    """Tables and the two worst ratios (vs solve_ivp, vs odeint) over the levels of one problem."""
+def _compare(key, sweeps, tf):
+    """Tables, the worst ratios (vs solve_ivp, vs odeint), the worst floor ratios and the overhead budgets of
+    one problem; ``tf`` is one call of f (:func:`f_time`), the floors are as in the module's docstring."""
     title, ours, theirs = PROBLEMS[key]
+    ivp = [f"scipy:{m}" for m in theirs]
     raw = Table(f"{title}: every run (rtol, error, wall time, evaluations of f)",
                 ["variant", "rtol", "error", "wall_time_s", "nfev"],
                 [[v, *p] for v, pts in sweeps.items() for p in pts])
-    lv = Table(f"{title}: time to reach each error level (interpolated), best method per library",
+    lv = Table(f"{title}: time to reach each error level (interpolated), best method per library; "
+               f"floor = fewest nfev x one call of f ({tf * 1e6:.2f} us)",
                ["level", "pbanim", "t_pbanim_s", "nfev_pb", "solve_ivp", "t_ivp_s", "nfev_ivp", "t_odeint_s",
-                "nfev_odeint", "pb/ivp", "pb/odeint"])
-    worst = {"ivp": [], "odeint": []}
+                "nfev_odeint", "pb/ivp", "pb/odeint", "floor_pb_s", "floor_ivp_s", "floor_odeint_s", "floor/ivp",
+                "floor/odeint", "over_pb_us"])
+    worst = {"ivp": [], "odeint": [], "floor_ivp": [], "floor_odeint": [], "allow_ivp": [], "allow_odeint": []}
     unreached = []
     for L in LEVELS:
         tp, np_, vp = library_curve(sweeps, ours, L)
-        ti, ni, vi = library_curve(sweeps, [f"scipy:{m}" for m in theirs], L)
+        ti, ni, vi = library_curve(sweeps, ivp, L)
         to, no, _ = library_curve(sweeps, ["odeint"], L)
+        fp, fi, fo = (tf * min(nfev_at_error(sweeps[v], L) for v in vs) for vs in (ours, ivp, ["odeint"]))
         r_i = tp / ti if np.isfinite(ti) else np.nan
         r_o = tp / to if np.isfinite(to) else np.nan
-        for k, r in (("ivp", r_i), ("odeint", r_o)):
-            if not np.isnan(r):       # nan: the baseline does not reach the level
+        f_i = fp / ti if np.isfinite(ti) else np.nan
+        f_o = fp / to if np.isfinite(to) else np.nan
+        n_min = fp / tf
+        for k, r in (("ivp", r_i), ("odeint", r_o), ("floor_ivp", f_i), ("floor_odeint", f_o),
+                     ("allow_ivp", -1e6 * (0.5 * ti - fp) / n_min), ("allow_odeint", -1e6 * (to - fp) / n_min)):
+            if not np.isnan(r) and np.isfinite(r if k.startswith("allow") else 0.0):   # nan: baseline unreached
                 worst[k].append(r)
         if not np.isfinite(tp):
             unreached.append(L)
-        lv.rows.append([L, vp, tp, np_, vi, ti, ni, to, no, r_i, r_o])
-    return [raw, lv], {k: (max(v) if v else np.nan) for k, v in worst.items()}, unreached
+        over = 1e6 * (tp / np_ - tf) if np.isfinite(tp) else np.nan
+        if np.isfinite(over):
+            worst.setdefault("over_pb", []).append(over)
+        lv.rows.append([L, vp, tp, np_, vi, ti, ni, to, no, r_i, r_o, fp, fi, fo, f_i, f_o, over])
+    # allow_*: the integrator overhead per evaluation (us) that would still meet the goal at every level
+    # (stored negated, so that max() picks the tightest level)
+    out = {k: (max(v) if v else np.nan) for k, v in worst.items() if k != "over_pb"}
+    out["allow_ivp"], out["allow_odeint"] = -out["allow_ivp"], -out["allow_odeint"]
+    out["over_pb"] = float(np.median(worst["over_pb"])) if worst.get("over_pb") else np.nan
+    return [raw, lv], out, unreached
+
+
+def numpy_call_time(n=4, calls=2000, blocks=7):
+    """Median wall time (s) of one small numpy call, ``np.add(a, b, out=c)`` on n-vectors: the unit of a
+    Python integrator's overhead (each stage costs at least a stage sum and a copy of f)."""
+    n, calls, blocks = (check_count(k, v) for k, v in (("n", n), ("calls", calls), ("blocks", blocks)))
+    a, b, c = np.ones(n), np.ones(n), np.empty(n)
+    add, per_call = np.add, []
+    for _ in range(blocks):
+        start = time.perf_counter()
+        for _ in range(calls):
+            add(a, b, out=c)
+        per_call.append((time.perf_counter() - start) / calls)
+    return float(np.median(per_call))
+
+
+def floor_ratios(key, worst, t_np=None):
+    """The note saying whether problem ``key``'s goals are reachable at all by pbanim's current methods, from
+    :func:`_compare`'s worst floor ratios and overhead budgets (us per evaluation; ``t_np``: one numpy call)."""
+    _check_key(key)
+    missing = {"floor_ivp", "floor_odeint", "allow_ivp", "allow_odeint"} - set(worst)
+    if missing:
+        raise InvalidInput(f"worst must hold the keys floor_ivp, floor_odeint, allow_ivp, allow_odeint; missing "
+                           f"{sorted(missing)}")
+    parts = []
+    for k, lib, target in (("floor_ivp", "solve_ivp", 0.5), ("floor_odeint", "odeint", 1.0)):
+        r = worst[k]
+        if np.isnan(r):
+            parts.append(f"vs {lib}: no level reached by both")
+        elif r > target:
+            parts.append(f"vs {lib}: UNREACHABLE with these methods (worst floor/{lib} = {r:.2f} > {target:g}: "
+                         "even a zero-cost integrator making pbanim's evaluations of f is too slow; only fewer "
+                         "evaluations can meet it)")
+        else:
+            budget = worst["allow_" + k[6:]]
+            calls = f" = {budget / (1e6 * t_np):.1f} numpy calls of {1e6 * t_np:.2f} us" if t_np else ""
+            parts.append(f"vs {lib}: reachable in principle (worst floor/{lib} = {r:.2f} <= {target:g}), if pbanim's "
+                         f"integrator adds at most {budget:.2f} us per evaluation of f{calls}")
+    now = worst.get("over_pb", np.nan)
+    tail = f" (it adds {now:.2f} us now, median over the levels)" if np.isfinite(now) else ""
+    return f"{PROBLEMS[key][0]}: " + "; ".join(parts) + tail
 
 
 def _overhead(quick):
@@ -261,10 +372,12 @@ def run(quick: bool = False, problems=None) -> Report:
     """Run the ODE benchmarks (``quick``: fewer tolerances, one repeat; ``problems``: a subset of keys)."""
     rep = Report("ode")
     tols = [10.0 ** -k for k in (2, 4, 6, 8, 10)] if quick else [10.0 ** (-k / 2) for k in range(4, 27)]
+    t_np = numpy_call_time()
     for key in problems or PROBLEMS:
         sweeps = sweep_problem(key, tols, repeats=1 if quick else 3, budget=0.4 if quick else 3.0)
-        tables, worst, unreached = _compare(key, sweeps)
+        tables, worst, unreached = _compare(key, sweeps, f_time(key, blocks=5 if quick else 15))
         rep.tables += tables
+        rep.notes.append(floor_ratios(key, worst, t_np))
         if unreached:
             rep.notes.append(f"{PROBLEMS[key][0]}: levels no pbanim method reached in the sweep: "
                              + ", ".join(f"{L:.0e}" for L in unreached))

@@ -9,15 +9,21 @@ Same controller as scipy's RK45, hence the same steps (a test checks it).
 
 The high-order pairs (:func:`solve_pair`, methods ``"dop853"`` and ``"vern7"`` of
 :mod:`pbanim.ode.high_order`) run one leaner loop: the stages live in one preallocated (stages, n)
-array K, each stage sum Σⱼ aᵢⱼkⱼ is one matrix–vector product, the error estimates of a step are one
-matrix product E·K, the step size comes from the PI controller (:mod:`pbanim.ode.control`), and the only
-per-step checks are the step cap and the finiteness of the error (a NaN error rejects the step).
+array K, the coefficients are scaled by h once per step (h·A, h·b, h·e in one array), each stage sum
+h Σⱼ aᵢⱼkⱼ is one ``np.dot`` written into a preallocated stage-point buffer (then y₀ is added: the
+summation order of the readable loop), the error estimates of a step are one matrix product E·K, the
+step size comes from the PI controller (:mod:`pbanim.ode.control`), and the only per-step checks are the
+step cap and the finiteness of the error (a NaN error rejects the step). Dormand–Prince 5(4) uses the
+same buffers. fun still receives a fresh array at every stage (one allocation, no copy: y₀ is added
+into a new array), so a fun that keeps its y, as a student's logging fun may, sees it unchanged. Per evaluation of f this loop adds ≈ 1.7 µs
+on Kepler (scipy's DOP853: 3.0 µs; ORACLES A13 checks it against the readable stage loop).
 ``t_eval`` and events use the pair's continuous extension, built only for the steps that need it, so
 they never shorten a step (ORACLES A10).
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -25,7 +31,7 @@ import numpy as np
 from dataclasses import dataclass
 from typing import Callable
 
-from .control import Controller, emit_step, initial_step, step_end, step_failure
+from .control import EPS10, Controller, check_real, emit_step, initial_step, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_result, start_output
 from .high_order import (DOP853, DOP853_A_EXTRA, DOP853_C_EXTRA, DOP853_E3, DOP853_E5, VERN7, VERN7_A_EXTRA,
                          VERN7_C_EXTRA, dop853_dense, dop853_eval, vern7_dense, vern7_eval)
@@ -63,10 +69,8 @@ def dopri5_step(fun, t, y, h, split=None, jac=None):
 dopri5_step.nfev = 7
 dopri5_step.tableau = DOPRI5
 
-_DP = DOPRI5
-_DP_ROWS = [_DP.A[i, :i].copy() for i in range(7)]
-_DP_C = _DP.C
-_DP_E = _DP.E
+_DP_C = DOPRI5.C
+_DP_W = np.vstack([DOPRI5.A, DOPRI5.B, DOPRI5.E])      # stage rows, b (= the last stage row, FSAL), e
 
 
 _initial_step = initial_step
@@ -74,6 +78,7 @@ _initial_step = initial_step
 
 def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
     """Run Dormand–Prince 5(4) with error control from (t0, y) to tf (arguments validated by ``solve``)."""
+    check_real(m.name, y, f0)
     direction = 1.0 if tf > t0 else -1.0
     shape = y.shape
     batch = y.ndim == 2
@@ -82,10 +87,11 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
         h = _initial_step(fun, t0, y, f0, direction, rtol, atol, 5)
         nfev += 1
     h = min(abs(h), abs(tf - t0))
-    rows, C, E = _DP_ROWS, _DP_C, _DP_E
     size = y.size
-    Kf = np.empty((7, size))
-    Kf[0] = f0.ravel()
+    K, Ks, Wh, Yb, Ybs = stage_buffers(_DP_W, 7, y, f0)      # K = [k₀ … k₆]
+    stages = [(Wh[i, :i], K[:i], Yb[i], Ybs[i], float(_DP_C[i])) for i in range(1, 6)]
+    cb, ce, K6 = Wh[7, :6], Wh[8], K[:6]
+    dot = np.dot
     step5 = _step5
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
@@ -95,6 +101,7 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     last_rejected = False
     nonfinite_at = None  # time of the last step rejected because a stage or the error estimate was not finite
     yf = y.ravel()
+    ay0, sc = np.abs(yf), np.empty(size)
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -106,19 +113,29 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
             hd = direction * h
-            for i in range(1, 7):
-                yi = yf + np.dot(hd * rows[i][:i], Kf[:i])
-                Kf[i] = fun(t + C[i] * hd, yi.reshape(shape)).ravel()
-            y1f = yi  # FSAL: the 7th stage point is the fifth-order solution
+            np.multiply(_DP_W, hd, out=Wh)
+            i = 1
+            for row, Ki, yi, yarg, c in stages:           # stage points 1 … 5, each one dot into its buffer
+                dot(row, Ki, out=yi)
+                Ks[i] = fun(t + c * hd, np.add(yi, yf).reshape(shape))     # a fresh array: fun may keep it
+                i += 1
+            y1f = dot(cb, K6)  # FSAL: the 7th stage point is the fifth-order solution
+            y1f += yf
+            Ks[6] = fun(t + hd, y1f.reshape(shape))
             nfev += 6
-            sc = atol + rtol * np.maximum(np.abs(yf), np.abs(y1f))
-            ee = np.dot(hd * E, Kf) / sc
+            ay1 = np.abs(y1f)
+            np.maximum(ay0, ay1, out=sc)
+            sc *= rtol
+            sc += atol
+            ee = dot(ce, K)
+            ee /= sc
             if batch:
                 err = float(np.sqrt(np.max(np.mean((ee.reshape(shape)) ** 2, axis=1))))
             else:
-                err = float(np.sqrt(np.dot(ee, ee) / size))
+                e2 = float(dot(ee, ee)) / size
+                err = math.sqrt(e2) if e2 >= 0 else e2              # NaN stays NaN
             if not err <= 1.0:  # also catches NaN: reject and shrink
-                if not np.isfinite(err):
+                if not math.isfinite(err):
                     fac, nonfinite_at = 0.2, t
                 else:
                     fac, nonfinite_at = max(0.2, 0.9 * err ** -0.2), None
@@ -150,8 +167,8 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
             if stop is not None:
                 status, message = 1, TERMINATED
                 break
-            yf = y1f
-            Kf[0] = Kf[6]
+            yf, ay0 = y1f, ay1
+            K[0] = K[6]
             fac = 10.0 if err == 0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
             if last_rejected:
                 fac = min(1.0, fac)
@@ -192,8 +209,26 @@ PAIRS = {
 }
 
 
+def stage_buffers(W, s, y, f0, extra=0):
+    """Preallocated storage of an explicit pair, so that every stage sum is one ``np.dot`` into a buffer.
+
+    K ((s + extra, size)) holds the stages k₀, k₁, … (K[0] = f0); Wh (W's shape) is refilled with h·W once
+    per step (``np.multiply(W, h, out=Wh)``), so h Σⱼ<ᵢ aᵢⱼkⱼ = Wh[i, :i]·K[:i]; the rows of W after the
+    s stage rows are b and the error weights. Y ((s, size)) receives the stage points y₀ + h Σⱼ aᵢⱼkⱼ
+    (the increment first, then y₀: the summation order of the readable loop). Returns
+    (K, Ks, Wh, Y, Ys): Ks and Ys are K and Y shaped like y (views: fun sees (n,) or (K, n)).
+    """
+    shape, size = y.shape, y.size
+    dtype = np.result_type(y, f0, float)
+    K = np.empty((s + extra, size), dtype)
+    K[0] = f0.ravel()
+    Y = np.empty((s, size), dtype)
+    return K, K.reshape((len(K),) + shape), np.empty(W.shape), Y, Y.reshape((s,) + shape)
+
+
 def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
     """Run a high-order pair of :data:`PAIRS` with PI control from (t0, y) to tf (validated by ``solve``)."""
+    check_real(m.name, y, f0)
     pair = PAIRS[m.name]
     tab, ctrl = pair.tableau, pair.controller
     s, n_extra = tab.stages, len(pair.c_extra)
@@ -204,52 +239,69 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
         h = initial_step(fun, t0, y, f0, direction, rtol, atol, tab.embedded_order)
         nfev[0] += 1
     h = min(abs(h), abs(tf - t0))
-    K = np.empty((s + n_extra, size))          # every stage of a step, dense-output stages included
-    K[0] = f0.ravel()
-    rows = [tab.A[i, :i].copy() for i in range(s)]
-    C, B, E, combine = tab.C, tab.B, pair.E, pair.combine
+    E, combine, nE = pair.E, pair.combine, len(pair.E)
+    W = np.vstack([tab.A, tab.B, E])
+    K, Ks, Wh, Yb, Ybs = stage_buffers(W, s, y, f0, n_extra)   # K: every stage, dense-output ones included
+    rowsXi = [(Wh[i, :i], K[:i], Yb[i], Ybs[i], float(tab.C[i])) for i in range(1, s)]
+    cb, ce, Kall = Wh[s], Wh[s + 1:], K[:s]
     A_x, C_x = pair.a_extra, pair.c_extra
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
     t, yf = t0, y.ravel().copy()
+    ay0, sc = np.abs(yf), np.empty(size)
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, err_prev, nonfinite_at = False, 1.0, None
     unflat = (lambda v: v.reshape(shape)) if batch else (lambda v: v)  # noqa: E731
+    dot, mul, sqrt, factor = np.dot, np.multiply, math.sqrt, ctrl.factor
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
-            failure = step_failure(nacc, nrej, max_steps, t, tf, h, nonfinite_at,
-                                   "the solution may blow up or the problem is stiff: try method='radau5' or 'rodas4'")
-            if failure:
-                status, message = -1, failure
+            if nacc + nrej >= max_steps or h < EPS10 * abs(t) or h < 1e-300:
+                status, message = -1, step_failure(nacc, nrej, max_steps, t, tf, h, nonfinite_at,
+                                                   "the solution may blow up or the problem is stiff: try "
+                                                   "method='radau5' or 'rodas4'")
                 break
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
             hd = direction * h
-            for i in range(1, s):
-                K[i] = fun(t + C[i] * hd, unflat(yf + np.dot(rows[i] * hd, K[:i]))).ravel()
+            mul(W, hd, out=Wh)
+            i = 1
+            for row, Ki, yi, yarg, c in rowsXi:            # stage i: yᵢ = y₀ + h Σⱼ<ᵢ aᵢⱼkⱼ, kᵢ = f(t + cᵢh, yᵢ)
+                dot(row, Ki, out=yi)
+                Ks[i] = fun(t + c * hd, np.add(yi, yf).reshape(shape))     # a fresh array: fun may keep it
+                i += 1
             nfev[0] += s - 1
-            y1f = yf + np.dot(B * hd, K[:s])
-            sc = atol + rtol * np.maximum(np.abs(yf), np.abs(y1f))
-            ee = np.dot(E * hd, K[:s]) / sc
+            y1f = dot(cb, Kall)
+            y1f += yf
+            ay1 = np.abs(y1f)
+            np.maximum(ay0, ay1, out=sc)
+            sc *= rtol
+            sc += atol
+            ee = dot(ce, Kall)
+            ee /= sc
             if batch:
-                sq = np.mean(ee.reshape(len(E), shape[0], shape[1]) ** 2, axis=2)   # (estimates, K)
+                sq = np.mean(ee.reshape(nE, shape[0], shape[1]) ** 2, axis=2)   # (estimates, K)
                 err = sq[0] / np.sqrt(sq[0] + 0.01 * sq[1]) if combine else np.sqrt(sq[0])
                 err = float(np.max(err))
             else:
-                sq = np.einsum("ij,ij->i", ee, ee) / size
-                err = float(sq[0] / np.sqrt(sq[0] + 0.01 * sq[1]) if combine and sq[0] > 0 else np.sqrt(sq[0]))
+                e0 = ee[0]
+                s0 = float(dot(e0, e0)) / size
+                if combine and s0 > 0:
+                    e1 = ee[1]
+                    err = s0 / sqrt(s0 + 0.01 * float(dot(e1, e1)) / size)
+                else:
+                    err = sqrt(s0) if s0 >= 0 else s0          # NaN stays NaN
             if not err <= 1.0:                                  # also NaN: reject and shrink
-                nonfinite_at = None if np.isfinite(err) else t
-                h *= ctrl.factor(err, err_prev, True)
+                nonfinite_at = None if math.isfinite(err) else t
+                h *= factor(err, err_prev, True)
                 nrej += 1
                 rejected = True
                 continue
             t1 = step_end(t, hd, tf, direction)
             y1 = unflat(y1f)
             nacc += 1
-            K[s] = fun(t1, y1).ravel()                          # f(t + h, y₁): the next step's first stage
+            Ks[s] = fun(t1, y1)                                 # f(t + h, y₁): the next step's first stage
             nfev[0] += 1
             stop = False
             if evs or t_eval is not None:
@@ -262,9 +314,9 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
             if stop:
                 status, message = 1, TERMINATED
                 break
-            yf = y1f
+            yf, ay0 = y1f, ay1
             K[0] = K[s]
-            h *= ctrl.factor(err, err_prev, rejected)
+            h *= factor(err, err_prev, rejected)
             err_prev, rejected = max(err, 1e-4), False
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0,) + shape)

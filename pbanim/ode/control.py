@@ -38,13 +38,16 @@ stepping", Numer. Algorithms 31 (2002).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from .events import crossings, handle_events
+from ..errors import InvalidInput
 
-__all__ = ["Controller", "initial_step", "rms", "emit_step", "underflow_message", "max_steps_message"]
+__all__ = ["Controller", "initial_step", "rms", "emit_step", "underflow_message", "max_steps_message",
+           "check_real"]
 
 
 @dataclass(frozen=True)
@@ -66,7 +69,7 @@ class Controller:
     def factor(self, err: float, err_prev: float, rejected: bool) -> float:
         """The step-size factor after a step with error ``err`` (≤ 1 accepted, > 1 or NaN rejected)."""
         if not err <= 1.0:                   # rejected (also NaN): the I part only, shrink
-            if not np.isfinite(err):
+            if not math.isfinite(err):
                 return self.fac_min
             return max(self.fac_min, self.safety * err ** (-1.0 / self.k))
         if err == 0.0:
@@ -92,6 +95,14 @@ def initial_step(fun, t0, y, f0, direction, rtol, atol, order):
     d2 = np.sqrt(np.mean(((f1 - f0) / sc) ** 2)) / h0
     h1 = max(1e-6, h0 * 1e-3) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
     return min(100 * h0, h1)
+
+
+def check_real(name: str, y: np.ndarray, f0: np.ndarray) -> None:
+    """The adaptive loops measure errors in real tolerance units: refuse a complex y0 or f(t0, y0) by name."""
+    if np.iscomplexobj(y) or np.iscomplexobj(f0):
+        raise InvalidInput(f"method {name!r} needs a real y0 and a real f(t0, y0), got dtypes {y.dtype} and "
+                           f"{np.asarray(f0).dtype}; split a complex state into real and imaginary parts "
+                           "(or use a fixed-step method)")
 
 
 def max_steps_message(max_steps: int, t: float, tf: float) -> str:

@@ -276,6 +276,12 @@ def factor(sigma, J):
         lu = sp.linalg.splu(sp.csc_matrix(sigma * sp.identity(n, format="csc", dtype=complex if np.iscomplexobj(sigma) else float) - J))
         return lu.solve
     n = J.shape[-1]
+    if J.ndim == 2 and n == 2:          # closed form: no LAPACK call for the 2 × 2 case (Van der Pol, springs)
+        a, b, c, d = sigma - J[0, 0], -J[0, 1], -J[1, 0], sigma - J[1, 1]
+        det = a * d - b * c
+        if det == 0 or not np.isfinite(det):
+            raise np.linalg.LinAlgError("singular matrix: σI − J has determinant 0")
+        return (np.array([[d, -b], [-c, a]]) / det).dot
     M = -J.astype(np.result_type(J, sigma))
     idx = np.arange(n)
     M[..., idx, idx] += sigma

@@ -15,6 +15,11 @@ later steps: J is re-evaluated only when Newton contracted slowly (rate θ > 10�
 and h (hence the factorizations) is kept when the controller proposes a change within [1, 1.2].
 Newton starts from the previous step's collocation polynomial, extrapolated.
 
+For n ≤ 12 (dense J) the adaptive loop does not solve the two systems separately: the real 3n × 3n
+matrix M = (Λ ⊗ I)/h − I₃ ⊗ J (:func:`block_inverse`, the complex system in real form) is inverted once
+per (J, h), and with FW = [F; W] one Newton correction is the single product ΔW = [M⁻¹(T⁻¹ ⊗ I),
+−M⁻¹(Λ/h ⊗ I)]·FW; the stage points y₀ + Zᵢ go to a reused buffer (fun must copy a y it keeps).
+
 Error estimate (an embedded order-3 formula with a free weight γ₀ = 1/γ on f(t₀, y₀), filtered
 through the real factorization so it stays bounded for stiff components):
 
@@ -46,17 +51,18 @@ Butcher, "On the implementation of implicit Runge–Kutta methods", BIT 16 (1976
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from .control import emit_step, initial_step, rms, step_end, step_failure
+from .control import check_real, emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
-from .implicit import factor, jacobian
-from ..errors import ConvergenceError, InvalidInput
+from .implicit import SMALL, factor, jacobian
+from ..errors import ConvergenceError, InvalidInput, as_float, as_floats
 from ..results import SimResult
 
-__all__ = ["A", "C", "T", "TINV", "LAM", "E", "radau5_step", "solve_radau"]
+__all__ = ["A", "C", "T", "TINV", "LAM", "E", "radau5_step", "solve_radau", "block_inverse"]
 
 _S6 = np.sqrt(6.0)
 C = np.array([(4 - _S6) / 10, (4 + _S6) / 10, 1.0])
@@ -82,6 +88,8 @@ _GAMMA, _ALPHA, _BETA = LAM[0, 0], LAM[1, 1], LAM[1, 2]
 _V = np.linalg.solve(np.vstack([np.ones(3), C, C ** 2]), np.array([-1.0 / _GAMMA, 0.0, 0.0]))
 E = np.linalg.solve(A.T, _V)
 _VINV = np.linalg.inv(np.column_stack([C, C ** 2, C ** 3]))     # Z(cᵢ) = Σₖ qₖ cᵢᵏ  →  q = V⁻¹Z
+_P123 = np.array([1.0, 2.0, 3.0])
+_EPS = float(np.finfo(float).eps)
 
 
 def _solvers(hd, J):
@@ -138,14 +146,48 @@ def radau5_step(fun, t, y, h, split=None, jac=None, tol=1e-13, max_iter=50):
 radau5_step.nfev = 9
 
 
+def block_inverse(hd, J):
+    """The inverse of the real 3n × 3n Newton matrix in W coordinates, block diagonal:
+
+    diag(γ/h I − J, [[α/h I − J, β/h I], [−β/h I, α/h I − J]])   (the complex system written in real form).
+    Its top-left block is (γ/h I − J)⁻¹, the solver of the error estimate. (The adaptive loop builds the
+    same matrix as (Λ ⊗ I)/h − I₃ ⊗ J; a test checks that the two agree.)
+    """
+    hd = as_float("hd", hd)
+    if not (math.isfinite(hd) and hd != 0.0):
+        raise InvalidInput(f"hd must be a finite nonzero step, got {hd}")
+    J = as_floats("J", J)
+    if J.ndim != 2 or J.shape[0] != J.shape[1] or J.size == 0:
+        raise InvalidInput(f"J must be a square (n, n) matrix, got shape {J.shape}")
+    if not np.all(np.isfinite(J)):
+        raise InvalidInput("J must be finite, got NaN or inf entries")
+    n = J.shape[0]
+    M = np.zeros((3 * n, 3 * n))
+    i = np.arange(n)
+    for b in range(3):
+        M[b * n:(b + 1) * n, b * n:(b + 1) * n] = -J
+    M[i, i] += _GAMMA / hd
+    M[n + i, n + i] += _ALPHA / hd
+    M[2 * n + i, 2 * n + i] += _ALPHA / hd
+    M[n + i, 2 * n + i] = _BETA / hd
+    M[2 * n + i, n + i] = -_BETA / hd
+    return np.linalg.inv(M)
+
+
 def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
-    """Adaptive Radau IIA(5) from (t0, y) to tf with Jacobian and factorization reuse (see the module)."""
+    """Adaptive Radau IIA(5) from (t0, y) to tf with Jacobian and factorization reuse (see the module).
+
+    Small dense systems (n ≤ ``SMALL``) run one matrix–vector product per Newton iteration: with
+    FW = [F; W] (flattened), ΔW = [P, −Q]·FW where P = M⁻¹(T⁻¹ ⊗ I), Q = M⁻¹(Λ/h ⊗ I) and M⁻¹ is
+    :func:`block_inverse`; larger or sparse systems solve the real and the complex system separately.
+    """
+    check_real(m.name, y, f0)
     if y.ndim != 1:
         raise InvalidInput(f"method {m.name!r} needs y0 of shape (n,); batch mode (K, n) runs with the "
                            "explicit methods (e.g. 'dop853') or a loop over the initial conditions")
     direction = 1.0 if tf > t0 else -1.0
     n, max_iter, safety = y.size, 7, 0.9
-    newton_tol = max(10 * np.finfo(float).eps / rtol, min(0.03, rtol ** 0.5))
+    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol ** 0.5))
     nfev, njev, nlu = 1, 0, 0
     if h is None:
         h = initial_step(fun, t0, y, f0, direction, rtol, atol, 3)
@@ -156,13 +198,21 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
     t, f = t0, f0
     J = jacobian(fun, t, y, f, jac)
     njev, nfev = njev + 1, nfev + (n if jac is None else 0)
+    small = isinstance(J, np.ndarray) and n <= SMALL
     fresh, solvers, h_lu = True, None, None
     Q = None                     # the last accepted step's collocation polynomial (for Newton's start)
     h_acc, err_acc, eta = None, None, 1.0
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, first = False, True
-    F = np.empty((3, n))
+    FW = np.zeros(6 * n)                         # [F₁ F₂ F₃ W₁ W₂ W₃], flattened
+    F3, W3, Wf = FW[:3 * n].reshape(3, n), FW[3 * n:].reshape(3, n), FW[3 * n:]
+    sc3 = np.empty((3, n))
+    KLAM = np.kron(LAM, np.eye(n))              # M = (Λ ⊗ I)/h − I₃ ⊗ J is block_inverse's matrix
+    KTL = np.hstack([np.kron(TINV, np.eye(n)), -KLAM])
+    KJ, J_kron = None, None
+    c0, c1 = float(C[0]), float(C[1])
+    dot, absolute, size3 = np.dot, np.abs, 3.0 * n
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -176,7 +226,15 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
             hd = direction * h
             if solvers is None or h_lu != hd:
                 try:
-                    solvers, h_lu = _solvers(hd, J), hd
+                    if small:
+                        if J_kron is not J:
+                            KJ, J_kron = np.kron(np.eye(3), J), J
+                        Minv = np.linalg.inv(KLAM * (1.0 / hd) - KJ)
+                        PQ = dot(Minv, KTL)
+                        PQ[:, 3 * n:] *= 1.0 / hd
+                        solvers, h_lu = (Minv[:n, :n].copy().dot, None), hd
+                    else:
+                        solvers, h_lu = _solvers(hd, J), hd
                     nlu += 2
                 except np.linalg.LinAlgError:
                     h, solvers, nrej = 0.5 * h, None, nrej + 1
@@ -186,26 +244,31 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
                 Z = np.zeros((3, n))
             else:                                 # the last collocation polynomial, extrapolated
                 x = 1.0 + C * (hd / Q[1])
-                Z = (np.column_stack([x, x * x, x * x * x]) - 1.0) @ Q[0]
-            W = TINV @ Z
-            sc = atol + rtol * np.abs(y)
-            eta = max(eta, np.finfo(float).eps) ** 0.8
+                Z = dot(x[:, None] ** _P123 - 1.0, Q[0])
+            dot(TINV, Z, out=W3)
+            ay = absolute(y)
+            sc3[:] = atol + rtol * ay
+            eta = max(eta, _EPS) ** 0.8
             converged, norm_old, rate, it = False, None, 0.0, 0
             for it in range(1, max_iter + 1):
-                for i in range(3):
-                    F[i] = fun(t + C[i] * hd, y + Z[i])
+                Yb = Z + y                   # fresh stage points each iteration: fun may keep them
+                F3[0] = fun(t + c0 * hd, Yb[0])
+                F3[1] = fun(t + c1 * hd, Yb[1])
+                F3[2] = fun(t + hd, Yb[2])
                 nfev += 3
-                dW = _newton_update(F, W, hd, solve_r, solve_c)
-                norm = rms((dW / sc).ravel())
-                if not np.isfinite(norm):
+                dW = PQ.dot(FW) if small else _newton_update(F3, W3, hd, solve_r, solve_c).ravel()
+                q = dW.reshape(3, n) / sc3
+                q = q.ravel()
+                norm = math.sqrt(float(dot(q, q)) / size3)
+                if not math.isfinite(norm):
                     break
                 if norm_old is not None:
                     rate = norm / norm_old
                     if rate >= 1.0 or rate ** (max_iter - it) / (1.0 - rate) * norm > newton_tol:
                         break
                     eta = rate / (1.0 - rate)
-                W += dW
-                Z = T @ W
+                Wf += dW
+                Z = dot(T, W3)
                 if norm == 0.0 or eta * norm <= newton_tol:
                     converged = True
                     break
@@ -218,9 +281,12 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
                     njev, nfev = njev + 1, nfev + (n if jac is None else 0)
                 continue
             y1 = y + Z[2]
-            ez = (_GAMMA / hd) * np.dot(E, Z)
+            ez = dot(E, Z)
+            ez *= _GAMMA / hd
             err_vec = solve_r(f + ez)
-            sc = atol + rtol * np.maximum(np.abs(y), np.abs(y1))
+            sc = np.maximum(ay, absolute(y1))
+            sc *= rtol
+            sc += atol
             err = rms(err_vec / sc)
             if err >= 1.0 and (first or rejected):        # a second, better filtered estimate
                 err_vec = solve_r(fun(t, y + err_vec) + ez)
@@ -229,7 +295,7 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
             fac = min(safety, safety * (2 * max_iter + 1) / (2 * max_iter + it))
             factor_i = fac * err ** -0.25 if err > 0 else 8.0
             if not err < 1.0:                     # rejected (also NaN)
-                h *= max(0.2, min(factor_i, 1.0)) if np.isfinite(err) else 0.2
+                h *= max(0.2, min(factor_i, 1.0)) if math.isfinite(err) else 0.2
                 nrej, rejected = nrej + 1, True
                 if not fresh:
                     J, fresh, solvers = jacobian(fun, t, y, f, jac), True, None
@@ -237,7 +303,7 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
                 continue
             t1 = step_end(t, hd, tf, direction)
             nacc += 1
-            q = _VINV @ Z                        # collocation polynomial of this step
+            q = dot(_VINV, Z)                    # collocation polynomial of this step
             stop = False
             if evs or t_eval is not None:
                 dense = (lambda s, y=y, q=q, hd=hd: y + np.dot((s / hd) ** np.arange(1, 4), q))

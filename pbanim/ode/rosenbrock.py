@@ -11,6 +11,10 @@ the order is exact only with the exact J (the method is not a W-method): J is ev
 accepted step and reused only when a rejected step is retried from the same point (then only the
 factorization is redone, for the new h).
 
+The adaptive loop keeps U₁ … U₆ in one buffer and forms each stage point and each coupling sum as one
+``np.dot`` into a reused buffer (fun must copy a y it keeps); ORACLES A13 checks it against
+:func:`rodas4_step`.
+
 RODAS4 (Hairer & Wanner): s = 6, order 4, embedded order 3, γ = 1/4, L-stable and stiffly accurate
 (y₁ is the last stage, ê = U₆), so it keeps its order on the stiff limit of singular perturbation
 problems (Van der Pol with μ = 1000, Robertson's kinetics) and damps the fast modes completely.
@@ -43,11 +47,12 @@ for the numerical solution of differential equations", Comput. J. 5 (1963).
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
-from .control import Controller, emit_step, initial_step, rms, step_end, step_failure
+from .control import Controller, check_real, emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
 from .implicit import factor, jacobian, time_derivative
 from ..errors import InvalidInput
@@ -116,6 +121,7 @@ def hermite(y0, f0, y1, f1, h, theta):
 
 def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None) -> SimResult:
     """Adaptive RODAS4 from (t0, y) to tf: PI control on ê = U₆, J per step, reused on rejection."""
+    check_real(m.name, y, f0)
     if y.ndim != 1:
         raise InvalidInput(f"method {m.name!r} needs y0 of shape (n,); batch mode (K, n) runs with the "
                            "explicit methods (e.g. 'dop853') or a loop over the initial conditions")
@@ -127,7 +133,9 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
         nfev += 1
     h = min(abs(h), abs(tf - t0))
     n = y.size
-    U = np.empty((6, n))
+    # U₁ … U₆ in one buffer: stage point i is y + A[i, :i]·U[:i], the coupling Σⱼ(cᵢⱼ/h)Uⱼ is CCh[i, :i]·U[:i]
+    U, Yb, tmp, CCh = np.empty((6, n)), np.empty((6, n)), np.empty(n), np.empty((6, 6))
+    stages = [(A[i, :i], U[:i], CCh[i, :i], Yb[i], float(ALPHA[i]), float(GSUM[i])) for i in range(1, 6)]
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
     t, f = t0, f0
@@ -137,6 +145,7 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
     rejected, err_prev, nonfinite_at = False, 1.0, None
+    dot, factor_ = np.dot, ctrl.factor
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -150,14 +159,29 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
             try:
                 solve = factor(1.0 / (hd * GAMMA), J)
                 nlu += 1
-                y1 = _stages(fun, t, y, f, hd, solve, ft, U)
+                U[0] = solve(f if ft is None else f + (hd * GSUM[0]) * ft)
+                np.divide(CC, hd, out=CCh)
+                i = 1
+                for a_row, Ua, c_row, yi, alpha, gsum in stages:
+                    dot(a_row, Ua, out=yi)
+                    dot(c_row, Ua, out=tmp)
+                    tmp += fun(t + alpha * hd, np.add(yi, y))      # a fresh array: fun may keep it
+                    if ft is not None and gsum != 0.0:
+                        tmp += (hd * gsum) * ft
+                    U[i] = solve(tmp)
+                    i += 1
+                y1 = dot(M, U)
+                y1 += y
                 nfev += 5
-                err = rms(U[5] / (atol + rtol * np.maximum(np.abs(y), np.abs(y1))))
+                sc = np.maximum(np.abs(y), np.abs(y1))
+                sc *= rtol
+                sc += atol
+                err = rms(U[5] / sc)
             except np.linalg.LinAlgError:
                 err = np.inf
             if not err <= 1.0:
-                nonfinite_at = None if np.isfinite(err) else t
-                h *= ctrl.factor(err, err_prev, True)
+                nonfinite_at = None if math.isfinite(err) else t
+                h *= factor_(err, err_prev, True)
                 nrej += 1
                 rejected = True
                 continue
@@ -182,7 +206,7 @@ def solve_rosenbrock(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_step
                 J, ft = jacobian(fun, t, y, f, jac), time_derivative(fun, t, y, f)
                 njev += 1
                 nfev += (n if jac is None else 0) + (ft is not None)
-            h *= ctrl.factor(err, err_prev, rejected)
+            h *= factor_(err, err_prev, rejected)
             err_prev, rejected = max(err, 1e-4), False
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0,) + y.shape)
