@@ -71,24 +71,32 @@ def test_start_guess_saves_rounds_and_a_bad_guess_is_harmless():
 
 def test_bpp_hands_over_on_degenerate_stacks():
     # ORACLES D12, D15: block principal pivoting stops early ("degenerate") on a redundant stack instead of
-    # cycling, keeps solving full-rank problems itself, and the route certifies either way
+    # cycling, keeps solving full-rank problems itself, and the route certifies either way; up to
+    # DUAL_FIRST contacts the route starts with the dual active set
+    from pbanim.lcp.solve import DUAL_FIRST
     for m in (30, 100, 300):
         red = random_contact_lcp(m, True, seed=m)
         f, status, rounds = bpp(red.A, red.b, max_iter=4, handoff=True)
         assert status == "degenerate" and rounds <= 2
         sol = solve_lcp(red.A, red.b, "bpp")
-        assert sol.success and sol.status == "bpp→dual"
+        assert sol.success and sol.status == ("solved" if m <= DUAL_FIRST else "bpp→dual")
         full = random_contact_lcp(m, False, seed=m)
         sol = solve_lcp(full.A, full.b, "bpp")
         assert sol.success and sol.status == "solved"
+    # the route's guess: a warm start's support (the previous step's answer) is the dual's start
+    case = random_contact_lcp(40, False, seed=4)
+    ref = solve_lcp(case.A, case.b, "bpp")
+    again = solve_lcp(case.A, case.b, "bpp", warm_start=ref.f)
+    assert again.success and again.iterations <= 1 < ref.iterations
 
 
-def test_route_falls_back_to_the_qp_when_the_dual_does_not_certify(monkeypatch):
+@pytest.mark.parametrize("m, route", [(40, "dual→qp"), (120, "bpp→qp")])
+def test_route_falls_back_to_the_qp_when_the_dual_does_not_certify(monkeypatch, m, route):
     # ORACLES D12: the last resort is still there, and the status says it was used
-    red = random_contact_lcp(40, True, seed=7)
+    red = random_contact_lcp(m, True, seed=7)
     monkeypatch.setattr(active_set, "dual_active_set", lambda A, b, **k: (np.zeros(b.size), "max_iter", 1))
     sol = solve_lcp(red.A, red.b, "bpp")
-    assert sol.success and sol.status.startswith("bpp→qp")
+    assert sol.success and sol.status.startswith(route)
 
 
 @pytest.mark.parametrize("m", [1, 5])

@@ -6,8 +6,10 @@ One linear complementarity problem serves collision impulses, resting contact an
 
 Parts: :mod:`pbanim.lcp.solve` (``solve_lcp``: one signature for every solver, QP through qpsolvers and
 proxsuite, projected Gauss–Seidel, the certificate; ``delassus``: the matrix A = J W Kᵀ from per-contact
-Jacobian rows) and :mod:`pbanim.lcp.pivoting` (Lemke's complementary pivoting, Dantzig-style principal
-pivoting, enumeration of active sets). Collision impulses (chapter 06) and resting contact (chapter 07)
+Jacobian rows), :mod:`pbanim.lcp.pivoting` (Lemke's complementary pivoting, Dantzig-style principal
+pivoting, enumeration of active sets), :mod:`pbanim.lcp.active_set` (block principal pivoting, the
+Goldfarb–Idnani dual active set, the box-friction active set), :mod:`pbanim.lcp.box` (projected
+Gauss–Seidel with box friction and bounds) and :mod:`pbanim.lcp.colored` (its colored, vectorized sweep). Collision impulses (chapter 06) and resting contact (chapter 07)
 both build A with ``delassus`` and solve with these solvers: each algorithm exists once. Every answer
 is judged by the natural-map residual ‖f − max(0, f − w)‖∞ (:func:`pbanim.results.natural_map_residual`)
 computed from A and b (ORACLES D8), never by the solver's own claim.

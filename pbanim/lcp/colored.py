@@ -76,7 +76,7 @@ def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int 
     :func:`contact_colors`, computed when not given). A must be symmetric (A = J W Jᵀ): its rows are
     read in place of its columns.
     """
-    from .solve import _box_residual, _check, _scale
+    from .box import _box_residual, _check, _scale
 
     A, b = _check(A, b)
     n = b.size

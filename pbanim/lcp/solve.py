@@ -22,8 +22,9 @@ r          residual     scalar      natural-map residual ‖f − max(0, f − w
 Solvers (``solver=``): ``"qp"`` (qpsolvers; ProxQP by default through proxsuite's own box
 constraints), ``"lemke"`` (complementary pivoting, Cottle–Pang–Stone §4.4, lexicographic
 anti-cycling), ``"dantzig"`` (Baraff 1994's principal pivoting, Bland's rule for ties),
-``"pgs"`` (projected Gauss–Seidel with warm start), ``"bpp"`` (block principal pivoting from a guessed
-active set, :mod:`pbanim.lcp.active_set`; symmetric PSD A; a cold QP solve when it cycles). Limiting cases: b ≥ 0 gives f = 0 for every
+``"pgs"`` (projected Gauss–Seidel with warm start), ``"bpp"`` (the active-set route from a guessed
+active set, :mod:`pbanim.lcp.active_set`: block principal pivoting, the Goldfarb–Idnani dual active set
+for small or redundant problems; symmetric PSD A; a QP solve only when neither certifies). Limiting cases: b ≥ 0 gives f = 0 for every
 solver; a single contact gives f = max(0, −b/A).
 
 Every answer is judged by the natural-map residual computed from A and b (ORACLES D8), never by
@@ -44,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from .box import _box_residual, pgs_bounded, pgs_box_friction  # noqa: F401  (their import path)
 from .pivoting import _check, _polish, _scale, dantzig, lemke, residual_threshold
 from ..errors import InfeasibleContact, InvalidInput
 from ..results import ContactSolution, natural_map_residual
@@ -54,7 +56,7 @@ LCP_SOLVERS = ("qp", "lemke", "dantzig", "pgs", "bpp")
 
 
 # ---------------------------------------------------------------------------------------------
-# Projected Gauss–Seidel
+# Projected Gauss–Seidel (the bounded and box-friction sweeps: pbanim.lcp.box)
 # ---------------------------------------------------------------------------------------------
 def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-10,
         warm_start: np.ndarray | None = None, omega: float = 1.0, **_: Any) -> tuple[np.ndarray, str, int]:
@@ -83,88 +85,6 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
             return f, "converged", sweep
     return f, "max_iter", int(max_iter)
     # END SOLUTION
-
-
-def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8,
-                     warm_start=None) -> tuple:
-    """Projected Gauss–Seidel for contact with box friction; unknowns per contact i: (fᵢ, tᵢ₁, tᵢ₂).
-
-    w = A z + b with z ordered [f₁, t₁₁, t₁₂, f₂, …]: fᵢ ≥ 0 ⊥ w_fᵢ ≥ 0 and each tangential impulse
-    in [−μ fᵢ, μ fᵢ] with w = 0 inside (the friction pyramid aligned with (t₁, t₂)). Each row is clamped
-    in turn, w updated incrementally; at most ``max_iter`` sweeps. Returns (z, residual, sweeps) with the
-    residual the largest violation of those conditions (the caller decides what it accepts).
-    ``warm_start`` (3m,): the previous impulses (contact persistence), projected onto the bounds first.
-    """
-    A, b = _check(A, b)
-    n = b.size
-    if n % 3:
-        raise InvalidInput(f"pgs_box_friction needs 3 rows per contact (normal, two tangents), got {n}")
-    mu = np.broadcast_to(np.asarray(mu, dtype=float), (n // 3,))
-    diag = np.diag(A).copy()
-    if np.any(diag <= 0):
-        raise InvalidInput("pgs_box_friction needs A with a positive diagonal (add a little regularization)")
-    z = np.zeros(n)
-    if warm_start is not None:
-        z = np.array(warm_start, dtype=float)
-        if z.shape != (n,) or not np.all(np.isfinite(z)):
-            raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
-        z[0::3] = np.maximum(z[0::3], 0.0)
-        lim = mu * z[0::3]
-        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
-    w = A @ z + b
-    for sweep in range(1, int(max_iter) + 1):
-        for r in range(n):
-            i, kind = divmod(r, 3)
-            lo, hi = (0.0, np.inf) if kind == 0 else (-mu[i] * z[3 * i], mu[i] * z[3 * i])
-            new = min(max(z[r] - w[r] / diag[r], lo), hi)
-            if new != z[r]:
-                w += A[:, r] * (new - z[r])
-                z[r] = new
-        res = _box_residual(z, w, mu)
-        if res <= tol * _scale(b):
-            return z, res, sweep
-    return z, _box_residual(z, w, mu), int(max_iter)
-
-
-def pgs_bounded(A: np.ndarray, b: np.ndarray, lo, hi, *, max_iter: int = 500, tol: float = 1e-10) -> tuple:
-    """Projected Gauss–Seidel for the box-constrained problem w = A z + b, loᵢ ≤ zᵢ ≤ hiᵢ, with wᵢ ≥ 0 at
-    zᵢ = loᵢ, wᵢ ≤ 0 at zᵢ = hiᵢ and wᵢ = 0 in between (joint limits: [0, ∞); motors: [−F, F]).
-
-    Returns (z, residual, sweeps); at most ``max_iter`` sweeps (the caller decides what it accepts).
-    """
-    A, b = _check(A, b)
-    n = b.size
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), (n,))
-    hi = np.broadcast_to(np.asarray(hi, dtype=float), (n,))
-    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
-        raise InvalidInput(f"bounds must satisfy lo <= hi, got lo = {lo}, hi = {hi}")
-    diag = np.diag(A).copy()
-    if np.any(diag <= 0):
-        raise InvalidInput("pgs_bounded needs A with a positive diagonal")
-    z = np.clip(np.zeros(n), lo, hi)
-    w = A @ z + b
-    res = np.inf
-    for sweep in range(1, int(max_iter) + 1):
-        for r in range(n):
-            new = min(max(z[r] - w[r] / diag[r], lo[r]), hi[r])
-            if new != z[r]:
-                w += A[:, r] * (new - z[r])
-                z[r] = new
-        free = (z > lo) & (z < hi)
-        res = float(np.max(np.abs(np.where(free, w, np.where(z <= lo, np.minimum(w, 0), np.maximum(w, 0)))),
-                           initial=0.0))
-        if res <= tol * _scale(b):
-            return z, res, sweep
-    return z, res, int(max_iter)
-
-
-def _box_residual(z, w, mu) -> float:
-    f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-    wn, wt = w[0::3], np.stack([w[1::3], w[2::3]], axis=1)
-    inside = np.abs(t) < (mu * f)[:, None] * (1 - 1e-12)
-    r_n = np.abs(np.minimum(f, wn)) if f.size else np.zeros(0)
-    r_t = np.where(inside, np.abs(wt), 0.0)
-    return float(max(np.max(r_n, initial=0.0), np.max(r_t, initial=0.0)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -245,27 +165,51 @@ def delassus(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
     return out
 
 
+#: at most this many contacts, the route starts with the dual active set (one cheap rank-one round per held
+#: contact) rather than block principal pivoting (one factorization per round); measured crossover between
+#: m = 30 (dual 1.2x faster) and m = 100 (bpp 2x faster) in ``pbanim bench contact``'s QP table
+DUAL_FIRST = 64
+
+
 def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: bool = True,
                **opts: Any) -> tuple[np.ndarray, str, int]:
-    """Block principal pivoting (:func:`pbanim.lcp.active_set.bpp`, symmetric PSD A) for at most ``max_iter``
-    exchange rounds; when it has not found the active set by then, or meets a singular A_FF with a wrong
-    guess (redundant, degenerate stacks can make it cycle), the Goldfarb–Idnani dual active set (:func:`pbanim.lcp.active_set.dual_active_set`, which keeps
-    its held rows independent and cannot cycle on redundancy) takes over from a cold start, and only if its
-    answer fails the certificate does ProxQP run (eps_abs = tol/2, polished if that is not enough). The
-    status says which route answered ("solved", "bpp→dual", "bpp→qp:<status>")."""
+    """The active-set route for a symmetric PSD A (``solver="bpp"``), each step certified before it is trusted.
+
+    m > :data:`DUAL_FIRST`: block principal pivoting (:func:`pbanim.lcp.active_set.bpp`) for at most
+    ``max_iter`` exchange rounds, handing over at the first sign of degeneracy (a singular A_FF with a
+    wrong guess, or a round that does not reduce the infeasible count: redundant stacks make it cycle) to
+    the Goldfarb–Idnani dual active set (:func:`pbanim.lcp.active_set.dual_active_set`, which keeps its held
+    rows independent and cannot cycle on redundancy). m ≤ :data:`DUAL_FIRST`: the dual active set first.
+    Either starts from the guess (``active``, the support of ``warm_start``, or {bᵢ < 0}). Only if no
+    active-set answer passes the certificate does ProxQP run (eps_abs = tol/2, polished if that is not
+    enough). The status says which route answered ("solved", "bpp→dual", "bpp→qp:<status>",
+    "dual→qp:<status>")."""
     from .active_set import bpp, dual_active_set
 
-    f, status, iters = bpp(A, b, max_iter=max_iter, handoff=True, **opts)
+    tol = opts.get("tol", 1e-10)
+    if opts.get("active") is not None:
+        guess = np.asarray(opts["active"], dtype=bool)
+    elif opts.get("warm_start") is not None:
+        guess = np.asarray(opts["warm_start"], dtype=float) > 0
+    else:
+        guess = b < 0
+    if b.size <= DUAL_FIRST:
+        f, status, iters = dual_active_set(A, b, tol=tol, start=guess)
+        route = "dual"
+    else:
+        f, status, iters = bpp(A, b, max_iter=max_iter, handoff=True, **opts)
+        route = "bpp"
+        if status != "solved" and qp_fallback:
+            f, st1, it1 = dual_active_set(A, b, tol=tol, start=guess)
+            iters += it1
+            if st1 == "solved":                  # certified by dual_active_set itself
+                return f, "bpp→dual", iters
     if status == "solved" or not qp_fallback:
         return f, status, iters
-    tol = opts.get("tol", 1e-10)
-    g, st1, it1 = dual_active_set(A, b, tol=tol, start=b < 0)
-    if st1 == "solved" and natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
-        return g, "bpp→dual", iters + it1
     g, st2, it2 = qp(A, b, tol=tol, eps_abs=0.5 * tol * _scale(b), polish=False)
     if natural_map_residual(g, A @ g + b) > residual_threshold(A, b, g, tol):
         g = _polish(A, b, g, tol)
-    return g, f"bpp→qp:{st2}", iters + it1 + it2
+    return g, f"{route}→qp:{st2}", iters + it2
 
 
 _IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp, "bpp": _bpp_route}
