@@ -97,8 +97,14 @@ def _chapter_files() -> dict[str, Path]:
 
 
 def cmd_figures(args) -> int:
+    from .bench import one_blas_thread
     from .plotting import run_figure, write_index
 
+    with one_blas_thread():               # the figures that time solvers get the benchmarks' conditions
+        return _figures(args, run_figure, write_index)
+
+
+def _figures(args, run_figure, write_index) -> int:
     specs = select_figures(args.chapters or None)
     out = Path(args.out) if args.out else _default_out()
     files, issues = {}, []

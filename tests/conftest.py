@@ -7,8 +7,13 @@ from pathlib import Path
 import matplotlib
 import pytest
 from hypothesis import HealthCheck, settings
+from threadpoolctl import threadpool_limits
 
 matplotlib.use("Agg", force=True)
+
+# one BLAS thread per test process: CI runs two xdist workers on two cores, and a multi-threaded
+# OpenBLAS spin-waiting for the other worker's core makes small solves up to 100x slower
+_BLAS = threadpool_limits(limits=1, user_api="blas")
 
 settings.register_profile("ci", max_examples=25, deadline=None, derandomize=True,
                           suppress_health_check=[HealthCheck.too_slow])

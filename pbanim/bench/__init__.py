@@ -119,13 +119,31 @@ def available() -> list[str]:
                   if not m.name.startswith("_") and m.name not in HELPERS)
 
 
+def one_blas_thread():
+    """A context in which every BLAS library loaded in the process uses one thread (threadpoolctl).
+
+    pbanim's solves call BLAS/LAPACK on small matrices many times; on a loaded or shared machine a
+    multi-threaded OpenBLAS can spin-wait for a busy core and take 100× longer per call (measured here:
+    a 500 × 500 Cholesky 1.2 ms on one thread, 240 ms on two with the other core busy). Timings are taken
+    with one thread, for both sides of every comparison alike.
+    """
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def run_bench(name: str, quick: bool = False) -> Report:
-    """Run the family ``name`` and return its report (``ValueError`` for an unknown name)."""
+    """Run the family ``name`` with one BLAS thread (:func:`one_blas_thread`) and return its report
+    (``InvalidInput`` for an unknown name)."""
     names = available()
     if name not in names:
         raise InvalidInput(f"benchmark must be one of {names}, got {name!r}")
     mod = importlib.import_module(f"pbanim.bench.{name}")
-    return mod.run(quick=quick)
+    with one_blas_thread():
+        rep = mod.run(quick=quick)
+    rep.notes.append("BLAS/LAPACK ran on one thread for the whole run, for pbanim and its baselines alike "
+                     "(a multi-threaded BLAS on a busy machine costs small solves up to 100×)")
+    return rep
 
 
 def format_report(rep: Report) -> str:
