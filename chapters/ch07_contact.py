@@ -26,7 +26,7 @@ from pbanim.bench import median_time
 from pbanim.plotting import figure
 from pbanim.scene import Scene
 
-SOLVER_STYLE = {"qp": ("o", "C0"), "lemke": ("s", "C1"), "dantzig": ("^", "C2"), "pgs": ("x", "C3")}
+SOLVER_STYLE = {"qp": ("o", "C0"), "lemke": ("s", "C1"), "dantzig": ("^", "C2"), "pgs": ("x", "C3"), "bpp": ("D", "C4")}
 
 
 # %% [markdown]
@@ -145,12 +145,12 @@ def solver_residual_time(ctx):
               label="PGS, sweep by sweep")
     ax.loglog(qt, np.maximum(qr, 1e-17), "o-", color=SOLVER_STYLE["qp"][1], mfc="none",
               label="ProxQP, eps_abs = 1e-2 … 1e-10 (unpolished)")
-    for solver in ("qp", "lemke", "dantzig"):
+    for solver in ("qp", "lemke", "dantzig", "bpp"):
         sol = solve_lcp(A, b, solver)
         out[f"{solver}_time"] = median_time(lambda: solve_lcp(A, b, solver), repeats=3)
         out[f"{solver}_residual"] = sol.residual
         mk, col = SOLVER_STYLE[solver]
-        name = "ProxQP + polish (default)" if solver == "qp" else solver
+        name = {"qp": "ProxQP + polish (default)", "bpp": f"active set ({sol.status})"}.get(solver, solver)
         ax.loglog([out[f"{solver}_time"]], [max(sol.residual, 1e-17)], mk, color=col, ms=9, label=f"{name}: {sol.residual:.0e}")
     ax.axhline(1e-10, color="k", ls=":", lw=1, label="tol 1e-10")
     ax.set_xlabel("wall time (s)")
