@@ -54,7 +54,8 @@ from ..errors import InvalidInput, as_floats
 from ..geometry import cross
 from ..lcp.solve import delassus
 
-__all__ = ["ContactProblem", "rigid_state", "assemble_rigid", "assemble_rigid_loop", "assemble_particles",
+__all__ = ["ContactProblem", "rigid_state", "delassus_by_bodies", "assemble_rigid", "assemble_rigid_loop",
+           "assemble_particles",
            "assemble_particles_loop", "make_contacts", "ContactRows", "rigid_rows", "particle_rows", "particle_blocks"]
 
 
@@ -106,9 +107,10 @@ class ContactRows:
         np.add.at(out, self.b, -self.Gb * z[:, None])
         return out
 
-    def gram(self, other: "ContactRows", Wb: np.ndarray) -> np.ndarray:
-        """J W Kᵀ (dense (m, m_other)) for block-diagonal W given as blocks ``Wb`` (n_pad, d, d)."""
-        return delassus(self.a, self.b, self.Ga, self.Gb, Wb, (other.a, other.b, other.Ga, other.Gb))
+    def gram(self, other: "ContactRows", Wb: np.ndarray, block: int = 1) -> np.ndarray:
+        """J W Kᵀ (dense (m, m_other)) for block-diagonal W given as blocks ``Wb`` (n_pad, d, d); ``block``:
+        rows in groups on the same two bodies (see :func:`pbanim.lcp.delassus`)."""
+        return delassus(self.a, self.b, self.Ga, self.Gb, Wb, (other.a, other.b, other.Ga, other.Gb), block)
 
     def sparse(self) -> sp.csr_matrix:
         m, d = self.Ga.shape
@@ -150,11 +152,12 @@ class ContactProblem:
         return r.rmatvec(f)[:n_bodies]
 
 
-def rigid_state(bodies, y: np.ndarray) -> dict[str, np.ndarray]:
-    """Padded per-body arrays (row N = static world): x, v, ω, L, 1/m, I⁻¹ (world frame), W blocks."""
+def rigid_state(bodies, y: np.ndarray, R: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """Padded per-body arrays (row N = static world): x, v, ω, L, 1/m, I⁻¹ (world frame), W blocks.
+    ``R`` (N, 3, 3): the rotations of y when the caller has them already (a time step computes them once)."""
     N = bodies.N
     x, _, P, L = bodies.unpack(y)
-    R = bodies.rotations(y)
+    R = bodies.rotations(y) if R is None else R
     S = {"x": np.zeros((N + 1, 3)), "v": np.zeros((N + 1, 3)), "omega": np.zeros((N + 1, 3)),
          "L": np.zeros((N + 1, 3)), "inv_mass": np.zeros(N + 1), "Iinv": np.zeros((N + 1, 3, 3))}
     S["x"][:N], S["L"][:N], S["inv_mass"][:N] = x, L, bodies.inv_mass
@@ -175,6 +178,26 @@ def rigid_rows(S: dict, a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarr
     """
     ra, rb = p - S["x"][a], p - S["x"][b]
     return ContactRows(a, b, np.hstack([d, cross(ra, d)]), np.hstack([d, cross(rb, d)]), S["x"].shape[0])
+
+
+def delassus_by_bodies(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
+    """Readable A = J W Kᵀ, body by body: row i acts on body a[i] with +Ga[i] and on b[i] with −Gb[i], so
+
+        Aᵢⱼ = Σ_β Σ (σ gᵢ)ᵀ W_β (σ′ hⱼ)   over the ends of rows i and j that lie on the same body β.
+
+    The reference for :func:`pbanim.lcp.delassus` (same arguments; a Python loop over bodies and rows).
+    """
+    oa, ob, Ha, Hb = (a, b, Ga, Gb) if other is None else other
+    A = np.zeros((len(a), len(oa)))
+    for beta in range(Wb.shape[0]):
+        ends_j = [(i, 1.0, Ga[i]) for i in np.flatnonzero(a == beta)] + \
+            [(i, -1.0, Gb[i]) for i in np.flatnonzero(b == beta)]
+        ends_k = [(j, 1.0, Ha[j]) for j in np.flatnonzero(oa == beta)] + \
+            [(j, -1.0, Hb[j]) for j in np.flatnonzero(ob == beta)]
+        for i, si, g in ends_j:
+            for j, sj, hj in ends_k:
+                A[i, j] += si * sj * (g @ Wb[beta] @ hj)
+    return A
 
 
 def _free_accel(S: dict, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

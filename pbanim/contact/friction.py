@@ -181,12 +181,13 @@ class TimeStepping:
             e.apply(t, y, Q)
         return Q
 
-    def _kinematics(self, y, Q, h):
-        """Free velocity ũ (n_pad, d), W blocks, and a row builder rows(a, b, p, d)."""
+    def _kinematics(self, y, Q, h, R=None):
+        """Free velocity ũ (n_pad, d), W blocks, and a row builder rows(a, b, p, d) (``R``: the rotations of y,
+        when the step has them)."""
         s = self.system
         N = s.N
         if self.rigid:
-            S = rigid_state(s, y)
+            S = rigid_state(s, y, R)
             _, _, P, L = s.unpack(y)
             Pp, Lp = np.zeros((N + 1, 3)), np.zeros((N + 1, 3))
             Pp[:N], Lp[:N] = P + h * Q[:, :3], L + h * Q[:, 3:]
@@ -238,7 +239,7 @@ class TimeStepping:
             self.last = None
         return self._advance(y, u[:N], h)
 
-    def _advance(self, y, u, h):
+    def _advance(self, y, u, h, R=None):
         s = self.system
         if not self.rigid:
             x, _ = s.unpack(y)
@@ -248,7 +249,8 @@ class TimeStepping:
         x, q, P, L = s.unpack(y)
         v, w = u[:, :3], u[:, 3:]
         P_new = np.where(s.static, 0.0, s.mass)[:, None] * v
-        Iw = s.rotations(y) @ s.I_body @ np.swapaxes(s.rotations(y), 1, 2)
+        R = s.rotations(y) if R is None else R
+        Iw = R @ s.I_body @ np.swapaxes(R, 1, 2)
         L_new = np.where(s.static[:, None], 0.0, np.einsum("nij,nj->ni", Iw, w))
         q_new = quat_multiply(quat_exp(h * w), q)
         return np.concatenate([(x + h * v).ravel(), q_new.ravel(), P_new.ravel(), L_new.ravel()])

@@ -48,7 +48,7 @@ import numpy as np
 from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 
-__all__ = ["ContactScene3D", "dropped_stack", "sphere_pile", "box_plane_contacts", "box_box_contacts",
+__all__ = ["ContactScene3D", "SceneDetect", "dropped_stack", "sphere_pile", "box_plane_contacts", "box_box_contacts",
            "box_box_contacts_loop", "sphere_contacts"]
 
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -65,6 +65,24 @@ class ContactScene3D:
     info: dict = field(default_factory=dict)
 
 
+class SceneDetect:
+    """The narrow phase of a scene: ``detect(y) -> (Contacts, keys)`` (validated, the public call) and
+    ``detect.arrays(y, R) -> (a, b, point, normal, separation, keys)`` (raw arrays, for a stepper that has the
+    rotations R (N, 3, 3) of the step already; its geometry is valid by construction: unit normals from
+    rotation columns or fixed planes, finite points while the state is finite, which the driver checks)."""
+
+    def __init__(self, bodies, arrays: Callable, rotations: bool = True) -> None:
+        self.bodies, self.arrays, self.rotations = bodies, arrays, rotations
+
+    def __call__(self, y):
+        y = np.asarray(y, dtype=float)
+        if y.shape != (13 * self.bodies.N,):
+            raise InvalidInput(f"detect needs a state of shape ({13 * self.bodies.N},), got {y.shape}")
+        R = self.bodies.rotations(y) if self.rotations else None
+        a, b, p, n, sep, keys = self.arrays(y, R)
+        return _contacts(a, b, p, n, sep), keys
+
+
 def _contacts(a, b, p, n, sep, radius=None) -> Contacts:
     m = len(a)
     return Contacts(a=np.asarray(a, dtype=np.intp), b=np.asarray(b, dtype=np.intp), point=np.reshape(p, (m, 3)),
@@ -74,48 +92,51 @@ def _contacts(a, b, p, n, sep, radius=None) -> Contacts:
 
 def box_plane_contacts(x, R, half, normal, offset, margin, plane_id: int = 0):
     """Corners of every box within ``margin`` of the plane n·p = d: (a, point, separation, feature)."""
-    pts = x[:, None, :] + np.einsum("nij,kj->nki", R, _CORNERS * half)      # (N, 8, 3)
+    pts = x[:, None, :] + (_CORNERS * half) @ np.swapaxes(R, 1, 2)                # (N, 8, 3): x + R c
     sep = pts @ normal - offset
     bi, ci = np.nonzero(sep <= margin)
     return bi, pts[bi, ci], sep[bi, ci], 8 * plane_id + ci
 
 
 def _corner_in_box(x, R, half, ia, ib, margin, lateral_tol):
-    """Corners of boxes ia touching a face of boxes ib (vectorized over pairs): mask (P, 8), points,
-    normals, separations. The face of b: its axis of least overlap k* (the separating-axis test on b's
-    three face normals, overlap_k = h_k + Σⱼ |(R_bᵀR_a)_kj| h_j − |d_k|, d = R_bᵀ(x_a − x_b))."""
-    d = np.einsum("pji,pj->pi", R[ib], x[ia] - x[ib])
-    C = np.einsum("pji,pjk->pik", R[ib], R[ia])
+    """Corners of boxes ia touching a face of boxes ib (vectorized over pairs): mask (P, 8), the corners in
+    b's frame (P, 8, 3), normals (P, 3), separations (P, 8). The face of b: its axis of least overlap k*
+    (the separating-axis test on b's three face normals, overlap_k = h_k + Σⱼ |(R_bᵀR_a)_kj| h_j − |d_k|,
+    d = R_bᵀ(x_a − x_b)); a corner c of a sits at d + C c in b's frame, C = R_bᵀR_a (no world points)."""
+    Rb = R[ib]
+    d = np.einsum("pji,pj->pi", Rb, x[ia] - x[ib])
+    C = np.swapaxes(Rb, 1, 2) @ R[ia]
     overlap = half + np.abs(C) @ half - np.abs(d)
+    P = d.shape[0]
+    rng = np.arange(P)
     k = np.argmin(overlap, axis=1)                                                         # (P,)
-    P = k.size
-    sign = np.where(d[np.arange(P), k] >= 0, 1.0, -1.0)
-    pts = x[ia][:, None, :] + np.einsum("pij,kj->pki", R[ia], _CORNERS * half)            # (P, 8, 3) world
-    loc = np.einsum("pji,pkj->pki", R[ib], pts - x[ib][:, None, :])                      # in b's frame
-    sep = sign[:, None] * loc[np.arange(P), :, k] - half[k][:, None]                       # (P, 8)
+    sign = np.where(d[rng, k] >= 0, 1.0, -1.0)
+    loc = d[:, None, :] + (_CORNERS * half) @ np.swapaxes(C, 1, 2)                       # (P, 8, 3) in b's frame
+    hk = half[k][:, None]
+    sep = sign[:, None] * loc[rng, :, k] - hk                                              # (P, 8)
     lateral = np.abs(loc) - half
-    lateral[np.arange(P), :, k] = -np.inf
-    inside = np.all(lateral <= lateral_tol, axis=2) & (sep <= margin) & (sep > -half[k][:, None])
-    normal = sign[:, None] * R[ib][np.arange(P), :, k]                                      # (P, 3)
-    return inside, pts, np.broadcast_to(normal[:, None, :], pts.shape), sep
+    lateral[rng, :, k] = -np.inf
+    inside = (lateral.max(axis=2) <= lateral_tol) & (sep <= margin) & (sep > -hk)
+    return inside, loc, sign[:, None] * Rb[rng, :, k], sep
 
 
 def box_box_contacts(x, R, half, pairs, margin: float, lateral_tol: float):
-    """Vertex–face contacts of the box pairs (i, j) (array (P, 2)); see the module docstring.
+    """Vertex–face contacts of the box pairs (i, j) (array (P, 2)); see the module docstring. Both directions
+    (corners of i on j's faces, of j on i's) in one pass over the 2P ordered pairs.
 
     Returns (a, b, point, normal, separation, feature) with the normal from b to a."""
     pairs = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
-    i, j = pairs[:, 0], pairs[:, 1]
-    in_ij, p_ij, n_ij, s_ij = _corner_in_box(x, R, half, i, j, margin, lateral_tol)   # corners of i on j
-    in_ji, p_ji, n_ji, s_ji = _corner_in_box(x, R, half, j, i, margin, lateral_tol)
-    use_ij = in_ij.sum(1) >= in_ji.sum(1)
-    keep_ij, keep_ji = in_ij & use_ij[:, None], in_ji & ~use_ij[:, None]
-    pi, ci = np.nonzero(keep_ij)
-    pj, cj = np.nonzero(keep_ji)
-    a = np.concatenate([i[pi], j[pj]])
-    b = np.concatenate([j[pi], i[pj]])
-    return (a, b, np.vstack([p_ij[pi, ci], p_ji[pj, cj]]), np.vstack([n_ij[pi, ci], n_ji[pj, cj]]),
-            np.concatenate([s_ij[pi, ci], s_ji[pj, cj]]), np.concatenate([ci, cj]))
+    P = pairs.shape[0]
+    ia = np.concatenate([pairs[:, 0], pairs[:, 1]])
+    ib = np.concatenate([pairs[:, 1], pairs[:, 0]])
+    inside, _, normal, sep = _corner_in_box(x, R, half, ia, ib, margin, lateral_tol)
+    count = inside.sum(axis=1)
+    use_ij = count[:P] >= count[P:]
+    inside &= np.concatenate([use_ij, ~use_ij])[:, None]
+    q, c = np.nonzero(inside)                                          # i-on-j contacts first, then j-on-i
+    a, b = ia[q], ib[q]
+    point = x[a] + np.einsum("pij,pj->pi", R[a], _CORNERS[c] * half)
+    return a, b, point, normal[q], sep[q, c], c
 
 
 def box_box_contacts_loop(x, R, half, pairs, margin: float, lateral_tol: float):
@@ -188,17 +209,17 @@ def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction
     pairs = np.stack([k[1:], k[:-1]], axis=1)          # neighbours in the stack (a broad phase by construction)
     K = n + 1
 
-    def detect(y):
-        x = bodies.unpack(y)[0]
-        R = bodies.rotations(y)
+    def arrays(y, R):
+        x = y[:3 * n].reshape(n, 3)
         g_a, g_p, g_s, g_f = box_plane_contacts(x[:1], R[:1], half, up, 0.0, margin)
         a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
         A = np.concatenate([g_a, a])
-        B = np.concatenate([-np.ones(g_a.size, np.intp), b])
+        B = np.concatenate([np.full(g_a.size, -1, np.intp), b])
         keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
-        return _contacts(A, B, np.vstack([g_p, p]), np.vstack([np.tile(up, (g_a.size, 1)), nn]),
-                         np.concatenate([g_s, s])), keys
+        normal = np.concatenate([np.broadcast_to(up, (g_a.size, 3)), nn])
+        return A, B, np.concatenate([g_p, p]), normal, np.concatenate([g_s, s]), keys
 
+    detect = SceneDetect(bodies, arrays)
     return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
                           {"half_extents": half, "top": n - 1, "gap": gap, "offset": offset})
 
@@ -232,17 +253,17 @@ def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, fricti
     pairs = np.stack(np.triu_indices(n, 1), axis=1)
     K = n + 1
 
-    def detect(y):
-        x = bodies.unpack(y)[0]
+    def arrays(y, R=None):                              # spheres: no rotation needed
+        x = y[:3 * n].reshape(n, 3)
         sep_w = x @ walls_n.T - walls_d - r
         bi, wi = np.nonzero(sep_w <= margin)
         a, b, p, nn, s = sphere_contacts(x, r, pairs, margin)
         A = np.concatenate([bi, a])
-        B = np.concatenate([-np.ones(bi.size, np.intp), b])
+        B = np.concatenate([np.full(bi.size, -1, np.intp), b])
         keys = (A * K + (B + 1)) * 8 + np.concatenate([wi, np.zeros(a.size, np.intp)])
-        c = _contacts(A, B, np.vstack([x[bi] - r * walls_n[wi], p]), np.vstack([walls_n[wi], nn]),
-                      np.concatenate([sep_w[bi, wi], s]))
-        return c, keys
+        return (A, B, np.concatenate([x[bi] - r * walls_n[wi], p]), np.concatenate([walls_n[wi], nn]),
+                np.concatenate([sep_w[bi, wi], s]), keys)
 
+    detect = SceneDetect(bodies, arrays, rotations=False)
     return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
                           {"radius": r, "box_half": L})

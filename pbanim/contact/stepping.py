@@ -12,7 +12,11 @@ where s⁺ = s for a separation s > 0 (look-ahead) and erp·s for a penetration.
 and A is built from them in one vectorized pass (:func:`pbanim.lcp.delassus`).
 
 What makes it cheap while contacts persist (issue 14, part 4): every contact has a key from the
-narrow phase; a contact found again starts from its previous state (on/off, stick/slide) and impulse.
+narrow phase; a contact found again starts from its previous state (on/off, stick/slide) and impulse,
+matched by one binary search over the previous step's sorted keys. The rotations R of the step are
+computed once and serve the narrow phase (a scene's ``detect.arrays(y, R)``, raw arrays without a second
+validation), W = diag(1/m, R I⁻¹ Rᵀ) and the position update; A = J W Jᵀ comes from
+:func:`pbanim.lcp.delassus` with the three rows of a contact as one block.
 ``solver="active_set"`` (:func:`pbanim.lcp.active_set.box_friction_active_set`) then solves one linear
 system and confirms the guess — no exchanges in a resting stack; if the guess has not settled after
 ``max_iter`` rounds, PGS finishes from that iterate and the step records the fallback. ``solver="pgs"``
@@ -42,6 +46,7 @@ import time
 import numpy as np
 
 from .friction import TimeStepping
+from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
@@ -84,20 +89,35 @@ class FrictionStepping(TimeStepping):
         self.iterations = check_count("iterations", iterations, 1, 100_000)
         self.max_iter = check_count("max_iter", max_iter, 1, 10_000)
         self.warm = bool(warm_start)
-        self._prev: dict = {}          # key → (state row (3,), impulses (3,))
+        self._remember(np.zeros(0, np.int64), np.zeros((0, 3), dtype=int), np.zeros(0))   # previous step: sorted keys,
+        # their state rows (on/off, stick/slide) and impulses
         self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "persisted": 0, "contacts": 0}
+
+    def _warm(self, keys, b):
+        """The previous step's state rows and impulses for the contacts found again (keys matched by one
+        binary search over the previous step's sorted keys; the last of equal keys wins)."""
+        m = keys.size
+        z0 = np.zeros((m, 3))
+        pk = self._prev_keys
+        if not (self.warm and pk.size):
+            return None, z0.ravel()
+        state0 = np.zeros((m, 3), dtype=int)
+        state0[:, 0] = b[0::3] < 0
+        pos = np.searchsorted(pk, keys, side="right") - 1
+        hit = np.flatnonzero(pk[pos] == keys)        # pos = −1 reads the last key: equal only if it is a hit
+        hit = hit[pos[hit] >= 0]
+        state0[hit] = self._prev_state[pos[hit]]
+        z0[hit] = self._prev_z[pos[hit]]
+        self.stats["persisted"] += hit.size
+        return state0, z0.ravel()
+
+    def _remember(self, keys, state, z):
+        order = np.argsort(keys, kind="stable")
+        self._prev_keys, self._prev_state, self._prev_z = keys[order], state[order], z.reshape(-1, 3)[order]
 
     def _solve(self, A, b, keys):
         m = keys.size
-        state0, z0 = None, np.zeros(3 * m)
-        if self.warm and self._prev:
-            state0 = np.zeros((m, 3), dtype=int)
-            state0[:, 0] = b[0::3] < 0
-            for i, k in enumerate(keys.tolist()):
-                hit = self._prev.get(k)
-                if hit is not None:
-                    state0[i], z0[3 * i:3 * i + 3] = hit
-                    self.stats["persisted"] += 1
+        state0, z0 = self._warm(keys, b)
         if self.solver == "active_set":
             z, res, rounds, state = box_friction_active_set(A, b, self.mu, state=state0, max_iter=self.max_iter,
                                                             tol=self.tol)
@@ -120,15 +140,20 @@ class FrictionStepping(TimeStepping):
             state = np.zeros((m, 3), dtype=int)
             state[:, 0] = f > 0
             state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
-        self._prev = {k: (state[i], z[3 * i:3 * i + 3].copy()) for i, k in enumerate(keys.tolist())}
+        self._remember(keys, state, z)
         return z, res
 
-    def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        """One step t → t + h (``self.last_info``: contacts, impulses, residual, max penetration)."""
-        s = self.system
-        N = s.N
-        Q = self._applied(t, y)
-        u, Wb, rowfn, _ = self._kinematics(y, Q, h)
+    def _contacts(self, y, R):
+        """(a, b, point, normal, separation, keys, Contacts) of the step: through ``detect.arrays(y, R)`` when
+        the scene's narrow phase offers it (:class:`pbanim.contact.scenes.SceneDetect`: the rotations of the
+        step reused, no second validation of geometry valid by construction), else through ``detect(y)``."""
+        fast = getattr(self.detect, "arrays", None)
+        if fast is not None and getattr(self.detect, "bodies", None) is self.system:
+            a, b, p, n, sep, keys = fast(y, R)
+            contacts = object.__new__(Contacts)        # the record of the step, fields as Contacts stores them
+            contacts.a, contacts.b, contacts.point, contacts.normal, contacts.depth = a, b, p, n, -sep
+            contacts.radius = contacts.radius_b = np.zeros(a.size)
+            return a, b, p, n, sep, keys, contacts
         out = self.detect(y)
         if not (isinstance(out, tuple) and len(out) == 2):
             raise InvalidInput("detect must return (Contacts, keys) for FrictionStepping")
@@ -137,20 +162,31 @@ class FrictionStepping(TimeStepping):
         m = len(contacts.a)
         if keys.shape != (m,):
             raise InvalidInput(f"detect returned {m} contacts but keys of shape {keys.shape}")
+        return contacts.a, contacts.b, contacts.point, contacts.normal, -contacts.depth, keys, contacts
+
+    def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
+        """One step t → t + h (``self.last_info``: contacts, impulses, residual, max penetration); the
+        rotations of y are computed once and reused by the narrow phase, W and the position update."""
+        s = self.system
+        N = s.N
+        R = s.rotations(y)
+        Q = self._applied(t, y)
+        u, Wb, rowfn, _ = self._kinematics(y, Q, h, R)
+        ca, cb, point, normal, sep, keys, contacts = self._contacts(y, R)
+        m = ca.size
         self.stats["steps"] += 1
         self.last_info = {"contacts": contacts, "m": m, "residual": 0.0,
-                          "penetration": float(np.max(contacts.depth, initial=0.0))}
+                          "penetration": float(np.max(-sep, initial=0.0))}
         if m:
             self.stats["contact_steps"] += 1
             self.stats["contacts"] += m
-            a = np.where(contacts.a < 0, N, contacts.a)
-            b = np.where(contacts.b < 0, N, contacts.b)
-            t1, t2 = tangent_basis(contacts.normal)
-            D = np.stack([contacts.normal, t1, t2], axis=1).reshape(-1, 3)
-            rows = rowfn(np.repeat(a, 3), np.repeat(b, 3), np.repeat(contacts.point, 3, axis=0), D)
-            A = rows.gram(rows, Wb)
+            a = np.where(ca < 0, N, ca)
+            b = np.where(cb < 0, N, cb)
+            t1, t2 = tangent_basis(normal)
+            D = np.stack([normal, t1, t2], axis=1).reshape(-1, 3)
+            rows = rowfn(np.repeat(a, 3), np.repeat(b, 3), np.repeat(point, 3, axis=0), D)
+            A = rows.gram(rows, Wb, block=3)
             A = 0.5 * (A + A.T)
-            sep = -contacts.depth
             bias = np.zeros(3 * m)
             bias[0::3] = np.where(sep > 0, sep, self.erp * sep) / h
             bb = rows.matvec(u) + bias
@@ -158,8 +194,8 @@ class FrictionStepping(TimeStepping):
             u = u + np.einsum("nij,nj->ni", Wb, rows.rmatvec(z))
             self.last_info.update(residual=res, normal_impulse=z[0::3])
         else:
-            self._prev = {}
-        return self._advance(y, u[:N], h)
+            self._remember(keys, np.zeros((0, 3), dtype=int), np.zeros(0))
+        return self._advance(y, u[:N], h, R)
 
     def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1,
                  max_steps: int = MAX_STEPS) -> SimResult:
