@@ -96,7 +96,7 @@ def tangent_basis(normal, reference=None) -> tuple[np.ndarray, np.ndarray]:
     if np.any(norm < 1e-12):
         raise InvalidInput("tangent must not be parallel to a contact normal")
     t1 /= norm[:, None]
-    return t1, np.cross(n, t1)
+    return t1, cross(n, t1)
 
 
 def cone_edges(normal, k: int, reference=None) -> np.ndarray:

@@ -19,9 +19,12 @@ validation), W = diag(1/m, R I⁻¹ Rᵀ) and the position update; A = J W Jᵀ 
 :func:`pbanim.lcp.delassus` with the three rows of a contact as one block.
 ``solver="active_set"`` (:func:`pbanim.lcp.active_set.box_friction_active_set`) then solves one linear
 system and confirms the guess — no exchanges in a resting stack; if the guess has not settled after
-``max_iter`` rounds, PGS finishes from that iterate and the step records the fallback. ``solver="pgs"``
-runs ``iterations`` Gauss–Seidel sweeps from the previous impulses (the readable solver, and what
-sequential-impulse engines do).
+``max_iter`` rounds (or stops improving: sliding contacts in a dense pile make the problem non-monotone),
+PGS runs from the persisted impulses, the step records the fallback, and the next 2, 4, … 64 steps
+(doubling while it keeps failing) go to PGS directly (``stats["skipped"]``). ``solver="pgs"`` runs
+``iterations`` Gauss–Seidel sweeps from the previous impulses (what sequential-impulse engines do); both
+use the colored sweep :func:`pbanim.lcp.colored.pgs_box_friction_colored` (the readable sweep in color
+order, :func:`pbanim.lcp.solve.pgs_box_friction` being the readable one).
 
 =========  ===============  ===========  ==================================================
 symbol     code             shape        meaning
@@ -50,7 +53,7 @@ from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
-from ..lcp.solve import pgs_box_friction
+from ..lcp.colored import pgs_box_friction_colored
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 
@@ -91,7 +94,9 @@ class FrictionStepping(TimeStepping):
         self.warm = bool(warm_start)
         self._remember(np.zeros(0, np.int64), np.zeros((0, 3), dtype=int), np.zeros(0))   # previous step: sorted keys,
         # their state rows (on/off, stick/slide) and impulses
-        self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "persisted": 0, "contacts": 0}
+        self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "skipped": 0, "persisted": 0,
+                      "contacts": 0}
+        self._failures, self._skip = 0, 0     # consecutive active-set failures; steps left that skip it
 
     def _warm(self, keys, b):
         """The previous step's state rows and impulses for the contacts found again (keys matched by one
@@ -118,20 +123,30 @@ class FrictionStepping(TimeStepping):
     def _solve(self, A, b, keys):
         m = keys.size
         state0, z0 = self._warm(keys, b)
-        if self.solver == "active_set":
+        pgs = lambda: pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,  # noqa: E731
+                                               warm_start=z0 if self.warm else None)
+        if self.solver == "active_set" and self._skip > 0:
+            self._skip -= 1                      # the active set failed on a recent step: PGS alone for now
+            self.stats["skipped"] += 1
+            z, res, sweeps = pgs()
+            state = None
+        elif self.solver == "active_set":
             z, res, rounds, state = box_friction_active_set(A, b, self.mu, state=state0, max_iter=self.max_iter,
                                                             tol=self.tol)
             self.stats["rounds"] += rounds
             if res > self.tol * max(1.0, float(np.max(np.abs(b)))):
                 self.stats["fallbacks"] += 1
                 # the failed guess's iterate can be far off (a singular sliding system): restart PGS from the
-                # persisted impulses instead; its residual is recorded for the step, never hidden
-                z, res, sweeps = pgs_box_friction(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
-                                                  warm_start=z0 if self.warm else None)
+                # persisted impulses instead; its residual is recorded for the step, never hidden. The next
+                # 2, 4, … 64 steps (doubling while it keeps failing) skip the active set.
+                z, res, sweeps = pgs()
                 state = None
+                self._failures += 1
+                self._skip = min(2 ** self._failures, 64)
+            else:
+                self._failures = 0
         else:
-            z, res, sweeps = pgs_box_friction(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
-                                              warm_start=z0 if self.warm else None)
+            z, res, sweeps = pgs()
             self.stats["rounds"] += sweeps
             state = None
         if state is None:

@@ -319,16 +319,15 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
         ci, cj = np.nonzero(stick)
         cols_t = 3 * ci + 1 + cj
         unk = np.concatenate([cols_f, cols_t])
-        P = np.zeros((n, unk.size))
-        P[cols_f, np.arange(cols_f.size)] = 1.0
-        P[cols_t, cols_f.size + np.arange(cols_t.size)] = 1.0
         si, sj = np.nonzero(on[:, None] & (s[:, 1:] != 0))
-        k_f = np.searchsorted(cols_f, 3 * si)
-        P[3 * si + 1 + sj, k_f] = s[si, 1 + sj] * mu[si]
         z = np.zeros(n)
         if unk.size and not si.size:         # nothing slides: P selects, the system is A's principal block
             z[unk], _ = _prox_solve(A[unk[:, None], unk], -b[unk], rho, refine)
         elif unk.size:
+            P = np.zeros((n, unk.size))
+            P[cols_f, np.arange(cols_f.size)] = 1.0
+            P[cols_t, cols_f.size + np.arange(cols_t.size)] = 1.0
+            P[3 * si + 1 + sj, np.searchsorted(cols_f, 3 * si)] = s[si, 1 + sj] * mu[si]
             x, _ = _prox_solve(A[unk] @ P, -b[unk], rho, refine, sym=False)
             z = P @ x
         w = A @ z + b
