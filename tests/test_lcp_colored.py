@@ -81,3 +81,7 @@ def test_colored_pgs_validates_its_input():
         pgs_box_friction_colored(A, b, mu, warm_start=np.ones(4))
     with pytest.raises(InvalidInput, match="3 rows per contact"):
         contact_colors(np.eye(4))
+    with pytest.raises(InvalidInput, match="partition"):
+        pgs_box_friction_colored(A, b, mu, colors=[np.array([0, 1])])
+    with pytest.raises(InvalidInput, match="finite"):
+        pgs_box_friction_colored(np.where(np.eye(9) > 0, np.nan, A), b, mu)

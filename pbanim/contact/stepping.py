@@ -53,7 +53,7 @@ from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
-from ..lcp.colored import pgs_box_friction_colored
+from ..lcp.colored import contact_colors, pgs_box_friction_colored
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 
@@ -97,6 +97,7 @@ class FrictionStepping(TimeStepping):
         self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "skipped": 0, "persisted": 0,
                       "contacts": 0}
         self._failures, self._skip = 0, 0     # consecutive active-set failures; steps left that skip it
+        self._colors = None                   # (keys, contact colors) of the last PGS solve
 
     def _warm(self, keys, b):
         """The previous step's state rows and impulses for the contacts found again (keys matched by one
@@ -120,11 +121,17 @@ class FrictionStepping(TimeStepping):
         order = np.argsort(keys, kind="stable")
         self._prev_keys, self._prev_state, self._prev_z = keys[order], state[order], z.reshape(-1, 3)[order]
 
+    def _pgs(self, A, b, keys, z0):
+        """Colored PGS from the persisted impulses; the coloring is kept while the contacts (keys) persist."""
+        if self._colors is None or not np.array_equal(self._colors[0], keys):
+            self._colors = (keys.copy(), contact_colors(A))
+        return pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
+                                        warm_start=z0 if self.warm else None, colors=self._colors[1], validate=False)
+
     def _solve(self, A, b, keys):
         m = keys.size
         state0, z0 = self._warm(keys, b)
-        pgs = lambda: pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,  # noqa: E731
-                                               warm_start=z0 if self.warm else None)
+        pgs = lambda: self._pgs(A, b, keys, z0)  # noqa: E731
         if self.solver == "active_set" and self._skip > 0:
             self._skip -= 1                      # the active set failed on a recent step: PGS alone for now
             self.stats["skipped"] += 1

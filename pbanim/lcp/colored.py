@@ -68,25 +68,33 @@ def contact_colors(A: np.ndarray) -> list[np.ndarray]:
 
 
 def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8,
-                             warm_start=None, colors: list | None = None) -> tuple:
+                             warm_start=None, colors: list | None = None, validate: bool = True) -> tuple:
     """Colored projected Gauss–Seidel for box friction (see the module docstring).
 
     Same conditions, arguments and returns as :func:`pbanim.lcp.solve.pgs_box_friction` — (z, residual,
     sweeps), at most ``max_iter`` sweeps — with the contacts visited color by color (``colors`` from
-    :func:`contact_colors`, computed when not given). A must be symmetric (A = J W Jᵀ): its rows are
-    read in place of its columns.
+    :func:`contact_colors`, computed when not given; a caller whose contacts persist can pass the last
+    step's). A must be symmetric (A = J W Jᵀ): its rows are read in place of its columns.
+    ``validate=False`` skips the O(m²) input checks, for a caller that built A and b itself (the time
+    stepper); the shapes are still checked.
     """
     from .box import _box_residual, _check, _scale
 
-    A, b = _check(A, b)
+    if validate:
+        A, b = _check(A, b)
     n = b.size
-    if n % 3:
-        raise InvalidInput(f"pgs_box_friction_colored needs 3 rows per contact (normal, two tangents), got {n}")
+    if n % 3 or A.shape != (n, n):
+        raise InvalidInput(f"pgs_box_friction_colored needs a square A with 3 rows per contact (normal, two "
+                           f"tangents), got A {A.shape}, b {b.shape}")
     m = n // 3
     mu = np.broadcast_to(np.asarray(mu, dtype=float), (m,))
     diag = np.diag(A).copy()
     if np.any(diag <= 0):
         raise InvalidInput("pgs_box_friction_colored needs A with a positive diagonal (add a little regularization)")
+    if colors is not None and validate:
+        order = np.sort(np.concatenate([np.asarray(K, dtype=np.intp) for K in colors] or [np.zeros(0, np.intp)]))
+        if not np.array_equal(order, np.arange(m)):
+            raise InvalidInput(f"colors must partition the {m} contacts (each exactly once)")
     z = np.zeros(n)
     if warm_start is not None:
         z = np.array(warm_start, dtype=float)
@@ -108,7 +116,7 @@ def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int 
                     lim = None
                 else:
                     lim = mu[K] * z[3 * K] if lim is None else lim
-                    new = np.clip(z[r] - w[r] * inv, -lim, lim)
+                    new = np.minimum(np.maximum(z[r] - w[r] * inv, -lim), lim)
                 d = new - z[r]
                 z[r] = new
                 w += d @ rows
