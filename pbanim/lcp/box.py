@@ -54,14 +54,7 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
     diag = np.diag(A).copy()
     if np.any(diag <= 0):
         raise InvalidInput("pgs_box_friction needs A with a positive diagonal (add a little regularization)")
-    z = np.zeros(n)
-    if warm_start is not None:
-        z = np.array(warm_start, dtype=float)
-        if z.shape != (n,) or not np.all(np.isfinite(z)):
-            raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
-        z[0::3] = np.maximum(z[0::3], 0.0)
-        lim = mu * z[0::3]
-        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    z = _warm_impulses(warm_start, n, mu)
     w = A @ z + b
     for sweep in range(1, int(max_iter) + 1):
         for r in range(n):
@@ -107,6 +100,20 @@ def pgs_bounded(A: np.ndarray, b: np.ndarray, lo, hi, *, max_iter: int = 500, to
         if res <= tol * _scale(b):
             return z, res, sweep
     return z, res, int(max_iter)
+
+
+def _warm_impulses(warm_start, n: int, mu: np.ndarray) -> np.ndarray:
+    """The first iterate of a box-friction sweep: zero, or ``warm_start`` (3m,) projected onto the bounds
+    (fᵢ ≥ 0, |τᵢⱼ| ≤ μfᵢ) — the previous step's impulses of persisting contacts."""
+    z = np.zeros(n)
+    if warm_start is not None:
+        z = np.array(warm_start, dtype=float)
+        if z.shape != (n,) or not np.all(np.isfinite(z)):
+            raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
+        z[0::3] = np.maximum(z[0::3], 0.0)
+        lim = mu * z[0::3]
+        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    return z
 
 
 def _box_residual(z, w, mu) -> float:

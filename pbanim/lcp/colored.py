@@ -78,7 +78,7 @@ def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int 
     ``validate=False`` skips the O(m²) input checks, for a caller that built A and b itself (the time
     stepper); the shapes are still checked.
     """
-    from .box import _box_residual, _check, _scale
+    from .box import _box_residual, _check, _scale, _warm_impulses
 
     if validate:
         A, b = _check(A, b)
@@ -95,14 +95,7 @@ def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int 
         order = np.sort(np.concatenate([np.asarray(K, dtype=np.intp) for K in colors] or [np.zeros(0, np.intp)]))
         if not np.array_equal(order, np.arange(m)):
             raise InvalidInput(f"colors must partition the {m} contacts (each exactly once)")
-    z = np.zeros(n)
-    if warm_start is not None:
-        z = np.array(warm_start, dtype=float)
-        if z.shape != (n,) or not np.all(np.isfinite(z)):
-            raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
-        z[0::3] = np.maximum(z[0::3], 0.0)
-        lim = mu * z[0::3]
-        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    z = _warm_impulses(warm_start, n, mu)
     colors = contact_colors(A) if colors is None else colors
     # per color and per row kind: the rows, 1/A_rr, and A's rows (= columns) gathered once
     plan = [(K, [(3 * K + j, 1.0 / diag[3 * K + j], A[3 * K + j]) for j in range(3)]) for K in colors]
