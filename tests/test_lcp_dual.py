@@ -110,3 +110,14 @@ def test_lapack_factor_solves_match_numpy(m):
         x, fac = active_set._prox_solve(M, r, 0.0, 0, sym=sym)
         np.testing.assert_allclose(x, np.linalg.solve(M, r), rtol=1e-12, atol=1e-12)
         assert fac[0] == ("cho" if sym else "lu")
+
+
+def test_a_degenerate_held_set_stalls_and_the_route_still_certifies():
+    # ORACLES D15: on this redundant stack (m = 200, rank 101) the held set becomes nearly dependent and
+    # the dual stops with w_p = −1.1e-7 that nothing can raise: "stalled", not "infeasible", never "solved";
+    # the route's last resort (the QP, polished) certifies (measured residual 1.4e-13)
+    case = random_contact_lcp(200, True, seed=7)
+    f, status, _ = dual_active_set(case.A, case.b, start=case.b < 0)
+    assert status == "stalled"
+    sol = solve_lcp(case.A, case.b, "bpp")
+    assert sol.success and sol.status.startswith("bpp→qp") and sol.residual <= 1e-10

@@ -203,8 +203,7 @@ def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: 
     the Goldfarb–Idnani dual active set (:func:`pbanim.lcp.active_set.dual_active_set`, which keeps its held
     rows independent and cannot cycle on redundancy). m ≤ :data:`DUAL_FIRST`: the dual active set first.
     Either starts from the guess (``active``, the support of ``warm_start``, or {bᵢ < 0}). Only if no
-    active-set answer passes the certificate does ProxQP run (eps_abs = tol/2, polished if that is not
-    enough). The status says which route answered ("solved", "bpp→dual", "bpp→qp:<status>",
+    active-set answer passes the certificate does the QP run (as ``solver="qp"`` does, polish included). The status says which route answered ("solved", "bpp→dual", "bpp→qp:<status>",
     "dual→qp:<status>")."""
     from .active_set import bpp, dual_active_set
 
@@ -228,9 +227,7 @@ def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: 
                 return f, "bpp→dual", iters
     if status == "solved" or not qp_fallback:
         return f, status, iters
-    g, st2, it2 = qp(A, b, tol=tol, eps_abs=0.5 * tol * _scale(b), polish=False)
-    if natural_map_residual(g, A @ g + b) > residual_threshold(A, b, g, tol):
-        g = _polish(A, b, g, tol)
+    g, st2, it2 = qp(A, b, tol=tol)                       # the "qp" solver's own route, polish included
     return g, f"{route}→qp:{st2}", iters + it2
 
 
