@@ -84,7 +84,7 @@ def natural_map_residual(f: np.ndarray, w: np.ndarray) -> float:
     w = np.asarray(w, dtype=float)
     if f.size == 0:
         return 0.0
-    return float(np.max(np.abs(f - np.maximum(0.0, f - w))))
+    return float(np.abs(f - np.maximum(0.0, f - w)).max())
 
 
 @dataclass

@@ -190,7 +190,7 @@ def dual_active_set(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, max_ite
     """
     m = b.size
     cap = 3 * m + 10 if max_iter is None else int(max_iter)
-    thr = 0.1 * tol * max(1.0, float(np.max(np.abs(b), initial=0.0)))
+    thr = 0.1 * tol * max(1.0, float(np.abs(b).max(initial=0.0)))
     S = np.zeros(m, dtype=np.intp)       # S[:k]: the held set, in insertion order
     Hinv = np.zeros((m, m))              # A_SS⁻¹ in the leading k × k block
     rows = np.zeros((m, m))              # rows[i] = A[S[i]] (A symmetric: w = f_S @ rows + b)

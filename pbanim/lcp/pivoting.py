@@ -43,9 +43,9 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
     m = b.size
     if A.shape != (m, m):
         raise InvalidInput(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(b))):
+    if not (np.isfinite(A).all() and np.isfinite(b).all()):
         raise InvalidInput("A and b must be finite (got NaN or Inf); check the contact assembly")
-    big = max(float(np.max(np.abs(A), initial=0.0)), float(np.max(np.abs(b), initial=0.0)))
+    big = max(float(np.abs(A).max(initial=0.0)), float(np.abs(b).max(initial=0.0)))
     if big > _LIMIT:     # products A f and the residual threshold would overflow: no certificate possible
         raise InvalidInput(f"A and b must have entries below {_LIMIT:.0e} in magnitude (rescale the units), "
                            f"got max |entry| = {big:.3e}")
@@ -53,10 +53,11 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
 
 
 _LIMIT = 1e100
+_EPS1000 = 1000 * float(np.finfo(float).eps)
 
 
 def _scale(b: np.ndarray) -> float:
-    return max(1.0, float(np.max(np.abs(b)))) if b.size else 1.0
+    return max(1.0, float(np.abs(b).max())) if b.size else 1.0
 
 
 def residual_threshold(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) -> float:
@@ -67,7 +68,7 @@ def residual_threshold(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) 
     """
     if b.size == 0:
         return tol
-    return tol * _scale(b) + 1000 * np.finfo(float).eps * float(np.max(np.abs(A) @ np.abs(f)))
+    return tol * _scale(b) + _EPS1000 * float((np.abs(A) @ np.abs(f)).max())
 
 
 def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int = 4) -> np.ndarray:

@@ -288,8 +288,8 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
     if solver in ("qp", "bpp") and m:
         # symmetry is always checked (O(m²); a non-symmetric A can keep a QP backend busy for minutes);
         # definiteness (an O(m³) eigenvalue computation) only with validate=True
-        asym = float(np.max(np.abs(A - A.T)))
-        if asym > 1e-12 * max(1.0, float(np.max(np.abs(A)))):
+        asym = float(np.abs(A - A.T).max())
+        if asym > 1e-12 * max(1.0, float(np.abs(A).max())):
             raise InvalidInput(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "
                                "use solver='lemke' for friction or other non-symmetric LCPs")
         if validate and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, float(np.max(np.abs(A)))):
@@ -328,7 +328,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
     sol = ContactSolution(f=np.asarray(f, dtype=float), solver=solver, status=status, success=False,
                           iterations=iters, time=elapsed, A=A, b=b, extra=extra)
     # success is the certificate, whatever the solver's own status (kept in ``status``)
-    finite = bool(np.all(np.isfinite(sol.f)))
+    finite = bool(np.isfinite(sol.f).all())
     thresh = residual_threshold(A, b, sol.f, tol) if finite else tol
     extra["threshold"] = thresh
     sol.success = bool(finite and sol.residual <= thresh)
