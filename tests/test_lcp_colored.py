@@ -7,10 +7,10 @@ from hypothesis import strategies as st
 
 from pbanim.errors import InvalidInput
 from pbanim.lcp import delassus, pgs_box_friction
-from pbanim.lcp.colored import contact_colors, pgs_box_friction_colored
+from pbanim.lcp.colored import colors_by_bodies, contact_colors, pgs_box_friction_colored
 
 
-def _friction_lcp(seed, bodies, contacts):
+def _friction_lcp(seed, bodies, contacts, with_bodies=False):
     """A = J W Jᵀ of ``contacts`` random contacts (3 rows each) between ``bodies`` bodies and the world
     (index ``bodies``, zero block of W), b random: the sparsity of a real pile."""
     rng = np.random.default_rng(seed)
@@ -25,7 +25,8 @@ def _friction_lcp(seed, bodies, contacts):
         W[k] = B @ B.T / 6 + 0.2 * np.eye(6)
     A = delassus(np.repeat(a, 3), np.repeat(other, 3), G, H, W)
     A = 0.5 * (A + A.T) + 1e-9 * np.eye(3 * contacts)
-    return A, rng.normal(size=3 * contacts), rng.uniform(0.1, 1.0, size=contacts)
+    out = (A, rng.normal(size=3 * contacts), rng.uniform(0.1, 1.0, size=contacts))
+    return out + ((a, other),) if with_bodies else out
 
 
 # ORACLES D16: the colored sweep is the readable sweep with the contacts in color order
@@ -85,3 +86,31 @@ def test_colored_pgs_validates_its_input():
         pgs_box_friction_colored(A, b, mu, colors=[np.array([0, 1])])
     with pytest.raises(InvalidInput, match="finite"):
         pgs_box_friction_colored(np.where(np.eye(9) > 0, np.nan, A), b, mu)
+
+
+# ORACLES D16: the coloring from the contacts' bodies is as valid as the one read from A
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10**6), bodies=st.integers(1, 12), contacts=st.integers(1, 40))
+def test_colors_by_bodies_are_decoupled_and_few(seed, bodies, contacts):
+    A, b, mu, (a, other) = _friction_lcp(seed, bodies, contacts, with_bodies=True)
+    colors = colors_by_bodies(a, other, static=[bodies])
+    order = np.sort(np.concatenate(colors))
+    assert np.array_equal(order, np.arange(contacts))                     # a partition
+    m = contacts
+    coupled = np.abs(A - 1e-9 * np.eye(3 * m)).reshape(m, 3, m, 3).sum(axis=(1, 3)) > 0
+    np.fill_diagonal(coupled, False)
+    for K in colors:
+        assert not coupled[np.ix_(K, K)].any()                            # no shared moving body in a color
+    per_body = np.bincount(np.concatenate([a, other[other < bodies]]), minlength=bodies)
+    assert len(colors) <= max(1, 2 * per_body.max() - 1)                  # greedy edge coloring bound
+    z1, r1, _ = pgs_box_friction_colored(A, b, mu, max_iter=5, tol=1e-300, colors=colors)
+    order = np.concatenate(colors)
+    rows = (3 * order[:, None] + np.arange(3)).ravel()
+    z2, r2, _ = pgs_box_friction(A[np.ix_(rows, rows)], b[rows], mu[order], max_iter=5, tol=1e-300)
+    np.testing.assert_allclose(z1[rows], z2, atol=1e-12 * max(1.0, float(np.abs(z2).max())))
+
+
+def test_colors_by_bodies_validates():
+    with pytest.raises(InvalidInput, match="same length"):
+        colors_by_bodies([0, 1], [1])
+    assert colors_by_bodies([], []) == []

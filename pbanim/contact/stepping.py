@@ -53,7 +53,7 @@ from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
-from ..lcp.colored import contact_colors, pgs_box_friction_colored
+from ..lcp.colored import colors_by_bodies, pgs_box_friction_colored
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 
@@ -122,9 +122,10 @@ class FrictionStepping(TimeStepping):
         self._prev_keys, self._prev_state, self._prev_z = keys[order], state[order], z.reshape(-1, 3)[order]
 
     def _pgs(self, A, b, keys, z0):
-        """Colored PGS from the persisted impulses; the coloring is kept while the contacts (keys) persist."""
+        """Colored PGS from the persisted impulses; the coloring (from the contacts' bodies) is kept while the
+        contacts (keys) persist."""
         if self._colors is None or not np.array_equal(self._colors[0], keys):
-            self._colors = (keys.copy(), contact_colors(A))
+            self._colors = (keys.copy(), colors_by_bodies(*self._bodies, static=[self.system.N]))
         return pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
                                         warm_start=z0 if self.warm else None, colors=self._colors[1], validate=False)
 
@@ -212,6 +213,7 @@ class FrictionStepping(TimeStepping):
             bias = np.zeros(3 * m)
             bias[0::3] = np.where(sep > 0, sep, self.erp * sep) / h
             bb = rows.matvec(u) + bias
+            self._bodies = (a, b)
             z, res = self._solve(A, bb, keys)
             u = u + np.einsum("nij,nj->ni", Wb, rows.rmatvec(z))
             self.last_info.update(residual=res, normal_impulse=z[0::3])

@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 
-__all__ = ["contact_colors", "pgs_box_friction_colored"]
+__all__ = ["contact_colors", "colors_by_bodies", "pgs_box_friction_colored"]
 
 
 def contact_colors(A: np.ndarray) -> list[np.ndarray]:
@@ -65,6 +65,35 @@ def contact_colors(A: np.ndarray) -> list[np.ndarray]:
         taken[used[used >= 0]] = True
         color[i] = int(np.argmin(taken))                           # the smallest free color
     return [np.flatnonzero(color == c) for c in range(int(color.max(initial=-1)) + 1)]
+
+
+def colors_by_bodies(a, b, static=()) -> list[np.ndarray]:
+    """The same kind of coloring from the contacts' bodies (contact i between bodies a[i] and b[i]; the
+    ``static`` ones — the world — couple nothing): greedy edge coloring of the body graph, one bit mask of
+    used colors per body, at most 2Δ − 1 colors (Δ the most contacts on one body). O(m) with small
+    constants, where :func:`contact_colors` reads an m × m coupling matrix: what a time stepper uses when
+    its contacts change from step to step.
+
+    >>> [c.tolist() for c in colors_by_bodies([0, 0, 1], [2, 1, 2], static=[2])]   # body 2: the world
+    [[0, 2], [1]]
+    """
+    a = np.asarray(a, dtype=np.intp).ravel()
+    b = np.asarray(b, dtype=np.intp).ravel()
+    if a.shape != b.shape:
+        raise InvalidInput(f"a and b must have the same length, got {a.size} and {b.size}")
+    fixed = {int(k) for k in np.ravel(static)}
+    used: dict = {}
+    color = np.empty(a.size, dtype=np.intp)
+    for i, (p, q) in enumerate(zip(a.tolist(), b.tolist())):        # m iterations
+        mask = (0 if p in fixed else used.get(p, 0)) | (0 if q in fixed else used.get(q, 0))
+        c = (~mask & (mask + 1)).bit_length() - 1                   # the lowest free color
+        color[i] = c
+        for k in (p, q):
+            if k not in fixed:
+                used[k] = used.get(k, 0) | (1 << c)
+    n = int(color.max(initial=-1)) + 1
+    order = np.argsort(color, kind="stable")
+    return np.split(order, np.cumsum(np.bincount(color, minlength=n))[:-1]) if n else []
 
 
 def pgs_box_friction_colored(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8,
