@@ -107,9 +107,10 @@ def test_spring_network_conserves_momentum(method, seed, dim):
         assert np.abs(L - L[0]).max() < 1e-13 * (np.abs(L[0]).max() + 1.0)
 
 
-@pytest.mark.parametrize("method", sorted(name for name, m in METHODS.items() if m.adaptive))
+@pytest.mark.parametrize("method", sorted(name for name, m in METHODS.items() if m.adaptive and not m.nystrom))
 @given(seed=st.integers(0, 10**6))
 def test_spring_network_conserves_momentum_adaptive(method, seed):
+    # (the Nyström pairs refuse the damped springs by name: tests/test_ode_nystrom.py)
     # ORACLES A7 for adaptive methods, through pbanim.solve on the scene's right-hand side
     from pbanim import solve
 

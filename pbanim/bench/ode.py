@@ -71,7 +71,8 @@ def _problem(key):
     return p.rhs, p.jac, p.y0, p.t_end, p.error, (1e-10 if p.relative else 1e-3 if key == "van_der_pol" else 1e-2)
 
 
-NONSTIFF = (["pbanim:dop853", "pbanim:vern7", "pbanim:dopri5"], ["RK45", "DOP853", "LSODA"])
+NONSTIFF = (["pbanim:dop853", "pbanim:vern7", "pbanim:dopri5", "pbanim:dprkn6", "pbanim:dprkn8", "pbanim:dprkn12"],
+            ["RK45", "DOP853", "LSODA"])
 STIFF = (["pbanim:radau5", "pbanim:rodas4"], ["Radau", "BDF", "LSODA"])
 #: key → (title, pbanim variants, solve_ivp methods)
 PROBLEMS = {

@@ -25,6 +25,7 @@ name                   order  symplectic  one step
 ``vern7``              7      no          Verner 7(6), PI control, Verner's dense output
 ``rodas4``             4      no          Rosenbrock: (1/(hγ) − J)Uᵢ = f(Yᵢ) + Σ cᵢⱼUⱼ/h; one LU/step
 ``radau5``             5      no          Radau IIA collocation, simplified Newton, J and LU reused
+``dprkn6`` … ``12``    6-12   no          Nyström: Qᵢ = q + cᵢhv + h²Σaᵢⱼg(Qⱼ), only for q̈ = g(t, q)
 =====================  =====  ==========  ========================================================
 
 The explicit Runge–Kutta methods are Butcher tableaux (A, B, C) run by one stepper
@@ -55,7 +56,9 @@ Euler, exact for linear forces. The exponential integrator goes further: for a l
 exact flow e^(hJ), at any step.
 
 What accuracy costs (ORACLES A9–A12): an order-p method needs N ∝ ε^(−1/p) steps for an error ε, so
-the tight tolerances belong to the high-order pairs (DOP853, Verner), and stiff problems (a k = 10⁶
+the tight tolerances belong to the high-order pairs (DOP853, Verner; for q̈ = g(t, q), such as Kepler
+and the Pleiades, the Runge–Kutta–Nyström pairs ``dprkn8`` and ``dprkn12``, which need about half the
+evaluations of f at equal error), and stiff problems (a k = 10⁶
 spring, Van der Pol with μ = 1000, Robertson's kinetics) to the L-stable implicit ones (RODAS4, Radau
 IIA), whose step is limited by accuracy only. ``pbanim bench ode`` measures both against scipy.
 

@@ -8,7 +8,9 @@ Explicit Runge–Kutta methods (Euler, midpoint, RK4, the Dormand–Prince 5(4) 
 7(6) pair) are :class:`Tableau` objects run by one stepper (:func:`pbanim.ode.tableau.make_rk_step`; the
 readable loop is :func:`explicit_rk_step`); a tableau checks its own consistency (ΣB = 1, rows of A sum
 to C, A strictly lower triangular) when it is built. The stiff methods RODAS4 and Radau IIA live in
-:mod:`pbanim.ode.rosenbrock` and :mod:`pbanim.ode.radau`; every adaptive method carries its loop.
+:mod:`pbanim.ode.rosenbrock` and :mod:`pbanim.ode.radau`, the Runge–Kutta–Nyström pairs for q̈ = g(t, q)
+(``nystrom=True``: they refuse any other right-hand side) in :mod:`pbanim.ode.nystrom`; every adaptive
+method carries its loop.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import numpy as np
 
 from .adaptive import DOPRI5, dopri5_step, solve_adaptive, solve_pair
 from .high_order import DOP853, VERN7
+from .nystrom import dprkn6_step, dprkn8_step, dprkn12_step, solve_nystrom
 from .implicit import (expm_small, exponential_euler_step, implicit_euler_step, implicit_midpoint_step,
                            newton_solve)
 from .radau import radau5_step, solve_radau
@@ -176,6 +179,7 @@ class Method:
     step: Callable
     description: str = ""
     run: Callable | None = None
+    nystrom: bool = False     # only for f(t, [q, v]) = [v, g(t, q)] (Runge–Kutta–Nyström: pbanim.ode.nystrom)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in [
@@ -197,6 +201,12 @@ METHODS: dict[str, Method] = {m.name: m for m in [
            "step)", solve_rosenbrock),
     Method("radau5", 5, False, True, True, radau5_step, "adaptive Radau IIA order 5 (L-stable; Jacobian and "
            "LU reused across steps)", solve_radau),
+    Method("dprkn6", 6, False, False, True, dprkn6_step, "adaptive Nyström 6(4) for q̈ = g(t, q) (5 evaluations "
+           "per step)", solve_nystrom, nystrom=True),
+    Method("dprkn8", 8, False, False, True, dprkn8_step, "adaptive Nyström 8(6) for q̈ = g(t, q) (8 evaluations "
+           "per step)", solve_nystrom, nystrom=True),
+    Method("dprkn12", 12, False, False, True, dprkn12_step, "adaptive Nyström 12(10) for q̈ = g(t, q) (17 "
+           "evaluations per step)", solve_nystrom, nystrom=True),
 ]}
 
 
