@@ -143,3 +143,20 @@ def test_oscillator_energy_and_error_bounded(omega, x0, v0, k, name):
 def test_registry_marks_the_nystrom_methods():
     assert {n for n, m in METHODS.items() if m.nystrom} == set(NAMES)
     assert all(METHODS[n].order == NYSTROM[n].order and METHODS[n].adaptive for n in NAMES)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_fun_gets_fresh_arrays(name):
+    # ORACLES A13: a fun that keeps every y it is handed sees each unchanged after the run (no buffer reuse)
+    kp = kepler(0.5)
+    kept, copies = [], []
+
+    def f(t, y):
+        kept.append(y)
+        copies.append(np.array(y, copy=True))
+        return kp.rhs(t, y)
+
+    r = pbanim.solve(f, (0, 3.0), kp.y0, method=name, rtol=1e-8, atol=1e-10)
+    assert r.success and len(kept) == r.nfev
+    assert all(np.array_equal(a, b) for a, b in zip(kept, copies))
+    assert len({id(a) for a in kept}) == len(kept)          # a new array object at every call

@@ -47,12 +47,12 @@ import time
 
 import numpy as np
 
-from .control import EPS10, Controller, check_real, emit_step, initial_step, step_end, step_failure
+from .control import EPS10, Controller, check_real, emit_step, initial_step, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
 from .nystrom_tables import NYSTROM, NystromPair
 from ..errors import InvalidInput
 
-__all__ = ["nystrom_step", "solve_nystrom", "hermite5", "check_nystrom_problem", "NYSTROM",
+__all__ = ["nystrom_step", "solve_nystrom", "hermite5", "check_nystrom_problem", "coefficient_stack", "NYSTROM",
            "dprkn6_step", "dprkn8_step", "dprkn12_step"]
 
 # the I controller (β = 0): a Nyström pair's step is limited by accuracy, not stability, and on Kepler and the
@@ -113,7 +113,7 @@ def check_nystrom_problem(fun, t0: float, y: np.ndarray, f0: np.ndarray, d: int,
     """Refuse a right-hand side that is not [v, g(t, q)] at y₀ (see the module docstring); returns the one
     evaluation of f it spends."""
     q, v = y[:d], y[d:]
-    if not np.allclose(f0[:d], v, rtol=1e-13, atol=1e-300):
+    if not (np.abs(f0[:d] - v) <= 1e-13 * np.abs(v) + 1e-300).all():
         raise InvalidInput(f"method {name!r} needs f(t, [q, v])[:split] = v (a mechanical system q̇ = v), but at "
                            f"t0 it differs from v by up to {float(np.max(np.abs(f0[:d] - v))):.3g}; use dop853")
     dv = 1e-3 * (1.0 + np.abs(v))
@@ -141,12 +141,33 @@ def hermite5(q0, v0, g0, q1, v1, g1, h: float, theta: float) -> tuple[np.ndarray
     return q, v
 
 
+def coefficient_stack(p: NystromPair) -> np.ndarray:
+    """(3, s + 3, s + 2) matrices T₀, T₁, T₂ with M(h) = T₀ + hT₁ + h²T₂ the rows of one step (see
+    :func:`solve_nystrom`): stage i (rows 0 … s − 2) [1, cᵢh, h²aᵢ₀ …], then q₁ [1, h, h²b̄], ê_q [0, 0, h²ẽ̄],
+    v₁ [0, 1, hb], ê_v [0, 0, hẽ]."""
+    s = p.stages
+    T = np.zeros((3, s + 3, s + 2))
+    T[0, :s - 1, 0] = 1.0
+    T[1, :s - 1, 1] = p.C[1:]
+    T[2, :s - 1, 2:] = p.A[1:]
+    r = s - 1
+    T[0, r, 0], T[1, r, 1], T[2, r, 2:] = 1.0, 1.0, p.B
+    T[2, r + 1, 2:] = p.EB
+    T[0, r + 2, 1], T[1, r + 2, 2:] = 1.0, p.BP
+    T[1, r + 3, 2:] = p.EBP
+    return T
+
+
+_STACKS = {name: coefficient_stack(p) for name, p in NYSTROM.items()}
+
+
 def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, split, jac=None):
-    """Run the Nyström pair ``m.name`` with PI control from (t0, y) to tf (validated by ``solve``).
+    """Run the Nyström pair ``m.name`` with error control from (t0, y) to tf (validated by ``solve``).
 
     One contiguous window W of shape (s + 2, 2d) with rows [q, v], [v, 0], [G₀, 0], [G₁, 0], …: the stage
     state [Qᵢ, v] = [q, v] + cᵢh [v, 0] + h² Σⱼ aᵢⱼ[Gⱼ, 0] is one matrix–vector product (a fresh array for
-    fun), and the four sums of a step end (q₁, ê_q, v₁, ê_v) are one matrix product.
+    fun), and the four sums of a step end (q₁, ê_q, v₁, ê_v) are one matrix product. Every coefficient of
+    a step is one product too: M(h) = [1, h, h²] · (T₀, T₁, T₂) (:func:`coefficient_stack`).
     """
     check_real(m.name, y, f0)
     p, ctrl = NYSTROM[m.name], _CTRL[m.name]
@@ -159,13 +180,14 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
         nfev[0] += 1
     h = min(abs(h), abs(tf - t0))
     win = np.zeros((s + 2, 2 * d))               # [q, v], [v, 0], [Gⱼ, 0]
-    Gs = win[2:, :d]
+    Gs, v_row = win[2:, :d], win[1, :d]
     Gs[0] = f0[d:]
-    S_rows = np.zeros((s, s + 2))                # stage i: [1, cᵢh, h²aᵢ₀, …]
-    S_rows[:, 0] = 1.0
-    E_rows = np.zeros((4, s + 2))                # [1, h, h²b̄], [0, 0, h²ẽ̄], [0, 1, hb], [0, 0, hẽ]
-    E_rows[0, 0] = E_rows[2, 1] = 1.0
-    stages = [(S_rows[i, :i + 2], win[:i + 2], Gs[i], float(p.C[i])) for i in range(1, s)]
+    T = _STACKS[m.name]
+    T2 = T.reshape(3, -1)
+    M = np.empty(T.shape[1:])
+    Mflat, hv = M.reshape(-1), np.ones(3)
+    stages = [(M[i - 1, :i + 2], win[:i + 2], Gs[i], float(p.C[i])) for i in range(1, s)]
+    E_rows = M[s - 1:]
     iy = np.concatenate([np.arange(d), 4 * d + np.arange(d)])        # q₁ and v₁ in the flat (4, 2d) result
     ie_ = np.concatenate([2 * d + np.arange(d), 6 * d + np.arange(d)])  # ê_q and ê_v
     ts, Ys, ie = start_output(t0, y, t_eval)
@@ -174,10 +196,10 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
     ay0, sc = np.abs(yf), np.empty(n)
     status, message = 0, OK_MESSAGE
     nacc = nrej = 0
-    rejected, err_prev, nonfinite_at = False, 1.0, None
-    dot, mul, sqrt, factor = np.dot, np.multiply, math.sqrt, ctrl.factor
-    A, C, B, EB, BP, EBP = p.A, p.C, p.B, p.EB, p.BP, p.EBP
-    Sa, Sc = S_rows[:, 2:], S_rows[:, 1]
+    rejected, nonfinite_at = False, None
+    dot, sqrt, factor = np.dot, math.sqrt, ctrl.factor
+    safety, alpha, fac_min, fac_max = ctrl.safety, ctrl.alpha, ctrl.fac_min, ctrl.fac_max
+    tf_tol = EPS10 * abs(tf)
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -189,19 +211,13 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
             if (t + direction * h - tf) * direction > 0:
                 h = abs(tf - t)
             hd = direction * h
-            h2 = hd * hd
+            hv[1], hv[2] = hd, hd * hd
+            dot(hv, T2, out=Mflat)                    # this step's coefficients
             win[0] = yf
-            win[1, :d] = yf[d:]
-            mul(A, h2, out=Sa)
-            mul(C, hd, out=Sc)
+            v_row[:] = yf[d:]
             for row, Wi, Gi, c in stages:             # [Qᵢ, v] = window · row, Gᵢ = g(t + cᵢh, Qᵢ)
                 Gi[:] = fun(t + c * hd, dot(row, Wi))[d:]
             nfev[0] += s - 1
-            mul(B, h2, out=E_rows[0, 2:])
-            E_rows[0, 1] = hd
-            mul(EB, h2, out=E_rows[1, 2:])
-            mul(BP, hd, out=E_rows[2, 2:])
-            mul(EBP, hd, out=E_rows[3, 2:])
             S = dot(E_rows, win).ravel()
             y1f = S[iy]
             ay1 = np.abs(y1f)
@@ -214,16 +230,18 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
             err = sqrt(s0) if s0 >= 0 else s0        # NaN stays NaN
             if not err <= 1.0:                        # also NaN: reject and shrink
                 nonfinite_at = None if math.isfinite(err) else t
-                h *= factor(err, err_prev, True)
+                h *= factor(err, 1.0, True)
                 nrej += 1
                 rejected = True
                 continue
-            t1 = step_end(t, hd, tf, direction)
+            t1 = t + hd                               # the step end, snapped to tf within 10ε|tf|
+            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= tf_tol:
+                t1 = tf
             nacc += 1
             if p.fsal:
                 g1 = Gs[s - 1]                        # g(t + h, q₁): a view, copied into Gs[0] below
             else:
-                g1 = np.asarray(fun(t1, y1f.copy()), dtype=float)[d:]
+                g1 = fun(t1, y1f)[d:]                  # y1f is never written again: fun may keep it
                 nfev[0] += 1
             stop = False
             if evs or t_eval is not None:
@@ -243,8 +261,10 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
                 break
             yf, ay0 = y1f, ay1
             Gs[0] = g1
-            h *= factor(err, err_prev, rejected)
-            err_prev, rejected = max(err, 1e-4), False
+            # the I controller (Controller.factor with β = 0, inlined): h·safety·err^(−α), clamped
+            fac = fac_max if err == 0.0 else min(fac_max, max(fac_min, safety * err ** -alpha))
+            h *= min(1.0, fac) if rejected else fac
+            rejected = False
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0, n))
     return make_result(ts, Y, nfev[0], 0, status, message, wall, m.name, evs, nacc, nrej)
