@@ -123,6 +123,21 @@ def test_refuses_what_is_not_q_ddot_equals_g_of_q(name):
         pbanim.solve(lambda t, y: -y, (0, 1), [1.0, 2.0, 3.0], method=name)
     with pytest.raises(InvalidInput, match="one trajectory"):
         pbanim.solve(harmonic_oscillator(1.0).rhs, (0, 1), np.ones((3, 2)), method=name)
+    # fixed steps (a scene's simulate, Method.step) check the form at every step
+    with pytest.raises(InvalidInput, match="does not depend on the velocity"):
+        METHODS[name].step(damped_oscillator(1.0, 0.3).rhs, 0.0, np.array([1.0, 0.5]), 0.1)
+
+
+def test_a_damped_particle_scene_is_refused_with_fixed_steps():
+    # a scene's fixed-step simulate goes through Method.step: a drag force would be answered wrong, so it is refused
+    from pbanim.particles import Drag, Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    ps = ParticleSystem([[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]], masses=1.0)
+    with pytest.raises(InvalidInput, match="dprkn8"):
+        Scene(ps, [Gravity(), Drag(0.5)]).simulate(0.1, 0.01, method="dprkn8")
+    res = Scene(ps, [Gravity()]).simulate(0.1, 0.01, method="dprkn8")       # ORACLES A8: free fall exact
+    assert abs(res.y[2, -1] - (1.0 - 0.5 * 9.81 * 0.1 ** 2)) < 1e-14 and abs(res.y[0, -1] - 0.1) < 1e-14
 
 
 @settings(max_examples=25, deadline=None)

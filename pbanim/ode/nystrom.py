@@ -76,6 +76,10 @@ def nystrom_step(pair: NystromPair | str, fun, t: float, y: np.ndarray, h: float
                  jac=None) -> np.ndarray:
     """One Nyström step, the readable loop over the stages (the adaptive loop is tested against it).
 
+    A fixed-step run (``solve(..., h=...)`` of a scene, ``Method.step``) has no start-up to check the
+    problem's form in, so every step checks it (:func:`check_nystrom_problem`: one extra evaluation of f)
+    and refuses a damped or non-mechanical right-hand side by name instead of answering it wrong.
+
     >>> f = lambda t, y: np.array([y[1], -9.81])          # free fall: exact for every Nyström pair
     >>> y1 = nystrom_step("dprkn8", f, 0.0, np.array([10.0, 0.0]), 1.0)
     >>> bool(np.allclose(y1, [10.0 - 9.81 / 2, -9.81], rtol=1e-15))
@@ -85,8 +89,10 @@ def nystrom_step(pair: NystromPair | str, fun, t: float, y: np.ndarray, h: float
     y = np.asarray(y, dtype=float)
     d = _positions(y, split, p.name)
     q, v = y[:d], y[d:]
-    G = []
-    for i in range(p.stages):
+    f0 = np.asarray(fun(t, y), dtype=float)
+    check_nystrom_problem(fun, t, y, f0, d, p.name)
+    G = [f0[d:]]                                      # stage 0: Q₀ = q (c₀ = 0)
+    for i in range(1, p.stages):
         Q = q + p.C[i] * h * v
         for j in range(i):
             Q = Q + h * h * p.A[i, j] * G[j]
