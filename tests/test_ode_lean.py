@@ -159,7 +159,8 @@ def _synthetic(n_pb, n_ivp, n_ode, t_f, over_pb, over_ivp, over_ode, p=8.0):
         return [(10.0 ** -k, (N0 / N) ** p, N * (t_f + over), N) for k, N in enumerate(N0 * 10 ** (np.arange(4) / 2))]
     return {"pbanim:dop853": pts(n_pb, over_pb), "pbanim:vern7": pts(2 * n_pb, over_pb),
             "pbanim:dopri5": pts(3 * n_pb, over_pb), "pbanim:dprkn6": pts(4 * n_pb, over_pb),
-            "pbanim:dprkn8": pts(5 * n_pb, over_pb), "pbanim:dprkn12": pts(6 * n_pb, over_pb), "scipy:RK45": pts(3 * n_ivp, over_ivp),
+            "pbanim:dprkn8": pts(5 * n_pb, over_pb), "pbanim:dprkn12": pts(6 * n_pb, over_pb),
+            "scipy:RK45": pts(3 * n_ivp, over_ivp),
             "scipy:DOP853": pts(n_ivp, over_ivp), "scipy:LSODA": pts(2 * n_ivp, over_ivp), "odeint": pts(n_ode, over_ode)}
 
 

@@ -110,8 +110,8 @@ def test_spring_network_conserves_momentum(method, seed, dim):
 @pytest.mark.parametrize("method", sorted(name for name, m in METHODS.items() if m.adaptive and not m.nystrom))
 @given(seed=st.integers(0, 10**6))
 def test_spring_network_conserves_momentum_adaptive(method, seed):
-    # (the Nyström pairs refuse the damped springs by name: tests/test_ode_nystrom.py)
-    # ORACLES A7 for adaptive methods, through pbanim.solve on the scene's right-hand side
+    # ORACLES A7 for adaptive methods, through pbanim.solve on the scene's right-hand side (the Nyström pairs
+    # refuse the damped springs by name: tests/test_ode_nystrom.py)
     from pbanim import solve
 
     ps, springs = random_network(seed, N=5, dim=3)

@@ -82,11 +82,12 @@ class Controller:
             if not math.isfinite(err):
                 return self.fac_min
             return max(self.fac_min, self.safety * err ** (-1.0 / self.k))
-        if err == 0.0:
-            fac = self.fac_max
-        else:
-            fac = self.safety * err ** (-self.alpha) * err_prev ** self.beta
-            fac = min(self.fac_max, max(self.fac_min, fac))
+        fac = self.fac_max if err == 0.0 else self.safety * err ** (-self.alpha) * err_prev ** self.beta
+        return self._clamp(fac, rejected)
+
+    def _clamp(self, fac: float, rejected: bool) -> float:
+        """An accepted step's factor clamped to [fac_min, fac_max], and at most 1 right after a rejection."""
+        fac = min(self.fac_max, max(self.fac_min, fac))
         return min(1.0, fac) if rejected else fac
 
     def predictive(self, err: float, err_prev: float | None, h_ratio: float, rejected: bool) -> float:
@@ -98,12 +99,11 @@ class Controller:
         3.6
         """
         if err == 0.0:
-            return 1.0 if rejected else self.fac_max
+            return self._clamp(self.fac_max, rejected)
         fac = self.safety * err ** (-1.0 / self.k)
         if err_prev is not None:
             fac *= h_ratio * (err_prev / err) ** (1.0 / self.k)
-        fac = min(self.fac_max, max(self.fac_min, fac))
-        return min(1.0, fac) if rejected else fac
+        return self._clamp(fac, rejected)
 
 
 def rms(v: np.ndarray) -> float:

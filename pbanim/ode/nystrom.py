@@ -48,7 +48,7 @@ import time
 
 import numpy as np
 
-from .control import EPS10, Controller, check_real, emit_step, initial_step, step_failure
+from .control import EPS10, Controller, check_real, emit_step, initial_step, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
 from .nystrom_tables import NYSTROM, NystromPair
 from ..errors import InvalidInput
@@ -181,12 +181,12 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
     check_real(m.name, y, f0)
     p, ctrl = NYSTROM[m.name], _CTRL[m.name]
     d = _positions(y, split, m.name)
-    nfev = [1 + check_nystrom_problem(fun, t0, y, f0, d, m.name)]
+    nfev = 1 + check_nystrom_problem(fun, t0, y, f0, d, m.name)
     s, n = p.stages, y.size
     direction = 1.0 if tf > t0 else -1.0
     if h is None:
         h = initial_step(fun, t0, y, f0, direction, rtol, atol, p.embedded_order)
-        nfev[0] += 1
+        nfev += 1
     h = min(abs(h), abs(tf - t0))
     win = np.zeros((s + 2, 2 * d))               # [q, v], [v, 0], [Gⱼ, 0]
     Gs, v_row = win[2:, :d], win[1, :d]
@@ -209,7 +209,6 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
     h_acc = err_acc = None                        # the last accepted step and its error (predictive control)
     mul, add, sqrt, factor = np.multiply, np.add, math.sqrt, ctrl.factor   # (ndarray.dot: no dispatch layer)
     predict = ctrl.predictive
-    tf_tol = EPS10 * abs(tf)
     start = time.perf_counter()
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         while (tf - t) * direction > 0:
@@ -227,7 +226,7 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
             v_row[:] = yf[d:]
             for row, Wi, Gi, c in stages:             # [Qᵢ, v] = window · row, Gᵢ = g(t + cᵢh, Qᵢ)
                 Gi[:] = fun(t + c * hd, row.dot(Wi))[d:]
-            nfev[0] += s - 1
+            nfev += s - 1
             S = E_rows.dot(win).ravel()
             y1f = S[iy]
             ay1 = np.abs(y1f)
@@ -244,15 +243,13 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
                 nrej += 1
                 rejected = True
                 continue
-            t1 = t + hd                               # the step end, snapped to tf within 10ε|tf|
-            if (t1 - tf) * direction > 0 or abs(t1 - tf) <= tf_tol:
-                t1 = tf
+            t1 = step_end(t, hd, tf, direction)
             nacc += 1
             if p.fsal:
                 g1 = Gs[s - 1]                        # g(t + h, q₁): a view, copied into Gs[0] below
             else:
                 g1 = fun(t1, y1f)[d:]                  # y1f is never written again: fun may keep it
-                nfev[0] += 1
+                nfev += 1
             stop = False
             if evs or t_eval is not None:
                 g0, g1 = Gs[0].copy(), np.array(g1, copy=True)
@@ -277,4 +274,4 @@ def solve_nystrom(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, 
             rejected = False
     wall = time.perf_counter() - start
     Y = np.array(Ys) if Ys else np.empty((0, n))
-    return make_result(ts, Y, nfev[0], 0, status, message, wall, m.name, evs, nacc, nrej)
+    return make_result(ts, Y, nfev, 0, status, message, wall, m.name, evs, nacc, nrej)
