@@ -39,6 +39,15 @@ def pytest_configure(config):
     os.environ["PBANIM_FUZZ_FACTOR"] = str(factor)   # read by tests/test_fuzz.py when it is collected
 
 
+_SURFACE: dict = {}
+
+
+@pytest.fixture(scope="session")
+def surface_report():
+    """Counts of the public surface (filled by tests/test_contracts_surface.py, printed at the end)."""
+    return _SURFACE
+
+
 @pytest.fixture(scope="session")
 def fuzz_counts():
     """Examples run per fuzzed entry point in this process (filled by tests/test_fuzz.py)."""
@@ -49,15 +58,24 @@ def pytest_sessionfinish(session):
     workeroutput = getattr(session.config, "workeroutput", None)
     if workeroutput is not None:            # an xdist worker: hand the counts to the controller
         workeroutput["fuzz_counts"] = dict(_FUZZ_COUNTS)
+        workeroutput["surface"] = dict(_SURFACE)
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_testnodedown(node, error):
     for k, v in getattr(node, "workeroutput", {}).get("fuzz_counts", {}).items():
         _FUZZ_COUNTS[k] = _FUZZ_COUNTS.get(k, 0) + v
+    _SURFACE.update(getattr(node, "workeroutput", {}).get("surface", {}))
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if _SURFACE:
+        tr = terminalreporter
+        tr.section("public surface (tests/test_contracts_surface.py)")
+        tr.write_line(f"{_SURFACE['covered']} callables with a contract on every argument, {_SURFACE['bare']} "
+                      f"without arguments, {len(_SURFACE['exempted'])} exempted, {_SURFACE['missing']} missing")
+        for k, why in sorted(_SURFACE["exempted"].items()):
+            tr.write_line(f"  exempt {k}: {why}")
     if not _FUZZ_COUNTS:
         return
     tr = terminalreporter

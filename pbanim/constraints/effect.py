@@ -21,7 +21,8 @@ import numpy as np
 from .assembly import ConstraintSet
 from .kinds import Constraint
 from .solvers import SOLVERS, ConstraintSolution, solve_lambda
-from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError, check_number
+from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, Seq, contract
+from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError, check_result
 from ..scene import Effect
 
 __all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multipliers", "BaumgarteGains",
@@ -31,6 +32,12 @@ __all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multi
 STABILIZATIONS = ("none", "baumgarte", "projection")
 
 
+_GAIN = Real(ge=0)
+_STATE = Array(("self.system.n_state",))
+_TIME = Real()
+
+
+@contract(ks=_GAIN, kd=_GAIN)
 @dataclass(frozen=True)
 class BaumgarteGains:
     """Baumgarte gains (k_s in 1/s², k_d in 1/s) and the oscillator they make: ω_b = √k_s, ζ = k_d/2ω_b."""
@@ -38,7 +45,7 @@ class BaumgarteGains:
     ks: float
     kd: float
 
-    def __post_init__(self) -> None:
+    def __post_init__(self) -> None:    # gains computed inside pbanim from other parameters
         for name in ("ks", "kd"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
@@ -54,66 +61,57 @@ class BaumgarteGains:
         return float(self.kd / (2 * np.sqrt(self.ks))) if self.ks > 0 else float("inf")
 
 
-def _nonneg(value, name: str) -> float:
-    v = float(value)
-    if not np.isfinite(v) or v < 0:
-        raise InvalidInput(f"{name} must be a finite number >= 0, got {value}; Baumgarte gains are non-negative")
-    return v
-
-
+@contract(natural_frequency=_GAIN, damping_ratio=_GAIN)
 def baumgarte_gains(natural_frequency: float, damping_ratio: float = 1.0) -> BaumgarteGains:
     """k_s = ω², k_d = 2ζω.
 
     >>> baumgarte_gains(10.0, 1.0)
     BaumgarteGains(ks=100.0, kd=20.0)
     """
-    w = _nonneg(natural_frequency, "natural_frequency")
-    z = _nonneg(damping_ratio, "damping_ratio")
+    w, z = float(natural_frequency), float(damping_ratio)
     return BaumgarteGains(w * w, 2 * z * w)
 
 
+@contract(hertz=_GAIN, damping_ratio=_GAIN)
 def gains_from_box2d(hertz: float, damping_ratio: float) -> BaumgarteGains:
     """Box2D soft constraints (hertz f, damping ratio ζ): ω = 2πf, so k_s = (2πf)², k_d = 2ζ(2πf).
 
     >>> g = gains_from_box2d(1.0, 0.5); round(g.ks, 6), round(g.kd, 6)
     (39.478418, 6.283185)
     """
-    return baumgarte_gains(2 * np.pi * _nonneg(hertz, "hertz"), damping_ratio)
+    return baumgarte_gains(2 * np.pi * float(hertz), damping_ratio)
 
 
+@contract(timeconst=Real(gt=0), dampratio=Real(gt=0))
 def gains_from_mujoco(timeconst: float, dampratio: float) -> BaumgarteGains:
     """MuJoCo solref (timeconst τ, dampratio ζ), impedance d → 1: k_s = 1/(τ²ζ²), k_d = 2/τ.
 
     >>> gains_from_mujoco(0.02, 1.0)
     BaumgarteGains(ks=2500.0, kd=100.0)
     """
-    tau = _nonneg(timeconst, "timeconst")
-    z = _nonneg(dampratio, "dampratio")
-    if tau == 0 or z == 0:
-        raise InvalidInput(f"timeconst and dampratio must be > 0, got {timeconst}, {dampratio}")
+    tau, z = float(timeconst), float(dampratio)
     with np.errstate(over="ignore", divide="ignore"):   # an overflow is refused by BaumgarteGains
         return BaumgarteGains(float(1.0 / np.float64(tau * tau * z * z)), float(2.0 / np.float64(tau)))
 
 
+@contract(erp=Real(gt=0, lt=1), cfm=Real(gt=0), h=Real(gt=0), effective_mass=Real(gt=0))
 def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float = 1.0) -> BaumgarteGains:
     """Bullet/ODE (ERP, CFM) at step h: spring k_p = ERP/(h·CFM), damper c = (1 − ERP)/CFM, per unit of the
-    row's effective mass m_eff = 1/(JWJᵀ): k_s = k_p/m_eff, k_d = c/m_eff (needs CFM > 0).
+    row's effective mass m_eff = 1/(JWJᵀ): k_s = k_p/m_eff, k_d = c/m_eff (needs CFM > 0: CFM = 0 is the
+    hard limit k_s, k_d → ∞).
 
     >>> g = gains_from_erp_cfm(0.2, 0.01, 0.01); round(g.ks, 9), round(g.kd, 9)
     (2000.0, 80.0)
     """
-    erp, cfm, h = float(erp), float(cfm), float(h)
-    if not 0 < erp < 1:
-        raise InvalidInput(f"erp must be in (0, 1), got {erp}")
-    if not cfm > 0:
-        raise InvalidInput(f"cfm must be > 0 for finite gains, got {cfm}; CFM = 0 is the hard limit k_s, k_d → ∞")
-    if not (h > 0 and np.isfinite(h)) or not (effective_mass > 0 and np.isfinite(effective_mass)):
-        raise InvalidInput(f"h and effective_mass must be finite and > 0, got {h}, {effective_mass}")
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):  # refused by BaumgarteGains
         hc, m = np.float64(h * cfm), np.float64(effective_mass)
         return BaumgarteGains(float(erp / hc / m), float((1 - erp) / np.float64(cfm) / m))
 
 
+@contract(constraints=Either(Obj(ConstraintSet), Seq(Obj(Constraint), min_len=1)),
+          system=Obj("pbanim.particles.system:ParticleSystem"), y=Array(("system.n_state",)),
+          Q=Opt(Array(("system.N", "system.dim"))), solver=Choice(SOLVERS), ks=_GAIN, kd=_GAIN,
+          tol=Real(gt=0), max_iter=Opt(Int(ge=1)))
 def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system, y, Q=None, *,
                       solver: str = "auto", ks: float = 0.0, kd: float = 0.0, tol: float = 1e-12,
                       max_iter: int | None = None) -> ConstraintSolution:
@@ -130,6 +128,9 @@ def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system,
     """
     cset = constraints if isinstance(constraints, ConstraintSet) else ConstraintSet(
         constraints, system.N, system.dim, system.W, system.x0)
+    if cset.n != system.N * system.dim:
+        raise InvalidInput(f"solve_multipliers: constraints were assembled for {cset.n} coordinates, the "
+                           f"system has {system.N * system.dim}")
     x, v = system.unpack(np.asarray(y, float))
     Qf = np.zeros(cset.n) if Q is None else np.asarray(Q, float).ravel()
     asm = cset.assemble(x, v, pairs=cset.blocks)
@@ -175,19 +176,15 @@ class Constraints(Effect):
     name = "constraints"
     phase = "constraint"
 
+    @contract(constraints=Seq(Obj(Constraint), min_len=1), solver=Choice(SOLVERS),
+              stabilization=Choice(STABILIZATIONS), ks=Opt(_GAIN), kd=Opt(_GAIN), natural_frequency=Opt(_GAIN),
+              damping_ratio=_GAIN, tol=Real(gt=0), max_iter=Opt(Int(ge=1)), projection_tol=Real(gt=0),
+              projection_max_iter=Int(ge=1, le=10_000), max_violation=Opt(Real(gt=0)))
     def __init__(self, constraints: Sequence[Constraint], solver: str = "auto", stabilization: str = "none",
                  ks: float | None = None, kd: float | None = None, *, natural_frequency: float | None = None,
                  damping_ratio: float = 1.0, tol: float = 1e-12, max_iter: int | None = None,
                  projection_tol: float = 1e-13, projection_max_iter: int = 20,
                  max_violation: float | None = None) -> None:
-        if solver not in SOLVERS:
-            raise InvalidInput(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
-        if stabilization not in STABILIZATIONS:
-            raise InvalidInput(f"stabilization must be one of {list(STABILIZATIONS)}, got {stabilization!r}")
-        if ks is not None:
-            _nonneg(ks, "ks")
-        if kd is not None:
-            _nonneg(kd, "kd")
         if stabilization == "baumgarte":
             if natural_frequency is not None:
                 g = baumgarte_gains(natural_frequency, damping_ratio)
@@ -210,6 +207,7 @@ class Constraints(Effect):
         """The stages this effect adds to a scene: itself, plus the projection when asked."""
         return [self, ConstraintProjection(self)] if self.stabilization == "projection" else [self]
 
+    @contract(system=Obj("pbanim.particles.system:ParticleSystem"))
     def bind(self, system) -> None:
         self.system = system
         self.cset = ConstraintSet(self.constraints, system.N, system.dim, system.W, system.x0)
@@ -229,12 +227,14 @@ class Constraints(Effect):
         return sol, asm
         # END SOLUTION
 
+    @contract(t=_TIME, y=_STATE, Q=Array(("self.system.N", "self.system.dim")))
     def constrain(self, t, y, Q):
         x, v = self.system.unpack(y)
         sol, _ = self._solve(x, v, np.array(Q, float).ravel(), self.ks, self.kd, t)
         self.last = sol
         return Q + sol.Q_C.reshape(Q.shape)
 
+    @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t, y) -> dict:
         """C_max, Cdot_max, and λ at (t, y) with the applied forces at (t, y) (from the scene that holds
         this effect; zero outside a scene). Nothing carries over from an earlier evaluation or run."""
@@ -244,6 +244,7 @@ class Constraints(Effect):
         return {"C_max": float(np.max(np.abs(asm.C), initial=0.0)),
                 "Cdot_max": float(np.max(np.abs(asm.Cdot), initial=0.0)), "lam": sol.lam}
 
+    @contract(y=_STATE)
     def project(self, y: np.ndarray) -> np.ndarray:
         """Project y onto C = 0 (mass-weighted Gauss–Newton), then onto Ċ = 0; returns a new state."""
         y = np.array(y, float)
@@ -279,14 +280,25 @@ class ConstraintProjection(Effect):
     name = "constraint-projection"
     phase = "post_step"
 
+    @contract(owner=Obj(Constraints))
     def __init__(self, owner: Constraints) -> None:
         self.owner = owner
 
+    @contract(t=_TIME, y=Array(("self.owner.system.n_state",)), h=Real(gt=0))
     def post_step(self, t, y, h):
         return self.owner.project(y)
 
 
 # -- the discrete feedback map (stability of Baumgarte itself) ---------------------------------------
+def _fixed_step_methods():
+    from ..ode import METHODS
+    return [k for k, m in METHODS.items() if not m.adaptive]
+
+
+_METHOD = Choice(_fixed_step_methods)
+
+
+@contract(method=_METHOD, omega_h=_GAIN, zeta=_GAIN)
 def baumgarte_feedback_map(method: str, omega_h: float, zeta: float) -> np.ndarray:
     """The 2×2 one-step map of (C, Ċ·h) for C̈ = −k_s C − k_d Ċ integrated by ``method`` with step h,
     as a function of ω_b h and ζ only (time measured in steps). Exact for constraints linear in q
@@ -299,31 +311,35 @@ def baumgarte_feedback_map(method: str, omega_h: float, zeta: float) -> np.ndarr
     from ..ode import get_method
 
     meth = get_method(method)
-    if meth.adaptive:
-        raise InvalidInput(f"method must be a fixed-step method, got adaptive {method!r}")
     wh, z = float(omega_h), float(zeta)
     A = np.array([[0.0, 1.0], [-wh * wh, -2 * z * wh]])
     fun = lambda t, y: y @ A.T  # noqa: E731  (works on (2,) and batches)
-    cols = [np.asarray(meth.step(fun, 0.0, e, 1.0, split=1, jac=lambda t, y: A), float) for e in np.eye(2)]
-    return np.array(cols).T
+    with np.errstate(all="ignore"):     # an overflow is named below
+        cols = [np.asarray(meth.step(fun, 0.0, e, 1.0, split=1, jac=lambda t, y: A), float) for e in np.eye(2)]
+    return check_result("baumgarte_feedback_map", np.array(cols).T, f"omega_h = {wh:g}, zeta = {z:g}")
 
 
+@contract(method=_METHOD, omega_h=Array(None, ge=0, scalar=True), zeta=Array(None, ge=0, scalar=True))
 def baumgarte_spectral_radius(method: str, omega_h, zeta) -> np.ndarray:
     """ρ(map) over arrays of ω_b h and ζ (≤ 1: the feedback is stable with this integrator and step)."""
-    wh, z = np.broadcast_arrays(np.asarray(omega_h, float), np.asarray(zeta, float))
+    try:
+        wh, z = np.broadcast_arrays(np.asarray(omega_h, float), np.asarray(zeta, float))
+    except ValueError:
+        raise InvalidInput(f"baumgarte_spectral_radius: omega_h and zeta must broadcast together, got shapes "
+                           f"{np.shape(omega_h)} and {np.shape(zeta)}") from None
     out = np.empty(wh.shape)
     for idx in np.ndindex(wh.shape):
         out[idx] = np.max(np.abs(np.linalg.eigvals(baumgarte_feedback_map(method, wh[idx], z[idx]))))
     return out
 
 
+@contract(method=_METHOD, zeta=_GAIN, upper=Real(gt=1e-3, le=1e6))
 def baumgarte_stability_limit(method: str, zeta: float, upper: float = 20.0) -> float:
     """The largest ω_b h below which ρ ≤ 1 for all smaller ω_b h (bisection to 1e-10), for damping ratio ζ.
 
     >>> round(baumgarte_stability_limit("symplectic_euler", 1.0), 6)   # (ωh)² + 4ωh = 4: 2√2 − 2
     0.828427
     """
-    upper = check_number("upper", upper, low=1e-3, low_open=True, high=1e6)
     grid = np.linspace(1e-3, upper, 2000)
     rho = baumgarte_spectral_radius(method, grid, zeta)
     bad = np.flatnonzero(rho > 1 + 1e-12)

@@ -133,6 +133,11 @@ class ParticleSystem(Bodies):
         self._h_cached, self._hW = None, None
 
     # -- state -----------------------------------------------------------------------------------
+    @property
+    def n_state(self) -> int:
+        """Length of the flat state y = [x, v]: 2·N·dim."""
+        return 2 * self.split
+
     def state(self) -> np.ndarray:
         """A fresh flat state y = [x.ravel(), v.ravel()]."""
         return np.concatenate([self.x0.ravel(), self.v0.ravel()])
