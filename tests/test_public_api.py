@@ -59,7 +59,7 @@ def test_import_pbanim_makes_no_internal_module_an_attribute():
             "print(sorted(m for m in ('sympy', 'qpsolvers', 'proxsuite', 'matplotlib') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split("\n")
     modules = eval(out[0])  # a printed list of str
-    assert set(modules) <= {"errors", "results", "derivatives", "geometry", "ode", "scene", "bodies", "particles",
+    assert set(modules) <= {"errors", "results", "derivatives", "geometry", "contracts", "ode", "scene", "bodies", "particles",
                             "constraints", "reduced", "rigid", "collision", "contact", "lcp"}, modules
     assert not {"bench", "cli", "plotting", "models", "testing", "accuracy"} & set(modules)
     assert eval(out[1]) == []
