@@ -80,6 +80,7 @@ class Contract:
         # arguments whose spec reads others come last
         self.order = sorted(self.specs, key=lambda n: _refs(self.specs[n]))
         self.method = bool(params) and params[0].name in ("self", "cls")
+        self.by_position = [(i, n, self.specs[n]) for i, n in enumerate(self.positional) if n in self.specs]
 
     def unchecked_arguments(self) -> list[str]:
         """Parameters with no spec (besides self / cls and *args / **kwargs)."""
@@ -96,6 +97,21 @@ class Contract:
 
     def check(self, args: tuple, kwargs: dict):
         """The arguments with each given one checked and converted, as (args, kwargs)."""
+        if not self.needs_all:      # the common case: no spec reads another argument
+            env = Env(self.where, kwargs)
+            if args:
+                args = list(args)
+                n = len(args)
+                for i, name, spec in self.by_position:
+                    if i >= n:
+                        break
+                    args[i] = spec.check(name, args[i], env)
+            specs = self.specs
+            for k in kwargs:
+                spec = specs.get(k)
+                if spec is not None:
+                    kwargs[k] = spec.check(k, kwargs[k], env)
+            return args, kwargs
         values = self.bind(args, kwargs)
         env = Env(self.where, values)
         if self.needs_all:

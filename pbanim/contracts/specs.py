@@ -189,6 +189,9 @@ class Real(Spec):
 
     def __init__(self, *, ge=None, gt=None, le=None, lt=None, finite: bool = True) -> None:
         self.bounds, self.finite = _Bounds(ge, gt, le, lt), finite
+        b = self.bounds     # the range as plain floats, for a check with no method call
+        self._lo = -math.inf if b.lo is None else float(b.lo)
+        self._hi = math.inf if b.hi is None else float(b.hi)
 
     def describe(self) -> str:
         b = self.bounds.phrase()
@@ -203,7 +206,9 @@ class Real(Spec):
             raise env.fail(name, self.describe(), value)
         else:
             v = float(value)
-        if not (math.isfinite(v) if self.finite else v == v) or not self.bounds.inside(v):
+        lo, hi, b = self._lo, self._hi, self.bounds
+        if not (lo <= v <= hi) or (b.lo_open and v == lo) or (b.hi_open and v == hi) or \
+                (self.finite and (v == math.inf or v == -math.inf)):
             raise env.fail(name, self.describe(), value)
         return v
 
