@@ -124,10 +124,16 @@ class Call:
                 continue
             if name in values and not _required(sig, name):
                 # an argument with a default: fuzzed, but its valid value is the default unless the spec can
-                # say more (a None default stands for "not given")
+                # say more (a None default stands for "not given": an example is made up when it can be)
                 if values[name] is not None:
                     self.names.append(name)
                     continue
+                try:
+                    values[name] = example_for(self.contract.specs[name], self.env)
+                except MissingExample:
+                    pass
+                self.names.append(name)
+                continue
             values[name] = example_for(self.contract.specs[name], self.env)
             self.names.append(name)
         missing = [n for n in surface.parameters(entry) if _required(sig, n) and n not in values]

@@ -21,12 +21,15 @@ from __future__ import annotations
 
 import functools
 import inspect
+import math
 import os
 import sys
 
+import numpy as np
+
 from .specs import Env, Spec, _is_ref
 
-__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked"]
+__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked", "finite_result"]
 
 _PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
 _STATE = {"always": False}
@@ -132,24 +135,38 @@ class Contract:
         return "\n".join(f"{n}: {s.describe()}" for n, s in self.specs.items())
 
 
-def _wrap(fn, specs: dict, where: str):
+def _wrap(fn, specs: dict, where: str, returns=None):
     c = Contract(fn, specs, where)
+    c.returns = returns
     getframe = sys._getframe
     state = _STATE
 
-    @functools.wraps(fn)
-    def checked(*args, **kwargs):
-        if getframe(1).f_code.co_filename.startswith(_PKG) and not state["always"]:
+    if returns is None:
+        @functools.wraps(fn)
+        def checked(*args, **kwargs):
+            if getframe(1).f_code.co_filename.startswith(_PKG) and not state["always"]:
+                return fn(*args, **kwargs)
+            args, kwargs = c.check(args, kwargs)
             return fn(*args, **kwargs)
-        args, kwargs = c.check(args, kwargs)
-        return fn(*args, **kwargs)
+    else:
+        @functools.wraps(fn)
+        def checked(*args, **kwargs):
+            if getframe(1).f_code.co_filename.startswith(_PKG) and not state["always"]:
+                return fn(*args, **kwargs)
+            args, kwargs = c.check(args, kwargs)
+            return returns(fn(*args, **kwargs), where, c.bind(args, kwargs))
 
     checked.__contract__ = c
     return checked
 
 
-def contract(**specs):
-    """Declare the contract of a function, a method or a class (its ``__init__``); see the module."""
+def contract(returns=None, **specs):
+    """Declare the contract of a function, a method or a class (its ``__init__``); see the module.
+
+    ``returns``, optional: ``returns(result, where, arguments) -> result`` certifies the result of a call
+    from outside the package (``arguments``: the checked arguments by name) (e.g. :func:`finite_result`: no NaN or inf from finite arguments), raising a named error
+    when the certificate fails.
+    """
 
     def deco(obj):
         if isinstance(obj, type):
@@ -160,10 +177,23 @@ def contract(**specs):
             obj.__contract__ = obj.__init__.__contract__
             return obj
         if isinstance(obj, (staticmethod, classmethod)):
-            return type(obj)(_wrap(obj.__func__, specs, obj.__func__.__qualname__))
-        return _wrap(obj, specs, obj.__qualname__)
+            return type(obj)(_wrap(obj.__func__, specs, obj.__func__.__qualname__, returns))
+        return _wrap(obj, specs, obj.__qualname__, returns)
 
     return deco
+
+
+def finite_result(value, where: str, arguments=None):
+    """A ``returns`` certificate: every float in the result (an array, a number, a tuple or list of them)
+    is finite, else :class:`~pbanim.errors.NonFiniteResult` naming the function."""
+    from ..errors import NonFiniteResult
+
+    items = value if isinstance(value, (tuple, list)) else (value,)
+    for v in items:
+        if isinstance(v, float) and not math.isfinite(v) or isinstance(v, np.ndarray) and v.dtype.kind in "fc" \
+                and not np.isfinite(v).all():
+            raise NonFiniteResult(f"the result of {where}")
+    return value
 
 
 def unchecked(f):

@@ -36,6 +36,8 @@ from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_resul
 from .high_order import (DOP853, DOP853_A_EXTRA, DOP853_C_EXTRA, DOP853_E3, DOP853_E5, VERN7, VERN7_A_EXTRA,
                          VERN7_C_EXTRA, dop853_dense, dop853_eval, vern7_dense, vern7_eval)
 from .tableau import Tableau, make_rk_step
+from .signature import STEP, finite_step
+from ..contracts import contract
 from ..results import SimResult
 
 __all__ = ["solve_adaptive", "solve_pair", "Pair", "PAIRS", "DOPRI5", "dopri5_step"]
@@ -61,6 +63,7 @@ DOPRI5 = Tableau(
 _step5 = make_rk_step(DOPRI5)
 
 
+@contract(**STEP, returns=finite_step)
 def dopri5_step(fun, t, y, h, split=None, jac=None):
     """One fixed step of the fifth-order Dormand–Prince formula (no error control; see :func:`pbanim.solve`)."""
     return _step5(fun, t, y, h)

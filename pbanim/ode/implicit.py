@@ -27,7 +27,9 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from ..errors import ConvergenceError, InvalidInput
+from .signature import JAC, STEP, finite_step
+from ..contracts import Array, Func, Int, Opt, Real, contract
+from ..errors import ConvergenceError, InvalidInput, NonFiniteResult, check_result
 
 __all__ = ["newton_solve", "implicit_euler_step", "implicit_midpoint_step", "expm_small", "exponential_euler_step",
            "jacobian", "time_derivative", "factor", "SMALL"]
@@ -71,6 +73,7 @@ def _newton_matrix(fun, t, z, f, theta_h, jac, batch):
     return lambda r: sla.lu_solve(lu, r, check_finite=False)
 
 
+@contract(fun=Func(), t=Real(), y0=STEP["y"], theta_h=Real(), jac=Opt(JAC), tol=Real(gt=0), max_iter=Int(ge=1, le=10_000))
 def newton_solve(fun: Callable, t: float, y0: np.ndarray, theta_h: float, jac=None, tol: float = 1e-12,
                  max_iter: int = 20) -> np.ndarray:
     """Solve z = y₀ + θh f(t, z) by simplified Newton from z⁰ = y₀, with M = I − θh J frozen at y₀.
@@ -112,6 +115,7 @@ def newton_solve(fun: Callable, t: float, y0: np.ndarray, theta_h: float, jac=No
                            f"at t = {t:.6g}, θh = {theta_h:.3g}; reduce the step h")
 
 
+@contract(**STEP, returns=finite_step)
 def implicit_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None,
                         jac=None) -> np.ndarray:
     """Implicit (backward) Euler: y₁ = y₀ + h f(t + h, y₁), solved by Newton (:func:`newton_solve`).
@@ -126,6 +130,7 @@ def implicit_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split:
     return newton_solve(fun, t + h, y, h, jac)
 
 
+@contract(**STEP, returns=finite_step)
 def implicit_midpoint_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None,
                            jac=None) -> np.ndarray:
     """Implicit midpoint: y₁ = y₀ + h f(t + h/2, (y₀ + y₁)/2).
@@ -153,6 +158,7 @@ _B13 = _pade13()
 _THETA13 = 5.371920351148152  # ‖A‖₁ below which [13/13] Padé is accurate to double precision (Higham 2005)
 
 
+@contract(A=Array(("n", "n"), batch="first"))
 def expm_small(A: np.ndarray) -> np.ndarray:
     """e^A for small dense matrices (batched over leading axes): scaling and squaring with [13/13] Padé.
 
@@ -166,10 +172,12 @@ def expm_small(A: np.ndarray) -> np.ndarray:
     True
     """
     A = np.asarray(A, dtype=float)
+    if not np.isfinite(A).all():
+        raise NonFiniteResult("expm_small", "its matrix A has NaN or inf entries (a Jacobian that overflowed?)")
     norm1 = lambda M: float(np.max(np.sum(np.abs(M), axis=-2))) if M.size else 0.0  # noqa: E731
     norm = norm1(A)
     s1 = max(0, int(np.ceil(np.log2(norm / _THETA13)))) if norm > _THETA13 else 0
-    A = A / 2.0**s1
+    A = A / np.ldexp(1.0, s1)
     A2 = A @ A
     A4 = A2 @ A2
     # fewer squarings for non-normal A (a stiff spring's [[0, 1], [−ω², −c]]): scale by
@@ -177,19 +185,21 @@ def expm_small(A: np.ndarray) -> np.ndarray:
     alpha = max(norm1(A4) ** 0.25, norm1(A4 @ A) ** 0.2)
     s = max(0, s1 + (int(np.ceil(np.log2(alpha / _THETA13))) if alpha > 0 else -s1))
     if s != s1:
-        f = 2.0 ** (s1 - s)
+        f = np.ldexp(1.0, s1 - s)       # a float64: an overflow is inf (named below), not a Python error
         A, A2, A4 = A * f, A2 * f**2, A4 * f**4
     A6 = A4 @ A2
     b = _B13
     eye = np.broadcast_to(np.eye(A.shape[-1]), A.shape)
     U = A @ (A6 @ (b[13] * A6 + b[11] * A4 + b[9] * A2) + b[7] * A6 + b[5] * A4 + b[3] * A2 + b[1] * eye)
     V = A6 @ (b[12] * A6 + b[10] * A4 + b[8] * A2) + b[6] * A6 + b[4] * A4 + b[2] * A2 + b[0] * eye
-    E = np.linalg.solve(V - U, V + U)
-    for _ in range(s):
-        E = E @ E
-    return E
+    with np.errstate(all="ignore"):     # an overflow is named below
+        E = np.linalg.solve(V - U, V + U)
+        for _ in range(s):
+            E = E @ E
+    return check_result("expm_small", E, f"‖A‖₁ = {norm:.3g}")
 
 
+@contract(**STEP, returns=finite_step)
 def exponential_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None,
                            jac=None) -> np.ndarray:
     """Exponential (Rosenbrock–)Euler: y₁ = y₀ + h φ₁(hJ) f + h² φ₂(hJ) v, J = ∂f/∂y, v = ∂f/∂t at (t, y₀).
@@ -267,6 +277,17 @@ def time_derivative(fun, t, y, f):
         return None
     dt = np.sqrt(np.finfo(float).eps) * max(1.0, abs(t))
     return (fun(t + dt, y) - f) / dt
+
+
+def stage_solver(sigma, J, t, h):
+    """:func:`factor` for one fixed step called by a user: a singular σI − J (σ = 1/(hγ) overflows for a
+    tiny h, or J has an eigenvalue at σ) is :class:`~pbanim.errors.SimulationDiverged` at t naming h."""
+    try:
+        return factor(sigma, J)
+    except (np.linalg.LinAlgError, RuntimeError) as exc:
+        from ..errors import SimulationDiverged
+        raise SimulationDiverged(t, 0, "the stage matrix σI − J", f"it is singular at h = {h:g} ({exc}); "
+                                 "use another step") from None
 
 
 def factor(sigma, J):

@@ -27,7 +27,9 @@ from .implicit import (expm_small, exponential_euler_step, implicit_euler_step, 
                            newton_solve)
 from .radau import radau5_step, solve_radau
 from .rosenbrock import rodas4_step, solve_rosenbrock
+from .signature import STEP, finite_step
 from .tableau import Tableau, make_rk_step
+from ..contracts import Choice, Either, Flag, Func, Int, Obj, Opt, Real, Text, contract, unchecked
 from ..errors import InvalidInput
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "get_method", "explicit_rk_step", "euler_step",
@@ -56,6 +58,7 @@ TABLEAUX: dict[str, Tableau] = {
 _RK_STEPS = {name: make_rk_step(tab) for name, tab in TABLEAUX.items()}
 
 
+@contract(tableau=Either(Choice(lambda: TABLEAUX), Obj(Tableau)), fun=Func(), t=Real(), y=STEP["y"], h=Real())
 def explicit_rk_step(tableau: Tableau | str, fun: Callable, t: float, y: np.ndarray, h: float) -> np.ndarray:
     """One step of an explicit Runge–Kutta method given by its Butcher tableau (or its name).
 
@@ -77,6 +80,7 @@ def explicit_rk_step(tableau: Tableau | str, fun: Callable, t: float, y: np.ndar
     # END SOLUTION
 
 
+@contract(**STEP, returns=finite_step)
 def euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None, jac=None) -> np.ndarray:
     """Explicit Euler: y₁ = y₀ + h f(t₀, y₀) (order 1; energy factor 1 + h²ω² on the oscillator).
 
@@ -89,20 +93,25 @@ def euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | No
 
 
 euler_step.nfev = 1
-midpoint_step = _RK_STEPS["midpoint"]
-midpoint_step.__doc__ = """Explicit midpoint: k₁ = f(t, y), y₁ = y + h f(t + h/2, y + h/2 k₁) (order 2)."""
-rk4_step = _RK_STEPS["rk4"]
-rk4_step.__doc__ = """Classical Runge–Kutta 4: four stages, order 4, stable on the oscillator iff hω ≤ 2√2.
+
+
+def _registered(name: str, doc: str):
+    """The stepper of tableau ``name`` as a public step function: its name, its docstring, its contract."""
+    f = _RK_STEPS[name]
+    f.__name__ = f.__qualname__ = f"{name}_step"
+    f.__module__ = __name__
+    f.__doc__ = doc
+    return contract(**STEP, returns=finite_step)(f)
+
+
+midpoint_step = _registered("midpoint", """Explicit midpoint: k₁ = f(t, y), y₁ = y + h f(t + h/2, y + h/2 k₁) (order 2).""")
+rk4_step = _registered("rk4", """Classical Runge–Kutta 4: four stages, order 4, stable on the oscillator iff hω ≤ 2√2.
 
 >>> float(rk4_step(lambda t, y: np.ones_like(y) * t**3, 0.0, np.zeros(1), 1.0)[0])  # exact on cubics
 0.25
-"""
-
-
-dop853_step = _RK_STEPS["dop853"]
-dop853_step.__doc__ = """One fixed step of Dormand–Prince's eighth-order formula (12 stages; adaptive: ``solve``)."""
-vern7_step = _RK_STEPS["vern7"]
-vern7_step.__doc__ = """One fixed step of Verner's seventh-order formula (9 stages used; adaptive: ``solve``)."""
+""")
+dop853_step = _registered("dop853", """One fixed step of Dormand–Prince's eighth-order formula (12 stages; adaptive: ``solve``).""")
+vern7_step = _registered("vern7", """One fixed step of Verner's seventh-order formula (9 stages used; adaptive: ``solve``).""")
 
 
 def _split(y: np.ndarray, split: int | None) -> int:
@@ -110,6 +119,7 @@ def _split(y: np.ndarray, split: int | None) -> int:
     return n // 2 if split is None else int(split)
 
 
+@contract(**STEP, returns=finite_step)
 def symplectic_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None,
                           jac=None) -> np.ndarray:
     """Symplectic Euler, kick then drift: v₁ = v₀ + h a(q₀, v₀); q₁ = q₀ + h q̇(q₀, v₁).
@@ -134,6 +144,7 @@ def symplectic_euler_step(fun: Callable, t: float, y: np.ndarray, h: float, spli
 symplectic_euler_step.nfev = 2
 
 
+@contract(**STEP, returns=finite_step)
 def verlet_step(fun: Callable, t: float, y: np.ndarray, h: float, split: int | None = None, jac=None) -> np.ndarray:
     """Velocity Verlet: v½ = v₀ + h/2 a(q₀); q₁ = q₀ + h q̇(v½); v₁ = v½ + h/2 a(q₁, v½).
 
@@ -160,6 +171,8 @@ verlet_step.nfev = 3
 # ---------------------------------------------------------------------------------------------------
 # the registry
 # ---------------------------------------------------------------------------------------------------
+@contract(name=Text(nonempty=True), order=Int(ge=1), symplectic=Flag(), implicit=Flag(), adaptive=Flag(), step=Func(),
+          description=Text(), run=Opt(Func()), nystrom=Flag())
 @dataclass(frozen=True)
 class Method:
     """A registered integrator: its properties (data) and its step function.
@@ -180,6 +193,10 @@ class Method:
     description: str = ""
     run: Callable | None = None
     nystrom: bool = False     # only for f(t, [q, v]) = [v, g(t, q)] (Runge–Kutta–Nyström: pbanim.ode.nystrom)
+
+    def __post_init__(self) -> None:
+        # the registry runs the step without its boundary check: a run checks its arguments once
+        object.__setattr__(self, "step", unchecked(self.step))
 
 
 METHODS: dict[str, Method] = {m.name: m for m in [
@@ -210,6 +227,7 @@ METHODS: dict[str, Method] = {m.name: m for m in [
 ]}
 
 
+@contract(name=Choice(lambda: METHODS))
 def get_method(name: str) -> Method:
     """Look up a method by name, with a clear error listing the known names.
 

@@ -58,7 +58,9 @@ import numpy as np
 
 from .control import check_real, emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
-from .implicit import SMALL, factor, jacobian
+from .implicit import SMALL, factor, jacobian, stage_solver
+from .signature import STEP, finite_step
+from ..contracts import Int, Real, contract
 from ..errors import ConvergenceError, InvalidInput, as_float, as_floats
 from ..results import SimResult
 
@@ -112,6 +114,7 @@ def _newton_update(F, W, hd, solve_r, solve_c):
     return np.stack([solve_r(r0), u.real, u.imag])
 
 
+@contract(**STEP, returns=finite_step, tol=Real(gt=0), max_iter=Int(ge=1, le=10_000))
 def radau5_step(fun, t, y, h, split=None, jac=None, tol=1e-13, max_iter=50):
     """One fixed Radau IIA(5) step: simplified Newton with J at (t, y) until ‖ΔZ‖∞ ≤ tol·(1 + ‖Z‖∞).
 
@@ -124,7 +127,9 @@ def radau5_step(fun, t, y, h, split=None, jac=None, tol=1e-13, max_iter=50):
     y = np.asarray(y, dtype=float)
     f = fun(t, y)
     J = jacobian(fun, t, y, f, jac)
-    solve_r, solve_c = _solvers(h, J)
+    with np.errstate(over="ignore", divide="ignore"):
+        solve_r = stage_solver(_GAMMA / h, J, t, h)
+        solve_c = stage_solver(complex(_ALPHA, -_BETA) / h, J, t, h)
     Z = np.zeros((3,) + y.shape)
     W = np.zeros_like(Z)
     F = np.empty_like(Z)

@@ -54,7 +54,9 @@ import numpy as np
 
 from .control import Controller, check_real, emit_step, initial_step, rms, step_end, step_failure
 from .events import OK_MESSAGE, TERMINATED, make_result, start_output
-from .implicit import factor, jacobian, time_derivative
+from .implicit import factor, jacobian, stage_solver, time_derivative
+from .signature import STEP, finite_step
+from ..contracts import contract
 from ..errors import InvalidInput
 from ..results import SimResult
 
@@ -92,6 +94,7 @@ def _stages(fun, t, y, f, hd, solve, ft, U):
     return y + lin(M, U)
 
 
+@contract(**STEP, returns=finite_step)
 def rodas4_step(fun, t, y, h, split=None, jac=None):
     """One fixed RODAS4 step (order 4, L-stable) with J from ``jac`` or forward differences.
 
@@ -104,7 +107,8 @@ def rodas4_step(fun, t, y, h, split=None, jac=None):
     y = np.asarray(y, dtype=float)
     f = fun(t, y)
     J = jacobian(fun, t, y, f, jac)
-    solve = factor(1.0 / (h * GAMMA), J)
+    with np.errstate(over="ignore", divide="ignore"):
+        solve = stage_solver(1.0 / (h * GAMMA), J, t, h)
     ft = time_derivative(fun, t, y, f)
     return _stages(fun, t, y, f, h, solve, ft, np.empty((6,) + y.shape))
 

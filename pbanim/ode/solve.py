@@ -18,10 +18,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ..errors import InvalidInput, SimulationDiverged, as_float, as_floats, check_count
+from ..contracts import Array, Choice, Either, Func, Int, Opt, Real, Seq, contract
+from ..errors import InvalidInput, SimulationDiverged
 from .driver import check_finite, drive, drive_lean, step_grid
 from .events import OK_MESSAGE, TERMINATED, crossings, handle_events, make_events, make_result, start_output
 from .methods import Method, get_method
+from .signature import JAC
 from ..results import SimResult
 
 __all__ = ["solve", "SCIPY_METHODS"]
@@ -33,41 +35,22 @@ SCIPY_METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 # validation
 # ---------------------------------------------------------------------------------------------------
 def _check_inputs(fun, t_span, y0, h, rtol, atol, max_steps, split, t_eval):
-    if not callable(fun):
-        raise InvalidInput(f"fun must be a callable fun(t, y) -> dy/dt, got {type(fun).__name__}")
-    try:
-        t0, tf = (as_float("t_span", v) for v in t_span)
-    except (TypeError, ValueError):
-        raise InvalidInput(f"t_span must be a pair (t0, t_end) of numbers, got {t_span!r}") from None
-    if not (np.isfinite(t0) and np.isfinite(tf)) or t0 == tf:
-        raise InvalidInput(f"t_span must be two different finite times, got {t_span!r}")
-    y = as_floats("y0", y0) if not np.iscomplexobj(y0) else np.array(y0, copy=True)
-    if y.ndim not in (1, 2) or y.size == 0:
-        raise InvalidInput(f"y0 must have shape (n,) or (K, n) for a batch, got shape {y.shape}")
-    if not np.all(np.isfinite(y)):
-        bad = np.flatnonzero(~np.isfinite(y.ravel()))
-        raise InvalidInput(f"y0 must be finite, got {y.ravel()[bad[0]]} at flat index {int(bad[0])}")
-    if h is not None:
-        h = as_float("h", h)
-        if not np.isfinite(h) or h <= 0:
-            raise InvalidInput(f"h must be a positive finite step, got {h}; pass h > 0 (the sign of "
-                             "t_span sets the direction)")
-    if not (np.isfinite(rtol) and rtol > 0):
-        raise InvalidInput(f"rtol must be positive, got {rtol}")
-    if not (np.all(np.isfinite(atol)) and np.all(np.asarray(atol) >= 0)):
-        raise InvalidInput(f"atol must be non-negative, got {atol}")
-    max_steps = check_count("max_steps", max_steps)
+    """What the contract of :func:`solve` cannot say alone: conditions between arguments."""
+    t0, tf = (float(v) for v in t_span)
+    if t0 == tf:
+        raise InvalidInput(f"solve: t_span must be two different times, got {(t0, tf)!r}")
+    y = np.array(y0, dtype=float)       # a copy: the run never writes into the caller's array
     n = y.shape[-1]
+    if np.ndim(atol) and np.shape(atol)[-1] != n:
+        raise InvalidInput(f"solve: atol must be one number or one per component of y0 ({n}), got shape "
+                           f"{np.shape(atol)}")
     if split is not None and not (0 <= int(split) <= n):
         raise InvalidInput(f"split must be between 0 and n = {n} (number of position components), got {split}")
     if t_eval is not None:
         t_eval = np.asarray(t_eval, dtype=float).ravel()
         d = np.sign(tf - t0)
         lo, hi = min(t0, tf), max(t0, tf)
-        if not np.all(np.isfinite(t_eval)):
-            raise InvalidInput(f"t_eval must hold finite times, got {t_eval[~np.isfinite(t_eval)][0]} in {t_eval[:5]}"
-                             f"{'...' if t_eval.size > 5 else ''}")
-        if t_eval.size == 0 or np.any(t_eval < lo) or np.any(t_eval > hi) or np.any(d * np.diff(t_eval) < 0):
+        if np.any(t_eval < lo) or np.any(t_eval > hi) or np.any(d * np.diff(t_eval) < 0):
             raise InvalidInput(f"t_eval must be sorted in the direction of integration and lie within t_span "
                              f"{(t0, tf)}, got {t_eval[:5]}{'...' if t_eval.size > 5 else ''}")
     return t0, tf, y, h, t_eval
@@ -86,6 +69,15 @@ def _check_f0(fun, t0, y):
 # ---------------------------------------------------------------------------------------------------
 # the public driver
 # ---------------------------------------------------------------------------------------------------
+def _method_names():
+    from .methods import METHODS
+    return list(METHODS) + [f"scipy:{m}" for m in SCIPY_METHODS]
+
+
+@contract(fun=Func(), t_span=Array((2,)), y0=Array(("n",), batch="first"), method=Choice(_method_names),
+          h=Opt(Real(gt=0)), rtol=Real(gt=0), atol=Either(Real(ge=0), Array(("n",), ge=0)), jac=Opt(JAC),
+          t_eval=Opt(Array((None,))), events=Opt(Either(Func(), Seq(Func(), min_len=1))), max_steps=Int(ge=1),
+          split=Opt(Int(ge=0)))
 def solve(fun: Callable, t_span: Sequence[float], y0, *, method: str = "rk4", h: float | None = None,
           rtol: float = 1e-6, atol: float = 1e-9, jac=None, t_eval=None, events=None, max_steps: int = 100000,
           split: int | None = None) -> SimResult:
