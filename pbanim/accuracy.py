@@ -28,9 +28,13 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
+from .contracts import Anything, Func, Has, Int, Obj, Opt, Real, Seq, contract
+
 __all__ = ["Row", "sweep", "best_at_error", "rows_by_variant"]
 
 
+@contract(variant=Anything("a label: any hashable value"), param=Anything("the swept parameter: any value"),
+          error=Real(ge=0, finite=False), wall_time=Real(ge=0), nfev=Int(ge=0))
 @dataclass(frozen=True)
 class Row:
     variant: Any
@@ -52,6 +56,9 @@ def _one(run: Callable, error: Callable, variant, param, repeats: int) -> Row:
     return Row(variant, param, float(error(value)), float(np.median(times)), int(nfev))
 
 
+@contract(run=Func(), variants=Anything("an iterable of labels, each handed to run"),
+          params=Anything("a sequence of parameters for all variants, or a dict variant -> sequence"),
+          error=Func(), repeats=Int(ge=1, le=1000), executor=Opt(Has("submit", what="a concurrent.futures.Executor")))
 def sweep(run: Callable[[Any, Any], tuple[Any, int]], variants: Iterable, params: Sequence | dict,
           error: Callable[[Any], float], repeats: int = 3, executor: Executor | None = None) -> list[Row]:
     """Run every (variant, param) pair; ``params`` may be one list for all or a dict variant → list."""
@@ -63,6 +70,7 @@ def sweep(run: Callable[[Any, Any], tuple[Any, int]], variants: Iterable, params
     return [f.result() for f in futures]
 
 
+@contract(rows=Seq(Obj(Row)))
 def rows_by_variant(rows: Iterable[Row]) -> dict[Any, list[Row]]:
     out: dict[Any, list[Row]] = {}
     for r in rows:
@@ -70,6 +78,7 @@ def rows_by_variant(rows: Iterable[Row]) -> dict[Any, list[Row]]:
     return out
 
 
+@contract(rows=Seq(Obj(Row)), level=Real(gt=0))
 def best_at_error(rows: Iterable[Row], level: float) -> Row | None:
     """The cheapest row whose error is ≤ ``level`` (None if no variant reaches it)."""
     ok = [r for r in rows if np.isfinite(r.error) and r.error <= level]

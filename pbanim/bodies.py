@@ -35,6 +35,7 @@ import abc
 
 import numpy as np
 
+from .contracts import Anything, Text, contract
 from .errors import BodyProtocolError
 
 __all__ = ["Bodies", "BODY_MEMBERS", "require_bodies"]
@@ -75,6 +76,8 @@ class Bodies(abc.ABC):
         """
 
 
+@contract(system=Anything("the object under test: any object is answered (itself, or BodyProtocolError)"),
+          who=Text(nonempty=True))
 def require_bodies(system, who: str) -> Bodies:
     """Return ``system`` if it implements the body protocol, else raise :class:`BodyProtocolError`.
 

@@ -19,9 +19,12 @@ from typing import Callable
 
 import numpy as np
 
+from .contracts import Array, Flag, Func, Real, contract, finite_result
+
 __all__ = ["central_jacobian", "directional_derivative"]
 
 
+@contract(f=Func(), x=Array(None), eps=Real(gt=0), relative=Flag(), returns=finite_result)
 def central_jacobian(f: Callable[[np.ndarray], np.ndarray], x, eps: float = 1e-6,
                      relative: bool = False) -> np.ndarray:
     """∂f/∂x at x by centred differences, shape (f.size, x.size); f's output is flattened.
@@ -41,8 +44,13 @@ def central_jacobian(f: Callable[[np.ndarray], np.ndarray], x, eps: float = 1e-6
     return np.column_stack(cols) if cols else np.zeros((0, 0))
 
 
+@contract(g=Func(), x=Array(None), direction=Array(None), eps=Real(gt=0), returns=finite_result)
 def directional_derivative(g: Callable[[np.ndarray], np.ndarray], x, direction, eps: float = 1e-6) -> np.ndarray:
     """d/ds g(x + s·direction) at s = 0 by a centred difference (e.g. J̇q̇ = d/ds [J(q + s q̇) q̇])."""
     x = np.asarray(x, dtype=float)
+    if np.size(direction) != x.size:
+        from .errors import InvalidInput
+        raise InvalidInput(f"directional_derivative: direction must have the size of x ({x.size}), got "
+                           f"shape {np.shape(direction)}")
     d = np.asarray(direction, dtype=float).reshape(x.shape)
     return (np.asarray(g(x + eps * d), dtype=float) - np.asarray(g(x - eps * d), dtype=float)) / (2.0 * eps)

@@ -288,3 +288,17 @@ def check_result(what: str, value, detail: str = ""):
     if not np.all(np.isfinite(value)):
         raise NonFiniteResult(what, detail)
     return value
+
+
+# -- the helpers' own contracts (declared last: pbanim.contracts imports this module's errors) ------------
+from .contracts import Anything, Array, Flag, Int, Opt, Real, Text, contract  # noqa: E402
+
+_NAME = Text(nonempty=True)
+_VALUE = Anything("the value under check: any value is answered, with itself converted or InvalidInput")
+check_count = contract(name=_NAME, value=_VALUE, minimum=Int(), maximum=Opt(Int()))(check_count)
+check_number = contract(name=_NAME, value=_VALUE, low=Real(finite=False), high=Real(finite=False), low_open=Flag(),
+                        high_open=Flag())(check_number)
+check_positive = contract(name=_NAME, value=_VALUE, fix=Text())(check_positive)
+as_float = contract(name=_NAME, value=_VALUE)(as_float)
+as_floats = contract(name=_NAME, value=_VALUE, ndmin=Int(ge=0, le=32))(as_floats)
+check_result = contract(what=Text(nonempty=True), value=Array(None, nan=True, empty=True), detail=Text())(check_result)

@@ -39,11 +39,13 @@ SIGGRAPH 1997 course notes (the star operator); D. E. Stewart, J. C. Trinkle, IJ
 from __future__ import annotations
 
 import numpy as np
+from .contracts import Array, Int, Opt, contract
 from .errors import InvalidInput
 
 __all__ = ["cross", "skew", "tangent_basis", "cone_edges"]
 
 
+@contract(a=Array((3,), batch="first"), b=Array((3,), batch="first"))
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for (..., 3) arrays, broadcasting (explicit components: cheaper than np.cross on small rows).
 
@@ -59,6 +61,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+@contract(v=Array((3,), batch="first"))
 def skew(v: np.ndarray) -> np.ndarray:
     """The cross-product matrix [v]× (..., 3, 3) with [v]× u = v × u.
 
@@ -73,6 +76,7 @@ def skew(v: np.ndarray) -> np.ndarray:
     return S
 
 
+@contract(normal=Array((3,), batch="first"), reference=Opt(Array((3,), batch="first")))
 def tangent_basis(normal, reference=None) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal tangents (t₁, t₂), each (m, 3), of unit normals n (m, 3), with t₂ = n × t₁.
 
@@ -87,6 +91,12 @@ def tangent_basis(normal, reference=None) -> tuple[np.ndarray, np.ndarray]:
            [0., 0., 1.]]))
     """
     n = np.array(normal, dtype=float, ndmin=2)
+    if not np.all(np.abs(np.einsum("ij,ij->i", n, n) - 1.0) <= 1e-9):
+        raise InvalidInput(f"tangent_basis: normal must hold unit vectors, got lengths "
+                           f"{np.sqrt(np.einsum('ij,ij->i', n, n))[:5]}")
+    if reference is not None and np.ndim(reference) == 2 and len(reference) not in (1, len(n)):
+        raise InvalidInput(f"tangent_basis: reference must be one vector or one per normal ({len(n)}), got "
+                           f"shape {np.shape(reference)}")
     if reference is None:
         ref = np.where(np.abs(n[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
     else:
@@ -99,6 +109,7 @@ def tangent_basis(normal, reference=None) -> tuple[np.ndarray, np.ndarray]:
     return t1, cross(n, t1)
 
 
+@contract(normal=Array((3,), batch="first"), k=Int(ge=1, le=10_000), reference=Opt(Array((3,), batch="first")))
 def cone_edges(normal, k: int, reference=None) -> np.ndarray:
     """k unit edge directions per contact, shape (m, k, 3): dⱼ = cos(2πj/k) t₁ + sin(2πj/k) t₂.
 

@@ -16,6 +16,8 @@ from typing import Any
 
 import numpy as np
 
+from .contracts import Array, contract
+
 __all__ = ["SimResult", "ContactSolution", "natural_map_residual"]
 
 
@@ -71,6 +73,7 @@ class SimResult:
                 f"y.shape={shape}, nfev={self.nfev}, wall_time={self.wall_time:.3g}s)")
 
 
+@contract(f=Array(("m",), empty=True), w=Array(("m",), empty=True))
 def natural_map_residual(f: np.ndarray, w: np.ndarray) -> float:
     """‖f − max(0, f − w)‖∞ for the LCP w = A f + b ≥ 0, f ≥ 0, fᵀw = 0.
 

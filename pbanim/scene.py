@@ -60,14 +60,21 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .errors import InvalidInput, SimulationDiverged, check_count
-from .ode import get_method
+from .contracts import Array, Choice, Flag, Has, Int, Opt, Real, Seq, contract, finite_result
+from .errors import InvalidInput, SimulationDiverged
+from .ode import METHODS, get_method
 from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
 from .results import SimResult
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
 
 _PHASES = ("force", "constraint", "post_step")
+_SYSTEM = Has("split", "state", "zero_forces", "derivative",
+              what="a mechanical system (split, state(), zero_forces(), derivative(y, Q))")
+_EFFECT = Has("phase", "bind", what="an effect (a pbanim.scene.Effect: phase, bind(system), ...)")
+_T = Real()
+_Y = Array(("self.n_state",))
+_METHOD = Choice(lambda: METHODS)
 
 
 class Effect:
@@ -112,12 +119,10 @@ class Scene:
     ('gravity', 'integrate')
     """
 
+    @contract(system=_SYSTEM, effects=Seq(_EFFECT))
     def __init__(self, system: Any, effects: Sequence[Effect] = ()) -> None:
-        for attr in ("split", "state", "zero_forces", "derivative"):
-            if not hasattr(system, attr):
-                raise InvalidInput(f"system must implement the mechanical-system protocol; "
-                                 f"{type(system).__name__} has no {attr!r}")
         self.system = system
+        self.n_state = int(np.size(system.state()))   # length of the flat state y = [q, v]
         # an effect may contribute several stages (e.g. Constraints + its post-step projection)
         self.effects = [s for e in effects
                         for s in (e.stages() if callable(getattr(e, "stages", None)) else (e,))]
@@ -147,6 +152,7 @@ class Scene:
                      + ["integrate"] + [e.name for e in self._post])
 
     # -- continuous part -------------------------------------------------------------------------
+    @contract(t=_T, y=_Y, returns=finite_result)
     def applied_forces(self, t: float, y: np.ndarray) -> np.ndarray:
         """Q of the force effects alone at (t, y) (what a constraint effect sees as applied)."""
         Q = self.system.zero_forces()
@@ -154,6 +160,7 @@ class Scene:
             e.apply(t, y, Q)
         return Q
 
+    @contract(t=_T, y=_Y, returns=finite_result)
     def forces(self, t: float, y: np.ndarray) -> np.ndarray:
         """Total generalized force Q (applied + constraint forces) at (t, y)."""
         Q = self.applied_forces(t, y)
@@ -161,19 +168,23 @@ class Scene:
             Q = e.constrain(t, y, Q)
         return Q
 
+    @contract(t=_T, y=_Y, returns=finite_result)
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """dy/dt of the scene's continuous dynamics (what every integrator steps)."""
         return self.system.derivative(y, self.forces(t, y))
 
     # -- diagnostics ----------------------------------------------------------------------------
+    @contract(y=_Y, returns=finite_result)
     def potential_energy(self, y: np.ndarray) -> float:
         return float(sum(e.potential_energy(y) for e in self.effects
                          if callable(getattr(e, "potential_energy", None))))
 
+    @contract(y=_Y, returns=finite_result)
     def energy(self, y: np.ndarray) -> float:
         """Total energy T + ΣV over the effects that have a potential."""
         return float(self.system.kinetic_energy(y)) + self.potential_energy(y)
 
+    @contract(t=_T, y=_Y, returns=finite_result)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
         sysm = self.system
         T = float(sysm.kinetic_energy(y)) if hasattr(sysm, "kinetic_energy") else np.nan
@@ -195,6 +206,7 @@ class Scene:
         return (hasattr(self.system, "W") and hasattr(self.system, "dim") and not self._constraint
                 and all(callable(getattr(e, "jacobian", None)) for e in self._force))
 
+    @contract(t=_T, y=_Y)
     def jac(self, t: float, y: np.ndarray) -> sp.csr_matrix:
         """Sparse state Jacobian ∂(dy/dt)/∂y = [[0, I], [W ∂Q/∂x, W ∂Q/∂v]] from the effects' Jacobians.
 
@@ -227,6 +239,7 @@ class Scene:
         return sp.bmat([[None, sp.eye(n)], [Wd @ Kx, Wd @ Kv]], format="csr")
 
     # -- stepping -------------------------------------------------------------------------------
+    @contract(t=_T, y=_Y, h=Real(gt=0), method=_METHOD, returns=finite_result)
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
         """One step of the pipeline: integrate the continuous part, then the post-step stages.
 
@@ -314,6 +327,8 @@ class Scene:
                            beta[: j - i] if uniform else beta[i:j], tmp[: j - i]))
         return h, blocks
 
+    @contract(t_end=_T, h=Real(gt=0), method=_METHOD, t0=_T, y0=Opt(_Y), record_every=Int(ge=1),
+              diagnostics=Flag(), check_every=Int(ge=1), max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
                  y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
                  check_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
@@ -336,12 +351,8 @@ class Scene:
             Cap on N, checked before the first step (:class:`~pbanim.errors.StepLimitExceeded`).
         """
         grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
-        check_every = check_count("check_every", check_every)
         m = get_method(method)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
-        if y0 is not None and y.shape != np.shape(self.system.state()):
-            raise InvalidInput(f"y0 must have the shape of the system's state {np.shape(self.system.state())}, "
-                             f"got {y.shape}")
         check_finite(y, t0, 0, "initial state")
         ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
         counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations

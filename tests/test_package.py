@@ -79,7 +79,7 @@ def test_free_fall_energy_and_divergence_error():
 
 def test_scene_rejects_bad_step():
     ps = ParticleSystem([[0.0, 1.0]])
-    with pytest.raises(ValueError, match="h must be a positive"):
+    with pytest.raises(ValueError, match="h must be a finite number > 0, got -0.1"):
         Scene(ps, [Gravity()]).simulate(1.0, -0.1)
 
 

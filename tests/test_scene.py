@@ -139,13 +139,13 @@ def test_simulate_rejects_bad_arguments():
     # bad input -> ValueError naming the argument (DESIGN 2, errors)
     ps = cloud(3)
     scene = Scene(ps, [Gravity()])
-    with pytest.raises(ValueError, match=r"y0 must have the shape of the system's state \(18,\), got \(17,\)"):
+    with pytest.raises(ValueError, match=r"y0 must be a float array of shape \(18,\) .* got an array of shape \(17,\)"):
         scene.simulate(0.1, 0.01, y0=np.zeros(17))
     with pytest.raises(ValueError, match="t_end must be a finite time after t0 = 0.0, got -1.0"):
         scene.simulate(-1.0, 0.01)
     with pytest.raises(ValueError, match="record_every must be a positive integer, got 0"):
         scene.simulate(0.1, 0.01, record_every=0)
-    with pytest.raises(ValueError, match="method must be one of"):
+    with pytest.raises(ValueError, match="method must be one of .* got 'leapfrog-ish'"):
         scene.simulate(0.1, 0.01, method="leapfrog-ish")
 
 

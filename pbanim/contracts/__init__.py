@@ -17,9 +17,9 @@ decorator and where checks run.
 """
 
 from .declare import Contract, boundary_checks, contract, contract_of, finite_result, unchecked
-from .specs import (Anything, Array, Choice, Either, Env, Flag, Func, Index, Indices, Int, Obj, Opt, PathLike,
+from .specs import (Anything, Array, Choice, Either, Env, Flag, Func, Has, Index, Indices, Int, Obj, Opt, PathLike,
                     Real, Seq, Spec, Text)
 
 __all__ = ["contract", "contract_of", "unchecked", "finite_result", "Contract", "boundary_checks", "Spec", "Real", "Int", "Index", "Array",
-           "Indices", "Choice", "Flag", "Text", "PathLike", "Func", "Obj", "Seq", "Opt", "Either", "Anything",
+           "Indices", "Choice", "Flag", "Text", "PathLike", "Func", "Obj", "Has", "Seq", "Opt", "Either", "Anything",
            "Env"]

@@ -188,7 +188,8 @@ def finite_result(value, where: str, arguments=None):
     is finite, else :class:`~pbanim.errors.NonFiniteResult` naming the function."""
     from ..errors import NonFiniteResult
 
-    items = value if isinstance(value, (tuple, list)) else (value,)
+    items = value if isinstance(value, (tuple, list)) else tuple(value.values()) if isinstance(value, dict) \
+        else (value,)
     for v in items:
         if isinstance(v, float) and not math.isfinite(v) or isinstance(v, np.ndarray) and v.dtype.kind in "fc" \
                 and not np.isfinite(v).all():

@@ -26,6 +26,7 @@ spec                      accepts
 ``Text()``, ``PathLike()``  a string; a string or a path
 ``Func()``                a callable
 ``Obj(*types)``           an instance of one of the types (classes, or "module:Class" resolved lazily)
+``Has(*members)``         an object with these members (a protocol by duck typing)
 ``Seq(item)``             a list or tuple whose every item meets ``item``
 ``Opt(spec)``             None, or what ``spec`` accepts
 ``Either(*specs)``        what the first spec that accepts it makes of it
@@ -50,7 +51,7 @@ import numpy as np
 from ..errors import InvalidInput
 
 __all__ = ["Spec", "Real", "Int", "Index", "Array", "Indices", "Choice", "Flag", "Text", "PathLike", "Func",
-           "Obj", "Seq", "Opt", "Either", "Anything", "Env", "short"]
+           "Obj", "Has", "Seq", "Opt", "Either", "Anything", "Env", "short"]
 
 
 def short(value, limit: int = 60) -> str:
@@ -232,8 +233,11 @@ class Int(Spec):
         self.bounds = _Bounds(ge=ge, le=le)
 
     def describe(self) -> str:
-        b = self.bounds.phrase()
-        return f"an integer{' ' + b if b else ''}"
+        b = self.bounds
+        if b.lo in (0, 1) and b.hi is None:
+            return "a positive integer" if b.lo == 1 else "a non-negative integer"
+        phrase = b.phrase()
+        return f"an integer{' ' + phrase if phrase else ''}"
 
     def check(self, name, value, env):
         if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.integer, np.floating)) \
@@ -299,12 +303,15 @@ class Array(Spec):
     """
 
     def __init__(self, shape=None, *, ge=None, gt=None, le=None, lt=None, finite: bool = True,
-                 batch: str | None = None, scalar: bool = False, empty: bool = False) -> None:
+                 batch: str | None = None, scalar: bool = False, empty: bool = False, nan: bool = False) -> None:
         if batch not in (None, "first", "last"):
             raise TypeError(f"batch must be None, 'first' or 'last', got {batch!r}")
         self.shape = None if shape is None else tuple(shape)
         self.bounds, self.finite, self.batch, self.scalar, self.empty = _Bounds(ge, gt, le, lt), finite, batch, \
             scalar, empty
+        self.nan = nan              # NaN admitted too (an array under inspection, e.g. by a finiteness check)
+        if nan:
+            self.finite = False
         self._has_refs = self.shape is not None and any(_is_ref(d) for d in self.shape)
         self._bounded = self.bounds.lo is not None or self.bounds.hi is not None
 
@@ -313,15 +320,26 @@ class Array(Spec):
         if self.shape is None:
             what = "a float array"
         else:
-            dims = ", ".join("any" if d is None else str(d) for d in self.shape)
-            what = f"a float array of shape ({dims}{',' if len(self.shape) == 1 else ''})"
-        if env is not None and self.shape:
-            known = [f"{d} = {env.symbols[d]}" for d in self.shape if isinstance(d, str) and d in env.symbols]
-            known += [f"{d} = {env.resolve(d)}" for d in self.shape if _is_ref(d)]
-            if known:
-                what += f" with {', '.join(known)}"
+            shown = []
+            for d in self.shape:
+                if d is None:
+                    shown.append("any")
+                elif env is not None and _is_ref(d):
+                    try:
+                        shown.append(str(env.resolve(d)))
+                    except InvalidInput:
+                        shown.append(str(d))
+                else:
+                    shown.append(str(d if not callable(d) else "?"))
+            what = f"a float array of shape ({', '.join(shown)}{',' if len(self.shape) == 1 else ''})"
+            if env is not None:
+                known = [f"{d} = {env.symbols[d]}" for d in self.shape
+                         if isinstance(d, str) and not _is_ref(d) and d in env.symbols]
+                known += [f"{d.lstrip('$')}" for d in self.shape if isinstance(d, str) and _is_ref(d)]
+                if known:
+                    what += f" ({', '.join(known)})"
         extra = [p for p in (
-            "finite" if self.finite else "", f"entries {b}" if b else "",
+            "finite" if self.finite else "" if self.nan else "not NaN", f"entries {b}" if b else "",
             f"or a batch of them (extra {self.batch} axis)" if self.batch else "",
             "or one number for all" if self.scalar else "", "" if self.empty else "not empty") if p]
         return what + (f" ({', '.join(extra)})" if extra else "")
@@ -361,7 +379,7 @@ class Array(Spec):
         elif self.finite:       # a sum is NaN or inf when an entry is (or, rarely, when it overflows)
             if not _isfinite(_SUM(a, None)) and not np.isfinite(a).all():
                 raise env.fail(name, self.describe(env), value, "it has NaN or inf entries")
-        elif np.isnan(a).any():
+        elif not self.nan and np.isnan(a).any():
             raise env.fail(name, self.describe(env), value, "it has NaN entries")
         return a
 
@@ -386,7 +404,8 @@ class Array(Spec):
                     continue
                 d = want
             if int(d) != s:
-                raise env.fail(name, self.describe(env), value, f"shape {a.shape}")
+                raise env.fail(name, self.describe(env), value, "" if isinstance(value, np.ndarray) and
+                               value.size > 6 else f"shape {a.shape}")
         env.symbols.update(bound)
 
     # -- the fuzzer's side --------------------------------------------------------------------------------
@@ -418,7 +437,7 @@ class Array(Spec):
         out = [("None", None), ("a string", "1.0"), ("complex", a + 1j)]
         if a.size:
             for label, v in (("NaN", np.nan), ("inf", np.inf), ("-inf", -np.inf)):
-                if v == v and not self.finite:
+                if v == v and not self.finite or self.nan:
                     continue
                 w = a.copy()
                 w.flat[0] = v
@@ -640,6 +659,25 @@ class Obj(Spec):
     def check(self, name, value, env):
         if not isinstance(value, self.classes()):
             raise env.fail(name, self.describe(), value, f"a {type(value).__name__}")
+        return value
+
+    def bad(self, env):
+        return [("None", None), ("a string", "x"), ("a number", 1.0)]
+
+
+class Has(Spec):
+    """An object with the named members (a protocol checked by duck typing, e.g. a mechanical system)."""
+
+    def __init__(self, *members: str, what: str | None = None) -> None:
+        self.members, self.what = members, what
+
+    def describe(self) -> str:
+        return self.what or f"an object with {', '.join(self.members)}"
+
+    def check(self, name, value, env):
+        missing = [m for m in self.members if not hasattr(value, m)]
+        if missing:
+            raise env.fail(name, self.describe(), value, f"a {type(value).__name__} lacks {', '.join(missing)}")
         return value
 
     def bad(self, env):

@@ -42,6 +42,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ..contracts import Array, Int, Real, Text, contract
 from ..errors import InvalidInput, SimulationDiverged, StepLimitExceeded, as_float, check_count
 
 __all__ = ["MAX_STEPS", "StepGrid", "step_grid", "fixed_steps", "check_finite", "drive", "drive_lean"]
@@ -115,6 +116,7 @@ def step_grid(t0: float, t_end: float, h: float, *, max_steps: int = MAX_STEPS,
     return StepGrid(t0, t_end, hs, n, h_last)
 
 
+@contract(t0=Real(), t_end=Real(), h=Real(gt=0), record_every=Int(ge=1))
 def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tuple[float, int]:
     """Validate a fixed-step run and return (h, number of steps) by the driver's one step rule.
 
@@ -128,6 +130,7 @@ def fixed_steps(t0: float, t_end: float, h: float, record_every: int = 1) -> tup
     return grid.h, grid.n_steps
 
 
+@contract(y=Array(None, nan=True, empty=True), t=Real(), step=Int(ge=-1), quantity=Text())
 def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") -> None:
     """Raise :class:`SimulationDiverged` if ``y`` has a NaN or Inf (one BLAS pass, no temporaries).
 

@@ -38,6 +38,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..contracts import Array, Int, Opt, Text, contract
 from ..errors import InvalidInput
 
 __all__ = ["Tableau", "make_rk_step"]
@@ -45,6 +46,8 @@ __all__ = ["Tableau", "make_rk_step"]
 _EPS = np.finfo(float).eps
 
 
+@contract(name=Text(nonempty=True), A=Array(("s", "s")), B=Array(("s",)), C=Array(("s",)), order=Int(ge=1),
+          E=Opt(Array(("s",))), embedded_order=Opt(Int(ge=1)))
 @dataclass(frozen=True)
 class Tableau:
     """An explicit Runge–Kutta method  kᵢ = f(t + cᵢh, y + h Σⱼ aᵢⱼ kⱼ),  y₁ = y + h Σᵢ bᵢ kᵢ.

@@ -13,6 +13,8 @@ make up lives here:
 * ``SELF[id] = factory``: the instance a method is called on, when it is not the class's usual one;
 * ``SKIP_EDGES[id] = reason``: edge values are not run for this callable (say why: e.g. an edge value
   asks for a run whose cost is set by the value, such as a count of 10⁹ steps);
+* ``RAISES[id] = (ExceptionType, ...)``: exceptions that are the callable's documented answer besides
+  PbanimError (the assertions of ``pbanim.testing`` raise AssertionError);
 * ``EXEMPT[id] = reason``: a whole callable exempted from contracts (``tests/test_contracts_surface.py``
   prints each with its reason);
 * ``ENFORCED``: a tuple of id prefixes (``"pbanim.constraints."``) whose every callable the surface test
@@ -31,12 +33,13 @@ CALLS: dict = {}
 SELF: dict = {}
 SKIP_EDGES: dict = {}
 EXEMPT: dict = {}
+RAISES: dict = {}
 ENFORCED: tuple = ()
 
 for _info in pkgutil.iter_modules(__path__):
     _mod = importlib.import_module(f"{__name__}.{_info.name}")
     ENFORCED += tuple(getattr(_mod, "ENFORCED", ()))
-    for _name in ("INSTANCES", "CALLS", "SELF", "SKIP_EDGES", "EXEMPT"):
+    for _name in ("INSTANCES", "CALLS", "SELF", "SKIP_EDGES", "EXEMPT", "RAISES"):
         _part = getattr(_mod, _name, {})
         _clash = set(_part) & set(globals()[_name])
         if _clash:

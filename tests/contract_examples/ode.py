@@ -36,4 +36,3 @@ CALLS.update({
     "pbanim.ode.implicit.newton_solve": lambda: {"fun": oscillator, "y0": np.array([1.0, 0.0]), "theta_h": 0.1},
 })
 
-ENFORCED = ("pbanim.ode.",)
