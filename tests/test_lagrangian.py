@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import pbanim
 import pbanim.reduced.lagrangian as lg
-from pbanim.errors import SingularChartError
+from pbanim.errors import InvalidInput, NonFiniteResult, SingularChartError, StepLimitExceeded
 from pbanim.models.reduced import (bead_on_rotating_hoop, cart_pendulum, double_pendulum, n_link_pendulum,
                                    simple_pendulum, spherical_pendulum)
 
@@ -177,12 +177,54 @@ def test_generalized_forces_and_extra_kinetic_energy_compile():
         assert abs(sysl.energy([0.4, 1.5]) - (0.5 * (m * L * L + I) * 1.5 ** 2 - m * g * L * np.cos(0.4))) < 1e-13
 
 
+@pytest.mark.parametrize("mass", [float("nan"), 1 + 2j, sp.nan, sp.I, sp.oo, sp.Symbol("m")])
+def test_nan_or_complex_masses_are_refused_by_name(mass):
+    # the builder used to hand NaN and complex masses to sympy, whose comparison raised its own TypeError
+    th = sp.Symbol("th")
+    with pytest.raises(InvalidInput, match=r"points\[0\] mass must be a finite number > 0"):
+        lg.derive_equations([th], [(mass, [sp.sin(th), -sp.cos(th)])])
+    with pytest.raises(InvalidInput, match=r"points\[0\] mass must be a finite number > 0"):
+        lg.lagrangian_system([th], [(mass, [sp.sin(th), -sp.cos(th)])], gravity=[0.0, -9.81])
+
+
+@pytest.mark.parametrize("length, got", [(float("nan"), r"\[nan, nan\]"), (1j, r"\[1.0\*I\*sin\(th\)"),
+                                         (sp.zoo, r"\[zoo\*sin\(th\)")])
+def test_nan_or_complex_lengths_and_gravity_are_refused_by_name(length, got):
+    th = sp.Symbol("th")
+    pos = [length * sp.sin(th), -length * sp.cos(th)]
+    with pytest.raises(InvalidInput, match=rf"points\[0\] position must be .*real sympy expression.*got {got}"):
+        lg.derive_equations([th], [(1.0, pos)])
+    with pytest.raises(InvalidInput, match=r"gravity must be .*got \[nan, -9.81\]"):
+        lg.lagrangian_system([th], [(1.0, [sp.sin(th), -sp.cos(th)])], gravity=[float("nan"), -9.81])
+    with pytest.raises(InvalidInput, match="lagrangian_system: unknown options"):
+        lg.lagrangian_system([th], [(1.0, [sp.sin(th), -sp.cos(th)])], gravty=[0.0, -9.81])
+
+
+def test_sympy_numbers_as_parameters_keep_working():
+    # exact and symbolic numbers (not NaN, not complex) are still accepted: M = m L² exactly (ORACLES A5)
+    th = sp.Symbol("th")
+    m, L = sp.Rational(1, 2), sp.sqrt(2)
+    eq = lg.derive_equations([th], [(m, [L * sp.sin(th), -L * sp.cos(th)])], gravity=[0, sp.Rational(-981, 100)])
+    assert sp.simplify(eq.M[0, 0] - m * L ** 2) == 0
+    sysl = lg.compile_equations(eq)
+    assert abs(sysl.rhs(0.0, [np.pi / 2, 0.0])[1] + 9.81 / np.sqrt(2)) < 1e-14
+
+
+def test_overflow_is_a_named_error():
+    # θ̇ = 1e300: the compiled factors raise OverflowError (θ̇²), the energies overflow
+    sysl = simple_pendulum().lagrangian()
+    with pytest.raises(NonFiniteResult):
+        sysl.energy([1.0, 1e300])
+    with pytest.raises(NonFiniteResult):
+        sysl.rhs(0.0, [1.0, 1e300])
+
+
 def test_bad_inputs_get_named_errors():
     th, ph = sp.symbols("th ph")
     pts = [(1.0, [sp.sin(th), -sp.cos(th)])]
-    with pytest.raises(ValueError, match="coords must be sympy Symbols, got sin"):
+    with pytest.raises(ValueError, match=r"coords\[0\] must be a sympy Symbol .*got sin\(th\)"):
         lg.derive_equations([sp.sin(th)], pts)
-    with pytest.raises(ValueError, match="coords must be a non-empty list"):
+    with pytest.raises(ValueError, match="coords must be a list of at least 1 of .*got 'th'"):
         lg.derive_equations("th", pts)
     with pytest.raises(ValueError, match="position must have 2 components"):
         lg.derive_equations([th, ph], [(1.0, [sp.sin(th), 0]), (1.0, [th, ph, 0])])
@@ -192,12 +234,13 @@ def test_bad_inputs_get_named_errors():
         lg.derive_equations([th], pts, gravity=[0, 0, -9.81])
     with pytest.raises(ValueError, match=r"symbols \['L'\]"):
         lg.derive_equations([th], [(1.0, [sp.Symbol("L") * sp.sin(th), 0])])
-    with pytest.raises(ValueError, match="mass must be positive, got -1"):
+    with pytest.raises(ValueError, match=r"points\[0\] mass must be a finite number > 0 .*got -1.0"):
         lg.derive_equations([th], [(-1.0, [sp.sin(th), 0])])
-    with pytest.raises(ValueError, match="route must be"):
+    with pytest.raises(ValueError, match="route must be one of 'kinematic', 'energy', got 'newton'"):
         lg.derive_equations([th], pts, route="newton")
     with pytest.raises(ValueError, match="give points"):
         lg.derive_equations([th])
     sysl = simple_pendulum().lagrangian()
-    with pytest.raises(ValueError, match=r"y must have shape \(2,\)"):
+    with pytest.raises(ValueError, match=r"LagrangianSystem.rhs: y must be a float array of shape \(2,\).*"
+                                         r"got \[0.1, 0.2, 0.3\]"):
         sysl.rhs(0.0, [0.1, 0.2, 0.3])

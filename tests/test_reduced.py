@@ -8,7 +8,7 @@ import sympy as sp
 
 import pbanim
 from pbanim.constraints import Constraints, Distance, solve_multipliers
-from pbanim.errors import SingularChartError
+from pbanim.errors import InvalidInput, NonFiniteResult, SingularChartError, StepLimitExceeded
 from pbanim.models.reduced import (bead_x_chart, cart_pendulum, chain_rod_tensions,
                                    maximal_chain, n_link_chart, n_link_pendulum, pendulum_period,
                                    simple_pendulum, spherical_pendulum)
@@ -199,36 +199,83 @@ def test_symplectic_euler_is_not_symplectic_when_mass_matrix_varies():
 
 def test_bad_inputs_get_named_errors():
     q, J, Jd = n_link_chart([1.0, 1.0])
-    with pytest.raises(ValueError, match="J must be a callable of u, got ndarray"):
+    with pytest.raises(ValueError, match=r"J must be a callable, got an array of shape \(4, 2\)"):
         ReducedSystem(q, np.eye(4, 2), Jd, 1.0, 2, u0=[0.0, 0.0])
     with pytest.raises(ValueError, match=r"J\(u\) must have shape \(len\(q\), len\(u\)\) = \(4, 2\), got \(4, 3\)"):
         ReducedSystem(q, lambda u: np.ones((4, 3)), Jd, 1.0, 2, u0=[0.0, 0.0])
     with pytest.raises(ValueError, match=r"Jdot_udot\(u, ud\) must have shape \(4,\)"):
         ReducedSystem(q, J, lambda u, ud: np.ones(3), 1.0, 2, u0=[0.0, 0.0])
-    with pytest.raises(ValueError, match=r"udot0 must have shape \(2,\) like u0"):
+    with pytest.raises(ValueError, match=r"ReducedSystem.__init__: udot0 must be a float array of shape .*2.*got \[1.0\]"):
         ReducedSystem(q, J, Jd, 1.0, 2, u0=[0.0, 0.0], udot0=[1.0])
-    with pytest.raises(ValueError, match="mass must be positive, got -1.0"):
+    with pytest.raises(ValueError, match=r"masses must be .*entries > 0.*got \[1.0, -1.0\]"):
         ReducedSystem(q, J, Jd, [1.0, -1.0], 2, u0=[0.0, 0.0])
     with pytest.raises(ValueError, match="forces must be force effects"):
         ReducedSystem(q, J, Jd, 1.0, 2, [Constraints([Distance([[0, 1]])])], u0=[0.0, 0.0])
     red = ReducedSystem(q, J, Jd, 1.0, 2, u0=[0.0, 0.0])
-    with pytest.raises(ValueError, match=r"y must have shape \(4,\) = \[u, u̇\], got \(3,\)"):
+    with pytest.raises(ValueError, match=r"ReducedSystem.rhs: y must be a float array of shape \(4,\).*got array\(\[0., 0., 0.\]\)"):
         red.rhs(0.0, np.zeros(3))
     th, ph = sp.symbols("th ph")
-    with pytest.raises(ValueError, match="coords must be sympy Symbols, got 'th' of type str"):
+    with pytest.raises(ValueError, match=r"coords\[0\] must be a sympy Symbol .*got 'th'; a str"):
         ReducedSystem.from_sympy([[sp.sin(th), -sp.cos(th)]], ["th"], u0=[0.0])
     with pytest.raises(ValueError, match=r"positions must all have the same dimension"):
         ReducedSystem.from_sympy([[sp.sin(th), -sp.cos(th)], [th, ph, 0]], [th, ph], u0=[0.0, 0.0])
     with pytest.raises(ValueError, match=r"got symbols \['R'\]"):
         ReducedSystem.from_sympy([[sp.Symbol("R") * sp.sin(th), 0]], [th], u0=[0.0])
-    with pytest.raises(ValueError, match="max_cond must be > 1, got 0.5"):
+    with pytest.raises(ValueError, match="max_cond must be a finite number > 1, got 0.5"):
         ChartGuard(0.5)
     with pytest.raises(ValueError, match="dim must be given"):
         ReducedSystem.from_sympy([sp.sin(th), -sp.cos(th)], [th], u0=[0.0])
-    with pytest.raises(ValueError, match="h must be a positive finite step, got -0.1"):
+    with pytest.raises(ValueError, match="h must be a finite number > 0, got -0.1"):
         simulate_fixed(red.rhs, red.state(), 1.0, -0.1)
     with pytest.raises(ValueError, match=r"theta0 must satisfy 0 < \|theta0\| < pi"):
         pendulum_period(np.pi)
+
+
+def _bead():
+    """A bead on the unit circle parametrized by x (q = (x, √(1 − x²))): singular at |x| = 1, undefined beyond."""
+    q = lambda u: np.array([u[0], np.sqrt(1 - u[0] ** 2)])                     # noqa: E731
+    J = lambda u: np.array([[1.0], [-u[0] / np.sqrt(1 - u[0] ** 2)]])          # noqa: E731
+    Jd = lambda u, ud: np.array([0.0, -ud[0] ** 2 / (1 - u[0] ** 2) ** 1.5])    # noqa: E731
+    return q, J, Jd
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_outside_the_chart_is_a_singular_chart_error_never_nan():
+    # ORACLES B6: a numeric chart evaluated outside its domain (|x| > 1: np.sqrt gives NaN) used to return
+    # NaN states, NaN energies, a NaN generalized mass and a ChartCheck of NaN errors without a word
+    q, J, Jd = _bead()
+    red = ReducedSystem(q, J, Jd, 1.0, 2, [Gravity()], u0=[0.2])
+    for call in (lambda: red.particle_state([1.5, 0.0]), lambda: red.energy([1.5, 0.0]),
+                 lambda: red.kinetic_energy([1.5, 0.0]), lambda: red.generalized_mass([1.5]),
+                 lambda: red.rhs(0.0, [1.5, 0.0]), lambda: check_chart(q, J, Jd, [1.5], [1.0])):
+        with pytest.raises(SingularChartError, match=r"at u = \[1.5\]"):
+            call()
+    assert np.isfinite(red.particle_state([0.5, 1.0])).all()      # inside the domain: numbers
+
+
+def test_one_state_methods_refuse_batches_and_strings_by_name():
+    # a batch of states or a string used to end in numpy's "inhomogeneous shape" / "could not convert" errors
+    red = simple_pendulum().reduced()
+    for name in ("energy", "kinetic_energy", "potential_energy", "particle_state"):
+        with pytest.raises(InvalidInput, match=rf"(?s)ReducedSystem.{name}: y must be .*a batch of states is not"):
+            getattr(red, name)(np.zeros((3, 2)))
+        with pytest.raises(InvalidInput, match=rf"ReducedSystem.{name}: y must be .*got 'ab'"):
+            getattr(red, name)("ab")
+    with pytest.raises(InvalidInput, match=r"(?s)generalized_mass: u must be .*a batch of states is not"):
+        red.generalized_mass(np.zeros((3, 1)))
+    with pytest.raises(InvalidInput, match="max_cond must be a finite number > 1, got nan"):
+        ChartGuard(float("nan"))
+    with pytest.raises(InvalidInput, match=r"ChartGuard: A must have the shape \(2, 2\) of the reference"):
+        g = ChartGuard()
+        g.set_reference(np.eye(2))
+        g.solve(np.eye(3), np.ones(3), np.zeros(3))
+
+
+def test_simulate_caps_its_steps_before_the_first():
+    red = simple_pendulum().reduced()
+    with pytest.raises(StepLimitExceeded, match="max_steps = 100"):
+        red.simulate(10.0, 0.01, "rk4", max_steps=100)
+    assert red.simulate(1.0, 0.01, "rk4", max_steps=100).t[-1] == pytest.approx(1.0)
 
 
 def test_time_dependent_chart_matches_lagrangian():

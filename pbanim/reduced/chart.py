@@ -19,6 +19,7 @@ factorization that the solve needs anyway. Rounding errors in ü grow like κ·�
 from __future__ import annotations
 
 import math
+import numbers
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -26,6 +27,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 from scipy.linalg import lapack
 
+from ..contracts import Array, Choice, Either, Func, Int, Obj, Opt, Real, Seq, Spec, contract
 from ..errors import InvalidInput, SingularChartError
 from ..derivatives import central_jacobian, directional_derivative
 
@@ -33,7 +35,65 @@ _potrf, _pocon, _potrs = lapack.dpotrf, lapack.dpocon, lapack.dpotrs
 _addred, _maxred = np.add.reduce, np.maximum.reduce
 
 __all__ = ["ChartGuard", "ChartCheck", "check_chart", "PointKinematics", "point_kinematics", "simulate_fixed",
-           "validate_coords"]
+           "validate_coords", "Expr", "SYMBOL", "COORDS", "EXPRESSIONS"]
+
+
+class Expr(Spec):
+    """A real number or a sympy expression (the vocabulary of :mod:`pbanim.contracts` has no sympy spec).
+
+    A finite Python or numpy real is accepted (an int stays an int, so sympy keeps it exact); NaN, ±inf,
+    a complex number, a string (sympy would ``eval`` it) and None are refused. A sympy expression is
+    accepted unless it holds nan, ±oo, zoo or the imaginary unit I (a position or a mass must be real and
+    finite). sympy is imported only when a value is not a plain number.
+    """
+
+    def describe(self) -> str:
+        return "a finite real number or a real sympy expression"
+
+    def check(self, name, value, env):
+        if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, (str, bytes)):
+            raise env.fail(name, self.describe(), value)
+        if isinstance(value, numbers.Number):
+            if not isinstance(value, numbers.Real) or not math.isfinite(value):
+                raise env.fail(name, self.describe(), value)
+            return value if isinstance(value, (int, np.integer)) else float(value)
+        bad = nonreal(value)
+        if bad is None:
+            raise env.fail(name, self.describe(), value, f"a {type(value).__name__}")
+        if bad:
+            raise env.fail(name, self.describe(), value, f"it holds {bad}")
+        return value
+
+    def example(self, env):
+        return 0.5
+
+    def bad(self, env):
+        return [("NaN", math.nan), ("complex", 1j), ("inf", math.inf), ("None", None), ("a string", "x")]
+
+    def edges(self, env):
+        return [("zero", 0), ("1e300", 1e300)]
+
+
+def nonreal(e) -> str | None:
+    """For a sympy object: "" when it holds no nan, ±oo, zoo or I, else the first it holds; None when ``e``
+    is not a sympy object. (The one check of sympy inputs: specs and internal callers use it.)"""
+    import sympy
+
+    if not isinstance(e, (sympy.Basic, sympy.MatrixBase)):
+        return None
+    S = sympy.S
+    for atom, text in ((S.NaN, "nan"), (S.Infinity, "oo"), (S.NegativeInfinity, "-oo"), (S.ComplexInfinity, "zoo"),
+                       (S.ImaginaryUnit, "the imaginary unit I")):
+        if e.has(atom):
+            return text
+    return ""
+
+
+SYMBOL = Obj("sympy:Symbol", what="a sympy Symbol (sympy.symbols('q1 q2'); time enters through the t argument, "
+                                  "not dynamicsymbols)")
+COORDS = Seq(SYMBOL, min_len=1)
+EXPRESSIONS = Either(Seq(Expr()), Obj("sympy:MatrixBase", what="a sympy Matrix of expressions"))
+_GUARD_SQUARE = Array(("k", "k"))
 
 
 class ChartGuard:
@@ -50,14 +110,13 @@ class ChartGuard:
     pbanim.errors.SingularChartError: reduced coordinates are near a singular chart: cond(JᵀMJ) = 1.000e+07 ...
     """
 
+    @contract(max_cond=Real(gt=1))
     def __init__(self, max_cond: float = 1e8) -> None:
-        max_cond = float(max_cond)
-        if not max_cond > 1:
-            raise InvalidInput(f"max_cond must be > 1, got {max_cond}")
-        self.max_cond = max_cond
+        self.max_cond = float(max_cond)
         self.d: np.ndarray | None = None
-        self.last_cond = np.nan
+        self.last_cond: float | None = None      # κ of the last solve (None before the first)
 
+    @contract(A_ref=_GUARD_SQUARE)
     def set_reference(self, A_ref) -> None:
         """Use diag(A_ref) as the metric's scale (set at the initial state by the systems).
 
@@ -70,6 +129,7 @@ class ChartGuard:
         self.d = 1.0 / np.sqrt(dg)
         self._dd = self.d[:, None] * self.d[None, :]
 
+    @contract(A=_GUARD_SQUARE)
     def condition(self, A) -> float:
         """κ of A (see the module docstring); inf if A is not finite or not positive definite."""
         return self._factor(np.asarray(A, float))[1]
@@ -83,7 +143,11 @@ class ChartGuard:
             d = 1.0 / np.sqrt(dg)
             At = A * (d[:, None] * d[None, :])
         else:
-            d, At = self.d, A * self._dd
+            d = self.d
+            if A.shape != self._dd.shape:
+                raise InvalidInput(f"ChartGuard: A must have the shape {self._dd.shape} of the reference A_ref, "
+                                   f"got {A.shape}")
+            At = A * self._dd
         anorm = float(_maxred(_addred(np.abs(At), 0)))     # ‖Ã‖₁ (ufunc reductions: no wrapper cost)
         if not math.isfinite(anorm):
             return None, np.inf, d
@@ -95,6 +159,7 @@ class ChartGuard:
             return None, np.inf, d
         return c, max(anorm, 1.0) * max(1.0 / rc, 1.0), d
 
+    @contract(A=_GUARD_SQUARE, r=Array(("k",)), u=Array(("k",)))
     def solve(self, A, r, u) -> np.ndarray:
         """ü = A⁻¹r, or SingularChartError(cond, u)."""
         c, kappa, d = self._factor(A)
@@ -103,7 +168,7 @@ class ChartGuard:
         if c is None or kappa > self.max_cond or not math.isfinite(_addred(r)):
             u_list = [float(x) for x in np.asarray(u, float).ravel()]
             if not np.isfinite(r.sum()) or not np.all(np.isfinite(A)):
-                detail = "the generalized mass or force is not finite (outside the chart's domain)"
+                detail = "the generalized mass or force is not finite (outside the chart's domain, or an overflow)"
             elif c is None:
                 detail = "JᵀMJ is not positive definite (the chart lost rank)"
             else:
@@ -126,11 +191,14 @@ class ChartCheck:
         return self.J_error <= self.tol and self.Jdot_udot_error <= self.tol
 
 
+@contract(q=Func(), J=Func(), Jdot_udot=Func(), u=Array(("k",)), udot=Array(("k",)), eps=Real(gt=0, le=1),
+          tol=Real(gt=0))
 def check_chart(q: Callable, J: Callable, Jdot_udot: Callable, u, udot, eps: float = 1e-5,
                 tol: float = 1e-6) -> ChartCheck:
     """Compare J(u) with centred differences of q, and J̇u̇ with d/ds[J(u + s u̇) u̇] at s = 0.
 
-    Errors are relative to max(1, |reference|) (central differences: O(eps²) truncation).
+    Errors are relative to max(1, |reference|) (central differences: O(eps²) truncation). A chart that
+    gives NaN or inf at u or u ± eps (outside its domain) raises :class:`SingularChartError`.
 
     Examples
     --------
@@ -142,21 +210,33 @@ def check_chart(q: Callable, J: Callable, Jdot_udot: Callable, u, udot, eps: flo
     """
     u = np.atleast_1d(np.asarray(u, float))
     ud = np.atleast_1d(np.asarray(udot, float))
-    if ud.shape != u.shape:
-        raise InvalidInput(f"udot must have the shape of u {u.shape}, got {ud.shape}")
-    J0 = np.asarray(J(u), float)
-    Jfd = central_jacobian(q, u, eps)
-    if J0.shape != Jfd.shape:
-        raise InvalidInput(f"J(u) must have shape {Jfd.shape} (len(q), len(u)), got {J0.shape}")
-    b_fd = directional_derivative(lambda z: np.asarray(J(z), float) @ ud, u, ud, eps)
-    b = np.asarray(Jdot_udot(u, ud), float).ravel()
-    eJ = float(np.max(np.abs(J0 - Jfd)) / max(1.0, float(np.max(np.abs(Jfd)))))
-    eb = float(np.max(np.abs(b - b_fd)) / max(1.0, float(np.max(np.abs(b_fd)))))
+    with np.errstate(all="ignore"):
+        J0 = np.asarray(J(u), float)
+        Jfd = central_jacobian(q, u, eps)
+        if J0.shape != Jfd.shape:
+            raise InvalidInput(f"J(u) must have shape {Jfd.shape} (len(q), len(u)), got {J0.shape}")
+        b_fd = directional_derivative(lambda z: np.asarray(J(z), float) @ ud, u, ud, eps).ravel()
+        b = np.asarray(Jdot_udot(u, ud), float).ravel()
+        if b.shape != b_fd.shape:
+            raise InvalidInput(f"Jdot_udot(u, udot) must have shape {b_fd.shape} (len(q),), got {b.shape}")
+        parts = {"J(u)": J0, "q near u": Jfd, "J near u": b_fd, "Jdot_udot(u, udot)": b}
+        bad = [k for k, v in parts.items() if not np.isfinite(v).all()]
+        if bad:
+            raise SingularChartError(np.inf, u.tolist(), f"{', '.join(bad)} not finite (eps = {eps:g}; outside the "
+                                     "chart's domain, or an overflow)")
+        eJ = float(np.max(np.abs(J0 - Jfd), initial=0.0) / max(1.0, float(np.max(np.abs(Jfd), initial=0.0))))
+        eb = float(np.max(np.abs(b - b_fd), initial=0.0) / max(1.0, float(np.max(np.abs(b_fd), initial=0.0))))
+    if not (math.isfinite(eJ) and math.isfinite(eb)):
+        raise SingularChartError(np.inf, u.tolist(), "the differences overflow (values near 1e308)")
     return ChartCheck(eJ, eb, tol)
 
 
+@contract(coords=COORDS)
 def validate_coords(coords) -> tuple:
-    """Coordinates must be a non-empty list of distinct plain sympy Symbols (ValueError otherwise)."""
+    """Coordinates must be a non-empty list of distinct plain sympy Symbols (ValueError otherwise).
+
+    The one check of coordinates: the contract checks them at the boundary, this body for the internal
+    callers (derive_equations, point_kinematics, models) and for their distinctness."""
     import sympy
 
     if isinstance(coords, sympy.Basic) or not isinstance(coords, (list, tuple)) or len(coords) == 0:
@@ -188,6 +268,7 @@ class PointKinematics:
     derivation_time: float
 
 
+@contract(positions=EXPRESSIONS, coords=COORDS, t=Opt(SYMBOL))
 def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> PointKinematics:
     """Differentiate flat position expressions q(u, t) once and twice (sympy, imported here).
 
@@ -212,7 +293,12 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
     index = {c: i for i, c in enumerate(coords)}
     n = len(coords)
     J, qdot, b, Jt_all, bt_all = [], [], [], [], []
-    for e in positions:
+    for i, e in enumerate(positions):
+        if isinstance(e, str) or not isinstance(sympy.sympify(e), sympy.Expr):
+            raise InvalidInput(f"positions[{i}] must be a real number or a sympy expression, got {e!r}")
+        bad = nonreal(sympy.sympify(e))
+        if bad:
+            raise InvalidInput(f"positions[{i}] must be real and finite, got {e} (it holds {bad})")
         e = sympy.expand(sympy.sympify(e), mul=True, multinomial=False, power_base=False, power_exp=False,
                          log=False, deep=False)
         stray = e.free_symbols - allowed
@@ -246,6 +332,16 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
     return PointKinematics(coords, speeds, J, qdot, b, Jt_all, bt_all, time.perf_counter() - t0)
 
 
+def _methods():
+    from ..ode import METHODS
+    return METHODS
+
+
+METHOD = Choice(_methods)
+
+
+@contract(rhs=Func(), y0=Array(("n",)), t_end=Real(gt=0), h=Real(gt=0), method=METHOD, energy=Opt(Func()),
+          record_every=Int(ge=1), split=Opt(Int(ge=0)), max_steps=Opt(Int(ge=1)))
 def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "implicit_midpoint", *,
                    energy: Callable | None = None, record_every: int = 1, split: int | None = None,
                    max_steps: int | None = None):
@@ -253,7 +349,8 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
 
     Runs through the one driver (:mod:`pbanim.ode.driver`: same step rule, cap and finiteness check).
     Returns a :class:`pbanim.results.SimResult` (``diagnostics["energy"]`` when ``energy`` is given).
-    A :class:`SingularChartError` raised by the rhs propagates (never NaN states).
+    A :class:`SingularChartError` raised by the rhs propagates (never NaN states); ``max_steps`` (default
+    :data:`pbanim.ode.driver.MAX_STEPS`) caps the run before its first step.
     """
     from ..ode import get_method
     from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
@@ -265,6 +362,8 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
     y = np.array(y0, dtype=float)
     check_finite(y, 0.0, 0, "initial state")
     split = y.size // 2 if split is None else split
+    if not 0 <= split <= y.size:
+        raise InvalidInput(f"simulate_fixed: split must be in 0 … len(y0) = {y.size}, got {split}")
     ts, ys, es = [0.0], [y.copy()], ([energy(y, 0.0)] if energy else [])
     nfev = [0]
 

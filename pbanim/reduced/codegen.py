@@ -22,10 +22,14 @@ from typing import Any, Callable
 import numpy as np
 import sympy
 
-from ..errors import InvalidInput, SingularChartError
+from ..contracts import Array, Flag, Obj, Real, contract
+from ..errors import InvalidInput, NonFiniteResult, SingularChartError, check_result
 from .chart import ChartGuard
 
 __all__ = ["LagrangianSystem", "compile_equations"]
+
+_STATE = Array(("self.n_state",))
+_TIME = Real()
 
 
 @dataclass
@@ -68,6 +72,11 @@ class LagrangianSystem:
     def derivation_time(self) -> float:
         return self.equations.derivation_time
 
+    @property
+    def n_state(self) -> int:
+        """Length of the state y = [u, u̇]: 2n."""
+        return 2 * self.n
+
     def _args(self, t, y):
         y = np.asarray(y, dtype=float)
         if y.shape != (2 * self.n,):
@@ -76,57 +85,90 @@ class LagrangianSystem:
         a.insert(0, float(t))
         return a
 
+    @contract(t=_TIME, y=_STATE)
     def mass_and_forcing(self, t: float, y) -> tuple[np.ndarray, np.ndarray]:
-        """M(u) (n, n) and f(u, u̇, t) (n,) at a state y = [u, u̇]."""
+        """M(u) (n, n) and f(u, u̇, t) (n,) at a state y = [u, u̇] (SingularChartError when not finite)."""
+        M, f = self._mass_and_forcing(t, y)
+        return self._finite(M, y, "M(u)"), self._finite(f, y, "f(u, u̇, t)")
+
+    def _finite(self, value, y, what):
+        if not np.isfinite(value).all():
+            raise SingularChartError(np.inf, np.asarray(y, float)[: self.n].tolist(), f"{what} is not finite "
+                                     "(outside the chart's domain, or an overflow)")
+        return value
+
+    def _mass_and_forcing(self, t, y):
+        """M and f unchecked (the rhs's guard checks them)."""
         args = self._args(t, y)
         eidx, coef, ia, ib, nout, nfac = self._terms
         a = np.empty(nfac)
         a[0] = 1.0
         try:
             a[1:] = self._factors(*args)
-        except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
+        except OverflowError as exc:        # a float power past 1e308
+            raise NonFiniteResult("the equations' terms", f"at y = {args[1:]} ({exc})") from None
+        except (ValueError, ZeroDivisionError) as exc:   # math.sqrt(-1), 1/0 ...
             raise SingularChartError(np.inf, args[1: self.n + 1], f"the equations cannot be evaluated "
                                      f"({exc}); outside the chart's domain") from None
-        out = np.bincount(eidx, coef * a[ia] * a[ib], nout)
+        with np.errstate(invalid="ignore", over="ignore"):   # inf · 0 → NaN: caught by the caller's check
+            out = np.bincount(eidx, coef * a[ia] * a[ib], nout)
         return out[self._sym_index], out[self._ntri:]
 
+    @contract(u=Array(("self.n",)), t=_TIME)
     def mass_matrix(self, u, t: float = 0.0) -> np.ndarray:
         """M(u) at coordinates u (any u̇)."""
-        return self.mass_and_forcing(t, np.concatenate([np.asarray(u, float), np.zeros(self.n)]))[0]
+        y = np.concatenate([np.asarray(u, float), np.zeros(self.n)])
+        return self._finite(self._mass_and_forcing(t, y)[0], y, "M(u)")
 
+    @contract(t=_TIME, y=_STATE)
     def accelerations(self, t: float, y) -> np.ndarray:
         """ü = M⁻¹f, with the chart check of :class:`pbanim.reduced.ChartGuard`."""
-        M, f = self.mass_and_forcing(t, y)
+        M, f = self._mass_and_forcing(t, y)
         return self.guard.solve(M, f, np.asarray(y)[: self.n])
 
+    @contract(t=_TIME, y=_STATE)
     def rhs(self, t: float, y) -> np.ndarray:
         """dy/dt = [u̇, ü] for the integrators of :mod:`pbanim.ode`."""
         self.nfev += 1
         y = np.asarray(y, dtype=float)
         out = np.empty(2 * self.n)
-        out[self.n:] = self.accelerations(t, y)  # validates the shape of y first
+        M, f = self._mass_and_forcing(t, y)      # validates the shape of y first
+        out[self.n:] = self.guard.solve(M, f, y[: self.n])
         out[: self.n] = y[self.n:]
         return out
 
+    @contract(y=_STATE, t=_TIME)
     def energies(self, y, t: float = 0.0) -> dict[str, float]:
         """T, V, E = T + V and the Jacobi integral h = T₂ − T₀ + V (T = T₂ + T₁ + T₀ by degree in u̇)."""
         y = np.asarray(y, dtype=float)
-        M, _ = self.mass_and_forcing(t, y)
+        M, _ = self._mass_and_forcing(t, y)
         ud = y[self.n:]
-        T2 = 0.5 * float(ud @ M @ ud)
-        V, T0, T1 = self._energy(*self._args(t, y))
+        with np.errstate(invalid="ignore", over="ignore"):
+            T2 = 0.5 * float(ud @ M @ ud)
+        try:
+            V, T0, T1 = self._energy(*self._args(t, y))
+        except OverflowError as exc:
+            raise NonFiniteResult("the energies", f"at y = {y.tolist()} ({exc})") from None
+        except (ValueError, ZeroDivisionError) as exc:
+            raise SingularChartError(np.inf, y[: self.n].tolist(), f"the energies cannot be evaluated ({exc}); "
+                                     "outside the chart's domain") from None
         T = T2 + T1 + T0
-        return {"kinetic": T, "potential": V, "energy": T + V, "jacobi": T2 - T0 + V}
+        out = {"kinetic": T, "potential": V, "energy": T + V, "jacobi": T2 - T0 + V}
+        check_result("energies", list(out.values()), f"at y = {y.tolist()}")
+        return out
 
+    @contract(y=_STATE, t=_TIME)
     def energy(self, y, t: float = 0.0) -> float:
         """E = T + V at state y (conserved for scleronomic conservative models)."""
         return float(self.energies(y, t)["energy"])
 
+    @contract(y=_STATE, t=_TIME)
     def jacobi_integral(self, y, t: float = 0.0) -> float:
         """h = Σ pⱼu̇ⱼ − L = T₂ − T₀ + V, conserved when L has no explicit t (bead on a rotating hoop)."""
         return float(self.energies(y, t)["jacobi"])
 
 
+@contract(eqs=Obj("pbanim.reduced.lagrangian:EulerLagrangeEquations"), cse=Flag())
 def compile_equations(eqs, *, cse: bool = True) -> LagrangianSystem:
     """Compile the collected terms of ``eqs`` (see the module docstring) into a :class:`LagrangianSystem`."""
     t0 = time.perf_counter()

@@ -72,6 +72,7 @@ array([ 0.  , -9.81])
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from fractions import Fraction
@@ -82,7 +83,8 @@ import numpy as np
 import sympy
 
 from .codegen import LagrangianSystem, compile_equations
-from .chart import point_kinematics, validate_coords
+from .chart import COORDS, SYMBOL, Expr, nonreal, point_kinematics, validate_coords
+from ..contracts import Array, Choice, Either, Obj, Opt, Seq, Spec, contract
 from ..errors import InvalidInput
 
 __all__ = ["EulerLagrangeEquations", "LagrangianSystem", "derive_equations", "compile_equations",
@@ -182,6 +184,51 @@ class EulerLagrangeEquations:
         return self.forces - self.velocity_terms - self.potential_gradient
 
 
+def _mass_problem(m) -> str:
+    """Why ``m`` cannot be a point mass ("" when it can): the one check of masses, for the contract
+    (:class:`PointMass`) and for internal callers. sympy comparisons are never made on NaN or complex
+    values (they raise sympy's own TypeError): the answer comes from the number's assumptions."""
+    if isinstance(m, (bool, np.bool_)) or m is None or isinstance(m, (str, bytes)):
+        return "it is not a number"
+    try:
+        x = sympy.sympify(m)
+    except (sympy.SympifyError, TypeError, ValueError):
+        return "it is not a number"
+    if not isinstance(x, sympy.Expr) or not x.is_number:
+        return "it is not a number (substitute numbers for parameters)"
+    if nonreal(x):
+        return f"it is not a finite real number (it holds {nonreal(x)})"
+    if x.is_positive is not True or x.is_finite is not True:
+        return "it is not > 0"
+    return ""
+
+
+class PointMass(Spec):
+    """A point mass of :func:`derive_equations`: a pair (mass, position), the mass a finite number > 0 (or
+    a positive sympy number), the position 1–3 real expressions in the coordinates (or a sympy Matrix)."""
+
+    _POSITION = Either(Seq(Expr(), min_len=1, max_len=3), Obj("sympy:MatrixBase"))
+
+    def describe(self) -> str:
+        return "a pair (mass > 0, position of 1–3 real expressions)"
+
+    def check(self, name, value, env):
+        if not (isinstance(value, (list, tuple)) and len(value) == 2):
+            raise env.fail(name, self.describe(), value)
+        m, r = value
+        why = _mass_problem(m)
+        if why:
+            raise env.fail(f"{name} mass", "a finite number > 0 (or a positive sympy number)", m, why)
+        return (m, self._POSITION.check(f"{name} position", r, env))
+
+    def example(self, env):
+        return (1.0, [0.5])
+
+    def bad(self, env):
+        return [("a NaN mass", (math.nan, [0.5])), ("a complex mass", (1 + 2j, [0.5])),
+                ("a negative mass", (-1.0, [0.5])), ("None", None), ("a string", "x"), ("a triple", (1.0, [0.5], 0))]
+
+
 def _validate_points(points) -> list:
     out, dim = [], None
     for k, item in enumerate(points):
@@ -194,13 +241,20 @@ def _validate_points(points) -> list:
         if len(r) != dim or dim not in (1, 2, 3):
             raise InvalidInput(f"points[{k}] position must have {dim} components (all points share one "
                              f"dimension, 1–3), got {len(r)}")
-        m = sympy.sympify(m)
-        if not (m.is_number and m > 0):
-            raise InvalidInput(f"mass must be positive, got {m} for points[{k}]")
-        out.append((m, [sympy.sympify(e) for e in r]))
+        why = _mass_problem(m)
+        if why:
+            raise InvalidInput(f"points[{k}] mass must be a finite number > 0, got {m!r}; {why}")
+        out.append((sympy.sympify(m), [sympy.sympify(e) for e in r]))
     return out
 
 
+_POINTS = Opt(Seq(PointMass()))
+_GRAVITY = Opt(Either(Array((None,)), Seq(Expr(), min_len=1, max_len=3)))
+_DERIVE = dict(coords=COORDS, points=_POINTS, T=Opt(Expr()), V=Expr(), gravity=_GRAVITY, forces=Opt(Seq(Expr())),
+               t=Opt(SYMBOL), route=Choice(("kinematic", "energy")))
+
+
+@contract(**_DERIVE)
 def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None, V=0, gravity=None,
                      forces=None, t=None, route: str = "kinematic") -> EulerLagrangeEquations:
     """Derive M(u), c(u, u̇, t), ∂V/∂u and Q_nc from point-mass kinematics and/or T and V.
@@ -236,10 +290,6 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     """
     t0 = time.perf_counter()
     coords = validate_coords(coords)
-    if route not in ("kinematic", "energy"):
-        raise InvalidInput(f"route must be 'kinematic' or 'energy', got {route!r}")
-    if t is not None and not isinstance(t, sympy.Symbol):
-        raise InvalidInput(f"t must be a sympy Symbol or None, got {t!r}")
     if points is None and T is None:
         raise InvalidInput("give points (point masses and their positions) or T (a kinetic energy), got neither")
     pts = _validate_points(points or [])
@@ -250,6 +300,8 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
         g = [sympy.sympify(x) for x in gravity]
         if len(g) != dim:
             raise InvalidInput(f"gravity must have {dim} components (the points' dimension), got {len(g)}")
+        if any(not x.is_number or nonreal(x) for x in g):
+            raise InvalidInput(f"gravity must be finite real numbers, got {list(gravity)!r}")
         g = [_num(x) for x in g]
     kin = point_kinematics([r[d] for _, r in pts for d in range(dim)], coords, t)
     speeds = kin.speeds
@@ -328,6 +380,7 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
                                   Ttot, Vx, T0, route, time.perf_counter() - t0)
 
 
+@contract(coords=COORDS)
 def speeds_for(coords: Sequence) -> tuple:
     """The rate symbols u̇ used by :func:`derive_equations`: ``<name>_dot`` for each coordinate.
 
@@ -338,6 +391,7 @@ def speeds_for(coords: Sequence) -> tuple:
     return tuple(sympy.Symbol(f"{c.name}_dot") for c in validate_coords(list(coords)))
 
 
+@contract(eqs=Obj(EulerLagrangeEquations))
 def energy_rate(eqs: EulerLagrangeEquations):
     """Symbolic dE/dt along the equations, E = T + V (scleronomic, Q_nc = 0 ⇒ it simplifies to 0).
 
@@ -362,14 +416,45 @@ def _freeze(x):
     return sympy.sympify(x) if not isinstance(x, (str, type(None))) else x
 
 
+class Hashable(Spec):
+    """Any value usable as a dict key (the vocabulary of :mod:`pbanim.contracts` has no such spec)."""
+
+    def describe(self) -> str:
+        return "a hashable value (a tuple of numbers and names, say)"
+
+    def check(self, name, value, env):
+        try:
+            hash(value)
+        except TypeError:
+            raise env.fail(name, self.describe(), value, "it is unhashable") from None
+        return value
+
+    def example(self, env):
+        return ("example",)
+
+    def bad(self, env):
+        return [("a list", ["n_link", 3]), ("a dict", {"n": 3})]
+
+    def edges(self, env):
+        return [("None", None)]
+
+
+@contract(coords=COORDS, points=_POINTS, key=Hashable())
 def lagrangian_system(coords: Sequence, points: Sequence | None = None, *, key: Any = None,
                       **kwargs: Any) -> LagrangianSystem:
     """Derive (:func:`derive_equations`) and compile (:func:`compile_equations`) once per process.
 
     The cache key is ``key`` if given (e.g. ``("n_link", 10, masses, lengths, g)``), else the model's
     sympy inputs themselves (hashable), together with every keyword option (gravity, route, t, ...), so
-    a call that changes any of them derives anew. A cache hit returns the same compiled object.
+    a call that changes any of them derives anew. A cache hit returns the same compiled object. The
+    keyword options are checked by :func:`derive_equations`'s contract on every call, before the cache
+    is read (they come from the models inside pbanim too).
     """
+    unknown = sorted(set(kwargs) - set(_DERIVE))
+    if unknown:
+        raise InvalidInput(f"lagrangian_system: unknown options {unknown}; the options of derive_equations are "
+                           f"{sorted(set(_DERIVE) - {'coords', 'points'})}")
+    _, kwargs = derive_equations.__contract__.check((), dict(kwargs))
     options = tuple(sorted((k, _freeze(v)) for k, v in kwargs.items()))
     if key is None:
         key = (_freeze(list(coords)), _freeze([(m, list(r)) for m, r in (points or [])]), options)

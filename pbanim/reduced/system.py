@@ -65,10 +65,20 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .chart import ChartCheck, ChartGuard, check_chart, point_kinematics, simulate_fixed
-from ..errors import InvalidInput, SingularChartError
+from .chart import (COORDS, METHOD, SYMBOL, ChartCheck, ChartGuard, Expr, check_chart, point_kinematics,
+                    simulate_fixed)
+from ..contracts import Array, Either, Func, Int, Obj, Opt, Real, Seq, Text, contract
+from ..errors import InvalidInput, NonFiniteResult, SingularChartError, check_result
 
 __all__ = ["ReducedSystem", "ChartGuard", "ChartCheck", "check_chart", "point_kinematics", "simulate_fixed"]
+
+
+_MASSES = Array(("N",), gt=0, scalar=True)
+_FORCES = Seq(Obj("pbanim.scene:Effect", what="a particle force effect (phase 'force')"))
+_U = Array(("k",))
+_STATE = Array(("self.n_state",))
+_TIME = Real()
+_COMMON = dict(masses=_MASSES, forces=_FORCES, u0=_U, udot0=Opt(_U), max_cond=Real(gt=1), name=Text())
 
 
 class ReducedSystem:
@@ -98,13 +108,10 @@ class ReducedSystem:
     :class:`pbanim.errors.SingularChartError` from :meth:`rhs` near a singular chart.
     """
 
+    @contract(q=Func(), J=Func(), Jdot_udot=Func(), dim=Int(ge=2, le=3), **_COMMON)
     def __init__(self, q: Callable, J: Callable, Jdot_udot: Callable, masses: Any = 1.0, dim: int = 2,
                  forces: Sequence = (), u0: Any = None, udot0: Any = None, *, max_cond: float = 1e8,
                  name: str = "reduced") -> None:
-        for nm, f in (("q", q), ("J", J), ("Jdot_udot", Jdot_udot)):
-            if not callable(f):
-                raise InvalidInput(f"{nm} must be a callable of u, got {type(f).__name__}")
-
         u_chk = np.atleast_1d(np.asarray(u0, dtype=float)) if u0 is not None else None
         if u_chk is not None:  # shapes first, with messages, before any product
             try:
@@ -123,6 +130,9 @@ class ReducedSystem:
 
         self._setup(kin, masses, dim, forces, u0, udot0, max_cond, name)
 
+    @contract(positions=Either(Seq(Either(Seq(Expr(), min_len=1), Obj("sympy:MatrixBase"), Expr()), min_len=1),
+                               Obj("sympy:MatrixBase", what="a sympy Matrix of expressions")),
+              coords=COORDS, dim=Opt(Int(ge=2, le=3)), t=Opt(SYMBOL), **_COMMON)
     @classmethod
     def from_sympy(cls, positions, coords: Sequence, masses: Any = 1.0, dim: int | None = None,
                    forces: Sequence = (), u0: Any = None, udot0: Any = None, *, t: Any = None,
@@ -181,6 +191,9 @@ class ReducedSystem:
         self.kinematics = kinm
         return self
 
+    # a classmethod object does not carry its function's attributes: the surface test and the fuzz read it here
+    from_sympy.__contract__ = from_sympy.__func__.__contract__
+
     # -- set-up ---------------------------------------------------------------------------------
     def _setup(self, kin, masses, dim, forces, u0, udot0, max_cond, name) -> None:
         from ..particles.system import ParticleSystem
@@ -190,14 +203,12 @@ class ReducedSystem:
         if u0 is None:
             raise InvalidInput("u0 must be given (the initial coordinates, also the chart's reference)")
         u0 = np.atleast_1d(np.asarray(u0, dtype=float))
-        if u0.ndim != 1 or u0.size == 0 or not np.all(np.isfinite(u0)):
-            raise InvalidInput(f"u0 must be a finite non-empty 1-D array, got {u0!r}")
+        if u0.ndim != 1 or u0.size == 0:
+            raise InvalidInput(f"u0 must be a non-empty 1-D array, got shape {u0.shape}")
         k = u0.size
         ud0 = np.zeros(k) if udot0 is None else np.atleast_1d(np.asarray(udot0, dtype=float))
         if ud0.shape != (k,):
             raise InvalidInput(f"udot0 must have shape ({k},) like u0, got {ud0.shape}")
-        if not np.all(np.isfinite(ud0)):
-            raise InvalidInput(f"udot0 must be finite, got {ud0!r}")
         try:
             q0, qd0, J0, b0 = kin(0.0, u0, ud0)
         except (TypeError, ValueError, IndexError) as exc:
@@ -210,9 +221,18 @@ class ReducedSystem:
         if b0.shape != (q0.size,):
             raise InvalidInput(f"Jdot_udot(u, ud) must have shape ({q0.size},), got {b0.shape}")
         N = q0.size // dim
-        self.particles = ParticleSystem(q0.reshape(N, dim), qd0.reshape(N, dim), masses)
+        m = np.asarray(masses, dtype=float)
+        if m.ndim > 1 or m.ndim == 1 and m.size != N:
+            raise InvalidInput(f"masses must be one number or N = {N} numbers (one per particle of q(u)), got "
+                               f"shape {m.shape}")
+        if not (np.isfinite(m).all() and (m > 0).all()):
+            raise InvalidInput(f"masses must be finite and > 0, got {m.tolist()}")
+        if not (np.isfinite(q0).all() and np.isfinite(qd0).all()):
+            raise SingularChartError(np.inf, u0.tolist(), "q(u0) or its velocity is not finite (u0 outside the "
+                                     "chart's domain)")
+        self.particles = ParticleSystem(q0.reshape(N, dim), qd0.reshape(N, dim), m)
         self.forces = list(forces)
-        for e in self.forces:
+        for e in self.forces:      # the one check of forces (the contract says only "an Effect")
             if getattr(e, "phase", None) != "force":
                 raise InvalidInput(f"forces must be force effects (phase 'force'), got {e!r} with phase "
                                  f"{getattr(e, 'phase', None)!r}; constraints are what the chart replaces")
@@ -225,7 +245,13 @@ class ReducedSystem:
         self.guard.set_reference(J0.T @ (self.m[:, None] * J0))
         self.nfev = 0
 
+    @property
+    def n_state(self) -> int:
+        """Length of the state y = [u, u̇]: 2k."""
+        return 2 * self.k
+
     # -- dynamics -------------------------------------------------------------------------------
+    @contract(u0=Array(("self.k",)), udot0=Opt(Array(("self.k",))))
     def with_initial(self, u0: Any, udot0: Any = None) -> "ReducedSystem":
         """A new system on the same compiled chart with initial state (u0, u̇0) (its own chart reference,
         force effects and counters; nothing is shared but the compiled kinematics)."""
@@ -241,11 +267,37 @@ class ReducedSystem:
         """Initial state y = [u0, u̇0]."""
         return np.concatenate([self.u0, self.udot0])
 
+    @contract(y=_STATE, t=_TIME)
     def particle_state(self, y, t: float = 0.0) -> np.ndarray:
         """[q(u), q̇] (flat, the layout of :class:`pbanim.particles.ParticleSystem`) at state y."""
-        y = np.asarray(y, float)
-        q, qd, _, _ = self._kin(t, y[: self.k], y[self.k:])
-        return np.concatenate([q, qd])
+        return self._particle_state(y, t)
+
+    def _particle_state(self, y, t):
+        u, ud = self._split(y)
+        q, qd, _, _ = self._eval(t, u, ud)
+        out = np.concatenate([q, qd])
+        if not np.isfinite(out).all():
+            raise SingularChartError(np.inf, u.tolist(), "q(u) or q̇ = J u̇ is not finite (outside the chart's domain, "
+                                     "or an overflow)")
+        return out
+
+    def _split(self, y):
+        """(u, u̇) of a state; the shape check for internal callers (an ODE solver given a wrong y0)."""
+        y = np.asarray(y, dtype=float)
+        if y.shape != (2 * self.k,):
+            raise InvalidInput(f"y must have shape ({2 * self.k},) = [u, u̇], got {y.shape}")
+        return y[: self.k], y[self.k:]
+
+    def _eval(self, t, u, ud):
+        """q, q̇, J, b at (u, u̇, t): SingularChartError outside the chart's domain (math.sqrt(-1), 1/0),
+        NonFiniteResult when a compiled chart overflows (a float power past 1e308)."""
+        try:
+            return self._kin(t, u, ud)
+        except OverflowError as exc:
+            raise NonFiniteResult("the chart q(u), J(u), J̇u̇", f"at u = {u.tolist()} ({exc})") from None
+        except (ValueError, ZeroDivisionError) as exc:
+            raise SingularChartError(np.inf, u.tolist(), f"the chart cannot be evaluated ({exc}); "
+                                     "outside its domain") from None
 
     def _forces(self, t, q, qd) -> np.ndarray:
         Q = np.zeros((self.N, self.dim))
@@ -256,15 +308,8 @@ class ReducedSystem:
         return Q.reshape(-1)
 
     def _solve(self, t, y):
-        y = np.asarray(y, dtype=float)
-        if y.shape != (2 * self.k,):
-            raise InvalidInput(f"y must have shape ({2 * self.k},) = [u, u̇], got {y.shape}")
-        u, ud = y[: self.k], y[self.k:]
-        try:
-            q, qd, J, b = self._kin(t, u, ud)
-        except (ValueError, ZeroDivisionError, OverflowError) as exc:   # math.sqrt(-1), 1/0 ...
-            raise SingularChartError(np.inf, u.tolist(), f"the chart cannot be evaluated ({exc}); "
-                                     "outside its domain") from None
+        u, ud = self._split(y)
+        q, qd, J, b = self._eval(t, u, ud)
         # BEGIN SOLUTION ReducedSystem._solve
         Q = self._forces(t, q, qd)
         mJ = self.m[:, None] * J
@@ -274,17 +319,26 @@ class ReducedSystem:
         return udd, q, qd, J, b, Q
         # END SOLUTION
 
+    @contract(t=_TIME, y=_STATE)
     def rhs(self, t: float, y) -> np.ndarray:
         """dy/dt = [u̇, ü] with (JᵀMJ) ü = Jᵀ(Q − M b)."""
         self.nfev += 1
         udd = self._solve(t, y)[0]
         return np.concatenate([np.asarray(y, float)[self.k:], udd])
 
+    @contract(u=Array(("self.k",)), t=_TIME)
     def generalized_mass(self, u, t: float = 0.0) -> np.ndarray:
-        """JᵀMJ at u."""
-        _, _, J, _ = self._kin(t, np.asarray(u, float), np.zeros(self.k))
-        return J.T @ (self.m[:, None] * J)
+        """JᵀMJ at u (SingularChartError when it is not finite: outside the chart's domain, or an overflow)."""
+        u = np.asarray(u, float)
+        _, _, J, _ = self._eval(t, u, np.zeros(self.k))
+        with np.errstate(all="ignore"):
+            A = J.T @ (self.m[:, None] * J)
+        if not np.isfinite(A).all():
+            raise SingularChartError(np.inf, u.tolist(), "JᵀMJ is not finite (outside the chart's domain, or an "
+                                     "overflow)")
+        return A
 
+    @contract(t=_TIME, y=_STATE)
     def constraint_force(self, t: float, y) -> np.ndarray:
         """Q_C = M q̈ − Q (N, dim): the workless force that keeps the particles on the chart."""
         # BEGIN SOLUTION ReducedSystem.constraint_force
@@ -293,21 +347,29 @@ class ReducedSystem:
         # END SOLUTION
 
     # -- energy ---------------------------------------------------------------------------------
+    @contract(y=_STATE, t=_TIME)
     def kinetic_energy(self, y, t: float = 0.0) -> float:
-        yp = self.particle_state(y, t)
-        return self.particles.kinetic_energy(yp)
+        """T = ½ q̇ᵀMq̇ of the particles (NonFiniteResult when it overflows)."""
+        yp = self._particle_state(y, t)
+        return float(check_result("kinetic_energy", self.particles.kinetic_energy(yp)))
 
+    @contract(y=_STATE, t=_TIME)
     def potential_energy(self, y, t: float = 0.0) -> float:
-        yp = self.particle_state(y, t)
-        return float(sum(e.potential_energy(yp) for e in self.forces
-                         if callable(getattr(e, "potential_energy", None))))
+        """ΣV of the force effects that have a potential (NonFiniteResult when it overflows)."""
+        yp = self._particle_state(y, t)
+        return float(check_result("potential_energy", sum(e.potential_energy(yp) for e in self.forces
+                                                          if callable(getattr(e, "potential_energy", None)))))
 
+    @contract(y=_STATE, t=_TIME)
     def energy(self, y, t: float = 0.0) -> float:
         """E = T + ΣV of the particles at the state's q(u), q̇."""
-        return self.kinetic_energy(y, t) + self.potential_energy(y, t)
+        return float(check_result("energy", self.kinetic_energy(y, t) + self.potential_energy(y, t)))
 
+    @contract(t_end=Real(gt=0), h=Real(gt=0), method=METHOD, y0=Opt(_STATE), record_every=Int(ge=1),
+              max_steps=Opt(Int(ge=1)))
     def simulate(self, t_end: float, h: float, method: str = "implicit_midpoint", y0: Any = None,
-                 record_every: int = 1):
-        """Fixed-step run (:func:`simulate_fixed`) recording E; returns a :class:`pbanim.results.SimResult`."""
+                 record_every: int = 1, max_steps: int | None = None):
+        """Fixed-step run (:func:`simulate_fixed`) recording E; returns a :class:`pbanim.results.SimResult`
+        (``max_steps``: the cap on the number of steps, checked before the first)."""
         return simulate_fixed(self.rhs, self.state() if y0 is None else y0, t_end, h, method,
-                              energy=self.energy, record_every=record_every)
+                              energy=self.energy, record_every=record_every, max_steps=max_steps)
