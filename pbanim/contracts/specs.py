@@ -58,7 +58,7 @@ def short(value, limit: int = 60) -> str:
     """``repr(value)`` cut to ``limit`` characters; arrays as their shape and dtype when large."""
     if isinstance(value, np.ndarray) and value.size > 6:
         return f"an array of shape {value.shape} and dtype {value.dtype}"
-    text = repr(value)
+    text = " ".join(repr(value).split())     # one line
     return text if len(text) <= limit else text[:limit] + "..."
 
 
@@ -288,7 +288,8 @@ class Index(Spec):
 
 # -- arrays ----------------------------------------------------------------------------------------------
 _F64 = np.dtype(float)
-_MIN, _MAX, _SUM, _isfinite = np.minimum.reduce, np.maximum.reduce, np.add.reduce, math.isfinite
+_MIN, _MAX, _ISFINITE, _isfinite = np.minimum.reduce, np.maximum.reduce, np.isfinite, math.isfinite
+_ALL = np.logical_and.reduce
 
 
 def _seeded(label: str) -> np.random.Generator:
@@ -376,8 +377,8 @@ class Array(Spec):
                                "it has NaN entries")
             if not (self.bounds.inside(lo) and self.bounds.inside(hi)):
                 raise env.fail(name, self.describe(env), value, f"entries range over [{lo:g}, {hi:g}]")
-        elif self.finite:       # a sum is NaN or inf when an entry is (or, rarely, when it overflows)
-            if not _isfinite(_SUM(a, None)) and not np.isfinite(a).all():
+        elif self.finite:
+            if not _ALL(_ISFINITE(a), None):
                 raise env.fail(name, self.describe(env), value, "it has NaN or inf entries")
         elif not self.nan and np.isnan(a).any():
             raise env.fail(name, self.describe(env), value, "it has NaN entries")
