@@ -36,14 +36,17 @@ M               ``M``                  metric of the update (SPD), default 𝟙
 ε               ``restitution``        coefficient of restitution
 ==============  =====================  ==========================================================
 
-Limiting cases: without impacts S is smooth and ∂x/∂v₀ = t𝟙; at a grazing impact S is not differentiable
-(reported, never silent); with as many independent goal rows as parameters the min-norm update is the
-Newton step δu = A⁻¹δq.
+Limiting cases: without impacts S is smooth and ∂x/∂v₀ = t𝟙; at a grazing impact or a tangent touch S is
+not differentiable (reported, never silent); a ball whose bounces die out rests on the floor (the Zeno time
+of ORACLES D1), never sinks through it; with as many independent goal rows as parameters the min-norm update
+is the Newton step δu = A⁻¹δq.
 
 Parts: :mod:`pbanim.design.scene` (the scene, u ↔ names), :mod:`pbanim.design.flight` (free flight and its
 variational equations), :mod:`pbanim.design.impact` (impulses and the saltation jump),
 :mod:`pbanim.design.exact` (the closed-form flight of spheres: exact S, ∂S/∂u and impact times, the default
-where it applies), :mod:`pbanim.design.simulate` (S and ∂S/∂u), :mod:`pbanim.design.check` (finite
+where it applies), :mod:`pbanim.design.rest` (resting contact, touches, the certificate),
+:mod:`pbanim.design.simulate` (S and ∂S/∂u), :mod:`pbanim.design.trajectory` (its result),
+:mod:`pbanim.design.specs` (what the arguments must be), :mod:`pbanim.design.check` (finite
 differences with Richardson extrapolation), :mod:`pbanim.design.control` (goals, the min-norm update, edits,
 dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unknowns),
 :mod:`pbanim.design.multiple` (multiple shooting on a sliding time grid started from the sketch).
@@ -57,14 +60,16 @@ ch. 4 (shooting); R. Stengel, *Optimal Control and Estimation* (1994).
 
 from __future__ import annotations
 
-from .scene import (DesignBody, DesignScene, GrazingImpactWarning, TooManyImpacts, UnknownParameter,
-                    left_jacobian, xi)
+from .scene import (DesignBody, DesignScene, GrazingImpactWarning, PenetrationError, RestingContactError,
+                    TooManyImpacts, UncertifiedTrajectory, UnknownParameter, left_jacobian, xi)
 from .flight import FlightModel, augmented_step, flight_rhs, flight_tangent
 from .impact import Impact, apply_impact
 from .exact import exact_applies, first_impact, flight_map
-from .simulate import Trajectory, quat_log, simulate
+from .rest import Rest
+from .trajectory import Trajectory
+from .simulate import quat_log, simulate
 
-__all__ = ["DesignBody", "DesignScene", "UnknownParameter", "TooManyImpacts", "GrazingImpactWarning",
-           "left_jacobian", "xi", "FlightModel", "flight_rhs", "flight_tangent", "augmented_step",
-           "Impact", "apply_impact", "Trajectory", "simulate", "quat_log", "flight_map", "first_impact",
-           "exact_applies"]
+__all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajectory", "TooManyImpacts",
+           "RestingContactError", "PenetrationError", "GrazingImpactWarning", "left_jacobian", "xi", "FlightModel",
+           "flight_rhs", "flight_tangent", "augmented_step", "Impact", "apply_impact", "Trajectory", "Rest",
+           "simulate", "quat_log", "flight_map", "first_impact", "exact_applies"]

@@ -46,12 +46,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..collision import Sphere
+from ..contracts import Array, Obj, Opt, Real, contract, finite_result
+from ..errors import InvalidInput
 from ..rigid import quat_exp, quat_multiply, quat_to_matrix, skew
 from .flight import FlightModel, _qdot, rotation_tangent
-from .impact import saltation_post
-from .scene import TooManyImpacts
+from .impact import Features, saltation_post
+from .scene import DesignScene, TooManyImpacts
+from .specs import DesignState, ParameterNames, UnitRows
 
-__all__ = ["exact_reason", "exact_applies", "flight_map", "first_impact", "ExactFlight"]
+__all__ = ["exact_reason", "exact_applies", "flight_map", "first_impact", "next_events", "ExactFlight"]
 
 
 def exact_reason(scene, model: FlightModel) -> str:
@@ -67,6 +70,7 @@ def exact_reason(scene, model: FlightModel) -> str:
     return ""
 
 
+@contract(scene=Obj(DesignScene), names=ParameterNames("scene", empty=True))
 def exact_applies(scene, names=()) -> bool:
     """Whether :func:`pbanim.design.simulate` flies ``scene`` in closed form with free parameters ``names``
     (the nominal inertias decide; callers that record no states may then take one grid step per span)."""
@@ -85,6 +89,8 @@ def _left_jacobians(theta: np.ndarray) -> np.ndarray:
     return np.eye(3) + c1[:, None, None] * S + c2[:, None, None] * (S @ S)
 
 
+@contract(model=Obj(FlightModel), y=DesignState(), T=Opt(Array(("model.n_params", "model.n_state"), empty=True)),
+          tau=Real(), returns=finite_result)
 def flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: float):
     """(y(τ), T(τ)): the closed-form flight of the module docstring (new arrays; ``T`` may be None)."""
     N = model.N
@@ -132,27 +138,94 @@ def _first_down_root(a, b, c, tol, horizon):
     return np.where(ok, roots, np.inf).min(axis=0)
 
 
+@contract(feat=Obj(Features), model=Obj(FlightModel), y=DesignState(), normals=UnitRows(("feat.n_planes", 3), empty=True),
+          horizon=Real(gt=0, finite=False), tol=Real(ge=0))
 def first_impact(feat, model: FlightModel, y: np.ndarray, normals: np.ndarray, horizon: float, tol: float):
     """(τ, feature) of the first impact within ``horizon`` of exact flight from y, or None."""
+    if feat.n_bodies != model.N:
+        raise InvalidInput(f"first_impact: feat was built for {feat.n_bodies} bodies, model has N = {model.N}")
+    return next_events(feat, model, y, normals, horizon, tol)[0]
+
+
+def _touch_at_vertex(a, b, c, tol, horizon, roots):
+    """Tangent touches of convex quadratics a τ² + b τ + c that never fall through zero: the vertex, within
+    ``tol`` above zero, inside (0, horizon], from a gap above ``tol``; +inf where there is none."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tv = np.where(a > 0, -b / (2.0 * a), np.inf)
+        low = c - b * b / (4.0 * a)
+        ok = (a > 0) & (tv > 0) & (tv <= horizon) & (c > tol) & (low <= tol) & ~np.isfinite(roots)
+    return np.where(ok, tv, np.inf)
+
+
+def _quartic_events(coef, tol, horizon):
+    """(first falling root, first touch) of p(τ) = Σ coef[i] τ^(4−i) after it was above ``tol`` (a pair of
+    spheres of which one rests: they accelerate differently, the squared gap is a quartic)."""
+    def real_in(r):
+        r = r[np.abs(r.imag) <= 1e-7 * np.maximum(1.0, np.abs(r.real))].real
+        return np.sort(r[(r > 0) & (r <= horizon)])
+
+    dp, ddp = np.polyder(coef), np.polyder(coef, 2)
+    crit = real_in(np.roots(dp)) if np.any(dp) else np.zeros(0)
+    roots = []
+    for r in real_in(np.roots(coef)) if np.any(coef[:-1]) else []:
+        for _ in range(2):                               # polish (np.roots is an eigenvalue solve)
+            d = np.polyval(dp, r)
+            r = r - np.polyval(coef, r) / d if d != 0 else r
+        roots.append(r)
+    up = coef[-1] > tol
+    for t_, kind in sorted([(r, "root") for r in roots] + [(c, "crit") for c in crit]):
+        if kind == "crit":
+            v = np.polyval(coef, t_)
+            if v > tol:
+                up = True
+            elif up and v >= -tol and np.polyval(ddp, t_) > 0:
+                return np.inf, t_                         # down to zero and back: a touch
+        elif up and np.polyval(dp, t_) < 0:
+            return t_, np.inf
+    return np.inf, np.inf
+
+
+def next_events(feat, model: FlightModel, y: np.ndarray, normals: np.ndarray, horizon: float, tol: float,
+                G: np.ndarray | None = None, skip: np.ndarray | None = None):
+    """((τ, feature) of the first impact or None, [(τ, feature)] of the tangent touches before it) in exact
+    flight from y, each body accelerating with G (N, 3) (default g: resting spheres slide with g − (n·g)n);
+    features where ``skip`` is True (the resting ones) never fire."""
     N = model.N
+    G = np.tile(model.g, (N, 1)) if G is None else G
     x, v = y[:3 * N].reshape(N, 3), model.W[:, None] * y[7 * N:10 * N].reshape(N, 3)
-    out = []
+    hits, touch = [], []
     if feat.n_plane:
         n = normals[feat.plane]
         i = feat.body
         c = np.einsum("fi,fi->f", n, x[i] - feat.anchors[feat.plane]) - feat.rad
-        out.append(_first_down_root(0.5 * (n @ model.g), np.einsum("fi,fi->f", n, v[i]), c, tol, horizon))
+        a, b = 0.5 * np.einsum("fi,fi->f", n, G[i]), np.einsum("fi,fi->f", n, v[i])
+        r = _first_down_root(a, b, c, tol, horizon)
+        hits.append(r)
+        touch.append(_touch_at_vertex(a, b, c, tol, horizon, r))
     if len(feat.pairs):
         A, B = feat.pairs[:, 0], feat.pairs[:, 1]
-        d, w = x[A] - x[B], v[A] - v[B]
+        d, w, dg = x[A] - x[B], v[A] - v[B], 0.5 * (G[A] - G[B])
         Rs = feat.radius[A] + feat.radius[B]
-        out.append(_first_down_root(np.sum(w * w, axis=1), 2.0 * np.sum(d * w, axis=1),
-                                    np.sum(d * d, axis=1) - Rs * Rs, 2.0 * Rs * tol + tol * tol, horizon))
-    roots = np.concatenate(out) if out else np.zeros(0)
-    if roots.size == 0 or not np.isfinite(roots.min()):
-        return None
-    k = int(np.argmin(roots))
-    return float(roots[k]), k
+        tq = 2.0 * Rs * tol + tol * tol
+        a, b, c = np.sum(w * w, axis=1), 2.0 * np.sum(d * w, axis=1), np.sum(d * d, axis=1) - Rs * Rs
+        r = _first_down_root(a, b, c, tq, horizon)
+        tt = _touch_at_vertex(a, b, c, tq, horizon, r)
+        for f in np.flatnonzero(np.any(dg != 0, axis=1)):  # |d + wτ + ½Δg τ²|² − R²: a quartic
+            coef = np.array([dg[f] @ dg[f], 2.0 * w[f] @ dg[f], a[f] + 2.0 * d[f] @ dg[f], b[f], c[f]])
+            r[f], tt[f] = _quartic_events(coef, tq[f], horizon)
+        hits.append(r)
+        touch.append(tt)
+    roots = np.concatenate(hits) if hits else np.zeros(0)
+    touches = np.concatenate(touch) if touch else np.zeros(0)
+    if skip is not None and roots.size:
+        roots, touches = np.where(skip, np.inf, roots), np.where(skip, np.inf, touches)
+    first = None
+    if roots.size and np.isfinite(roots.min()):
+        k = int(np.argmin(roots))
+        first = (float(roots[k]), k)
+    limit = first[0] if first else np.inf
+    out = sorted((float(touches[k]), int(k)) for k in np.flatnonzero(touches < limit))
+    return first, out
 
 
 class ExactFlight:
@@ -160,38 +233,49 @@ class ExactFlight:
     sensitivities at an *anchor* (the start or the last impact) and flying from there in closed form.
 
     The flow is exact, hence a group: the state at any time is the anchor's flight map, and the next
-    impact time, computed once per anchor (the quadratic roots), holds until it happens. A grid step
+    impact time, computed once per anchor (the polynomial roots), holds until it happens. A grid step
     therefore costs one state map; the sensitivities move only at impacts (:meth:`advance`, with
     ``resolve(k, t, y⁻, T⁻, rate)`` applying the jump, rate None: the exact flow's f, then −f⁺δτ) and
     at output times (:meth:`current`). The driver carries the state alone; ``advance`` reads its own
-    anchor, not the ``y`` it is handed (which is always the state it returned last).
+    anchor, not the ``y`` it is handed (which is always the state it returned last). Resting spheres
+    (``contacts``, :mod:`pbanim.design.rest`) fly the same map, projected onto their planes; tangent
+    touches found at an anchor are recorded as the run passes them.
     """
 
-    def __init__(self, model, feat, normals, resolve, t0: float, y: np.ndarray, T, contact_tol: float,
+    def __init__(self, model, feat, normals, resolve, t0: float, y: np.ndarray, T, contacts,
                  max_impacts: int) -> None:
         self.model, self.feat, self.normals, self.resolve = model, feat, normals, resolve
-        self.contact_tol, self.cap = contact_tol, 4 * int(max_impacts) + 4
+        self.contacts, self.cap = contacts, 4 * int(max_impacts) + 4
         self._anchor(float(t0), y, T)
 
     def _anchor(self, t, y, T) -> None:
         self.t_a, self.y_a, self.T_a = t, y, T
-        N = self.model.N
-        tol = self.contact_tol * max(1.0, float(np.abs(y[:3 * N]).max()))
-        self.next = first_impact(self.feat, self.model, y, self.normals, np.inf, tol)
+        c = self.contacts
+        self.next, touches = next_events(self.feat, self.model, y, self.normals, np.inf, c.tol(y), c.gravity(),
+                                         c.mask())
+        self.pending = [(t + tau, k) for tau, k in touches]
 
     def current(self, t: float):
         """(y(t), T(t)) between the anchor and the next impact."""
-        return flight_map(self.model, self.y_a, self.T_a, t - self.t_a)
+        return self.contacts.project(*flight_map(self.model, self.y_a, self.T_a, t - self.t_a))
+
+    def _touches_until(self, t1) -> None:
+        while self.pending and self.pending[0][0] <= t1:
+            tt, k = self.pending.pop(0)
+            self.contacts.touch(k, tt)
 
     def advance(self, t, y, hk):
         t1 = t + hk
         for _ in range(self.cap):
             if self.next is None or self.t_a + self.next[0] > t1:
-                return flight_map(self.model, self.y_a, None, t1 - self.t_a)[0]
+                self._touches_until(t1)
+                return self.contacts.project(flight_map(self.model, self.y_a, None, t1 - self.t_a)[0])[0]
             te = self.t_a + self.next[0]
+            self._touches_until(te)
             ye, Te = self.current(te)
             yy, TT, dtau = self.resolve(self.next[1], te, ye, Te, None)
             if TT is not None:
                 TT = saltation_post(self.model, yy, TT, dtau)
+            self.contacts.project(yy, TT)
             self._anchor(te, yy, TT)
         raise TooManyImpacts(self.cap, self.t_a)

@@ -45,18 +45,28 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..contracts import Array, Int, Obj, Real, contract, finite_result
 from ..ode import rk4_step
 from ..geometry import skew
 from ..rigid import quat_to_matrix
 from .scene import xi
+from .specs import DesignState
 
 __all__ = ["FlightModel", "flight_rhs", "flight_tangent", "augmented_step", "plain_step", "normalize",
            "step_rate", "flight_jacobian", "flight_tangent_readable"]
 
 
+def _p(env) -> int:
+    """p, the rows of dW (a shape entry: a reference, since a shape cannot mix symbols and references)."""
+    return int(np.shape(env.values["dW"])[0])
+
+
+@contract(N=Int(ge=1), W=Array(("$N",), gt=0), m=Array(("$N",), gt=0), Iinv=Array(("$N", 3), gt=0), g=Array((3,)),
+          dW=Array((None, "$N"), empty=True), dm=Array((_p, "$N"), empty=True), dIinv=Array((_p, "$N", 3), empty=True))
 @dataclass
 class FlightModel:
-    """The constants of free flight for one evaluation of S(t, u) and their parameter derivatives."""
+    """The constants of free flight for one evaluation of S(t, u) and their parameter derivatives (W = 1/m
+    is the caller's to keep; the flight reads both)."""
 
     N: int
     W: np.ndarray
@@ -66,6 +76,16 @@ class FlightModel:
     dW: np.ndarray       # (p, N)
     dm: np.ndarray       # (p, N)
     dIinv: np.ndarray    # (p, N, 3)
+
+    @property
+    def n_state(self) -> int:
+        """Length of a state y = [x, q, P, L]: 13N."""
+        return 13 * self.N
+
+    @property
+    def n_params(self) -> int:
+        """p, the number of parameters whose tangents the model carries (rows of T)."""
+        return int(self.dW.shape[0])
 
 
 _EYE3 = np.eye(3)
@@ -94,6 +114,11 @@ def _qdot(q, w):
     return 0.5 * np.concatenate([-np.sum(w * v, axis=-1, keepdims=True), q[..., :1] * w + _cross(w, v)], axis=-1)
 
 
+_MODEL = Obj(FlightModel)
+_TANGENTS = Array(("model.n_params", "model.n_state"), empty=True)
+
+
+@contract(model=_MODEL, y=DesignState(), returns=finite_result)
 def flight_rhs(model: FlightModel, y: np.ndarray) -> np.ndarray:
     """f(y): the free-flight derivative of the state (same numbers as ``RigidBodies.derivative`` with gravity)."""
     N = model.N
@@ -149,6 +174,7 @@ def flight_jacobian(model: FlightModel, y: np.ndarray) -> tuple[np.ndarray, np.n
     return f, A, (R, X, Lb, P)
 
 
+@contract(model=_MODEL, y=DesignState(), T=_TANGENTS, returns=finite_result)
 def flight_tangent(model: FlightModel, y: np.ndarray, T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(f(y), Ṫ): the state derivative and the variational equations Ṫ = T (∂f/∂y)ᵀ + ∂f/∂u for the
     tangent rows T (p, 13N) (the formulas of the module docstring, as one matrix)."""
@@ -202,6 +228,7 @@ def plain_step(model: FlightModel, y: np.ndarray, h: float) -> np.ndarray:
     return normalize(y1, None, model.N)[0]
 
 
+@contract(model=_MODEL, y=DesignState(), T=_TANGENTS, h=Real(ge=0), returns=finite_result)
 def augmented_step(model: FlightModel, y: np.ndarray, T: np.ndarray, h: float):
     """One RK4 step of (y, Φᵀ) together, then the unit-norm projection: the exact derivative of
     :func:`plain_step` (the same stages, linearized)."""

@@ -49,15 +49,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..collision import Contacts, ImpulseBodies, Sphere, collision_matrix, contact_impulse, contact_velocity
+from ..contracts import Array, Flag, Index, Obj, Opt, Real, contract, finite_result
+from ..errors import InvalidInput
 from ..geometry import cross
 from ..rigid import quat_to_matrix
 from .flight import FlightModel, flight_rhs, omega_tangent, rotation_tangent
+from .specs import DesignState, UnitRows
 
 __all__ = ["Features", "Impact", "gaps", "apply_impact", "saltation_post"]
 
 
 @dataclass
-class Impact:
+class Impact:                   # a record pbanim builds (simulate) and users read
     """One impact of a trajectory: when, which feature, how fast, and whether S is smooth there."""
 
     t: float
@@ -89,9 +92,15 @@ class Features:
         self.radius = scene.radius
         self.anchors = scene.anchors
         self.n_plane = len(self.body)
+        self.n_bodies, self.n_planes = scene.N, len(scene.planes)
 
     def __len__(self) -> int:
         return self.n_plane + len(self.pairs)
+
+    @property
+    def n_features(self) -> int:
+        """Plane features (one per sphere and plane, one per box vertex and plane), then sphere pairs."""
+        return len(self)
 
 
 def gaps(feat: Features, y: np.ndarray, N: int, normals: np.ndarray) -> np.ndarray:
@@ -116,6 +125,11 @@ def _body(y, T, N, i):
     return [y[s] for s in parts], [T[:, s] for s in parts], parts
 
 
+@contract(model=Obj(FlightModel), feat=Obj(Features), k=Index("feat.n_features"), t=Real(), y=DesignState(),
+          T=Opt(Array(("model.n_params", "model.n_state"), empty=True)), normals=UnitRows(("feat.n_planes", 3), empty=True),
+          dnormals=Opt(Array(("model.n_params", "feat.n_planes", 3), empty=True)), eps=Real(ge=0, le=1),
+          deps=Opt(Array(("model.n_params",), empty=True)), locate=Flag(), rate=Opt(Array(("model.n_state",))),
+          returns=finite_result)
 def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.ndarray, T: np.ndarray | None,
                  normals: np.ndarray, dnormals: np.ndarray | None, eps: float, deps: np.ndarray | None,
                  locate: bool = True, rate: np.ndarray | None = None):
@@ -127,8 +141,14 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
     state at the event (default f(y⁻), the continuous flow). T⁺ = G(T + rate δτ) + G_u *without* the
     −f⁺δτ of the saltation: the caller subtracts it (:func:`saltation_post`), or the exact rate of the
     step that follows the impact (:func:`pbanim.design.simulate.simulate`).
+
+    A feature that does not approach (v_rel ≥ 0) receives no impulse: y⁺ = y, T⁺ = T, δτ = 0 and
+    ``Impact.speed`` = −v_rel ≤ 0 (callers apply impacts to approaching features only). An impact with
+    ġ = 0 exactly has no finite δτ: it is marked grazing and δτ = 0 (S has no derivative there).
     """
     N = model.N
+    if feat.n_bodies != N:
+        raise InvalidInput(f"apply_impact: feat was built for {feat.n_bodies} bodies, model has N = {N}")
     p = 0 if T is None else T.shape[0]
     if k < feat.n_plane:
         a, b, kind, other = int(feat.body[k]), -1, "plane", int(feat.plane[k])
@@ -145,6 +165,8 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
     else:
         xb = y[3 * b:3 * b + 3]
         d = xa - xb
+        if not np.linalg.norm(d) > 0:
+            raise InvalidInput(f"apply_impact: y puts bodies {a} and {b} at the same centre: no contact normal")
         n = d / np.linalg.norm(d)
         point = xb + feat.radius[b] * n
     bodies_ab = [a] + ([b] if b >= 0 else [])
@@ -159,6 +181,9 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
     sgn = {a: 1.0, b: -1.0}
     vrel = sum(sgn[i] * (n @ v[i] + c[i] @ w[i]) for i in bodies_ab)
     kk = sum(W[i] + c[i] @ Iw_inv[i] @ c[i] for i in bodies_ab)
+    if not vrel < 0:                  # separating or sliding along: no impulse, nothing moves
+        return y.copy(), (None if T is None else T.copy()), Impact(float(t), kind, a, other, float(-vrel), 0.0), \
+            (None if T is None else np.zeros(p))
     j = -(1.0 + eps) * vrel / kk
     # ---- the value: chapter 6's impulse (Baraff), applied to the momenta
     ib = ImpulseBodies.make(x=[xs[i] for i in bodies_ab], v=[v[i] for i in bodies_ab],
@@ -185,6 +210,8 @@ def apply_impact(model: FlightModel, feat: Features, k: int, t: float, y: np.nda
         dg = (Ta[0] - T[:, 3 * b:3 * b + 3]) @ n
     # BEGIN SOLUTION apply_impact.event_time
     gdot = vrel if rate is None else _gap_rate(kind, qa, a, b, n, s_w if kind == "plane" else None, rate, N)
+    if gdot == 0.0:
+        impact.grazing, locate = True, False     # δτ = −δg/ġ is infinite: S has no derivative here
     dtau = -dg / gdot if locate else np.zeros(p)
     Ts = T + dtau[:, None] * f_minus[None]
     # END SOLUTION

@@ -39,11 +39,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..collision import Box, Plane, Sphere, check_restitution
-from ..errors import InvalidInput, PbanimError, as_floats, check_positive
+from ..contracts import Array, Flag, Int, Obj, Opt, Real, Seq, contract, finite_result
+from ..errors import InvalidInput, PbanimError
 from ..rigid import quat_exp, quat_multiply, quat_normalize, quat_to_matrix, skew
+from .specs import ParameterNames, Quaternion, u_size
 
-__all__ = ["DesignBody", "DesignScene", "UnknownParameter", "TooManyImpacts", "GrazingImpactWarning",
-           "left_jacobian", "xi"]
+__all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajectory", "TooManyImpacts",
+           "RestingContactError", "PenetrationError", "GrazingImpactWarning", "left_jacobian", "xi"]
 
 
 class UnknownParameter(InvalidInput, KeyError):
@@ -53,19 +55,36 @@ class UnknownParameter(InvalidInput, KeyError):
         return str(self.args[0])
 
 
-class TooManyImpacts(PbanimError, RuntimeError):
-    """More impacts than the cap (a body coming to rest bounces infinitely often: Zeno)."""
+class UncertifiedTrajectory(PbanimError, RuntimeError):
+    """S(t, u) has no certified value here: the run cannot go on without a result that could be wrong (too
+    many impacts, a resting contact the model does not have, a state inside an obstacle)."""
+
+
+class TooManyImpacts(UncertifiedTrajectory):
+    """More impacts than the cap (bounces that accumulate faster than ``rest_speed`` ends them: Zeno)."""
 
     def __init__(self, count: int, t: float) -> None:
         self.count, self.t = int(count), float(t)
-        super().__init__(f"more than {count} impacts by t = {t:.6g}: the body is coming to rest (Zeno); "
-                         "S(t, u) is not differentiable there — shorten t_end or raise max_impacts")
+        super().__init__(f"more than {count} impacts by t = {t:.6g}: the bounces accumulate (Zeno, ORACLES D1) "
+                         "before the rebound speed falls below rest_speed; raise rest_speed or max_impacts, or "
+                         "shorten t_end")
+
+
+class RestingContactError(UncertifiedTrajectory):
+    """A contact that would have to rest (touching, slower than ``rest_speed``, pressed in) where the design
+    model has no resting contact: a box's vertex, two bodies, or a sphere on two planes at once."""
+
+
+class PenetrationError(UncertifiedTrajectory):
+    """The certificate of a trajectory failed: a recorded state lies inside a plane or another body by more
+    than ``penetration_tol``."""
 
 
 class GrazingImpactWarning(UserWarning):
     """An impact with (nearly) zero approach speed, or two contacts at once: S(t, u) is not differentiable."""
 
 
+@contract(q=Array((4,), batch="first"))
 def xi(q: np.ndarray) -> np.ndarray:
     """Ξ(q) (..., 4, 3) with (0, ω) ⊗ q = Ξ(q) ω; Ξᵀ Ξ = |q|² 𝟙 and δφ = 2 Ξ(q)ᵀ δq / |q|².
 
@@ -81,6 +100,7 @@ def xi(q: np.ndarray) -> np.ndarray:
     return X
 
 
+@contract(theta=Array((3,)), returns=finite_result)
 def left_jacobian(theta) -> np.ndarray:
     """J_l(θ) of SO(3) (3, 3): exp(θ + δθ) = exp(J_l δθ) exp(θ) to first order (series near a = 0)."""
     th = np.asarray(theta, dtype=float)
@@ -93,10 +113,15 @@ def left_jacobian(theta) -> np.ndarray:
     return np.eye(3) + c1 * S + c2 * (S @ S)
 
 
+_VEC3 = Array((3,))
+
+
+@contract(shape=Obj(Sphere, Box, what="a pbanim.collision Sphere or Box"), mass=Real(gt=0), position=_VEC3,
+          orientation=Quaternion(), velocity=_VEC3, angular_velocity=_VEC3, inertia=Opt(Array((3,), gt=0)))
 @dataclass
 class DesignBody:
     """One rigid body of a design scene: a :class:`~pbanim.collision.Sphere` or :class:`~pbanim.collision.Box`
-    with its mass, principal moments (default: the shape's) and initial state."""
+    with its mass, principal moments (default: the shape's; I₁ + I₂ ≥ I₃ in any order) and initial state."""
 
     shape: object
     mass: float = 1.0
@@ -106,31 +131,28 @@ class DesignBody:
     angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     inertia: np.ndarray | None = None
 
-    def __post_init__(self) -> None:
-        if not isinstance(self.shape, (Sphere, Box)):
-            raise InvalidInput(f"shape must be a pbanim.collision Sphere or Box, got {type(self.shape).__name__}")
-        self.mass = check_positive("mass", self.mass)
+    def __post_init__(self) -> None:     # the contract checked the arguments; here: conversions and I₁ + I₂ ≥ I₃
+        self.mass = float(self.mass)
         for name in ("position", "velocity", "angular_velocity"):
-            setattr(self, name, _vec3(name, getattr(self, name)))
-        q = as_floats("orientation", self.orientation).reshape(-1)
-        if q.shape != (4,):
-            raise InvalidInput(f"orientation must be a quaternion (w, x, y, z), got shape {q.shape}")
-        self.orientation = quat_normalize(q)
+            setattr(self, name, np.array(getattr(self, name), dtype=float).reshape(3))
+        self.orientation = quat_normalize(np.array(self.orientation, dtype=float).reshape(4))
         mom = np.diag(self.shape.inertia(self.mass)) if self.inertia is None else self.inertia
         self.inertia = _moments("inertia", mom)
 
 
 def _vec3(name: str, value) -> np.ndarray:
-    a = as_floats(name, value).reshape(-1)
+    a = np.array(value, dtype=float).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)):
         raise InvalidInput(f"{name} must be 3 finite numbers, got {value!r}")
     return a
 
 
 def _moments(name: str, value) -> np.ndarray:
-    a = as_floats(name, value).reshape(-1)
+    """Principal moments: 3 positive finite numbers with I₁ + I₂ ≥ I₃ (values that come from inside: a
+    shape's moments, a parameter vector u)."""
+    a = np.array(value, dtype=float).reshape(-1)
     if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(a <= 0):
-        raise InvalidInput(f"{name} must be 3 positive principal moments, got {value!r}")
+        raise InvalidInput(f"{name} must be 3 positive finite principal moments, got {value!r}")
     s = np.sort(a)
     if s[0] + s[1] < s[2] * (1 - 1e-12):
         raise InvalidInput(f"{name} violates the triangle inequality I1 + I2 >= I3: {a.tolist()}")
@@ -158,21 +180,17 @@ class DesignScene:
     (3, 1, ['x0', 'theta0', 'v0', 'omega0'])
     """
 
+    @contract(bodies=Seq(Obj(DesignBody), min_len=1), planes=Seq(Obj(Plane)), gravity=_VEC3,
+              restitution=Real(ge=0, le=1), body_collisions=Flag())
     def __init__(self, bodies, planes=(), gravity=(0.0, 0.0, -9.81), restitution: float = 0.8,
                  body_collisions: bool = True) -> None:
-        bodies = list(bodies)
-        if not bodies or not all(isinstance(b, DesignBody) for b in bodies):
-            raise InvalidInput(f"bodies must be a non-empty list of DesignBody, got {bodies!r}")
-        planes = list(planes)
-        if not all(isinstance(p, Plane) for p in planes):
-            raise InvalidInput("planes must be pbanim.collision.Plane objects")
-        self.bodies, self.planes = bodies, planes
-        self.N = len(bodies)
+        self.bodies, self.planes = list(bodies), list(planes)
+        self.N = len(self.bodies)
         self.gravity = _vec3("gravity", gravity)
         self.restitution = check_restitution(restitution)
         self.body_collisions = bool(body_collisions)
-        self.anchors = np.array([p.offset * p.normal for p in planes]).reshape(-1, 3)
-        self.radius = np.array([b.shape.radius if isinstance(b.shape, Sphere) else 0.0 for b in bodies])
+        self.anchors = np.array([p.offset * p.normal for p in self.planes]).reshape(-1, 3)
+        self.radius = np.array([b.shape.radius if isinstance(b.shape, Sphere) else 0.0 for b in self.bodies])
         self.nominal = self._nominal()
 
     # ----------------------------------------------------------------- names and nominal values
@@ -192,35 +210,37 @@ class DesignScene:
             d[f"normal{j}"] = p.normal.copy()
         return d
 
+    @contract(names=ParameterNames())
     def check_names(self, names) -> list[str]:
-        """``names`` as a list of known, distinct parameter names, or :class:`UnknownParameter`."""
-        if isinstance(names, str):
-            names = [names]
-        names = list(names)
+        """``names`` as a list of known, distinct parameter names, or :class:`UnknownParameter` (the contract
+        checks a call from outside; this body checks names that come from inside: a shooting's choice)."""
+        names = [names] if isinstance(names, str) else list(names)
         known = set(self.names())
         for n in names:
             if not isinstance(n, str) or n not in known:
                 raise UnknownParameter(f"parameter {n!r} does not exist; the scene has {self.names()}")
-        if len(set(names)) != len(names):
-            raise InvalidInput(f"parameter names must be distinct, got {names}")
-        if not names:
-            raise InvalidInput("need at least one free parameter name")
+        if len(set(names)) != len(names) or not names:
+            raise InvalidInput(f"parameter names must be distinct and at least one, got {names}")
         return names
 
+    @contract(name=ParameterNames(one=True))
     def size(self, name: str) -> int:
-        self.check_names([name])
+        """The length of the block ``name`` of u (1 for ``mass{i}`` and ``restitution``, else 3)."""
         return 1 if name == "restitution" or name.startswith("mass") else 3
 
+    @contract(names=ParameterNames())
     def vector(self, names) -> np.ndarray:
         """u: the nominal values of ``names`` concatenated."""
         return np.concatenate([self.nominal[n] for n in self.check_names(names)])
 
+    @contract(names=ParameterNames(), u=Array((u_size("self"),)))
     def values(self, names, u) -> dict:
-        """The full parameter dict with the blocks ``names`` taken from the vector ``u`` (checked)."""
+        """The full parameter dict with the blocks ``names`` taken from the vector ``u`` (checked: masses
+        and moments positive, I₁ + I₂ ≥ I₃, ε in [0, 1], normals non-zero)."""
         names = self.check_names(names)
-        u = as_floats("u", u).reshape(-1)
+        u = np.asarray(u, dtype=float).reshape(-1)
         n = sum(self.size(k) for k in names)
-        if u.size != n or not np.all(np.isfinite(u)):
+        if u.size != n or not np.all(np.isfinite(u)):        # u from inside: a shooting's iterate
             raise InvalidInput(f"u must hold {n} finite numbers for {names}, got shape {u.shape}"
                                f"{'' if np.all(np.isfinite(u)) else ' with NaN/inf'}")
         d = {k: v.copy() for k, v in self.nominal.items()}
@@ -232,6 +252,7 @@ class DesignScene:
         _check_values(d, self.N, len(self.planes))
         return d
 
+    @contract(names=ParameterNames())
     def slices(self, names) -> dict:
         """{name: slice of u}."""
         out, k0 = {}, 0
@@ -240,6 +261,7 @@ class DesignScene:
             k0 += self.size(k)
         return out
 
+    @contract(names=ParameterNames(), u=Array((u_size("self"),)))
     def with_values(self, names, u) -> "DesignScene":
         """A copy of the scene whose nominal values are those of ``u`` (an edit made permanent)."""
         d = self.values(names, u)
@@ -249,7 +271,7 @@ class DesignScene:
         return new
 
     # ----------------------------------------------------------------- u → y₀ and ∂y₀/∂u
-    def initial_state(self, d: dict, slices: dict, p: int):
+    def _initial_state(self, d: dict, slices: dict, p: int):
         """(y₀ (13N,), Φ₀ = ∂y₀/∂u (13N, p), model tangents) in Baraff's layout [x, q, P, L] (ORACLES H2)."""
         N = self.N
         y = np.zeros(13 * N)

@@ -14,10 +14,18 @@ of spheres (isotropic inertia, gravity only) fly in closed form instead (:mod:`p
 the same grid and driver, but each step is the exact flight map and impact times are quadratic roots —
 exact, and several times cheaper (``flight="auto"``, the default; ``"rk4"`` forces the general path).
 
-What the result offers for design: x_i(t), the orientation q_i(t), their derivatives ∂x/∂u (3 × p) and
-the orientation's in the tangent space, δφ = 2 Ξ(q)ᵀ δq (3 × p), the velocities v, ω and theirs, the
-impacts, and ``differentiable`` — False with a :class:`~pbanim.design.GrazingImpactWarning` when an
-impact grazed (approach speed below ``graze_speed``) or two contacts fired at once.
+What the result offers for design (:class:`~pbanim.design.Trajectory`): x_i(t), the orientation q_i(t),
+their derivatives ∂x/∂u (3 × p) and the orientation's in the tangent space, δφ = 2 Ξ(q)ᵀ δq (3 × p), the
+velocities v, ω and theirs, the impacts, and ``differentiable`` — False with a
+:class:`~pbanim.design.GrazingImpactWarning` when an impact grazed (approach speed below ``graze_speed``),
+two contacts fired at once, or a feature touched a plane or a body tangentially (a touch: no impulse).
+
+**Results certify themselves** (:mod:`pbanim.design.rest`): a sphere whose bounces die out rests on its
+plane (ORACLES D1; ``Trajectory.rests``), a contact that would have to rest where the model has no resting
+contact is a :class:`~pbanim.design.RestingContactError`, and every recorded state is checked to lie outside
+every plane and body (``Trajectory.clearance``, :class:`~pbanim.design.PenetrationError`): S(t, u) never
+ends inside an obstacle. A step in which a gap dips below zero and comes back (a ceiling, a passing
+sphere) is split at the hidden impact too (the Hermite cubic of (g, ġ) over the step finds the dip).
 
 Limiting cases: no planes gives a parabola for x and torque-free rotation; ε = 1 keeps the kinetic
 energy at every impact; a trajectory without impacts has ∂x(t)/∂v₀ = t 𝟙 (ORACLES H3).
@@ -29,21 +37,27 @@ References: Popović et al. SIGGRAPH 2000 §4 (S(t, u) and ∂S/∂u by simulati
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InvalidInput, as_floats, check_count, check_number
+from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, contract, finite_result
+from ..errors import InvalidInput, StepLimitExceeded, check_result
 from ..ode.driver import drive, step_grid
 from ..ode.events import crossings, make_events
-from .flight import FlightModel, augmented_step, omega_tangent, plain_step, rotation_tangent, step_rate
 from .exact import ExactFlight, exact_reason
-from .impact import Features, Impact, apply_impact, gaps, saltation_post
-from .scene import DesignScene, GrazingImpactWarning, TooManyImpacts
+from .flight import FlightModel, augmented_step, flight_rhs, plain_step, step_rate
+from .impact import Features, apply_impact, gaps, saltation_post
+from .rest import ContactState, clearance_of, gap_rates, hermite_dips, hermite_peak
+from .scene import DesignScene, GrazingImpactWarning, PenetrationError, RestingContactError, TooManyImpacts
+from .specs import ParameterNames, u_size
+from .trajectory import Trajectory, _key
 
 __all__ = ["Trajectory", "simulate", "quat_log"]
 
+FLIGHTS = ("auto", "rk4", "exact")
 
+
+@contract(q=Array((4,), batch="first"), returns=finite_result)
 def quat_log(q) -> np.ndarray:
     """The rotation vector of a unit quaternion (..., 4) → (..., 3), |angle| ≤ π (q and −q alike)."""
     q = np.asarray(q, dtype=float)
@@ -52,104 +66,6 @@ def quat_log(q) -> np.ndarray:
     ang = 2.0 * np.arctan2(s, q[..., :1])
     scale = np.where(s > 1e-12, ang / np.where(s > 1e-12, s, 1.0), 2.0 / np.maximum(q[..., :1], 1e-300))
     return scale * q[..., 1:]
-
-
-@dataclass
-class Trajectory:
-    """S(t, u) on the grid, and ∂S/∂u at the output times.
-
-    Attributes
-    ----------
-    t : (K,) grid times;  y : (K, 13N) states [x, q, P, L]
-    outputs : dict time → (y, Φᵀ (p, 13N)) at the requested output times and the end
-    impacts : list of Impact;  differentiable : bool
-    names, N, model, nsteps
-    flight : "exact" (closed-form sphere flight) or "rk4" — the path that computed it
-    """
-
-    t: np.ndarray
-    y: np.ndarray
-    outputs: dict
-    impacts: list
-    names: list
-    N: int
-    model: FlightModel
-    nsteps: int
-    differentiable: bool = True
-    notes: list = field(default_factory=list)
-    flight: str = "rk4"
-
-    def _out(self, t):
-        key = _key(t)
-        if key not in self.outputs:
-            raise InvalidInput(f"time {t} is not an output time of this trajectory; pass it in times= "
-                               f"(have {sorted(self.outputs)})")
-        return self.outputs[key]
-
-    def _body(self, i):
-        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.N:
-            raise InvalidInput(f"body must be an index in [0, {self.N}), got {i!r}")
-        return int(i)
-
-    def position(self, i: int, t: float) -> np.ndarray:
-        i = self._body(i)
-        return self._out(t)[0][3 * i:3 * i + 3].copy()
-
-    def orientation(self, i: int, t: float) -> np.ndarray:
-        i, N = self._body(i), self.N
-        return self._out(t)[0][3 * N + 4 * i:3 * N + 4 * i + 4].copy()
-
-    def d_position(self, i: int, t: float) -> np.ndarray:
-        """∂x_i(t)/∂u, shape (3, p)."""
-        i = self._body(i)
-        return self._sens(t)[:, 3 * i:3 * i + 3].T.copy()
-
-    def d_orientation(self, i: int, t: float) -> np.ndarray:
-        """∂φ_i(t)/∂u (3, p): the world rotation vector of δq, δφ = 2 Ξ(q)ᵀ δq / |q|²."""
-        i, N = self._body(i), self.N
-        y, T = self._out(t)[0], self._sens(t)
-        q = y[3 * N + 4 * i:3 * N + 4 * i + 4]
-        return rotation_tangent(q[None], T[:, None, 3 * N + 4 * i:3 * N + 4 * i + 4])[:, 0].T
-
-    def velocities(self, i: int, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(v_i, ω_i) at an output time."""
-        i, N, m = self._body(i), self.N, self.model
-        y = self._out(t)[0]
-        from ..rigid import quat_to_matrix
-        R = quat_to_matrix(y[3 * N + 4 * i:3 * N + 4 * i + 4])
-        L = y[10 * N + 3 * i:10 * N + 3 * i + 3]
-        return m.W[i] * y[7 * N + 3 * i:7 * N + 3 * i + 3], R @ (m.Iinv[i] * (R.T @ L))
-
-    def d_velocities(self, i: int, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """(∂v_i/∂u, ∂ω_i/∂u), each (3, p)."""
-        i, N, m = self._body(i), self.N, self.model
-        y, T = self._out(t)[0], self._sens(t)
-        from ..rigid import quat_to_matrix
-        q, P, L = y[3 * N + 4 * i:3 * N + 4 * i + 4], y[7 * N + 3 * i:7 * N + 3 * i + 3], y[10 * N + 3 * i:10 * N + 3 * i + 3]
-        R = quat_to_matrix(q)
-        Lb = R.T @ L
-        w = R @ (m.Iinv[i] * Lb)
-        dphi = self.d_orientation(i, t).T
-        sub = FlightModel(1, m.W[i:i + 1], m.m[i:i + 1], m.Iinv[i:i + 1], m.g, m.dW[:, i:i + 1], m.dm[:, i:i + 1],
-                          m.dIinv[:, i:i + 1])
-        dw = omega_tangent(sub, R[None], L[None], Lb[None], w[None], dphi[:, None], T[:, None, 10 * N + 3 * i:10 * N + 3 * i + 3])[:, 0]
-        dv = m.W[i] * T[:, 7 * N + 3 * i:7 * N + 3 * i + 3] + m.dW[:, i:i + 1] * P[None]
-        return dv.T, dw.T
-
-    def _sens(self, t):
-        T = self._out(t)[1]
-        if T is None:
-            raise InvalidInput("this trajectory was simulated with sensitivities=False; no ∂S/∂u to give")
-        return T
-
-    def positions(self, i: int) -> np.ndarray:
-        """x_i on the whole grid, (K, 3)."""
-        i = self._body(i)
-        return self.y[:, 3 * i:3 * i + 3]
-
-
-def _key(t) -> float:
-    return round(float(t), 12)
 
 
 def _feature_body(feat, k) -> int:
@@ -164,24 +80,39 @@ def _model(scene: DesignScene, d: dict, dm: np.ndarray, dIinv: np.ndarray) -> Fl
     return FlightModel(N, 1.0 / m, m, Iinv, scene.gravity, -dmT / (m * m)[None], dmT, dIT)
 
 
+@contract(scene=Obj(DesignScene), t_end=Real(), names=Opt(ParameterNames("scene")), u=Opt(Array((u_size(),))),
+          times=Array((None,), scalar=True, empty=True), h=Real(gt=0), t0=Real(), sensitivities=Flag(),
+          max_impacts=Int(ge=1), graze_speed=Real(ge=0), rest_speed=Real(ge=0), contact_tol=Real(gt=0, lt=1),
+          penetration_tol=Real(gt=0), warn=Flag(), check_start=Flag(), flight=Choice(FLIGHTS),
+          max_steps=Int(ge=1))
 def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), h: float = 0.005,
              t0: float = 0.0, sensitivities: bool = True, max_impacts: int = 100, graze_speed: float = 1e-3,
-             contact_tol: float = 1e-9, warn: bool = True, check_start: bool = True,
-             flight: str = "auto") -> Trajectory:
+             rest_speed: float = 1e-3, contact_tol: float = 1e-9, penetration_tol: float = 1e-6,
+             warn: bool = True, check_start: bool = True, flight: str = "auto",
+             max_steps: int = 100_000) -> Trajectory:
     """Run q(t) = S(t, u) from t0 to t_end (and ∂S/∂u when ``sensitivities``).
 
     Parameters
     ----------
     scene : DesignScene
-    t_end : float
+    t_end : float (after t0)
     names : list of parameter names (default: position, orientation, velocities of every body)
     u : vector of their values (default: the scene's nominal values)
     times : output times in [t0, t_end] where S and ∂S/∂u are kept (the end is always one)
     h : RK4 step; impacts split steps at their located times
-    check_start : refuse an initial state that penetrates (``False``: shooting iterates may, they fly on)
+    max_impacts : cap on the impacts (:class:`TooManyImpacts` beyond)
+    graze_speed : an impact approaching slower is grazing (S not differentiable there)
+    rest_speed : a sphere touching a plane that presses it in, with normal speed at most this, rests on it
+        (ORACLES D1, D10; :mod:`pbanim.design.rest`); 0 switches resting off (bounces then accumulate)
+    contact_tol : touching tolerance, relative to max(1, |x|∞)
+    penetration_tol : the certificate's tolerance, a length in the scene's units
+    check_start : refuse an initial state that penetrates, and raise :class:`PenetrationError` when the
+        certificate fails (``False``: shooting iterates may start inside, they fly on; the result then says
+        ``certified``)
     flight : ``"rk4"`` (the general RK4 flight), ``"exact"`` (the closed form of :mod:`pbanim.design.exact`:
         spheres, isotropic inertia, no inertia parameter; else :class:`InvalidInput`) or ``"auto"`` (exact
         when the scene allows it); the grid h then only sets where states are recorded
+    max_steps : cap on the grid steps, checked before the first (:class:`~pbanim.errors.StepLimitExceeded`)
 
     >>> from pbanim.collision import Plane, Sphere
     >>> from pbanim.design import DesignBody, DesignScene
@@ -190,25 +121,26 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
     >>> round(tr.impacts[0].t, 12)                           # √(2·1/10)
     0.447213595499
     """
-    if not isinstance(scene, DesignScene):
-        raise InvalidInput(f"scene must be a DesignScene, got {type(scene).__name__}")
     names = [f"{k}{i}" for i in range(scene.N) for k in ("x", "theta", "v", "omega")] if names is None else names
     names = scene.check_names(names)
     u = scene.vector(names) if u is None else u
     d = scene.values(names, u)
-    t0 = check_number("t0", t0)
-    t_end = check_number("t_end", t_end, low=t0, low_open=True)
-    h = check_number("h", h, low=0.0, low_open=True)
-    max_impacts = check_count("max_impacts", max_impacts)
-    if flight not in ("auto", "rk4", "exact"):
+    t0, t_end, h = float(t0), float(t_end), float(h)
+    if not t_end > t0:
+        raise InvalidInput(f"simulate: t_end must be after t0 = {t0:g}, got {t_end!r}")
+    if flight not in FLIGHTS:                                   # from inside: a shooting's choice
         raise InvalidInput(f"flight must be 'auto', 'rk4' or 'exact', got {flight!r}")
-    out_times = as_floats("times", times, ndmin=1).reshape(-1)
+    out_times = np.asarray(times, dtype=float).reshape(-1)
     bad = out_times[~((out_times >= t0) & (out_times <= t_end))]
     if bad.size:
-        raise InvalidInput(f"times must lie in the simulated span [{t0:g}, {t_end:g}], got {bad[0]!r}")
+        raise InvalidInput(f"simulate: times must lie in the simulated span [{t0:g}, {t_end:g}], got {bad[0]!r}")
+    breaks = np.unique(np.concatenate([[t0, t_end], out_times]))
+    grids = [step_grid(a, b, h, max_steps=max_steps) for a, b in zip(breaks[:-1], breaks[1:])]
+    if sum(g.n_steps for g in grids) > max_steps:
+        raise StepLimitExceeded(h, t_end - t0, sum(g.n_steps for g in grids), max_steps)
     sl = scene.slices(names)
     p = sum(s.stop - s.start for s in sl.values())
-    y, Phi, dm, dIinv = scene.initial_state(d, sl, p)
+    y, Phi, dm, dIinv = scene._initial_state(d, sl, p)
     model = _model(scene, d, dm, dIinv)
     N, n = scene.N, y.size
     T = Phi.T.copy() if sensitivities else None
@@ -228,78 +160,42 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
         k = int(np.argmin(g_start))
         raise InvalidInput(f"the initial state penetrates: feature {k} (body {_feature_body(feat, k)}) has gap "
                            f"{g_start[k]:.3e} < 0; start every body outside the planes and the other bodies")
-    impacts: list[Impact] = []
-    notes: list[str] = []
+    contacts = ContactState(scene, model, feat, nrm, dn, eps, rest_speed, contact_tol)
+    impacts: list = []
 
-    def pack(y, T):
-        return np.concatenate([y, T.ravel()]) if T is not None else y
-
-    def unpack(Y):
-        return Y[:n], (Y[n:].reshape(p, n) if sensitivities else None)
-
-    def step(yy, TT, hk):
-        if TT is None:
-            return plain_step(model, yy, hk), None
-        return augmented_step(model, yy, TT, hk)
+    def impulse(k, t, yy, TT):
+        """An impulse at an instant another impact (or the start) already fixed: no impact-time term."""
+        y2, T2, imp, _ = apply_impact(model, feat, k, t, yy, TT, nrm, dn, eps, deps, locate=False)
+        return y2, T2, imp
 
     def resolve(k, te, ye, Te, rate):
-        """Apply the impact of feature k at te (and any contact touching at the same instant)."""
+        """Apply the impact of feature k at te, then settle every contact touching at te."""
+        if Te is not None and contacts.on:      # a resting sphere's rate has no normal part
+            rate = contacts.project_rows(flight_rhs(model, ye) if rate is None else rate.copy())
         yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
-        g_e = gaps(feat, ye, N, nrm)
-        tol = contact_tol * max(1.0, float(np.abs(ye[:3 * N]).max()))
-        for kk in np.flatnonzero(np.abs(g_e) <= tol):
-            if kk == k:
-                continue          # touching at the same instant: resolve it too; S is not smooth here
-            yy2, TT2, imp2, _ = apply_impact(model, feat, int(kk), te, yy, TT, nrm, dn, eps, deps, locate=False)
-            if imp2.speed > 0:
-                yy, TT = yy2, TT2
-                imp.simultaneous = True
-        imp.grazing = imp.speed < graze_speed
+        imp.grazing = imp.grazing or imp.speed < graze_speed
         impacts.append(imp)
         if len(impacts) > max_impacts:
             raise TooManyImpacts(max_impacts, te)
+        yy, TT, extra = contacts.settle(te, yy, TT, impulse, hit=k)
+        imp.simultaneous = imp.simultaneous or bool(extra)
         return yy, TT, dtau
 
-    def rk4_advance(t, Y, hk):
-        """One grid step, split at every impact; δτ of an impact enters the sub-step after it as −rate·δτ."""
-        yy, TT = unpack(Y)
-        t1 = t + hk
-        dtau = None
-        g0 = gaps(feat, yy, N, nrm)
-        tol0 = contact_tol * max(1.0, float(np.abs(yy[:3 * N]).max()))   # just-touching features do not re-fire
-        for _ in range(4 * max_impacts + 4):
-            y1, T1 = step(yy, TT, t1 - t)
-            g1 = gaps(feat, y1, N, nrm)
-            hit = np.flatnonzero((g0 > tol0) & (g1 <= 0))
-            if hit.size == 0:
-                if dtau is not None:
-                    T1 -= np.outer(dtau, step_rate(model, yy, t1 - t))
-                return pack(y1, T1)
-            evs = make_events([(lambda tt, yv, k=k: float(gaps(feat, yv, N, nrm)[k])) for k in hit])
-            found = crossings(evs, g0[hit], t, yy, t1, y1, t1 - t, lambda s: plain_step(model, yy, s))
-            te, _, ev = found[0]
-            k = int(hit[evs.index(ev)])
-            ye, Te = step(yy, TT, te - t)
-            rate = None
-            if TT is not None:
-                rate = step_rate(model, yy, te - t)
-                if dtau is not None:
-                    Te -= np.outer(dtau, rate)
-            yy, TT, dtau = resolve(k, te, ye, Te, rate)
-            t = te
-            g0 = gaps(feat, yy, N, nrm)
-            if t1 - t <= 1e-14 * max(1.0, abs(t1)):
-                return pack(yy, None if TT is None else saltation_post(model, yy, TT, dtau))
-        raise TooManyImpacts(4 * max_impacts, t)
-
+    y, T, first = contacts.settle(t0, y, T, impulse)        # touching at the start: impacts, rests, touches
+    for imp in first:
+        imp.simultaneous = True                              # an impact at t0: one-sided in u
+        impacts.append(imp)
     reason = exact_reason(scene, model)
     if flight == "exact" and reason:
         raise InvalidInput(f"flight='exact' needs spheres with isotropic inertia and no inertia parameter: {reason}")
     use_exact = flight == "exact" or (flight == "auto" and not reason)
-    exact = ExactFlight(model, feat, nrm, resolve, t0, y, T, contact_tol, max_impacts) if use_exact else None
-    advance = exact.advance if use_exact else rk4_advance   # the exact path drives the state alone
+    if use_exact:
+        exact = ExactFlight(model, feat, nrm, resolve, t0, y, T, contacts, max_impacts)
+        advance = exact.advance                             # the exact path drives the state alone
+    else:
+        advance = _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities, max_impacts)
+    pack = (lambda yy, TT: np.concatenate([yy, TT.ravel()]) if TT is not None else yy)
 
-    breaks = np.unique(np.concatenate([[t0, t_end], out_times]))
     ts, ys = [t0], [y.copy()]
     outputs = {}
     if _key(t0) in {_key(v) for v in out_times}:
@@ -311,19 +207,127 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
         ts.append(t1)
         ys.append(Y1[:n].copy())
 
-    for a, b in zip(breaks[:-1], breaks[1:]):
-        grid = step_grid(a, b, h)
+    for b, grid in zip(breaks[1:], grids):
         _, Y, k, _ = drive(advance, grid, Y, record=record)
         nsteps += k
-        yy, TT = exact.current(b) if use_exact else unpack(Y)
-        outputs[_key(b)] = (yy.copy(), None if TT is None else TT.copy())
-    smooth = not any(i.grazing or i.simultaneous for i in impacts)
-    if not smooth:
-        bad_i = [i for i in impacts if i.grazing or i.simultaneous]
-        msg = (f"S(t, u) is not differentiable here: {len(bad_i)} impact(s) grazing or simultaneous, first at "
-               f"t = {bad_i[0].t:.6g} (approach speed {bad_i[0].speed:.3g} m/s)")
-        notes.append(msg)
-        if warn:
-            warnings.warn(msg, GrazingImpactWarning, stacklevel=2)
-    return Trajectory(np.array(ts), np.array(ys), outputs, impacts, names, N, model, nsteps, smooth, notes,
-                      "exact" if use_exact else "rk4")
+        yy, TT = exact.current(b) if use_exact else (Y[:n], Y[n:].reshape(p, n) if sensitivities else None)
+        outputs[_key(b)] = (yy.copy(), None if TT is None else check_result("∂S/∂u", TT.copy()))
+    return _certified(feat, nrm, N, ts, ys, outputs, impacts, contacts, names, model, nsteps,
+                      "exact" if use_exact else "rk4", penetration_tol, check_start, warn)
+
+
+def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities, max_impacts):
+    """``advance(t, Y, h)`` of the general path: one RK4 grid step of (y, Φᵀ), split at every impact; δτ of
+    an impact enters the sub-step after it as −rate·δτ; resting spheres are projected after every step."""
+    N = model.N
+
+    def step(yy, TT, hk, dtau):
+        if TT is None:
+            return contacts.project(plain_step(model, yy, hk), None)
+        y1, T1 = augmented_step(model, yy, TT, hk)
+        if dtau is not None:
+            T1 -= np.outer(dtau, contacts.project_rows(step_rate(model, yy, hk)))
+        return contacts.project(y1, T1)
+
+    def partial(yy, s0=0.0):
+        return lambda s: contacts.project(plain_step(model, yy, s0 + s))[0]
+
+    def gap_fn(k):
+        return make_events([lambda tt, yv: float(gaps(feat, yv, N, nrm)[k])])
+
+    def event(t, yy, y1, hk, tol0):
+        """The first impact in the step, (t_e, feature), or None, or "settle" (a touching contact sinks);
+        the tangent touches before it are recorded."""
+        skip = contacts.mask()
+        G = contacts.gravity()
+        g0, g1 = gaps(feat, yy, N, nrm), gaps(feat, y1, N, nrm)
+        found, touches = [], []
+        hit = np.flatnonzero((g0 > tol0) & (g1 <= 0) & ~skip)
+        if hit.size:
+            evs = make_events([(lambda tt, yv, k=k: float(gaps(feat, yv, N, nrm)[k])) for k in hit])
+            te, _, ev = crossings(evs, g0[hit], t, yy, t + hk, y1, hk, partial(yy))[0]
+            found.append((te, int(hit[evs.index(ev)])))
+        d0, d1 = gap_rates(feat, model, yy, nrm, G)[0], gap_rates(feat, model, y1, nrm, G)[0]
+        ks, ss = hermite_dips(np.where(skip, -np.inf, g0), d0, g1, d1, hk, tol0)
+        for k, s in zip(ks, ss):                # the gap dips inside the step: a touch, or in and out
+            ys = partial(yy)(s)
+            gk = float(gaps(feat, ys, N, nrm)[k])
+            if gk < 0:
+                found.append((crossings(gap_fn(k), [g0[k]], t, yy, t + s, ys, s, partial(yy))[0][0], int(k)))
+            elif gk <= tol0:
+                touches.append((t + s, int(k)))
+        for k in np.flatnonzero((np.abs(g0) <= tol0) & (g1 < -tol0) & ~skip):   # touching, then inside
+            s = hermite_peak(g0[k], d0[k], g1[k], d1[k], hk)
+            ys = partial(yy)(s)
+            gk = float(gaps(feat, ys, N, nrm)[k])
+            if gk <= tol0:
+                return "settle"
+            found.append((crossings(gap_fn(k), [gk], t + s, ys, t + hk, y1, hk - s, partial(yy, s))[0][0], int(k)))
+        te, k = min(found) if found else (np.inf, -1)
+        for tt, kk in touches:
+            if tt < te:
+                contacts.touch(kk, tt)
+        return (te, k) if found else None
+
+    def advance(t, Y, hk):
+        yy, TT = Y[:n], (Y[n:].reshape(p, n) if sensitivities else None)
+        t1 = t + hk
+        dtau, resettled = None, False
+        for _ in range(4 * max_impacts + 4):
+            y1, T1 = step(yy, TT, t1 - t, dtau)
+            ev = event(t, yy, y1, t1 - t, contacts.tol(yy))
+            if ev is None:
+                return np.concatenate([y1, T1.ravel()]) if T1 is not None else y1
+            if ev == "settle":
+                if resettled:
+                    raise RestingContactError(f"at t = {t:.6g} a touching contact sinks in and no impulse or "
+                                              "rest holds it: resting contact of this kind is not in the model")
+                yy, TT, _ = contacts.settle(t, yy, TT, impulse)
+                resettled = True
+                continue
+            te, k = ev
+            ye, Te = step(yy, TT, te - t, dtau)
+            yy, TT, dtau = resolve(k, te, ye, Te, None if TT is None else step_rate(model, yy, te - t))
+            t, resettled = te, False
+            if t1 - t <= 1e-14 * max(1.0, abs(t1)):
+                TT = None if TT is None else saltation_post(model, yy, TT, dtau)
+                yy, TT = contacts.project(yy, TT)
+                return np.concatenate([yy, TT.ravel()]) if TT is not None else yy
+        raise TooManyImpacts(4 * max_impacts, t)
+
+    return advance
+
+
+def _certified(feat, nrm, N, ts, ys, outputs, impacts, contacts, names, model, nsteps, flight, penetration_tol,
+               check_start, warn) -> Trajectory:
+    """The Trajectory, with its certificate (every recorded state outside every obstacle) and its notes."""
+    outs = sorted(outputs.items())
+    Y = np.vstack([np.array(ys)] + [o[1][0][None] for o in outs])
+    tall = list(ts) + [k for k, _ in outs]
+    clear, ks, kf = clearance_of(feat, Y, N, nrm)
+    notes = list(contacts.notes)
+    certified = bool(clear >= -penetration_tol)
+    if not certified:
+        msg = (f"S(t, u) is not certified: at t = {tall[ks]:.6g} feature {kf} (body {_feature_body(feat, kf)}) "
+               f"lies {-clear:.3e} inside an obstacle (penetration_tol = {penetration_tol:g})")
+        if check_start:
+            raise PenetrationError(msg)
+        notes.append(msg + "; the run started inside (check_start=False)")
+    bad_i = [i for i in impacts if i.grazing or i.simultaneous]
+    smooth = not bad_i and not contacts.touches and contacts.smooth
+    if bad_i:
+        notes.append(f"S(t, u) is not differentiable here: {len(bad_i)} impact(s) grazing or simultaneous, first at "
+                     f"t = {bad_i[0].t:.6g} (approach speed {bad_i[0].speed:.3g} m/s)")
+    if contacts.touches:
+        tc = contacts.touches[0]
+        notes.append(f"S(t, u) is not differentiable here: {len(contacts.touches)} tangent touch(es) (no impulse), "
+                     f"first at t = {tc.t:.6g} ({tc.kind} of body {tc.body} and {tc.other})")
+    for r in contacts.rests:
+        notes.append(f"body {r.body} rests on plane {r.plane} from t = {r.t:.6g} (bounces of normal speed "
+                     f"{r.speed:.3g} dropped; Zeno time {r.zeno_time:.6g}): after that ∂S/∂u is the resting "
+                     "derivative (its normal rows zero)")
+    if not smooth and warn:
+        first = next(m for m in notes if "not differentiable" in m)
+        warnings.warn(first, GrazingImpactWarning, stacklevel=4)
+    return Trajectory(np.array(ts), np.array(ys), outputs, impacts, names, N, model, nsteps, smooth, notes, flight,
+                      list(contacts.rests), list(contacts.touches), clear, certified)
