@@ -315,6 +315,8 @@ class Array(Spec):
             self.finite = False
         self._has_refs = self.shape is not None and any(_is_ref(d) for d in self.shape)
         self._bounded = self.bounds.lo is not None or self.bounds.hi is not None
+        self._lo = -math.inf if self.bounds.lo is None else float(self.bounds.lo)
+        self._hi = math.inf if self.bounds.hi is None else float(self.bounds.hi)
 
     def describe(self, env: Env | None = None) -> str:
         b = self.bounds.phrase()
@@ -375,7 +377,8 @@ class Array(Spec):
             if self.finite and not (_isfinite(lo) and _isfinite(hi)) or lo != lo or hi != hi:
                 raise env.fail(name, self.describe(env), value, "it has NaN or inf entries" if self.finite else
                                "it has NaN entries")
-            if not (self.bounds.inside(lo) and self.bounds.inside(hi)):
+            b = self.bounds
+            if lo < self._lo or hi > self._hi or b.lo_open and lo == self._lo or b.hi_open and hi == self._hi:
                 raise env.fail(name, self.describe(env), value, f"entries range over [{lo:g}, {hi:g}]")
         elif self.finite:
             if not _ALL(_ISFINITE(a), None):
@@ -386,28 +389,28 @@ class Array(Spec):
 
     def _check_shape(self, name, a, value, env):
         dims = self._dims(env)
-        nd = len(dims)
         shape = a.shape
-        if a.ndim == nd + 1 and self.batch:
-            shape = shape[1:] if self.batch == "first" else shape[:-1]
-        elif a.ndim != nd:
-            detail = ("a batch of states is not accepted here" if a.ndim == nd + 1 else
-                      f"it has {a.ndim} axes, not {nd}")
-            raise env.fail(name, self.describe(env), value, f"{detail} (shape {a.shape})")
-        bound = {}
+        nd = len(dims)
+        if len(shape) != nd:
+            if self.batch and len(shape) == nd + 1:
+                shape = shape[1:] if self.batch == "first" else shape[:-1]
+            else:
+                detail = ("a batch of states is not accepted here" if len(shape) == nd + 1 else
+                          f"it has {len(shape)} axes, not {nd}")
+                raise env.fail(name, self.describe(env), value, f"{detail} (shape {a.shape})")
+        syms = env.symbols
         for d, s in zip(dims, shape):
-            if d is None:
+            if d is None or d == s:
                 continue
-            if isinstance(d, str):
-                want = env.symbols.get(d, bound.get(d))
+            if d.__class__ is str:          # a symbol: bound by its first use in the call
+                want = syms.get(d)
                 if want is None:
-                    bound[d] = s
+                    syms[d] = s
                     continue
-                d = want
-            if int(d) != s:
-                raise env.fail(name, self.describe(env), value, "" if isinstance(value, np.ndarray) and
-                               value.size > 6 else f"shape {a.shape}")
-        env.symbols.update(bound)
+                if want == s:
+                    continue
+            raise env.fail(name, self.describe(env), value, "" if isinstance(value, np.ndarray) and
+                           value.size > 6 else f"shape {a.shape}")
 
     # -- the fuzzer's side --------------------------------------------------------------------------------
     def _example_shape(self, env):
