@@ -91,3 +91,15 @@ def test_the_surface_is_the_whole_package():
 def test_exemptions_have_reasons():
     for k, v in EXEMPT.items():
         assert len(v) > 20, k
+
+
+def test_the_fuzz_files_share_the_whole_surface():
+    # every callable with a contract is fuzzed by exactly one of the tests/test_contracts_fuzz_*.py files
+    import importlib
+
+    shares = [importlib.import_module(f"test_contracts_fuzz_{n}").ENTRIES for n in ("core", "bodies", "characters",
+                                                                                  "tools")]
+    fuzzed = [e.id for share in shares for e in share]
+    assert len(fuzzed) == len(set(fuzzed))
+    declared = {e.id for e in surface.entries() if e.contract is not None and surface.parameters(e)}
+    assert declared == set(fuzzed), sorted(declared ^ set(fuzzed))[:10]
