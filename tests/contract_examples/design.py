@@ -1,0 +1,65 @@
+"""Valid calls for pbanim.design (chapter 10): a ball above a floor, small enough that each call is quick."""
+
+import numpy as np
+
+from pbanim.collision import Plane, Sphere
+from pbanim.design import DesignBody, DesignScene, FlightModel, Trajectory, simulate
+from pbanim.design.impact import Features
+
+
+def _body():
+    return DesignBody(Sphere(0.1), position=[0.0, 0.0, 1.1], velocity=[0.5, 0.0, 0.0])
+
+
+def _scene():
+    return DesignScene([_body()], [Plane([0.0, 0.0, 1.0])], gravity=[0.0, 0.0, -10.0], restitution=0.5)
+
+
+def _model():
+    """The flight model of the ball with two parameters (p = 2)."""
+    return FlightModel(1, np.array([1.0]), np.array([1.0]), np.full((1, 3), 250.0), np.array([0.0, 0.0, -10.0]),
+                       np.zeros((2, 1)), np.zeros((2, 1)), np.zeros((2, 1, 3)))
+
+
+def _falling_state():
+    """The ball at the floor (gap 0), falling at 3 m/s: an impact of feature 0."""
+    y = np.zeros(13)
+    y[:3], y[3:7], y[7:10] = [0.0, 0.0, 0.1], [1.0, 0.0, 0.0, 0.0], [0.5, 0.0, -3.0]
+    return y
+
+
+def _trajectory():
+    return simulate(_scene(), 1.0, ["x0", "v0"], times=[0.5], h=0.25, warn=False)
+
+
+INSTANCES = {
+    DesignBody: _body,
+    DesignScene: _scene,
+    FlightModel: _model,
+    Features: lambda: Features(_scene()),
+    Trajectory: _trajectory,
+}
+
+_AT = {"t": 0.5}
+CALLS = {
+    # every field given: the dataclass's default factories are not values the fuzz can pass on
+    "pbanim.design.scene.DesignBody.__init__": lambda: {
+        "shape": Sphere(0.1), "position": np.array([0.0, 0.0, 1.1]), "orientation": np.array([1.0, 0.0, 0.0, 0.0]),
+        "velocity": np.zeros(3), "angular_velocity": np.zeros(3), "inertia": np.full(3, 0.004)},
+    "pbanim.design.scene.DesignScene.__init__": lambda: {"bodies": [_body()], "planes": [Plane([0.0, 0.0, 1.0])]},
+    "pbanim.design.simulate.simulate": lambda: {"scene": _scene(), "t_end": 1.0, "h": 0.05, "max_steps": 2000},
+    "pbanim.design.impact.apply_impact": lambda: {"y": _falling_state(), "normals": np.array([[0.0, 0.0, 1.0]]),
+                                                  "k": 0, "t": 0.0},
+    "pbanim.design.exact.first_impact": lambda: {"y": _falling_state() + np.r_[0, 0, 1.0, np.zeros(10)],
+                                                 "normals": np.array([[0.0, 0.0, 1.0]]), "tol": 1e-9},
+    **{f"pbanim.design.trajectory.Trajectory.{m}": (lambda: dict(_AT)) for m in
+       ("position", "orientation", "d_position", "d_orientation", "velocities", "d_velocities")},
+}
+
+EXEMPT = {
+    "pbanim.design.impact.Impact.__init__": "a record pbanim builds (simulate, apply_impact) and users read",
+    "pbanim.design.trajectory.Trajectory.__init__": "a record pbanim builds (simulate) and users read",
+    "pbanim.design.rest.Rest.__init__": "a record pbanim builds (simulate) and users read",
+}
+
+ENFORCED = ("pbanim.design.",)
