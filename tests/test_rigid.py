@@ -600,37 +600,64 @@ def test_primitive_closed_forms_and_limits():
 # ORACLES G3: bad inputs get named errors; divergence stops with SimulationDiverged
 # ---------------------------------------------------------------------------------------------------
 BAD = [
-    (lambda: RigidBodies(-1.0, [1.0, 1.0, 1.0]), "mass must be positive and finite (np.inf for a static body), got -1.0"),
-    (lambda: RigidBodies(np.nan, [1.0, 1.0, 1.0]), "mass must be positive and finite"),
-    (lambda: RigidBodies(1.0, [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]), "inertia must be symmetric"),
-    (lambda: RigidBodies(1.0, [1.0, -1.0, 1.0]), "inertia must be positive definite, got principal moments"),
-    (lambda: RigidBodies(1.0, [1.0, 1.0, 3.0]), "inertia violates the triangle inequality I1 + I2 >= I3"),
-    (lambda: RigidBodies([1.0, 1.0], [[1.0, 1.0, 3.0], [1, 1, 1]]), "inertia[0] violates the triangle inequality"),
-    (lambda: RigidBodies(1.0, np.ones((2, 2))), "inertia must have shape (3,) or"),
-    (lambda: RigidBodies(1.0, [1.0, 1.0, 1.0], orientations=[[0.0, 0, 0, 0]]), "orientations must be finite non-zero"),
-    (lambda: RigidBodies(1.0, [1.0, 1.0, 1.0], positions=[[np.nan, 0, 0]]), "positions must be finite"),
+    (lambda: RigidBodies(-1.0, [1.0, 1.0, 1.0]), "RigidBodies.__init__: mass must be a float array of shape (any,) "
+     "(not NaN, entries > 0, or one number for all, not empty), got -1.0"),
+    (lambda: RigidBodies(np.nan, [1.0, 1.0, 1.0]), "mass must be a float array of shape (any,) (not NaN, entries > 0"),
+    (lambda: RigidBodies(1.0, [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]),
+     "got [[1.0, 0.5, 0], [0, 1.0, 0], [0, 0, 1.0]]; it is not symmetric (max |I - I^T| = 0.5)"),
+    (lambda: RigidBodies(1.0, [1.0, -1.0, 1.0]), "got [1.0, -1.0, 1.0]; principal moments [-1.  1.  1.] are not all > 0"),
+    (lambda: RigidBodies(1.0, [1.0, 1.0, 3.0]), "inertia must be an inertia tensor of shape (3, 3) or (K, 3, 3), or "
+     "principal moments (3,) or (K, 3): finite, symmetric, positive definite, with principal moments I1 + I2 >= I3, got "
+     "[1.0, 1.0, 3.0]; principal moments [1. 1. 3.] violate the triangle inequality I1 + I2 >= I3 (1 + 1 < 3)"),
+    (lambda: RigidBodies([1.0, 1.0], [[1.0, 1.0, 3.0], [1, 1, 1]]),
+     "; tensor 0: principal moments [1. 1. 3.] violate the triangle inequality"),
+    (lambda: RigidBodies(1.0, np.ones((2, 2))), "RigidBodies.__init__: inertia must be an inertia tensor of shape (3, 3)"),
+    (lambda: RigidBodies(1.0, [1.0, 1.0, 1.0], orientations=[[0.0, 0, 0, 0]]),
+     "RigidBodies.__init__: orientations must be a float array of shape (4,) (finite, or a batch of them (extra first "
+     "axis), not empty), non-zero, got [[0.0, 0, 0, 0]]; row 0 is zero"),
+    (lambda: RigidBodies(1.0, [1.0, 1.0, 1.0], positions=[[np.nan, 0, 0]]),
+     "positions must be a float array of shape (3,) (finite, or a batch of them (extra first axis), not empty), got "
+     "[[nan, 0, 0]]; it has NaN or inf entries"),
     (lambda: RigidBodies([1.0, 2.0], [1.0, 1.0, 1.0], positions=np.zeros((3, 3))), "must have shape"),
     (lambda: RigidBodies(np.inf, [1.0, 1.0, 1.0], velocities=[[1.0, 0, 0]]), "static bodies cannot move"),
-    (lambda: box_inertia(1.0, [1.0, -2.0, 1.0]), "extents must be 3 positive side lengths"),
-    (lambda: sphere_inertia(0.0, 1.0), "mass must be positive and finite, got 0.0"),
-    (lambda: cylinder_inertia(1.0, 1.0, 1.0, axis=3), "axis must be 0, 1 or 2, got 3"),
-    (lambda: capsule_inertia(1.0, 1.0, -0.5), "height must be finite and >= 0"),
+    (lambda: box_inertia(1.0, [1.0, -2.0, 1.0]), "box_inertia: extents must be a float array of shape (3,) (finite, "
+     "entries > 0, not empty), got [1.0, -2.0, 1.0]"),
+    (lambda: sphere_inertia(0.0, 1.0), "sphere_inertia: mass must be a finite number > 0, got 0.0"),
+    (lambda: cylinder_inertia(1.0, 1.0, 1.0, axis=3), "cylinder_inertia: axis must be an index in 0 … 2, got 3"),
+    (lambda: capsule_inertia(1.0, 1.0, -0.5), "capsule_inertia: height must be a finite number >= 0, got -0.5"),
     (lambda: mesh_mass_properties(*box_mesh([1.0, 1, 1])[:1], box_mesh([1.0, 1, 1])[1][:-1]), "mesh must be closed"),
     (lambda: mesh_mass_properties(box_mesh([1.0, 1, 1])[0], box_mesh([1.0, 1, 1])[1][:, ::-1]),
      "mesh volume must be positive"),
     (lambda: mesh_mass_properties(box_mesh([1.0, 1, 1])[0], np.vstack([box_mesh([1.0, 1, 1])[1]] * 2)),
      "faces must be consistently oriented"),
-    (lambda: RigidSprings([0], [[0, 0, 0]], [1], [[0, 0, 0]], stiffness=-1.0), "stiffness must be finite and >= 0"),
-    (lambda: RigidSprings([0, 1], [[0, 0, 0]], [1], [[0, 0, 0]], 1.0), "must all have 2 rows"),
-    (lambda: RigidGravity([0.0, -9.81]), "g must be a finite 3-vector"),
-    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), quaternions="euler"), "quaternions must be one of"),
+    (lambda: RigidSprings([0], [[0, 0, 0]], [1], [[0, 0, 0]], stiffness=-1.0),
+     "RigidSprings.__init__: stiffness must be a float array of shape (k,) (k = 1) (finite, entries >= 0, or one number "
+     "for all, not empty), got -1.0"),
+    (lambda: RigidSprings([0, 1], [[0, 0, 0]], [1], [[0, 0, 0]], 1.0), "point_a must be a float array of shape (k, 3) "
+     "(k = 2) (finite, not empty), got [[0, 0, 0]]; shape (1, 3)"),
+    (lambda: RigidGravity([0.0, -9.81]), "RigidGravity.__init__: g must be a float array of shape (3,) (finite, not "
+     "empty), got [0.0, -9.81]; shape (2,)"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), quaternions="euler"),
+     "RigidScene.__init__: quaternions must be one of 'renormalize', 'exponential', 'none', got 'euler'"),
     (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [PointForce([-1], [[0, 0, 0]], [[1, 0, 0]])]),
-     "bodies must lie in [0, 0]"),
-    (lambda: RigidBodies(1.0, [1.0, 1, 1]).point_velocity(np.zeros(13), [3], [[0, 0, 0]]), "body_idx must lie in [-1, 0]"),
-    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [LinearDrag(-0.1)]), "coefficient must be finite and >= 0"),
+     "PointForce.__init__: bodies must be an integer array of shape (k,) of body indices in 0 … N − 1, not empty, got "
+     "[-1]; entries range over [-1, -1]"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [PointForce([1], [[0, 0, 0]], [[1, 0, 0]])]),
+     "PointForce: bodies must lie in [0, 0] (forces on the world do nothing), got [1]"),
+    (lambda: RigidBodies(1.0, [1.0, 1, 1]).point_velocity(RigidBodies(1.0, [1.0, 1, 1]).state(), [3], [[0, 0, 0]]),
+     "RigidBodyProtocol.point_velocity: body_idx must be an integer array of shape (m,) of body indices in -1 … self.N − 1 "
+     "(−1: the static world), got [3]; entries range over [3, 3], N = 1"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [LinearDrag(-0.1)]),
+     "LinearDrag.__init__: coefficient must be a float array of shape (any,) (finite, entries >= 0, or one number for "
+     "all, not empty), got -0.1"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [LinearDrag([0.1, 0.2])]),
+     "LinearDrag: coefficient must be a number or have shape (1,) (one per body), got shape (2,)"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1]), [RigidSprings([0], [[0, 0, 0]], [2], [[0, 0, 1]], 1.0)]),
+     "RigidSprings: body_b must lie in [-1, 0] (-1: the static world), got [2]"),
     (lambda: torque_free_body((2.0, 1.0, 3.0), (1.0, 0, 0)), "moments must be 3 strictly ascending"),
     (lambda: torque_free_body((1.0, 2.0, 3.0), (0.0, 0, 0)), "omega0 must be a finite non-zero 3-vector"),
-    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1])).simulate(1.0, -0.1), "h must be a positive finite step"),
+    (lambda: RigidScene(RigidBodies(1.0, [1.0, 1, 1])).simulate(1.0, -0.1),
+     "RigidScene.simulate: h must be a finite number > 0, got -0.1"),
 ]
 
 
@@ -651,11 +678,13 @@ def test_rigid_effects_reject_particle_systems():
 
 
 def test_nan_states_stop_with_simulation_diverged():
-    # ORACLES G3: a NaN start state, or a run that blows up (explicit Euler on a stiff spring), raises
+    # ORACLES G3: a NaN start state is refused by name (y0), and a run that blows up (explicit Euler on a
+    # stiff spring) raises SimulationDiverged
     rb = RigidBodies.point_masses([[1.0, 0, 0]])
     y0 = rb.state()
     rb.unpack(y0)[3][0, 1] = np.nan
-    with pytest.raises(SimulationDiverged, match="initial state"):
+    with pytest.raises(pbanim.errors.InvalidInput, match=r"RigidScene.simulate: y0 must be .*got .*; it has NaN or "
+                                                         r"inf entries"):
         RigidScene(rb).simulate(1.0, 0.1, method="rk4", y0=y0)
     stiff = RigidScene(rb, [RigidSprings([0], [[0, 0, 0]], [-1], [[0, 0, 0]], 1e6, 0.0, 0.0)])
     with pytest.raises(SimulationDiverged) as info:

@@ -19,25 +19,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bodies import Bodies
+from ..contracts import Array, Opt, contract
 from ..geometry import cross
+from .admissible import Inertia
+from .domain import Flags, Vectors, certified, certify, expose, row_norms
 from .inertia import validate_inertia
-from .quat import quat_normalize, quat_to_matrix
+from .protocol import _Y, RigidBodyProtocol, _matTvec, _matvec
+from .quat import normalized, quat_to_matrix
 from ..errors import InvalidInput, as_floats
 
 __all__ = ["RigidBodies"]
 
-
-
-
-def _matvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """A x for stacks A (..., 3, 3), x (..., 3)."""
-    return np.matmul(A, x[..., None])[..., 0]
-
-
-def _matTvec(A: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Aᵀ x for stacks A (..., 3, 3), x (..., 3)."""
-    return np.matmul(x[..., None, :], A)[..., 0, :]
+_ROWS = Array(("self.N", 3))               # one row per body
+_ONE_OR_EACH = Opt(Array((3,), batch="first"))
 
 
 def _per_body(name: str, value, N: int, tail: tuple) -> np.ndarray:
@@ -49,7 +43,7 @@ def _per_body(name: str, value, N: int, tail: tuple) -> np.ndarray:
                          f"got {a.shape}") from None
 
 
-class RigidBodies(Bodies):
+class RigidBodies(RigidBodyProtocol):
     """N rigid bodies with Baraff's state y = [x (N,3), q (N,4), P (N,3), L (N,3)] (flat, 13N).
 
     Parameters
@@ -91,6 +85,9 @@ class RigidBodies(Bodies):
     7.0
     """
 
+    @contract(mass=Array((None,), gt=0, finite=False, scalar=True), inertia=Inertia(batch=True, moments=True),
+              positions=_ONE_OR_EACH, orientations=Opt(Vectors(4, batch="first", nonzero=True)),
+              velocities=_ONE_OR_EACH, angular_velocities=_ONE_OR_EACH, static=Opt(Flags()))
     def __init__(self, mass, inertia, positions=None, orientations=None, velocities=None,
                  angular_velocities=None, *, static=None) -> None:
         m_in = np.atleast_1d(as_floats("mass", mass))
@@ -126,18 +123,21 @@ class RigidBodies(Bodies):
         self.N, self.split = N, 7 * N
         self.static = st
         self.mass = np.where(st, np.inf, m)
-        self.inv_mass = np.where(st, 0.0, 1.0 / np.where(st, 1.0, m))
+        self._mass_finite = np.where(st, 0.0, m)  # for gravity-like forces (static bodies feel nothing)
+        with np.errstate(over="ignore", divide="ignore"):
+            self.inv_mass = np.where(st, 0.0, 1.0 / np.where(st, 1.0, m))
+            self.inv_I_body = np.where(st[:, None, None], 0.0, np.linalg.inv(Ib))
+        certify("RigidBodies: the inverse masses 1/m and inertias I⁻¹", np.concatenate(
+            [self.inv_mass, self.inv_I_body.ravel()]), self._mass_finite, Ib)
         self.I_body = Ib
-        self.inv_I_body = np.where(st[:, None, None], 0.0, np.linalg.inv(Ib))
         self.inv_mass_padded = np.append(self.inv_mass, 0.0)
         self.inv_I_body_padded = np.concatenate([self.inv_I_body, np.zeros((1, 3, 3))])
         self._dyn = (~st).astype(float)[:, None]
         self._any_static = bool(st.any())
-        self._mass_finite = np.where(st, 0.0, m)  # for gravity-like forces (static bodies feel nothing)
 
         x = np.zeros((N, 3)) if positions is None else _per_body("positions", positions, N, (3,))
         q = np.tile([1.0, 0, 0, 0], (N, 1)) if orientations is None else \
-            quat_normalize(_per_body("orientations", orientations, N, (4,)))
+            normalized(_per_body("orientations", orientations, N, (4,)), "orientations", "RigidBodies")
         v = np.zeros((N, 3)) if velocities is None else _per_body("velocities", velocities, N, (3,))
         w = np.zeros((N, 3)) if angular_velocities is None else \
             _per_body("angular_velocities", angular_velocities, N, (3,))
@@ -147,11 +147,21 @@ class RigidBodies(Bodies):
         if np.any(st & (np.any(v != 0, axis=1) | np.any(w != 0, axis=1))):
             raise InvalidInput("static bodies cannot move: give them zero velocities and angular_velocities")
         R = quat_to_matrix(q)
-        Iw = R @ Ib @ np.swapaxes(R, 1, 2)
-        self.x0, self.q0 = x, q
-        self.P0 = self._mass_finite[:, None] * v
-        self.L0 = np.where(st[:, None], 0.0, _matvec(Iw, w))
+        with np.errstate(over="ignore", invalid="ignore"):
+            Iw = R @ Ib @ np.swapaxes(R, 1, 2)
+            self.x0, self.q0 = x, q
+            self.P0 = self._mass_finite[:, None] * v
+            self.L0 = np.where(st[:, None], 0.0, _matvec(Iw, w))
+        certify("RigidBodies: the momenta P = m v and L = I ω", np.concatenate([self.P0, self.L0]),
+                self._mass_finite, v, Ib, w)
 
+    @property
+    def n_state(self) -> int:
+        """Length of the flat state y = [x, q, P, L]: 13N."""
+        return 13 * self.N
+
+    @expose
+    @contract(positions=Array(("n", 3)), velocities=Opt(Array(("n", 3))), masses=Array(("n",), gt=0, scalar=True))
     @classmethod
     def point_masses(cls, positions, velocities=None, masses=1.0) -> "RigidBodies":
         """Particles as rigid bodies (inertia m·E, never exercised): forces applied at r = 0 exert no
@@ -170,28 +180,35 @@ class RigidBodies(Bodies):
         """A fresh flat copy of the initial state [x, q, P, L]."""
         return self.pack(self.x0, self.q0, self.P0, self.L0)
 
+    @contract(x=_ROWS, quat=Array(("self.N", 4)), P=_ROWS, L=_ROWS)
     def pack(self, x, quat, P, L) -> np.ndarray:
         """Flat state from x (N,3), q (N,4), P (N,3), L (N,3)."""
         N = self.N
         return np.concatenate([np.reshape(x, 3 * N), np.reshape(quat, 4 * N), np.reshape(P, 3 * N),
                                np.reshape(L, 3 * N)]).astype(float)
 
+    @contract(y=Array(("self.n_state",)))
     def unpack(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Views (x (N,3), q (N,4), P (N,3), L (N,3)) into a flat state y (writes go through to y)."""
         N = self.N
         return (y[:3 * N].reshape(N, 3), y[3 * N:7 * N].reshape(N, 4), y[7 * N:10 * N].reshape(N, 3),
                 y[10 * N:13 * N].reshape(N, 3))
 
+    @expose
+    @contract(quat=Vectors(4, batch="first", nonzero=True))
     @staticmethod
     def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
         """R (N,3,3) from quaternions (N,4), always via the unit quaternion q/|q|."""
         return quat_to_matrix(quat)
 
     # -- derived quantities ---------------------------------------------------------------------
+    @contract(y=_Y)
     def rotations(self, y: np.ndarray) -> np.ndarray:
         """R (N, 3, 3) of every body."""
         return quat_to_matrix(self.unpack(y)[1])
 
+    @contract(y=_Y)
+    @certified("RigidBodies.inv_inertia_world: R I⁻¹ Rᵀ")
     def inv_inertia_world(self, y: np.ndarray) -> np.ndarray:
         """I⁻¹_world = R I⁻¹_body Rᵀ, shape (N, 3, 3) (zero for static bodies)."""
         # BEGIN SOLUTION RigidBodies.inv_inertia_world
@@ -199,6 +216,8 @@ class RigidBodies(Bodies):
         return R @ self.inv_I_body @ np.swapaxes(R, 1, 2)
         # END SOLUTION
 
+    @contract(y=_Y)
+    @certified("RigidBodies.velocities: (v, ω)")
     def velocities(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(v = P/m, ω = I⁻¹_world L), each (N, 3); ω = R (I⁻¹_body (Rᵀ L)) without forming I⁻¹_world."""
         # BEGIN SOLUTION RigidBodies.velocities
@@ -207,90 +226,25 @@ class RigidBodies(Bodies):
         return self.inv_mass[:, None] * P, _matvec(R, _matvec(self.inv_I_body, _matTvec(R, L)))
         # END SOLUTION
 
-    # -- body protocol (pbanim.bodies): u = (v, ω), Wᵢ = diag(Iᵈ/mᵢ, I⁻¹_world,i); zero for static bodies ----
-    kind = "rigid"
-    dof = 6
-
-    def generalized_velocity(self, y: np.ndarray) -> np.ndarray:
-        return np.hstack(self.velocities(y))
-
-    def inverse_mass_blocks(self, y: np.ndarray) -> np.ndarray:
-        Wb = np.zeros((self.N, 6, 6))
-        Wb[:, :3, :3] = self.inv_mass[:, None, None] * np.eye(3)
-        Wb[:, 3:, 3:] = self.inv_inertia_world(y) * self._dyn[:, :, None]
-        return Wb
-
+    @contract(y=_Y)
+    @certified("RigidBodies.body_angular_velocity: Rᵀω")
     def body_angular_velocity(self, y: np.ndarray) -> np.ndarray:
         """ω in body coordinates, Rᵀω = I⁻¹_body Rᵀ L (the ω of Euler's equations), (N, 3)."""
         _, q, _, L = self.unpack(y)
         return _matvec(self.inv_I_body, _matTvec(quat_to_matrix(q), L))
-
-    def _padded(self, y: np.ndarray):
-        """x, R, v, ω with one static world row appended (index −1: x = 0, R = E, v = ω = 0)."""
-        x, q, _, _ = self.unpack(y)
-        v, w = self.velocities(y)
-        z = np.zeros((1, 3))
-        return (np.concatenate([x, z]), np.concatenate([quat_to_matrix(q), np.eye(3)[None]]),
-                np.concatenate([v, z]), np.concatenate([w, z]))
-
-    def _index(self, body_idx) -> np.ndarray:
-        idx = np.asarray(body_idx, dtype=np.intp)
-        if idx.size and (idx.min() < -1 or idx.max() >= self.N):
-            raise InvalidInput(f"body_idx must lie in [-1, {self.N - 1}] (-1 = static world), got {idx}")
-        return np.where(idx < 0, self.N, idx)
-
-    def world_points(self, y: np.ndarray, body_idx, points_body) -> np.ndarray:
-        """p = x + R r for body-frame points r (m, 3) of bodies ``body_idx`` (m,) (−1: r is a world point)."""
-        i = self._index(body_idx)
-        xp, Rp, _, _ = self._padded(y)
-        return xp[i] + _matvec(Rp[i], np.asarray(points_body, dtype=float))
-
-    def point_velocity(self, y: np.ndarray, body_idx, points_world) -> np.ndarray:
-        """ṗ = v + ω × (p − x) of world points (m, 3) moving with bodies ``body_idx`` (m,); 0 for −1."""
-        i = self._index(body_idx)
-        xp, _, vp, wp = self._padded(y)
-        p = np.asarray(points_world, dtype=float)
-        return vp[i] + cross(wp[i], p - xp[i])
-
-    def effective_inverse_mass(self, y: np.ndarray, body_idx, points_world, directions) -> np.ndarray:
-        """nᵀ W n = 1/m + (r × n)·I⁻¹_world (r × n) per contact (m,) — the impulse response along n."""
-        i = self._index(body_idx)
-        xp = np.concatenate([self.unpack(y)[0], np.zeros((1, 3))])
-        Rp = np.concatenate([self.rotations(y), np.eye(3)[None]])
-        n = np.asarray(directions, dtype=float)
-        rn = cross(np.asarray(points_world, dtype=float) - xp[i], n)
-        u = _matTvec(Rp[i], rn)
-        return self.inv_mass_padded[i] + np.einsum("mi,mi->m", u, _matvec(self.inv_I_body_padded[i], u))
-
-    def apply_impulses(self, y: np.ndarray, body_idx, points_world, impulses) -> np.ndarray:
-        """A new state with P += j and L += (p − x) × j for each impulse j (m, 3) at world point p (m, 3).
-
-        Repeated indices accumulate (``np.add.at``); impulses on the world (−1) or a static body are
-        absorbed (they change nothing).
-        """
-        i = self._index(body_idx)
-        j = np.asarray(impulses, dtype=float).reshape(-1, 3)
-        p = np.asarray(points_world, dtype=float).reshape(-1, 3)
-        y_new = np.array(y, dtype=float, copy=True)
-        x, _, P, L = self.unpack(y_new)
-        xp = np.concatenate([x, np.zeros((1, 3))])
-        dP = np.zeros((self.N + 1, 3))
-        dL = np.zeros((self.N + 1, 3))
-        np.add.at(dP, i, j)
-        np.add.at(dL, i, cross(p - xp[i], j))
-        P += dP[:-1] * self._dyn
-        L += dL[:-1] * self._dyn
-        return y_new
 
     # -- dynamics -------------------------------------------------------------------------------
     def zero_forces(self) -> np.ndarray:
         """Q of shape (N, 6): [force, torque about the centre of mass], world frame."""
         return np.zeros((self.N, 6))
 
+    @contract(y=_Y, Q=Array(("self.N", 6)))
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies at once (static bodies: 0)."""
         return self.derivative_and_omega(y, Q)[0]
 
+    @contract(y=_Y, Q=Array(("self.N", 6)))
+    @certified("RigidBodies.derivative: ẏ")
     def derivative_and_omega(self, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ẏ, ω): the derivative and the world angular velocities it used (one pass)."""
         # BEGIN SOLUTION RigidBodies.derivative_and_omega
@@ -316,6 +270,8 @@ class RigidBodies(Bodies):
         return dy, w
         # END SOLUTION
 
+    @contract(y=_Y, Q=Array(("self.N", 6)))
+    @certified("RigidBodies.derivative_readable: ẏ")
     def derivative_readable(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """The same ẏ, one body at a time, written as in Baraff's notes (for teaching; tests compare)."""
         from .quat import quat_multiply
@@ -334,40 +290,56 @@ class RigidBodies(Bodies):
         return np.concatenate([dx.ravel(), dq.ravel(), dP.ravel(), dL.ravel()])
 
     # -- diagnostics ----------------------------------------------------------------------------
+    @contract(y=_Y)
+    @certified("RigidBodies: the kinetic energy")
     def translational_kinetic_energy(self, y: np.ndarray) -> float:
         """Σ ½ P·v = Σ |P|²/2m."""
         P = self.unpack(y)[2]
         return float(0.5 * np.sum(self.inv_mass[:, None] * P * P))
 
+    @contract(y=_Y)
+    @certified("RigidBodies: the kinetic energy")
     def rotational_kinetic_energy(self, y: np.ndarray) -> float:
         """Σ ½ L·ω = Σ ½ ωᵀ I_world ω."""
         L = self.unpack(y)[3]
         return float(0.5 * np.sum(L * self.velocities(y)[1]))
 
+    @contract(y=_Y)
     def kinetic_energy(self, y: np.ndarray) -> float:
         """T = translational + rotational."""
         return self.translational_kinetic_energy(y) + self.rotational_kinetic_energy(y)
 
+    @contract(y=_Y)
+    @certified("RigidBodies.linear_momentum: Σ P")
     def linear_momentum(self, y: np.ndarray) -> np.ndarray:
         """Σ P over the bodies, (3,)."""
         return self.unpack(y)[2].sum(axis=0)
 
+    @contract(y=_Y)
+    @certified("RigidBodies.center_of_mass")
     def center_of_mass(self, y: np.ndarray) -> np.ndarray:
-        """Mass-weighted mean of the dynamic bodies' positions, (3,)."""
+        """Mass-weighted mean of the dynamic bodies' positions, (3,); with no dynamic body, the mean of the
+        static ones (the limit of equal masses m → ∞)."""
         x = self.unpack(y)[0]
-        return self._mass_finite @ x / self._mass_finite.sum()
+        m = self._mass_finite if not self.static.all() else np.ones(self.N)
+        w = m / m.max()                    # weights ≤ 1: no overflow for masses near 10³⁰⁸
+        return (w / w.sum()) @ x
 
+    @contract(y=_Y, about=Opt(Array((3,))))
+    @certified("RigidBodies.angular_momentum: Σ (x − o) × P + L")
     def angular_momentum(self, y: np.ndarray, about=None) -> np.ndarray:
         """Σ (x − o) × P + L about the point o (default the origin), (3,)."""
         x, _, P, L = self.unpack(y)
         o = np.zeros(3) if about is None else np.asarray(about, dtype=float)
         return cross(x - o, P).sum(axis=0) + L.sum(axis=0)
 
+    @contract(y=_Y)
     def angular_momentum_com(self, y: np.ndarray) -> np.ndarray:
         """Angular momentum about the (moving) centre of mass of the system, (3,)."""
         return self.angular_momentum(y, about=self.center_of_mass(y))
 
+    @contract(y=_Y)
     def quaternion_norm_error(self, y: np.ndarray) -> float:
         """max ||q| − 1| over the bodies (drift of the stored quaternions)."""
         q = self.unpack(y)[1]
-        return float(np.max(np.abs(np.sqrt(np.sum(q * q, axis=1)) - 1.0)))
+        return float(np.max(np.abs(row_norms(q) - 1.0)))

@@ -41,16 +41,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from ..errors import InvalidInput, check_count, check_positive
+
+from ..contracts import Array, Flag, Index, Indices, Int, Opt, Real, Text, contract
+from ..errors import InvalidInput
+from .admissible import Inertia, inertia_defect
+from .domain import certify
 
 __all__ = ["MassProperties", "box_inertia", "sphere_inertia", "cylinder_inertia", "capsule_inertia",
            "mesh_mass_properties", "parallel_axis", "validate_inertia", "principal_axes", "box_mesh",
            "icosphere_mesh"]
 
-_REL_TOL = 1e-10  # symmetry / triangle-inequality slack, relative to the largest moment
-
-
-_positive = check_positive
+_POS = Real(gt=0)
+_AXIS = Index(3)
 
 
 def _representable(who: str, inertia: np.ndarray, args: str) -> np.ndarray:
@@ -62,6 +64,7 @@ def _representable(who: str, inertia: np.ndarray, args: str) -> np.ndarray:
     return inertia
 
 
+@contract(mass=_POS, extents=Array((3,), gt=0))
 def box_inertia(mass: float, extents) -> np.ndarray:
     """Inertia about the centre of a solid box with full side lengths ``extents`` = (a, b, c).
 
@@ -72,48 +75,46 @@ def box_inertia(mass: float, extents) -> np.ndarray:
            [ 0., 10.,  0.],
            [ 0.,  0.,  5.]])
     """
-    m = _positive("mass", mass)
-    e = np.asarray(extents, dtype=float)
-    if e.shape != (3,) or np.any(~np.isfinite(e)) or np.any(e <= 0):
-        raise InvalidInput(f"extents must be 3 positive side lengths, got {extents}")
+    m, e = float(mass), np.asarray(extents, dtype=float)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         a2, b2, c2 = e * e
         I = m / 12.0 * np.diag([b2 + c2, a2 + c2, a2 + b2])
     return _representable("box_inertia", I, f"{mass}, {extents}")
 
 
+@contract(mass=_POS, radius=_POS, hollow=Flag())
 def sphere_inertia(mass: float, radius: float, hollow: bool = False) -> np.ndarray:
     """Solid sphere 2/5 m r² E (thin hollow shell: 2/3 m r² E).
 
     >>> float(sphere_inertia(5.0, 1.0)[0, 0])
     2.0
     """
-    m, r = np.float64(_positive("mass", mass)), np.float64(_positive("radius", radius))
+    m, r = np.float64(mass), np.float64(radius)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         I = (2.0 / 3.0 if hollow else 0.4) * m * r * r * np.eye(3)
     return _representable("sphere_inertia", I, f"{mass}, {radius}")
 
 
 def _axis_diag(axial: float, transverse: float, axis: int) -> np.ndarray:
-    if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)) or axis not in (0, 1, 2):
-        raise InvalidInput(f"axis must be 0, 1 or 2, got {axis!r}")
     d = np.full(3, transverse)
     d[axis] = axial
     return np.diag(d)
 
 
+@contract(mass=_POS, radius=_POS, height=_POS, axis=_AXIS)
 def cylinder_inertia(mass: float, radius: float, height: float, axis: int = 2) -> np.ndarray:
     """Solid cylinder about its centre: axial ½ m r², transverse m(3r² + h²)/12.
 
     >>> np.diag(cylinder_inertia(12.0, 1.0, 2.0))
     array([7., 7., 6.])
     """
-    m, r, h = (np.float64(_positive(nm, v)) for nm, v in (("mass", mass), ("radius", radius), ("height", height)))
+    m, r, h = np.float64(mass), np.float64(radius), np.float64(height)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         I = _axis_diag(0.5 * m * r * r, m * (3 * r * r + h * h) / 12.0, axis)
     return _representable("cylinder_inertia", I, f"{mass}, {radius}, {height}")
 
 
+@contract(mass=_POS, radius=_POS, height=Real(ge=0), axis=_AXIS)
 def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) -> np.ndarray:
     """Solid capsule (cylinder of length ``height`` capped by two hemispheres of ``radius``), uniform density.
 
@@ -124,10 +125,7 @@ def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) ->
     >>> np.allclose(capsule_inertia(2.0, 0.5, 0.0), sphere_inertia(2.0, 0.5))
     True
     """
-    m, r = np.float64(_positive("mass", mass)), np.float64(_positive("radius", radius))
-    h = np.float64(height) if isinstance(height, (int, float, np.integer, np.floating)) else np.float64("nan")
-    if not np.isfinite(h) or h < 0:
-        raise InvalidInput(f"height must be finite and >= 0 (0 gives a sphere), got {height}")
+    m, r, h = np.float64(mass), np.float64(radius), np.float64(height)
     with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
         # volume fractions from the ratio h/r (no r³ that overflows or underflows on its own)
         fc = np.pi * h / (np.pi * h + 4.0 / 3.0 * np.pi * r) if h > 0 else np.float64(0.0)
@@ -138,6 +136,7 @@ def capsule_inertia(mass: float, radius: float, height: float, axis: int = 2) ->
     return _representable("capsule_inertia", I, f"{mass}, {radius}, {height}")
 
 
+@contract(mass=_POS, com=Array((3,)), inertia=Inertia(), volume=_POS)
 @dataclass(frozen=True)
 class MassProperties:
     """Mass, centre of mass and inertia about the centre of mass of a solid."""
@@ -164,6 +163,8 @@ def _check_closed(faces: np.ndarray, n_vertices: int) -> None:
                          "close the holes (mass properties need a watertight surface)")
 
 
+@contract(vertices=Array((None, 3)), faces=Indices(lambda env: len(env.values["vertices"]), (None, 3)),
+          density=_POS, mass=Opt(_POS))
 def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | None = None) -> MassProperties:
     """Mass properties of the solid bounded by a closed, outward-oriented triangle mesh.
 
@@ -185,10 +186,6 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     """
     V = np.asarray(vertices, dtype=float)
     F = np.asarray(faces)
-    if V.ndim != 2 or V.shape[1] != 3 or not np.all(np.isfinite(V)):
-        raise InvalidInput(f"vertices must be a finite array of shape (V, 3), got shape {V.shape}")
-    if F.ndim != 2 or F.shape[1] != 3 or F.size == 0 or F.min() < 0 or F.max() >= len(V):
-        raise InvalidInput(f"faces must be an int array (F, 3) indexing {len(V)} vertices, got shape {F.shape}")
     _check_closed(F, len(V))
     a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
     vol = np.einsum("ij,ij->i", a, np.cross(b, c)) / 6.0          # signed tetra volumes (F,)
@@ -201,18 +198,19 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     second = np.einsum("f,fi,fj->ij", vol, a, a) + np.einsum("f,fi,fj->ij", vol, b, b) \
         + np.einsum("f,fi,fj->ij", vol, c, c) + np.einsum("f,fi,fj->ij", vol, s, s)
     second /= 20.0
-    rho = _positive("mass", mass) / volume if mass is not None else _positive("density", density)
+    rho = float(mass) / volume if mass is not None else float(density)
     m = rho * volume
     com = first / volume
     C = rho * second - m * np.outer(com, com)
     C = 0.5 * (C + C.T)
     inertia = np.trace(C) * np.eye(3) - C
-    if not (np.isfinite(m) and np.all(np.isfinite(com)) and np.all(np.isfinite(inertia))):
-        raise InvalidInput(f"mesh mass properties overflow double precision (volume {volume:.3g}, mass {m:.3g}); "
-                           "use moderate units")
+    certify("mesh_mass_properties: m, c and I", np.concatenate([[m], com, inertia.ravel()]), V,
+            detail=f"volume {volume:.3g}, mass {m:.3g}")
     return MassProperties(mass=float(m), com=com, inertia=inertia, volume=volume)
 
 
+@contract(inertia=Inertia(batch=True, definite=False), mass=Array((None,), ge=0, scalar=True),
+          offset=Array((3,), batch="first"))
 def parallel_axis(inertia, mass: float, offset) -> np.ndarray:
     """Inertia about a point at ``offset`` d from the centre of mass: I_c + m(|d|² E − d dᵀ).
 
@@ -226,13 +224,6 @@ def parallel_axis(inertia, mass: float, offset) -> np.ndarray:
     I = np.asarray(inertia, dtype=float)
     m = np.asarray(mass, dtype=float)
     d = np.asarray(offset, dtype=float)
-    if I.shape[-2:] != (3, 3) or d.shape[-1:] != (3,):
-        raise InvalidInput(f"inertia must have shape (..., 3, 3) and offset (..., 3), got {I.shape} and {d.shape}")
-    for nm, a in (("inertia", I), ("mass", m), ("offset", d)):
-        if not np.all(np.isfinite(a)):
-            raise InvalidInput(f"{nm} must be finite, got {a[~np.isfinite(a)][0]}")
-    if np.any(m < 0):
-        raise InvalidInput(f"mass must be >= 0, got {m[m < 0][0]}")
     with np.errstate(over="ignore", invalid="ignore"):
         try:
             dd = np.sum(d * d, axis=-1)[..., None, None]
@@ -240,11 +231,10 @@ def parallel_axis(inertia, mass: float, offset) -> np.ndarray:
         except ValueError:
             raise InvalidInput(f"inertia {I.shape}, mass {m.shape} and offset {d.shape} do not broadcast "
                                "together") from None
-    if not np.all(np.isfinite(out)):
-        raise InvalidInput(f"parallel_axis overflowed (mass {mass}, offset {offset}); use moderate units")
-    return out
+    return certify("parallel_axis: I_c + m(|d|² E − d dᵀ)", out, I, m, d, detail=f"mass {mass}, offset {offset}")
 
 
+@contract(inertia=Inertia(batch=True, definite=False))
 def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     """Principal moments (ascending) and axes: I = A diag(moments) Aᵀ, A a proper rotation (det +1).
 
@@ -253,18 +243,15 @@ def principal_axes(inertia) -> tuple[np.ndarray, np.ndarray]:
     array([1., 2., 3.])
     """
     I = np.asarray(inertia, dtype=float)
-    if I.ndim < 2 or I.shape[-2:] != (3, 3) or not np.all(np.isfinite(I)):
-        raise InvalidInput(f"inertia must be a finite array of shape (..., 3, 3), got shape {I.shape}"
-                           f"{'' if np.all(np.isfinite(I)) else ' with NaN/Inf'}")
     with np.errstate(over="ignore", invalid="ignore"):
-        w, A = np.linalg.eigh(0.5 * (I + np.swapaxes(I, -1, -2)))
-    if not (np.all(np.isfinite(w)) and np.all(np.isfinite(A))):
-        raise InvalidInput(f"principal_axes: the eigen-decomposition of inertia overflowed (max |I| = "
-                           f"{np.abs(I).max():.3g}); use moderate units")
+        w, A = np.linalg.eigh(0.5 * I + 0.5 * np.swapaxes(I, -1, -2))
+    certify("principal_axes: the eigen-decomposition of inertia", w, I, detail=f"max |I| = {np.abs(I).max():.3g}")
+    certify("principal_axes: the eigen-decomposition of inertia", A, I)
     A = A * np.where(np.linalg.det(A) < 0, -1.0, 1.0)[..., None, None]
     return w, A
 
 
+@contract(inertia=Array((3, 3), batch="first"), name=Text(nonempty=True))
 def validate_inertia(inertia, name: str = "inertia") -> np.ndarray:
     """Check that inertia tensor(s) (..., 3, 3) are symmetric positive definite and satisfy the triangle
     inequality I₁ + I₂ ≥ I₃ of their principal moments; return them as float arrays.
@@ -277,7 +264,7 @@ def validate_inertia(inertia, name: str = "inertia") -> np.ndarray:
     >>> validate_inertia(np.diag([1.0, 1.0, 3.0]))
     Traceback (most recent call last):
     ...
-    pbanim.errors.InvalidInput: inertia violates the triangle inequality I1 + I2 >= I3: principal moments [1. 1. 3.] (1 + 1 < 3); no mass distribution has these moments — check the axes or units
+    pbanim.errors.InvalidInput: inertia must be an inertia a body can have (symmetric, positive definite, I1 + I2 >= I3), got [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 3.0]]; principal moments [1. 1. 3.] violate the triangle inequality I1 + I2 >= I3 (1 + 1 < 3); no mass distribution has these moments — check the axes or units
     """
     I = np.asarray(inertia, dtype=float)
     if I.shape[-2:] != (3, 3):
@@ -288,36 +275,22 @@ def validate_inertia(inertia, name: str = "inertia") -> np.ndarray:
     if not finite.all():
         k = int(np.flatnonzero(~finite)[0])
         raise InvalidInput(f"{label(k)} must be finite, got {flat[k].tolist()}")
-    scale = np.maximum(np.abs(flat).max(axis=(1, 2)), np.finfo(float).tiny)
-    asym = np.abs(flat - np.swapaxes(flat, 1, 2)).max(axis=(1, 2))
-    if np.any(asym > _REL_TOL * scale):
-        k = int(np.flatnonzero(asym > _REL_TOL * scale)[0])
-        raise InvalidInput(f"{label(k)} must be symmetric, got {flat[k].tolist()} (max |I - I^T| = {asym[k]:.3g})")
-    w = np.linalg.eigvalsh(flat)                      # all bodies at once, ascending
-    if np.any(w[:, 0] <= 0):
-        k = int(np.flatnonzero(w[:, 0] <= 0)[0])
-        raise InvalidInput(f"{label(k)} must be positive definite, got principal moments {w[k]}; "
-                         "every moment of a solid body is > 0")
-    bad = w[:, 0] + w[:, 1] < w[:, 2] * (1 - _REL_TOL)
-    if np.any(bad):
-        k = int(np.flatnonzero(bad)[0])
-        a, b, c = w[k]
-        raise InvalidInput(f"{label(k)} violates the triangle inequality I1 + I2 >= I3: principal moments "
-                         f"{w[k]} ({a:.6g} + {b:.6g} < {c:.6g}); no mass distribution has these "
-                         "moments — check the axes or units")
+    found = inertia_defect(flat)
+    if found is not None:
+        k, detail = found
+        raise InvalidInput(f"{label(k)} must be an inertia a body can have (symmetric, positive definite, "
+                           f"I1 + I2 >= I3), got {flat[k].tolist()}; {detail}")
     return I
 
 
+@contract(extents=Array((3,), gt=0))
 def box_mesh(extents) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (8, 3) and outward faces (12, 3) of a box centred at the origin.
 
     >>> v, f = box_mesh([2.0, 2.0, 2.0]); v.shape, f.shape
     ((8, 3), (12, 3))
     """
-    e = np.asarray(extents, dtype=float)
-    if e.shape != (3,) or not np.all(np.isfinite(e)) or np.any(e <= 0):
-        raise InvalidInput(f"extents must be 3 positive finite side lengths, got {extents}")
-    e = 0.5 * e
+    e = 0.5 * np.asarray(extents, dtype=float)
     v = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float) * e
     # quads (outward, counter-clockwise from outside) on the faces x=-, x=+, y=-, y=+, z=-, z=+
     quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
@@ -325,16 +298,13 @@ def box_mesh(extents) -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
+@contract(radius=_POS, subdivisions=Int(ge=0, le=7))
 def icosphere_mesh(radius: float = 1.0, subdivisions: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """A closed icosphere (vertices on the sphere of ``radius``), 20·4ˢ outward faces.
 
     >>> v, f = icosphere_mesh(1.0, 1); len(f)
     80
     """
-    radius = _positive("radius", radius)
-    subdivisions = check_count("subdivisions", subdivisions, 0)
-    if subdivisions > 7:
-        raise InvalidInput(f"subdivisions must be <= 7 (20·4ˢ faces: 7 gives 327680), got {subdivisions}")
     t = (1 + np.sqrt(5)) / 2
     v = np.array([[-1, t, 0], [1, t, 0], [-1, -t, 0], [1, -t, 0], [0, -1, t], [0, 1, t], [0, -1, -t],
                   [0, 1, -t], [t, 0, -1], [t, 0, 1], [-t, 0, -1], [-t, 0, 1]], dtype=float)

@@ -32,13 +32,27 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contracts import Array, contract
 from ..geometry import skew  # [v]× lives in pbanim.geometry (shared with collisions); re-exported here
 from ..errors import InvalidInput
+from .domain import Rotation, Vectors, certify, row_norms
 
 __all__ = ["quat_multiply", "quat_conjugate", "quat_normalize", "quat_to_matrix", "matrix_to_quat",
            "quat_from_axis_angle", "quat_exp", "quat_rotate", "skew"]
 
 
+_QUATS = Array((4,), batch="first")
+_NONZERO = Vectors(4, batch="first", nonzero=True, what="quaternions (w, x, y, z):")
+_VECS = Array((3,), batch="first")
+
+
+def _batches(where: str, names: tuple, *arrays) -> InvalidInput:
+    """The error for two batches of different lengths (one of each, or one and a batch, broadcast)."""
+    shapes = " and ".join(f"{n} {np.shape(a)}" for n, a in zip(names, arrays))
+    return InvalidInput(f"{where}: {' and '.join(names)} must be one each, or batches of one length, got {shapes}")
+
+
+@contract(a=_QUATS, b=_QUATS)
 def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a ⊗ b of quaternions of shape (..., 4) (broadcasting).
 
@@ -50,35 +64,55 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    return np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-                     a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-                     a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-                     a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0], axis=-1)
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+                            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+                            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0], axis=-1)
+    except ValueError:
+        raise _batches("quat_multiply", ("a", "b"), a, b) from None
+    return certify("quat_multiply: a ⊗ b", out, a, b)
 
 
+@contract(q=_QUATS)
 def quat_conjugate(q: np.ndarray) -> np.ndarray:
     """(w, −x, −y, −z): the inverse of a unit quaternion."""
     q = np.asarray(q, dtype=float)
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
+@contract(q=_NONZERO)
 def quat_normalize(q: np.ndarray) -> np.ndarray:
-    """q/|q| along the last axis; raises ValueError for a zero or non-finite quaternion.
+    """q/|q| along the last axis (any finite non-zero q, 10⁻³⁰⁰ or 10³⁰⁰ too); raises
+    :class:`~pbanim.errors.InvalidInput` for a zero or non-finite quaternion.
 
     >>> quat_normalize([2.0, 0, 0, 0])
     array([1., 0., 0., 0.])
+    >>> quat_normalize([3e300, 0, 4e300, 0])
+    array([0.6, 0. , 0.8, 0. ])
     """
+    return normalized(q, "q", "quat_normalize")
+
+
+def normalized(q, name: str, where: str) -> np.ndarray:
+    """q/|q| for quaternions (..., 4), or InvalidInput naming ``name`` when one is zero or not finite (for
+    the callers inside pbanim, which skip the contract)."""
     q = np.asarray(q, dtype=float)
-    n = np.linalg.norm(q, axis=-1, keepdims=True)
-    if not np.all(np.isfinite(n)) or np.any(n == 0):
-        raise InvalidInput(f"orientations must be finite non-zero quaternions (w, x, y, z), got norms {n.ravel()}")
+    n = row_norms(q)[..., None]
+    if not (np.isfinite(n).all() and (n > 0).all()):
+        raise InvalidInput(f"{where}: {name} must be finite non-zero quaternions (w, x, y, z), got norms "
+                           f"{n.ravel()}")
     return q / n
 
 
+@contract(quat=_NONZERO)
 def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     """Rotation matrices R (..., 3, 3) of the *unit* quaternions q/|q| (scalar-first).
 
-    Uses s = 2/|q|², so R is orthogonal even when the stored q has drifted off the unit sphere.
+    Uses s = 2/|q|², so R is orthogonal even when the stored q has drifted off the unit sphere (a q whose
+    |q|² would overflow or underflow is scaled first). A zero q is refused by name; a NaN q (a diverging
+    run, inside pbanim) gives a NaN R, which the stepping loop names.
 
     >>> R = quat_to_matrix([np.cos(np.pi / 4), 0, 0, np.sin(np.pi / 4)])   # 90° about z
     >>> np.round(R @ [1.0, 0, 0], 12) + 0.0
@@ -88,7 +122,17 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     """
     q = np.asarray(quat, dtype=float)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    s = 2.0 / (w * w + x * x + y * y + z * z)
+    with np.errstate(over="ignore", under="ignore"):
+        n2 = w * w + x * x + y * y + z * z
+    if not (np.min(n2) > 1e-290 and np.max(n2) < 1e290):     # also NaN: scale each q to max |qᵢ| = 1
+        if (np.abs(q).max(axis=-1) == 0).any():
+            raise InvalidInput(f"quat_to_matrix: quat must be non-zero quaternions (w, x, y, z), got a zero one "
+                               f"among {q.shape[:-1] or 'one'}")
+        with np.errstate(invalid="ignore"):
+            q = q / np.abs(q).max(axis=-1, keepdims=True)
+        w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+        n2 = w * w + x * x + y * y + z * z
+    s = 2.0 / n2
     xx, yy, zz = s * x * x, s * y * y, s * z * z
     xy, xz, yz = s * x * y, s * x * z, s * y * z
     wx, wy, wz = s * w * x, s * w * y, s * w * z
@@ -105,6 +149,7 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     return R
 
 
+@contract(R=Rotation(batch="first"))
 def matrix_to_quat(R: np.ndarray) -> np.ndarray:
     """Unit quaternion (w ≥ 0) of rotation matrices R (..., 3, 3), vectorized.
 
@@ -135,20 +180,29 @@ def matrix_to_quat(R: np.ndarray) -> np.ndarray:
     return q.reshape(shape + (4,))
 
 
+@contract(axis=Vectors(3, batch="first", nonzero=True), angle=Array((None,), scalar=True))
 def quat_from_axis_angle(axis, angle) -> np.ndarray:
-    """Unit quaternion of a rotation by ``angle`` (rad) about ``axis`` (normalized here).
+    """Unit quaternion of a rotation by ``angle`` (rad) about ``axis`` (normalized here); a batch of axes
+    (K, 3) and/or of angles (K,) gives (K, 4).
 
     >>> quat_from_axis_angle([0, 0, 2.0], np.pi)
     array([6.123234e-17, 0.000000e+00, 0.000000e+00, 1.000000e+00])
     """
     axis = np.asarray(axis, dtype=float)
-    n = np.linalg.norm(axis, axis=-1, keepdims=True)
+    n = row_norms(axis)[..., None]
     if np.any(n == 0):
-        raise InvalidInput(f"axis must be a non-zero vector, got {axis}")
+        raise InvalidInput(f"quat_from_axis_angle: axis must be a non-zero vector, got {axis}")
     half = 0.5 * np.asarray(angle, dtype=float)[..., None]
-    return np.concatenate([np.cos(half), np.sin(half) * axis / n], axis=-1)
+    u = axis / n
+    try:
+        shape = np.broadcast_shapes(half.shape[:-1], u.shape[:-1])
+    except ValueError:
+        raise _batches("quat_from_axis_angle", ("axis", "angle"), axis, half[..., 0]) from None
+    return np.concatenate([np.broadcast_to(np.cos(half), shape + (1,)),
+                           np.broadcast_to(np.sin(half) * u, shape + (3,))], axis=-1)
 
 
+@contract(theta=_VECS)
 def quat_exp(theta: np.ndarray) -> np.ndarray:
     """exp(½θ): the unit quaternion of the rotation vector θ (..., 3); exact unit norm.
 
@@ -158,15 +212,27 @@ def quat_exp(theta: np.ndarray) -> np.ndarray:
     array([1., 0., 0., 0.])
     """
     th = np.asarray(theta, dtype=float)
-    a = np.sqrt(np.sum(th * th, axis=-1, keepdims=True))
+    a = row_norms(th)[..., None]
     small = a < 1e-4
     a_safe = np.where(small, 1.0, a)
+    a_small = np.where(small, a, 0.0)
     # sin(a/2)/a, with its series ½ − a²/48 + a⁴/3840 where a is tiny
-    sinc = np.where(small, 0.5 - a * a / 48.0 + a ** 4 / 3840.0, np.sin(0.5 * a_safe) / a_safe)
+    sinc = np.where(small, 0.5 - a_small * a_small / 48.0 + a_small ** 4 / 3840.0, np.sin(0.5 * a_safe) / a_safe)
     q = np.concatenate([np.cos(0.5 * a), sinc * th], axis=-1)
     return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
 
 
+@contract(quat=_NONZERO, v=_VECS)
 def quat_rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """R(q) v for quaternions (..., 4) and vectors (..., 3)."""
-    return np.einsum("...ij,...j->...i", quat_to_matrix(quat), np.asarray(v, dtype=float))
+    """R(q) v for quaternions (..., 4) and vectors (..., 3) (one each, or batches of one length).
+
+    >>> np.round(quat_rotate(quat_from_axis_angle([0, 0, 1.0], np.pi / 2), [1.0, 0, 0]), 12) + 0.0
+    array([0., 1., 0.])
+    """
+    v = np.asarray(v, dtype=float)
+    try:
+        with np.errstate(over="ignore", invalid="ignore"):
+            out = np.einsum("...ij,...j->...i", quat_to_matrix(quat), v)
+    except ValueError:
+        raise _batches("quat_rotate", ("quat", "v"), quat, v) from None
+    return certify("quat_rotate: R(q) v", out, quat, v)

@@ -29,26 +29,50 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, Seq, contract
 from ..ode import get_method
+from ..ode.driver import MAX_STEPS, check_finite
 from ..results import SimResult
 from .bodies import RigidBodies
+from .domain import Counter, RigidState, Vectors, certify
 from ..geometry import cross as _cross
 from .effects import QuaternionRenormalize
 from .quat import quat_exp, quat_multiply
 from ..scene import Effect, Scene
-from ..errors import InvalidInput
+from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged
 
 __all__ = ["RigidScene", "exp_map_step", "dexpinv"]
 
 QUATERNION_MODES = ("renormalize", "exponential", "none")
 
 
+def _methods():
+    from ..ode import METHODS
+    return list(METHODS)
+
+
+_METHOD = Choice(_methods)
+_T = Real()
+_H = Real(gt=0)
+
+
+@contract(theta=Vectors(3, batch="first", below=2 * np.pi), omega=Array((3,), batch="first"))
 def dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """θ̇ = dexp⁻¹_θ(ω) for R = exp([θ]×) R₀ and world angular velocity ω, rows (..., 3).
+    """θ̇ = dexp⁻¹_θ(ω) for R = exp([θ]×) R₀ and world angular velocity ω, rows (..., 3) (one each, or
+    batches of one length); |θ| < 2π (dexp⁻¹ has poles at |θ| = 2π, 4π, ...).
 
     >>> dexpinv(np.zeros(3), np.array([1.0, 2.0, 3.0]))     # at θ = 0 it is the identity
     array([1., 2., 3.])
     """
+    try:
+        out = _dexpinv(theta, omega)
+    except ValueError:
+        raise InvalidInput(f"dexpinv: theta and omega must be one each, or batches of one length, got theta "
+                           f"{np.shape(theta)} and omega {np.shape(omega)}") from None
+    return certify("dexpinv: dexp⁻¹_θ(ω)", out, theta, omega)
+
+
+def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     th = np.asarray(theta, dtype=float)
     w = np.asarray(omega, dtype=float)
     a2 = np.sum(th * th, axis=-1, keepdims=True)
@@ -56,10 +80,13 @@ def dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     small = a < 1e-3
     a_s = np.where(small, 1.0, a)
     c = np.where(small, 1.0 / 12.0 + a2 / 720.0, (1.0 - 0.5 * a_s / np.tan(0.5 * a_s)) / np.where(small, 1.0, a2))
-    tw = _cross(th, w)
-    return w - 0.5 * tw + c * _cross(th, tw)
+    with np.errstate(over="ignore", invalid="ignore"):
+        tw = _cross(th, w)
+        return w - 0.5 * tw + c * _cross(th, tw)
 
 
+@contract(system=Obj(RigidBodies), forces=Func(), t=_T, y=RigidState("system"), h=_H, method=_METHOD,
+          counter=Opt(Counter()))
 def exp_map_step(system: RigidBodies, forces, t: float, y: np.ndarray, h: float, method: str = "rk4",
                  counter: list | None = None) -> np.ndarray:
     """One Runge–Kutta–Munthe-Kaas step of ``method`` on the rotation group (see the module docstring).
@@ -77,6 +104,24 @@ def exp_map_step(system: RigidBodies, forces, t: float, y: np.ndarray, h: float,
     True
     """
     N = system.N
+
+    def checked(tt, yy):            # the user's forces arrive inside the step: checked at each call
+        Q = np.asarray(forces(tt, yy), dtype=float)
+        if Q.shape != (N, 6):
+            raise InvalidInput(f"exp_map_step: forces(t, y) must return an array of shape ({N}, 6), got shape "
+                               f"{Q.shape}")
+        if not np.isfinite(Q).all() and np.isfinite(yy).all():
+            raise InvalidInput(f"exp_map_step: forces(t, y) must return finite forces, got {Q.tolist()} at t = {tt}")
+        return Q
+
+    y1 = _exp_map_step(system, checked, t, y, h, method, counter)
+    check_finite(y1, t, 0)
+    return y1
+
+
+def _exp_map_step(system: RigidBodies, forces, t: float, y: np.ndarray, h: float, method: str,
+                  counter: list | None = None) -> np.ndarray:
+    N = system.N
     x0, q0, P0, L0 = system.unpack(y)
     q0 = q0.copy()
 
@@ -92,7 +137,7 @@ def exp_map_step(system: RigidBodies, forces, t: float, y: np.ndarray, h: float,
         dy, w = system.derivative_and_omega(yy, forces(tt, yy))
         dz = np.empty_like(z)
         dz[:3 * N] = dy[:3 * N]
-        dz[3 * N:6 * N] = dexpinv(theta, w).ravel()
+        dz[3 * N:6 * N] = _dexpinv(theta, w).ravel()
         dz[6 * N:] = dy[7 * N:]
         return dz
 
@@ -121,11 +166,8 @@ class RigidScene(Scene):
     ('gravity', 'integrate[exp_map]')
     """
 
+    @contract(system=Obj(RigidBodies), effects=Seq(Obj(Effect)), quaternions=Choice(QUATERNION_MODES))
     def __init__(self, system: RigidBodies, effects: Sequence[Effect] = (), quaternions: str = "renormalize") -> None:
-        if not isinstance(system, RigidBodies):
-            raise InvalidInput(f"system must be a RigidBodies, got {type(system).__name__}")
-        if quaternions not in QUATERNION_MODES:
-            raise InvalidInput(f"quaternions must be one of {QUATERNION_MODES}, got {quaternions!r}")
         effects = list(effects)
         if quaternions == "renormalize" and not any(isinstance(e, QuaternionRenormalize) for e in effects):
             effects.append(QuaternionRenormalize())
@@ -139,6 +181,7 @@ class RigidScene(Scene):
             stages = tuple("integrate[exp_map]" if s == "integrate" else s for s in stages)
         return stages
 
+    @contract(t=_T, y=RigidState("self.system"))
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
         d = super().diagnostics(t, y)
         rb = self.system
@@ -148,28 +191,53 @@ class RigidScene(Scene):
         d["quat_norm_error"] = rb.quaternion_norm_error(y)
         return d
 
+    @contract(t=_T, y=RigidState("self.system"), h=_H, method=_METHOD)
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
+        """One step of the pipeline (see :meth:`pbanim.scene.Scene.step`); a state that stops being finite
+        is a :class:`~pbanim.errors.SimulationDiverged` at ``t``."""
         if method == "verlet" and self.quaternions != "exponential":
-            return self._splitting_advance([0])(t, y, h)
-        if self.quaternions != "exponential":
-            return super().step(t, y, h, method)
-        y = exp_map_step(self.system, self.forces, t, y, h, method)
-        for e in self._post:
-            y = e.post_step(t + h, y, h)
-        return y
+            y1 = self._splitting_advance([0])(t, y, h)
+        elif self.quaternions != "exponential":
+            y1 = super().step(t, y, h, method)
+        else:
+            y1 = _exp_map_step(self.system, self.forces, t, y, h, method)
+            for e in self._post:
+                y1 = e.post_step(t + h, y1, h)
+        check_finite(y1, t, 0)
+        return y1
 
-    def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", **kwargs) -> SimResult:
-        """Fixed-step simulation (see :meth:`pbanim.scene.Scene.simulate`; same driver, same step rule).
+    @contract(t_end=_T, h=_H, method=_METHOD, t0=_T, y0=Opt(RigidState("self.system")), record_every=Int(ge=1),
+              diagnostics=Flag(), check_every=Int(ge=1), max_steps=Int(ge=1))
+    def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
+                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
+                 check_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
+        """Fixed-step simulation (see :meth:`pbanim.scene.Scene.simulate`; same driver, same step rule,
+        same arguments).
 
         With ``quaternions="exponential"`` each step is :func:`exp_map_step` and the result's ``method``
-        reads ``"<method>+exp_map"``.
+        reads ``"<method>+exp_map"``. A force or rate that overflows from a finite state during the run
+        is a :class:`~pbanim.errors.SimulationDiverged` naming it and the step.
         """
-        res = super().simulate(t_end, h, method, **kwargs)
+        res = super().simulate(t_end, h, method, t0=t0, y0=y0, record_every=record_every, diagnostics=diagnostics,
+                               check_every=check_every, max_steps=max_steps)
         if self.quaternions == "exponential":
             res.method = f"{method}+exp_map"
         return res
 
     def _advance(self, m, counter: list):
+        step = self._advance_step(m, counter)
+        taken = [0]
+
+        def advance(t, y, h):
+            try:
+                y1 = step(t, y, h)
+            except NonFiniteResult as exc:
+                raise SimulationDiverged(t, taken[0], exc.what, "it overflowed from a finite state") from None
+            taken[0] += 1
+            return y1
+        return advance
+
+    def _advance_step(self, m, counter: list):
         if m.name == "verlet" and self.quaternions != "exponential":
             return self._splitting_advance(counter)
         if self.quaternions != "exponential":
@@ -177,7 +245,7 @@ class RigidScene(Scene):
         system, forces, post, name = self.system, self.forces, self._post, m.name
 
         def advance(t, y, h):
-            y = exp_map_step(system, forces, t, y, h, name, counter)
+            y = _exp_map_step(system, forces, t, y, h, name, counter)
             for e in post:
                 y = e.post_step(t + h, y, h)
             return y
