@@ -161,15 +161,18 @@ LINK = '<link name="{0}"><inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz
 @pytest.mark.parametrize("body, match", [
     (LINK.format("a") + LINK.format("b") + '<joint name="j" type="planar"><parent link="a"/><child link="b"/></joint>',
      "<joint name='j'>: joint type 'planar' is not supported"),
-    ('<link name="a"/>', "<link name='a'> has no <inertial> with a <mass>"),
+    ('<link name="a"><inertial><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial></link>',
+     "<link name='a'> <inertial> needs a <mass> and an <inertia>"),
     (LINK.format("a") + '<joint name="j" type="fixed"><parent link="a"/><child link="zz"/></joint>',
      "<joint name='j'>: child link 'zz' is not a <link>"),
     (LINK.format("a") + LINK.format("b") + '<joint name="j" type="fixed"><parent link="a"/><child link="b"/></joint>'
      '<joint name="k" type="fixed"><parent link="b"/><child link="a"/></joint>', "one root, found roots \\[\\]"),
     (LINK.format("a") + LINK.format("b"), "one root, found roots \\['a', 'b'\\]"),
-    (LINK.format("a").replace('value="1"', 'value="-1"'), "mass must be a positive finite number, got -1.0"),
+    (LINK.format("a").replace('value="1"', 'value="-1"'), "<link name='a'> <mass>: value must be a finite number >= 0, "
+                                                         "got -1.0"),
     (LINK.format("a") + LINK.format("b") + '<joint name="j" type="revolute"><parent link="a"/><child link="b"/>'
-     '<axis xyz="0 0 0"/></joint>', "the revolute joint axis must be non-zero"),
+     '<axis xyz="0 0 0"/></joint>', "<joint name='j'> <axis>: xyz must be a non-zero finite 3-vector .* it is zero"),
+    (LINK.format("a").replace('izz="1"', 'izz="3"'), "<link name='a'> <inertia>: .* violate I1 \\+ I2 >= I3"),
 ])
 def test_bad_urdf_is_named(body, match):
     with pytest.raises(InvalidInput, match=match):
@@ -180,14 +183,14 @@ def test_bad_tree_input_is_named():
     t = ArticulatedTree()
     with pytest.raises(InvalidInput, match="parent must be −1 .* got 3"):
         t.add("a", 3, "revolute", mass=1.0)
-    with pytest.raises(InvalidInput, match="joint type must be one of"):
+    with pytest.raises(InvalidInput, match="kind must be one of .* got 'ball'"):
         t.add("a", -1, "ball", mass=1.0)
     with pytest.raises(InvalidInput, match="positive semi-definite .* I1 \\+ I2 >= I3"):
         t.add("a", -1, "revolute", mass=1.0, inertia=[1.0, 1.0, 3.0])
     with pytest.raises(InvalidInput, match="the tree has no links"):
         crba(t, np.zeros(0))
     t.add("a", -1, "revolute", mass=1.0, com=[1.0, 0, 0])
-    with pytest.raises(InvalidInput, match="q must be finite with shape \\(1,\\)"):
+    with pytest.raises(InvalidInput, match="aba: q must be .* got \\[nan\\]; it has NaN"):
         aba(t, [np.nan], [0.0], [0.0])
 
 

@@ -178,7 +178,7 @@ def test_bad_contact_input_is_named():
     k = PlanarKernel(tree)
     with pytest.raises(InvalidInput, match="points"):
         PlanarContactStep(k, [])
-    with pytest.raises(InvalidInput, match="links"):
+    with pytest.raises(InvalidInput, match="points\\[0\\] link must be a link index in 0..2, got 7"):
         PlanarContactStep(k, [(7, [0, 0, 0])])
     with pytest.raises(InvalidInput, match="friction"):
         PlanarGround(0.0, -1.0)

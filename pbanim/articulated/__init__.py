@@ -38,16 +38,19 @@ from __future__ import annotations
 
 from .batched import aba_batch, crba_batch, rnea_batch
 from .fast import aba_fast
-from .dynamics import aba, bias_forces, crba, kinetic_energy, link_transforms, potential_energy, rnea
+from .dynamics import (SingularJointInertia, aba, bias_forces, check_articulated_inertia, crba, kinetic_energy,
+                       link_transforms, potential_energy, rnea)
 from .joints import JOINTS, RigidJoint, RigidJoints
 from .planar import NotPlanarError, PlanarKernel
 from .planar_step import PlanarContactStep, PlanarGround, solve_planar_contact
 from .system import ArticulatedSystem
 from .urdf import load_urdf, rpy_matrix
 from .spatial import crf, crm, plucker, plucker_inverse, rotation, spatial_inertia
-from .tree import JOINT_TYPES, ArticulatedTree, Joint, Link
+from .tree import JOINT_TYPES, ONE_DOF, ROTATING, ArticulatedTree, Joint, Link
 
 __all__ = ["PlanarKernel", "NotPlanarError", "PlanarContactStep", "PlanarGround", "solve_planar_contact",
-           "ArticulatedTree", "ArticulatedSystem", "RigidJoints", "RigidJoint", "JOINTS", "load_urdf", "rpy_matrix", "Joint", "Link", "JOINT_TYPES", "rnea", "crba", "aba", "bias_forces",
-           "kinetic_energy", "potential_energy", "link_transforms", "rnea_batch", "crba_batch", "aba_batch", "aba_fast",
+           "ArticulatedTree", "ArticulatedSystem", "RigidJoints", "RigidJoint", "JOINTS", "load_urdf", "rpy_matrix",
+           "Joint", "Link", "JOINT_TYPES", "ROTATING", "ONE_DOF", "rnea", "crba", "aba", "bias_forces",
+           "kinetic_energy", "potential_energy", "link_transforms", "check_articulated_inertia",
+           "SingularJointInertia", "rnea_batch", "crba_batch", "aba_batch", "aba_fast",
            "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation"]

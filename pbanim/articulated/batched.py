@@ -18,10 +18,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contracts import Array, Opt, contract
+from ..errors import check_result
 from ..geometry import cross as _cross
 from .dynamics import external_forces
-from .fast import aba_fast
+from .fast import aba_fast, batch_of
+from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
+
+_TREE, _QB = Tree(), JointPositions("tree", batch="first")
+_VB = Array(("tree.nv",), batch="first", empty=True)
+_FB = Opt(Array(("tree.n", 6), batch="first"))
+_HUGE = "of a tree and states with huge entries"
 
 __all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
 
@@ -44,27 +52,16 @@ def _mtv(M, x):
     return np.einsum("kji,kj->ki", M, x)
 
 
-def _batch(tree, q, *more, names=("qd", "x")):
-    q = np.asarray(q, dtype=float)
-    single = q.ndim == 1
-    q2 = np.atleast_2d(q)
-    out = []
-    for arr, name in zip(more, names):
-        _, a = tree.check_state(q2, np.atleast_2d(np.asarray(arr, dtype=float)), name_qd=name)
-        out.append(a)
-    tree.check_state(q2)
-    return single, q2, out
-
-
 def link_transforms_batch(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
     """ⁱX_λ(i) for each link, each (K, 6, 6)."""
     A = tree.arrays()
     return [tree.joint_transform(i, q[:, A["qi"][i]]) @ A["XT"][i] for i in range(tree.n)]
 
 
+@contract(tree=_TREE, q=_QB, qd=_VB, qdd=_VB, f_ext=_FB)
 def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ for K states at once: q (K, nq), q̇ and q̈ (K, nv) → τ (K, nv)."""
-    single, q, (qd, qdd) = _batch(tree, q, qd, qdd, names=("qd", "qdd"))
+    single, q, (qd, qdd) = batch_of(q, qd=qd, qdd=qdd)
     A, K = tree.arrays(), q.shape[0]
     fx = external_forces(tree, f_ext, K)
     Xup = link_transforms_batch(tree, q)
@@ -83,12 +80,14 @@ def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         lam = tree.parent[i]
         if lam >= 0:
             f[lam] = f[lam] + _mtv(Xup[i], f[i])
+    check_result("rnea_batch", tau, _HUGE)
     return tau[0] if single else tau
 
 
+@contract(tree=_TREE, q=_QB)
 def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
     """H(q) for K states: (K, nv, nv)."""
-    single, q, _ = _batch(tree, q)
+    single, q, _ = batch_of(q)
     A, K = tree.arrays(), q.shape[0]
     Xup = link_transforms_batch(tree, q)
     Ic = [np.broadcast_to(I, (K, 6, 6)).copy() for I in A["I"]]
@@ -109,9 +108,11 @@ def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
             Hij = np.swapaxes(F, 1, 2) @ A["S"][j]
             H[:, vi, A["vi"][j]] = Hij
             H[:, A["vi"][j], vi] = np.swapaxes(Hij, 1, 2)
+    check_result("crba_batch", H, _HUGE)
     return H[0] if single else H
 
 
+@contract(tree=_TREE, q=_QB, qd=_VB, tau=_VB, f_ext=_FB)
 def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ for K states at once: q (K, nq), q̇ and τ (K, nv) → q̈ (K, nv), joint damping and external forces
     included. This is the world-frame ABA of :func:`~pbanim.articulated.fast.aba_fast` (equations in

@@ -12,7 +12,9 @@ rigid-body :class:`~pbanim.contact.TimeStepping` of chapter 07, but with the tre
     |tₖ| ≤ μ f, J_tₖ u⁺ = 0 while |tₖ| < μ f                  (box friction along two tangents t₁, t₂)
     q⁺ = q + h q̇(q, u⁺)                                       (floating quaternions renormalized)
 
-A sphere pair (i, j) with centres cᵢ, cⱼ, radii rᵢ, rⱼ has gap |cᵢ − cⱼ| − rᵢ − rⱼ, normal n = (cᵢ − cⱼ)/|cᵢ − cⱼ|
+Joint position limits (lower ≤ q_i ≤ upper, :mod:`.tree`) are stops: a joint near a limit is one more
+contact, without friction, whose row is ±e_i on q̇ and whose gap is q_i − lower or upper − q_i (the same
+complementarity, so a stop neither pulls nor lets the joint pass). A sphere pair (i, j) with centres cᵢ, cⱼ, radii rᵢ, rⱼ has gap |cᵢ − cⱼ| − rᵢ − rⱼ, normal n = (cᵢ − cⱼ)/|cᵢ − cⱼ|
 and the relative Jacobian J(pᵢ) − J(pⱼ) at the surface points pᵢ = cᵢ − rᵢn, pⱼ = cⱼ + rⱼn: the same rows as a
 ground contact, so the same solve. The point Jacobian J_p (3 × nv) of a point p on link i has, for every
 joint j on the path from the root to i, the columns ω_j × p + v_j of the joint's motion subspace expressed in world Plücker coordinates
@@ -130,6 +132,7 @@ class ArticulatedContact:
         self.cfm = check_number("cfm", cfm, low=0.0, high=1e-2)
         self.max_iter = check_count("max_iter", max_iter, maximum=100_000)
         self.tol = check_number("tol", tol, low=0.0, low_open=True, high=1.0)
+        self.limited = self.tree.limited()          # joint stops: (q index, q̇ index, lower, upper)
         self.last = None
 
     def _set_spheres(self, spheres: list) -> None:
@@ -164,29 +167,52 @@ class ArticulatedContact:
         blocks = [(nrm[near], Jp[near], gap[near])] if near.size else []
         if self.pairs.size:
             blocks += self._sphere_blocks(q, u, h)
+        rows, g, mu = [], [], []
         if blocks:
             nn = np.concatenate([b[0] for b in blocks])
             JJ = np.concatenate([b[1] for b in blocks])
-            g = np.concatenate([b[2] for b in blocks])
-            m = g.size
+            g.append(np.concatenate([b[2] for b in blocks]))
             t1, t2 = tangent_basis(nn)
-            rows = np.stack([np.einsum("ki,kij->kj", nn, JJ), np.einsum("ki,kij->kj", t1, JJ),
-                             np.einsum("ki,kij->kj", t2, JJ)], axis=1).reshape(3 * m, -1)   # [n, t₁, t₂]·J
+            rows.append(np.stack([np.einsum("ki,kij->kj", nn, JJ), np.einsum("ki,kij->kj", t1, JJ),
+                                  np.einsum("ki,kij->kj", t2, JJ)], axis=1).reshape(3 * len(nn), -1))   # [n, t₁, t₂]·J
+            mu.append(np.full(len(nn), self.mu))
+        stops = self._stop_rows(q, u, h)
+        if stops is not None:
+            rows.append(stops[0]), g.append(stops[1]), mu.append(np.zeros(len(stops[1])))
+        if rows:
+            rows, g, mu = np.concatenate(rows), np.concatenate(g), np.concatenate(mu)
+            m = g.size
             HinvJt = np.linalg.solve(H, rows.T)
             A = rows @ HinvJt
             # a touch of constraint-force mixing keeps A positive definite with redundant contacts
             A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(3 * m)
             bias = rows @ u
             bias[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
-            z, residual, sweeps = pgs_box_friction(A, bias, self.mu, max_iter=self.max_iter, tol=self.tol)
+            z, residual, sweeps = pgs_box_friction(A, bias, mu, max_iter=self.max_iter, tol=self.tol)
             u = u + HinvJt @ z
+            n_stop = 0 if stops is None else len(stops[1])
             self.last = {"impulses": z, "residual": residual, "sweeps": sweeps, "contacts": near,
-                         "sphere_contacts": m - near.size}
+                         "sphere_contacts": m - near.size - n_stop, "joint_stops": n_stop}
         else:
             self.last = None
         q1 = q + h * s.qdot(q, u)
         y1 = np.concatenate([q1, u])
         return s._renormalize(y1)
+
+    def _stop_rows(self, q, u, h):
+        """Joint stops as contacts without friction: for a joint at q near its limit lower (upper) the row
+        +e_i (−e_i) on q̇ with gap q − lower (upper − q), rows [e, 0, 0]; None when no stop is near."""
+        found = []
+        for qi, vi, lo, hi in self.limited:
+            for gap, sign in ((q[qi] - lo, 1.0), (hi - q[qi], -1.0)):
+                if gap < self.margin + h * max(-sign * u[vi], 0.0):       # ±inf limits never pass
+                    found.append((vi, sign, gap))
+        if not found:
+            return None
+        rows = np.zeros((3 * len(found), self.tree.nv))
+        for k, (vi, sign, _) in enumerate(found):
+            rows[3 * k, vi] = sign
+        return rows, np.array([f[2] for f in found])
 
     def simulate(self, t_end: float, h: float, *, record_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed steps through the one driver; diagnostics: energy, lowest contact-point gap."""

@@ -15,20 +15,43 @@ So H q̈ + C(q, q̇) = τ with C = ID(q, q̇, 0): ABA equals the CRBA solve H⁻
 RNEA(q, q̇, ABA(q, q̇, τ)) = τ. Joint damping b adds −b q̇ to τ in ABA and the simulation (not in RNEA,
 which is the rigid-body inverse dynamics). External forces f̂ᵉˣᵗ (n, 6) are in link coordinates.
 The vectorized versions over a batch of K states are in :mod:`pbanim.articulated.batched`.
+
+ABA's pivots D_i are the pivots of H's LDLᵀ factorization taken leaves first (eliminating a joint is
+projecting its subtree's articulated inertia through it), so a joint that moves no inertia (D_i = 0) is
+a zero pivot of H: :func:`check_articulated_inertia` finds it from CRBA and names the joint.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularChartError, check_result
+from ..contracts import Array, Int, Opt, Real, contract
+from ..errors import InvalidInput, NonFiniteResult, SingularChartError, check_result
 from .spatial import crf, crm
+from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
 
 __all__ = ["link_transforms", "rnea", "crba", "aba", "kinetic_energy", "potential_energy", "bias_forces",
-           "world_poses", "external_forces"]
+           "world_poses", "external_forces", "check_articulated_inertia", "SingularJointInertia", "joint_label"]
+
+_TREE, _Q = Tree(), JointPositions("tree")
+_V = Array(("tree.nv",), empty=True)
+_FEXT = Opt(Array(("tree.n", 6)))
+_HUGE = "of a tree and state with huge entries"
 
 
+class SingularJointInertia(InvalidInput):
+    """A movable joint of a model moves no inertia: its articulated inertia D = Sᵀ I^A S vanishes (a massless
+    leaf link, or a massless link between two joints about one axis), so q̈ = D⁻¹(…) has no value."""
+
+
+def joint_label(tree: ArticulatedTree, i: int) -> str:
+    """"joint i ('name')" for messages."""
+    names = getattr(tree, "joint_names", None)
+    return f"joint {i} ({names[i]!r})" if names and i < len(names) else f"joint {i}"
+
+
+@contract(tree=_TREE, q=_Q)
 def link_transforms(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarray]:
     """ⁱX_λ(i) = X_J(q_i) X_T(i) for every link (the child-from-parent transforms)."""
     A = tree.arrays()
@@ -44,7 +67,7 @@ def external_forces(tree: ArticulatedTree, f_ext, K: int | None = None) -> np.nd
     try:
         f = np.broadcast_to(f, shape)
     except ValueError:
-        raise InvalidInput(f"f_ext must have shape ({tree.n}, 6) (link coordinates), got {f.shape}") from None
+        raise InvalidInput(f"f_ext must have shape {shape} (link coordinates) to go with q, got {f.shape}") from None
     if not np.all(np.isfinite(f)):
         raise InvalidInput("f_ext must be finite")
     return f
@@ -64,10 +87,9 @@ def world_poses(tree: ArticulatedTree, q) -> tuple[list, list, np.ndarray]:
     return Xup, X0, origins
 
 
+@contract(tree=_TREE, q=_Q, qd=_V, qdd=_V, f_ext=_FEXT)
 def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ = ID(q, q̇, q̈): the joint forces that produce the accelerations q̈ (gravity included)."""
-    q, qd = tree.check_state(q, qd)
-    _, qdd = tree.check_state(q, qdd, name_qd="qdd")
     A, fx = tree.arrays(), external_forces(tree, f_ext)
     Xup = link_transforms(tree, q)
     v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
@@ -85,17 +107,18 @@ def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         lam = tree.parent[i]
         if lam >= 0:
             f[lam] = f[lam] + Xup[i].T @ f[i]
-    return check_result("rnea", tau, "of a tree and state with huge entries")
+    return check_result("rnea", tau, _HUGE)
 
 
+@contract(tree=_TREE, q=_Q, qd=_V, f_ext=_FEXT)
 def bias_forces(tree: ArticulatedTree, q, qd, f_ext=None) -> np.ndarray:
     """C(q, q̇) = ID(q, q̇, 0): gravity, Coriolis and centrifugal joint forces (minus external ones)."""
     return rnea(tree, q, qd, np.zeros(tree.nv), f_ext)
 
 
+@contract(tree=_TREE, q=_Q)
 def crba(tree: ArticulatedTree, q) -> np.ndarray:
     """H(q), the joint-space mass matrix (nv, nv), symmetric positive definite."""
-    q, _ = tree.check_state(q)
     A = tree.arrays()
     Xup = link_transforms(tree, q)
     Ic = [I.copy() for I in A["I"]]
@@ -115,13 +138,12 @@ def crba(tree: ArticulatedTree, q) -> np.ndarray:
             j = tree.parent[j]
             H[vi, A["vi"][j]] = F.T @ A["S"][j]
             H[A["vi"][j], vi] = H[vi, A["vi"][j]].T
-    return check_result("crba", H, "of a tree and state with huge entries")
+    return check_result("crba", H, _HUGE)
 
 
+@contract(tree=_TREE, q=_Q, qd=_V, tau=_V, f_ext=_FEXT)
 def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ = FD(q, q̇, τ) by the articulated-body algorithm, O(n); joint damping included."""
-    q, qd = tree.check_state(q, qd)
-    _, tau = tree.check_state(q, tau, name_qd="tau")
     A, fx = tree.arrays(), external_forces(tree, f_ext)
     tau = tau - A["damping"] * qd
     Xup = link_transforms(tree, q)
@@ -139,7 +161,7 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     for i in reversed(range(n)):
         S, vi = A["S"][i], A["vi"][i]
         U[i] = IA[i] @ S
-        Dinv[i] = _inverse(S.T @ U[i], i, q)
+        Dinv[i] = _inverse(S.T @ U[i], tree, i, q)
         u[i] = tau[vi] - S.T @ pA[i]
         lam = tree.parent[i]
         if lam >= 0:
@@ -155,40 +177,90 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
         ap = Xup[i] @ (a[lam] if lam >= 0 else A["a0"]) + c[i]
         qdd[vi] = Dinv[i] @ (u[i] - U[i].T @ ap)
         a[i] = ap + S @ qdd[vi]
-    if not np.all(np.isfinite(qdd)):
-        raise SingularChartError(np.inf, q.tolist(), "ABA's accelerations are not finite (a joint whose "
-                                 "subtree has no inertia about its axis, or overflowing inputs)")
-    return check_result("aba", qdd, "of a tree and state with huge entries")
+    return check_result("aba", qdd, _HUGE)
 
 
-def _inverse(D: np.ndarray, i: int, q) -> np.ndarray:
-    """D⁻¹ of joint i's articulated inertia Sᵀ I^A S, or SingularChartError when it is singular."""
+def pivot_error(D, label: str, q, where: str = "") -> Exception:
+    """The named error for an ABA pivot D that failed its test: NonFiniteResult when it overflowed, else
+    SingularChartError (the joint moves (nearly) no inertia)."""
+    if not np.all(np.isfinite(D)):
+        return NonFiniteResult("ABA's articulated inertia", f"{label}{where}: {_HUGE}")
+    return SingularChartError(np.inf, None if q is None else np.asarray(q).tolist(),
+                              f"{label} has (nearly) zero articulated inertia about its axis{where}")
+
+
+def _inverse(D: np.ndarray, tree, i: int, q) -> np.ndarray:
+    """D⁻¹ of joint i's articulated inertia Sᵀ I^A S, or the named error when it is singular or overflowed."""
     if D.size == 0:
         return np.zeros((0, 0))
     if D.shape == (1, 1):                       # revolute and prismatic joints: a scalar
         d = float(D[0, 0])
         if not (np.isfinite(d) and abs(d) > 1e-280):
-            raise SingularChartError(np.inf, np.asarray(q).tolist(),
-                                     f"joint {i} has (nearly) zero articulated inertia about its axis")
+            raise pivot_error(d, joint_label(tree, i), q)
         return np.array([[1.0 / d]])
     scale = float(np.max(np.abs(D))) if np.all(np.isfinite(D)) else np.inf
-    if not np.isfinite(scale) or np.linalg.cond(D) > 1e14 or scale < 1e-280:
-        raise SingularChartError(np.linalg.cond(D) if np.isfinite(scale) else np.inf, np.asarray(q).tolist(),
-                                 f"joint {i} has (nearly) zero articulated inertia about its axis")
+    if not np.isfinite(scale) or scale < 1e-280 or np.linalg.cond(D) > 1e14:
+        raise pivot_error(D, joint_label(tree, i), q)
     return np.linalg.inv(D)
 
 
+@contract(tree=_TREE, q=_Q, qd=_V)
 def kinetic_energy(tree: ArticulatedTree, q, qd) -> float:
     """T = ½ q̇ᵀ H(q) q̇."""
-    q, qd = tree.check_state(q, qd)
-    return float(0.5 * qd @ crba(tree, q) @ qd)
+    with np.errstate(over="ignore", invalid="ignore"):
+        T = float(0.5 * qd @ crba(tree, q) @ qd)
+    return check_result("kinetic_energy", T, _HUGE)
 
 
+@contract(tree=_TREE, q=_Q)
 def potential_energy(tree: ArticulatedTree, q) -> float:
     """V = −Σ m_i g·x_ci, with x_ci the world position of link i's centre of mass."""
-    q, _ = tree.check_state(q)
     _, X0, origins = world_poses(tree, q)
     V = 0.0
-    for i, lk in enumerate(tree.links):
-        V -= lk.mass * tree.gravity @ (origins[i] + X0[i][:3, :3].T @ lk.com)   # E ᵀ: link → world
-    return float(V)
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i, lk in enumerate(tree.links):
+            V -= lk.mass * tree.gravity @ (origins[i] + X0[i][:3, :3].T @ lk.com)   # E ᵀ: link → world
+    return check_result("potential_energy", float(V), _HUGE)
+
+
+def _ldl_pivots(H: np.ndarray) -> np.ndarray:
+    """The pivots d of H = LDLᵀ eliminated from the last coordinate to the first (leaves first), without
+    pivoting; a non-positive pivot stops the elimination (the rest are left at 0)."""
+    A = H[::-1, ::-1].copy()
+    n = len(A)
+    d = np.zeros(n)
+    for j in range(n):                          # n eliminations
+        d[j] = A[j, j]
+        if not d[j] > 0:
+            break
+        col = A[j + 1:, j] / d[j]
+        A[j + 1:, j + 1:] -= np.outer(col, A[j + 1:, j])
+    return d[::-1]
+
+
+@contract(tree=_TREE, rel=Real(gt=0, lt=1), seed=Int(ge=0))
+def check_articulated_inertia(tree: ArticulatedTree, rel: float = 1e-10, seed: int = 0) -> None:
+    """Refuse, with :class:`SingularJointInertia` naming the joint, a tree in which a movable joint moves no
+    inertia: a pivot D_i of H(q) (ABA's articulated inertia about joint i, see the module docstring) at or
+    below ``rel`` H_ii, or below 1e-14 of the largest H_jj, at a pseudo-random configuration (structural
+    singularities hold at every q; one seen only at special configurations is left to ABA's own check)."""
+    if tree.nv == 0:
+        return
+    rng = np.random.default_rng(seed)
+    q = tree.neutral() + rng.uniform(-1.0, 1.0, tree.nq)
+    for j, s in zip(tree.joints, tree._q_index):
+        if j.kind == "floating":
+            q[s.start:s.start + 4] /= np.linalg.norm(q[s.start:s.start + 4])
+    H = crba(tree, q)
+    d, h = _ldl_pivots(H), np.diag(H)
+    floor = 1e-14 * float(h.max())
+    owner = np.repeat(np.arange(tree.n), [v.stop - v.start for v in tree._v_index])
+    bad = np.flatnonzero(~((d > rel * h) & (d > floor)))
+    if bad.size:
+        k = int(bad[-1])                        # the first failure in elimination order (leaves first)
+        i = int(owner[k])
+        name = tree.joint_names[i] if tree.joint_names else f"joint {i}"
+        raise SingularJointInertia(f"<joint name={name!r}> ({tree.joints[i].kind}, above link "
+                                   f"{tree.links[i].name!r}) moves no inertia: its articulated inertia D = Sᵀ I^A S "
+                                   f"is {d[k]:.3g} (H_ii = {h[k]:.3g}); give the link below it (or its subtree) mass "
+                                   "or inertia about the joint's axis, or make the joint fixed")

@@ -12,8 +12,9 @@
 Both return the same q̈ as the readable :func:`~pbanim.articulated.dynamics.aba` up to roundoff
 (ORACLES I5; the readable version is the one to study), joint damping −b q̇ and external forces f̂ᵉˣᵗ
 (link coordinates, (n, 6) or (K, n, 6)) included. Invalid input raises :class:`~pbanim.errors.InvalidInput`
-naming the argument; a joint whose subtree has no inertia about its axis raises
-:class:`~pbanim.errors.SingularChartError`, as the readable version does.
+naming the argument (the contract, checked once at the call; the loops check nothing), a joint whose subtree
+has no inertia about its axis :class:`~pbanim.errors.SingularChartError` and an overflow
+:class:`~pbanim.errors.NonFiniteResult`, as the readable version does, one state or a batch alike.
 
 Cost (``pbanim bench articulated``, 10-link chain): see the benchmark's table; the single-state goal is
 ≤ 30× and the batched one ≤ 1× Pinocchio's C++ ABA called once per state from Python.
@@ -25,20 +26,23 @@ from math import cos, isfinite, sin
 
 import numpy as np
 
-from ..errors import InvalidInput, SingularChartError
-from .dynamics import external_forces
+from ..contracts import Array, Opt, contract
+from ..errors import InvalidInput, NonFiniteResult
+from .dynamics import external_forces, pivot_error
 from .fastbatch import sweep_batch
 from .fastkernel import sweep
-from .fastplan import FLOATING, REVOLUTE, plan_for
+from .fastplan import REVOLUTE, plan_for
+from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
 
-__all__ = ["aba_fast"]
+__all__ = ["aba_fast", "batch_of"]
+
+_HUGE = "of a tree and state with huge entries"
 
 
 def _pivot_float(D, i, floor):
-    if not abs(D) > floor:
-        raise SingularChartError(np.inf, None, f"joint {i} has (nearly) zero articulated inertia about its axis "
-                                 f"(pivot {D!r} ≤ {floor:.3g})")
+    if not abs(D) > floor:                      # NaN lands here too
+        raise pivot_error(D, f"joint {i}", None, f" (pivot {D!r} ≤ {floor:.3g})")
     return 1.0 / D
 
 
@@ -46,29 +50,30 @@ def _pivot_array(D, i, floor):
     bad = ~(np.abs(D) > floor)
     if np.any(bad):
         k = int(np.argmax(bad))
-        raise SingularChartError(np.inf, None, f"joint {i} has (nearly) zero articulated inertia about its axis in "
-                                 f"state {k} of the batch")
+        raise pivot_error(D[k], f"joint {i}", None, f" in state {k} of the batch")
     return 1.0 / D
 
 
-def _vector(x, n: int, name: str) -> list:
-    a = np.asarray(x, dtype=float)
-    if a.shape != (n,):
-        raise InvalidInput(f"{name} must have shape ({n},) for one state (or (K, {n}) for K states), got shape "
-                           f"{a.shape}")
-    out = a.tolist()
-    if not all(map(isfinite, out)):
-        raise InvalidInput(f"{name} must be finite, got {out}")
-    return out
-
-
 def _check_quaternions(P, q) -> None:
-    for i, lp in enumerate(P.links):
-        if lp.kind == FLOATING:
-            k = lp.qi
-            norm2 = q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]
-            if not np.all(norm2 > 1e-300):
-                raise InvalidInput(f"q: the quaternion q[{k}:{k + 4}] of floating joint {i} must be non-zero")
+    """A zero quaternion (reachable from inside, e.g. a diverging run) is named, not divided by."""
+    for i, k in P.floating_q:
+        norm2 = q[k] * q[k] + q[k + 1] * q[k + 1] + q[k + 2] * q[k + 2] + q[k + 3] * q[k + 3]
+        if not np.all(norm2 > 1e-300):
+            raise InvalidInput(f"q: the quaternion q[{k}:{k + 4}] of floating joint {i} must be non-zero")
+
+
+def batch_of(q, **others):
+    """(single, q (K, nq), [each of ``others`` as (K, ·)]): one state, or K states for every argument alike
+    (a cross-argument condition no single spec says: InvalidInput naming the argument)."""
+    q = np.asarray(q, dtype=float)
+    out = []
+    for name, a in others.items():
+        a = np.asarray(a, dtype=float)
+        if a.shape[:-1] != q.shape[:-1]:
+            raise InvalidInput(f"{name} must hold the states of q ({'one state' if q.ndim == 1 else f'K = {q.shape[0]}'})"
+                               f", got shape {a.shape} for q of shape {q.shape}")
+        out.append(a if a.ndim == 2 else a[None])
+    return q.ndim == 1, (q if q.ndim == 2 else q[None]), out
 
 
 def _joint_frame_forces(P, f: np.ndarray) -> np.ndarray:
@@ -76,34 +81,43 @@ def _joint_frame_forces(P, f: np.ndarray) -> np.ndarray:
     return np.einsum("nab,...nkb->...nka", P.Qt, f.reshape(f.shape[:-1] + (2, 3))).reshape(f.shape)
 
 
+def _list(x) -> list:
+    return x.tolist() if type(x) is np.ndarray else np.asarray(x, dtype=float).tolist()
+
+
 def _one(tree: ArticulatedTree, q, qd, tau, f_ext) -> np.ndarray:
     P = plan_for(tree)
-    q, qd, tau = _vector(q, P.nq, "q"), _vector(qd, P.nv, "qd"), _vector(tau, P.nv, "tau")
-    _check_quaternions(P, q)
+    q, qd, tau = _list(q), _list(qd), _list(tau)
+    if P.floating_q:
+        _check_quaternions(P, q)
     if P.damping.any():
         tau = [t - b * v for t, b, v in zip(tau, P.damping.tolist(), qd)]
     trig = [(cos(q[lp.qi]), sin(q[lp.qi])) if lp.kind == REVOLUTE else None for lp in P.links]
     fx = [None] * P.n if f_ext is None else _joint_frame_forces(P, external_forces(tree, f_ext)).tolist()
     qdd = sweep(P, q, qd, tau, trig, fx, _pivot_float)
     if not all(map(isfinite, qdd)):
-        raise SingularChartError(np.inf, q, "ABA's accelerations are not finite (overflowing inputs)")
+        raise NonFiniteResult("aba_fast", _HUGE)
     return np.array(qdd)
 
 
 def _many(tree: ArticulatedTree, q, qd, tau, f_ext) -> np.ndarray:
     P = plan_for(tree)
-    q, qd = tree.check_state(q, qd)
-    _, tau = tree.check_state(q, tau, name_qd="tau")
+    _, q, (qd, tau) = batch_of(q, qd=qd, tau=tau)
     F = None
     if f_ext is not None:
         F = np.ascontiguousarray(_joint_frame_forces(P, external_forces(tree, f_ext, q.shape[0])).transpose(2, 1, 0))
     with np.errstate(over="ignore", invalid="ignore"):
         out = sweep_batch(P, q, qd, tau, F, _pivot_array, _check_quaternions)
     if not np.all(np.isfinite(out)):
-        raise SingularChartError(np.inf, None, "ABA's accelerations are not finite (overflowing inputs)")
+        raise NonFiniteResult("aba_batch", _HUGE)
     return out.T.copy()                     # out is the plan's buffer, reused by the next call
 
 
+_QB = JointPositions("tree", batch="first")
+_VB = Array(("tree.nv",), batch="first", empty=True)
+
+
+@contract(tree=Tree(), q=_QB, qd=_VB, tau=_VB, f_ext=Opt(Array(("tree.n", 6), batch="first")))
 def aba_fast(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ by the world-frame ABA: q (nq,) → (nv,) on Python floats, or q (K, nq) → (K, nv) on arrays.
 
@@ -114,8 +128,8 @@ def aba_fast(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     >>> bool(np.allclose(aba_fast(tree, q, qd, tau), aba(tree, q, qd, tau), rtol=0, atol=1e-13))
     True
     """
-    if not isinstance(tree, ArticulatedTree):
-        raise InvalidInput(f"tree must be an ArticulatedTree, got {type(tree).__name__}")
     if np.ndim(q) == 1:
+        if np.ndim(qd) != 1 or np.ndim(tau) != 1:
+            batch_of(q, qd=qd, tau=tau)             # raises, naming the argument that holds a batch
         return _one(tree, q, qd, tau, f_ext)
     return _many(tree, q, qd, tau, f_ext)

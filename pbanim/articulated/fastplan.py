@@ -60,12 +60,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .tree import ArticulatedTree
+from .tree import ONE_DOF, ArticulatedTree
 
 __all__ = ["FIXED", "FLOATING", "PRISMATIC", "REVOLUTE", "LinkPlan", "Plan", "plan_for"]
 
 REVOLUTE, PRISMATIC, FIXED, FLOATING = 0, 1, 2, 3
-_KIND = {"revolute": REVOLUTE, "prismatic": PRISMATIC, "fixed": FIXED, "floating": FLOATING}
+_KIND = {"revolute": REVOLUTE, "continuous": REVOLUTE, "prismatic": PRISMATIC, "fixed": FIXED, "floating": FLOATING}
 
 
 @dataclass(frozen=True)
@@ -107,6 +107,7 @@ class Plan:
     kinds: np.ndarray           # (n,) joint kinds
     RTm: tuple                  # per link R_T' as a (3, 3) array, or None for the identity
     pTm: np.ndarray             # (n, 3) p_T'
+    floating_q: tuple           # (link, q index) of each floating joint (their quaternions are checked)
     work: dict = field(default_factory=dict, compare=False)   # the batched kernel's reusable buffers
 
 
@@ -124,7 +125,7 @@ def _floats(a) -> tuple:
 
 
 def _build(tree: ArticulatedTree, A: dict) -> Plan:
-    Q = [axis_frame(j.axis) if j.kind in ("revolute", "prismatic") else np.eye(3) for j in tree.joints]
+    Q = [axis_frame(j.axis) if j.kind in ONE_DOF else np.eye(3) for j in tree.joints]
     links = []
     for i, (j, lk) in enumerate(zip(tree.joints, tree.links)):
         lam = tree.parent[i]
@@ -148,7 +149,8 @@ def _build(tree: ArticulatedTree, A: dict) -> Plan:
                 parents=np.array([lp.parent for lp in links], dtype=int),
                 dof=np.array([lp.vi if lp.kind in (REVOLUTE, PRISMATIC) else -1 for lp in links], dtype=int),
                 kinds=kinds, RTm=tuple(None if lp.RT is None else np.array(lp.RT).reshape(3, 3) for lp in links),
-                pTm=np.array([lp.pT for lp in links], dtype=float).reshape(-1, 3))
+                pTm=np.array([lp.pT for lp in links], dtype=float).reshape(-1, 3),
+                floating_q=tuple((i, lp.qi) for i, lp in enumerate(links) if lp.kind == FLOATING))
 
 
 _PLANS: weakref.WeakKeyDictionary[ArticulatedTree, Plan] = weakref.WeakKeyDictionary()

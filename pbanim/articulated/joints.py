@@ -43,17 +43,35 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError, check_count, check_number
+from ..contracts import Array, Choice, Either, Flag, Int, Obj, Opt, Real, Seq, contract, finite_result
+from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError
 from ..geometry import cross, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
 from ..scene import Effect
+from .specs import Size, UnitAxis
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
 
 JOINTS = ("ball", "hinge", "slider", "weld")
+_ANCHOR = Array((3,), ge=-1e50, le=1e50)         # m: bounded so that products of anchors stay finite
+_BIG = Real(ge=-1e100, le=1e100)
+_BODY = Int(ge=-1)
 
 
+def _n_state(env) -> int:
+    s = env.resolve("self.system")
+    n = getattr(s, "n_state", None)
+    return int(n) if n is not None else 13 * int(s.N)
+
+
+_Y = Array((Size(_n_state, "13 N"),))
+_T = Real()
+
+
+@contract(kind=Choice(JOINTS), a=_BODY, b=_BODY, anchor_a=_ANCHOR, anchor_b=_ANCHOR, axis_a=UnitAxis(),
+          axis_b=UnitAxis(), limits=Opt(Seq(_BIG, min_len=2, max_len=2)), motor=_BIG, motor_speed=Opt(_BIG),
+          motor_max=Real(ge=0, le=1e100))
 @dataclass(frozen=True)
 class RigidJoint:
     """One joint: ``kind``, bodies ``a`` and ``b`` (−1: world), anchors and axis in each body's frame."""
@@ -70,12 +88,23 @@ class RigidJoint:
     motor_speed: float | None = None   # velocity motor: target joint rate, reached with ...
     motor_max: float = 0.0             # ... at most this torque / force
 
-
-def _vec(v, name, bound: float = 1e50):
-    a = np.asarray(v, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.any(np.abs(a) > bound):
-        raise InvalidInput(f"{name} must be a finite 3-vector with entries of at most {bound:g} (m), got {v!r}")
-    return a
+    def __post_init__(self) -> None:    # cross-argument conditions (for every caller) and unit axes
+        kind = self.kind
+        if self.a == self.b:
+            raise InvalidInput(f"RigidJoint: a and b must be two different bodies, got a = b = {self.a}")
+        if self.limits is not None:
+            if kind not in ("hinge", "slider"):
+                raise InvalidInput(f"RigidJoint: limits apply to hinge and slider joints, got a {kind} joint with "
+                                   "limits")
+            lo, hi = (float(v) for v in self.limits)
+            if not lo < hi:
+                raise InvalidInput(f"RigidJoint: limits must be (lower, upper) with lower < upper, got {self.limits}")
+            object.__setattr__(self, "limits", (lo, hi))
+        if (self.motor or self.motor_speed is not None) and kind not in ("hinge", "slider"):
+            raise InvalidInput(f"RigidJoint: a motor drives a hinge or a slider, got a {kind} joint with a motor")
+        for name in ("axis_a", "axis_b"):
+            ax = np.asarray(getattr(self, name), dtype=float)
+            object.__setattr__(self, name, ax / max(float(np.linalg.norm(ax)), 1e-300))
 
 
 class RigidJoints(Effect):
@@ -88,61 +117,42 @@ class RigidJoints(Effect):
     name = "joints"
     phase = "constraint"
 
+    @contract(joints=Seq(Either(Obj(RigidJoint), Obj(dict, what="a dict of RigidJoint's fields")), min_len=1),
+              ks=Real(ge=0), kd=Real(ge=0), limit_margin=Real(ge=0), motor_time=Real(gt=0),
+              solver=Choice(("dense", "linear")), projection=Flag(), projection_tol=Real(gt=0),
+              projection_max_iter=Int(ge=1, le=1000))
     def __init__(self, joints, ks: float = 0.0, kd: float = 0.0, limit_margin: float = 1e-3,
                  motor_time: float = 0.01, solver: str = "dense", projection: bool = False,
                  projection_tol: float = 1e-12, projection_max_iter: int = 20) -> None:
-        self.joints = [j if isinstance(j, RigidJoint) else self._joint(j) for j in joints]
-        if not self.joints:
-            raise InvalidInput("joints must hold at least one joint")
-        for name, g in (("ks", ks), ("kd", kd)):
-            if not (np.isfinite(g) and g >= 0):
-                raise InvalidInput(f"{name} must be a finite number >= 0, got {g}")
+        self.joints = [j if isinstance(j, RigidJoint) else self._joint(j, k) for k, j in enumerate(joints)]
         self.ks, self.kd = float(ks), float(kd)
-        self.limit_margin = check_number("limit_margin", limit_margin, low=0.0)
-        self.motor_time = check_number("motor_time", motor_time, low=0.0, low_open=True)
-        if solver not in ("dense", "linear"):
-            raise InvalidInput(f"solver must be 'dense' or 'linear', got {solver!r}")
+        self.limit_margin, self.motor_time = float(limit_margin), float(motor_time)
         if solver == "linear" and any(j.limits is not None or j.motor_speed is not None for j in self.joints):
-            raise InvalidInput("solver='linear' handles equality joints only; limits and velocity motors need "
-                               "solver='dense'")
+            raise InvalidInput("RigidJoints: solver='linear' handles equality joints only; limits and velocity "
+                               "motors need solver='dense'")
         self.solver = solver
         self.projection = bool(projection)
-        self._projection_args = (check_number("projection_tol", projection_tol, low=0.0, low_open=True),
-                                 check_count("projection_max_iter", projection_max_iter, maximum=1000))
+        self._projection_args = (float(projection_tol), int(projection_max_iter))
         self._order = None
         self.last_lambda = None
         self.last_limit_lambda = None
 
     @staticmethod
-    def _joint(d) -> RigidJoint:
-        kind = d.get("kind")
-        if kind not in JOINTS:
-            raise InvalidInput(f"joint kind must be one of {JOINTS}, got {kind!r}")
-        axis_a = _vec(d.get("axis_a", (0.0, 0.0, 1.0)), "axis_a")
-        axis_b = _vec(d.get("axis_b", d.get("axis_a", (0.0, 0.0, 1.0))), "axis_b")
-        for nm, ax in (("axis_a", axis_a), ("axis_b", axis_b)):
-            if kind in ("hinge", "slider") and not np.linalg.norm(ax) > 1e-12:
-                raise InvalidInput(f"a {kind} joint's {nm} must be non-zero, got {ax}")
-        a = check_count("joint body a", d.get("a", 0), minimum=-1)
-        b = check_count("joint body b", d.get("b", -1), minimum=-1)
-        limits = d.get("limits")
-        if limits is not None:
-            if kind not in ("hinge", "slider"):
-                raise InvalidInput(f"limits apply to hinge and slider joints, got a {kind} joint with limits")
-            lo, hi = (check_number(f"limits[{k}]", v, low=-1e100, high=1e100) for k, v in enumerate(limits))
-            if not lo < hi:
-                raise InvalidInput(f"limits must be (lower, upper) with lower < upper, got {limits}")
-            limits = (lo, hi)
-        motor = check_number("motor", d.get("motor", 0.0), low=-1e100, high=1e100)
-        speed = d.get("motor_speed")
-        speed = None if speed is None else check_number("motor_speed", speed, low=-1e100, high=1e100)
-        fmax = check_number("motor_max", d.get("motor_max", 0.0), low=0.0, high=1e100)
-        if (motor or speed is not None) and kind not in ("hinge", "slider"):
-            raise InvalidInput(f"a motor drives a hinge or a slider, got a {kind} joint with a motor")
-        return RigidJoint(kind, a, b, _vec(d.get("anchor_a", (0, 0, 0)), "anchor_a"),
-                          _vec(d.get("anchor_b", (0, 0, 0)), "anchor_b"),
-                          axis_a / max(np.linalg.norm(axis_a), 1e-300), axis_b / max(np.linalg.norm(axis_b), 1e-300),
-                          limits, motor, speed, fmax)
+    def _joint(d: dict, k: int) -> RigidJoint:
+        """A joint from a dict of RigidJoint's fields, checked by RigidJoint's contract (``axis_b`` defaults to
+        ``axis_a``, ``a`` to body 0, ``b`` to the world); a refusal names ``joints[k]``."""
+        unknown = set(d) - set(RigidJoint.__dataclass_fields__)
+        if unknown:
+            raise InvalidInput(f"RigidJoints: joints[{k}] has unknown fields {sorted(unknown)}; the fields are "
+                               f"{list(RigidJoint.__dataclass_fields__)}")
+        fields = {"a": 0, "b": -1, "anchor_a": (0.0, 0.0, 0.0), "anchor_b": (0.0, 0.0, 0.0),
+                  "axis_a": (0.0, 0.0, 1.0), **d}
+        fields.setdefault("axis_b", fields["axis_a"])
+        try:
+            _, kw = RigidJoint.__contract__.check((), fields)
+            return RigidJoint(**kw)
+        except InvalidInput as exc:
+            raise InvalidInput(f"RigidJoints: joints[{k}]: {exc}") from None
 
     def stages(self) -> list:
         """Itself, plus the post-step projection onto C = 0, J u = 0 when ``projection`` is on."""
@@ -150,15 +160,13 @@ class RigidJoints(Effect):
 
         return [self, JointProjection(self, *self._projection_args)] if self.projection else [self]
 
+    @contract(system=Obj("pbanim.rigid.bodies:RigidBodies"))
     def bind(self, system) -> None:
-        if getattr(system, "kind", None) != "rigid":
-            raise InvalidInput(f"RigidJoints act on a RigidBodies system, got {type(system).__name__}")
-        for j in self.joints:
-            for role, k in (("a", j.a), ("b", j.b)):
-                if not -1 <= k < system.N:
-                    raise InvalidInput(f"joint body {role} must be -1 (world) or 0..{system.N - 1}, got {k}")
-            if j.a == j.b:
-                raise InvalidInput(f"a joint connects two different bodies, got a = b = {j.a}")
+        for k, j in enumerate(self.joints):
+            for role, body in (("a", j.a), ("b", j.b)):
+                if not -1 <= body < system.N:
+                    raise InvalidInput(f"RigidJoints.bind: joints[{k}] body {role} must be -1 (world) or "
+                                       f"0..{system.N - 1} (system has {system.N} bodies), got {body}")
         self.system = system
         q0 = system.unpack(system.state())[1]
         qw = np.vstack([q0, [1.0, 0, 0, 0]])
@@ -166,6 +174,7 @@ class RigidJoints(Effect):
         self._qrel0 = [quat_multiply(quat_conjugate(qw[j.b]), qw[j.a]) for j in self.joints]
 
     # -- rows -----------------------------------------------------------------------------------
+    @contract(y=_Y, sparse=Flag(), returns=finite_result)
     def rows(self, y: np.ndarray, sparse: bool = False):
         """(C, J (k, 6N), J̇u (k,), Ċ (k,)) at state y; J as a scipy.sparse CSR matrix with ``sparse``."""
         s = self.system
@@ -229,9 +238,13 @@ class RigidJoints(Effect):
         return C, (J if sparse else J.toarray()), bias, J @ u
 
     # -- the constraint phase ------------------------------------------------------------------
+    @contract(y=_Y, j=Obj(RigidJoint), qrel0=Array((4,)), returns=finite_result)
     def coordinate(self, y: np.ndarray, j: RigidJoint, qrel0) -> tuple[float, np.ndarray, float]:
-        """The joint coordinate (hinge angle about â_b, or slide along â_b), its row on u, and its rate."""
+        """The joint coordinate (hinge angle about â_b, or slide along â_b), its row on u, and its rate;
+        ``qrel0``: the relative orientation q_b⁻¹ q_a at rest (``self._qrel0`` after ``bind``)."""
         s = self.system
+        if not (-1 <= j.a < s.N and -1 <= j.b < s.N):
+            raise InvalidInput(f"RigidJoints.coordinate: j joins bodies {j.a} and {j.b}, the system has {s.N}")
         x, q, _, _ = s.unpack(y)
         v, w = s.velocities(y)
         N = s.N
@@ -283,6 +296,7 @@ class RigidJoints(Effect):
                 lo.append(-j.motor_max), hi.append(j.motor_max)
         return np.array(bias), np.array(J).reshape(len(bias), 6 * self.system.N), np.array(lo), np.array(hi)
 
+    @contract(t=_T, y=_Y, Q=Array(("self.system.N", 6)), returns=finite_result)
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         s = self.system
         Q = self._motors(y, Q)
@@ -377,6 +391,7 @@ class RigidJoints(Effect):
             self._order = np.concatenate([rows for _, rows in sorted(blocks, key=lambda t: t[0])])
         return self._order
 
+    @contract(t=_T, y=_Y, returns=finite_result)
     def diagnostics(self, t: float, y: np.ndarray) -> dict:
         C, _, _, Cdot = self.rows(y)
         return {"joint_error": float(np.max(np.abs(C), initial=0.0)),

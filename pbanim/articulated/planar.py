@@ -29,15 +29,29 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contracts import Array, Indices, Opt, Real, contract, finite_result
 from ..errors import InvalidInput
 from .dynamics import world_poses
-from .tree import ArticulatedTree
+from .specs import PlanarKinematics, Tree, Size
+from .tree import ROTATING, ArticulatedTree
 
 __all__ = ["PlanarKernel", "NotPlanarError"]
 
 
 class NotPlanarError(InvalidInput):
     """The tree does not move in the xy-plane (a joint axis, the gravity or a joint kind says why)."""
+
+
+def _count(env) -> int:
+    try:
+        return len(env.values.get("links"))
+    except TypeError:
+        return -1                               # not a collection: its own spec refuses it
+
+
+_Q, _KIN = Array(("self.nv",)), PlanarKinematics("self")
+_LINKS = Indices("self.n")
+_LOCAL, _P = Array((Size(_count, "len(links)"), 3)), Array((Size(_count, "len(links)"), 2))
 
 
 def _complex(v: np.ndarray) -> np.ndarray:
@@ -54,9 +68,8 @@ def _pairs(z: np.ndarray) -> np.ndarray:
 class PlanarKernel:
     """Closed-form dynamics of a planar :class:`ArticulatedTree` (see the module docstring)."""
 
+    @contract(tree=Tree(), tol=Real(gt=0, lt=1))
     def __init__(self, tree: ArticulatedTree, tol: float = 1e-9) -> None:
-        if not isinstance(tree, ArticulatedTree):
-            raise InvalidInput(f"tree must be an ArticulatedTree, got {type(tree).__name__}")
         A = tree.arrays()
         if tree.nq != tree.nv:
             raise NotPlanarError("planar kernel: floating joints are not planar; use two sliders and a hinge")
@@ -84,7 +97,7 @@ class PlanarKernel:
                 continue
             vidx[k] = sl.start
             a = self.E0[k].T @ j.axis                           # the joint axis in world coordinates
-            if j.kind == "revolute":
+            if j.kind in ROTATING:
                 if abs(abs(a[2]) - 1.0) > tol:
                     raise NotPlanarError(f"planar kernel: revolute joint of link {tree.links[k].name!r} turns "
                                          f"about world axis {a}, not ±z")
@@ -125,6 +138,7 @@ class PlanarKernel:
         self._all = np.arange(n)
 
     # -- kinematics (2-D vectors as complex numbers: R(φ) v = e^{iφ} v, ẑ × v = i v) -----------------
+    @contract(q=_Q)
     def kinematics(self, q: np.ndarray) -> dict:
         """Absolute angles φ (n,), joint origins o (n, 2), centres of mass c (n, 2) (and their complex forms)."""
         q = np.asarray(q, dtype=float)
@@ -136,10 +150,12 @@ class PlanarKernel:
         zc = zo + rot * self._rcz
         return {"phi": phi, "rot": rot, "w": w, "zo": zo, "zc": zc, "o": _pairs(zo), "c": _pairs(zc)}
 
+    @contract(q=_Q, links=_LINKS, local=_LOCAL, returns=finite_result)
     def points(self, q: np.ndarray, links, local) -> np.ndarray:
         """World positions (m, 2) of link-frame points ``local`` (m, 3) on ``links`` (m,)."""
         return self.point_positions(self.kinematics(q), np.asarray(links), np.asarray(local, dtype=float))
 
+    @contract(links=Indices("self.n", empty=True), local=Array((Size(_count, "len(links)"), 3), empty=True))
     def point_offsets(self, links, local) -> np.ndarray:
         """The offsets (m,) complex, from each link's origin at q = 0, of link-frame points ``local`` (m, 3)."""
         links = np.asarray(links, dtype=int)
@@ -148,11 +164,13 @@ class PlanarKernel:
         r0 = np.einsum("mji,mj->mi", self._E0[links], np.asarray(local, dtype=float))
         return r0[:, 0] + 1j * r0[:, 1]
 
+    @contract(kin=_KIN, links=_LINKS, local=_LOCAL, returns=finite_result)
     def point_positions(self, kin, links, local) -> np.ndarray:
         """World positions (m, 2) of link-frame points ``local`` (m, 3) on ``links`` from :meth:`kinematics`."""
         links = np.asarray(links, dtype=int)
         return _pairs(kin["zo"][links] + kin["rot"][links] * self.point_offsets(links, local))
 
+    @contract(kin=_KIN, links=_LINKS, p=_P, returns=finite_result)
     def jacobians(self, kin, links, p: np.ndarray) -> np.ndarray:
         """Jacobians (m, 2, nv) of world points p (m, 2) fixed on ``links`` (m,)."""
         Jz = self._jacobians_z(kin, np.asarray(links, dtype=int), _complex(p))
@@ -163,6 +181,7 @@ class PlanarKernel:
         cols = 1j * (pz[:, None] - kin["zo"][None, :]) * self.Pr[links]
         return cols @ self.Rv + self._Dz[links]
 
+    @contract(kin=_KIN, links=_LINKS, p=_P, qd=_Q, returns=finite_result)
     def bias_acceleration(self, kin, links, p: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """J̇ q̇ (m, 2) of world points p fixed on ``links``: the centripetal terms."""
         links = np.asarray(links, dtype=int)
@@ -175,6 +194,7 @@ class PlanarKernel:
         return -along - phid[links] ** 2 * (pz - kin["zo"][links])
 
     # -- dynamics ------------------------------------------------------------------------------
+    @contract(kin=_KIN, returns=finite_result)
     def com_jacobians(self, kin) -> np.ndarray:
         """Complex Jacobians (n, nv) of every link's centre of mass, cached in ``kin`` (and their (n, 2, nv)
         real form as kin["Jc"])."""
@@ -183,12 +203,14 @@ class PlanarKernel:
             kin["Jz"], kin["Jc"] = Jz, np.stack([Jz.real, Jz.imag], axis=1)
         return kin["Jz"]
 
+    @contract(q=_Q, kin=Opt(_KIN), returns=finite_result)
     def mass_matrix(self, q: np.ndarray, kin=None) -> np.ndarray:
         """H(q) (nv, nv), equal to :func:`~pbanim.articulated.crba`."""
         kin = self.kinematics(q) if kin is None else kin
         Jz = self.com_jacobians(kin)
         return ((Jz.conj().T * self.mass) @ Jz).real + self._Hrot
 
+    @contract(q=_Q, qd=_Q, kin=Opt(_KIN), returns=finite_result)
     def dynamics(self, q: np.ndarray, qd: np.ndarray, kin=None) -> tuple[np.ndarray, np.ndarray, dict]:
         """(H, C, kinematics) with H q̈ + C = τ (C: Coriolis, centripetal and gravity; no joint damping);
         ``kin``: :meth:`kinematics` of the same q when the caller has it."""
@@ -199,12 +221,14 @@ class PlanarKernel:
         C = (JmT @ (self._bias_z(kin, self._all, kin["zc"], qd) - self._gz)).real
         return H, C, kin
 
+    @contract(q=_Q, qd=_Q, returns=finite_result)
     def energy(self, q: np.ndarray, qd: np.ndarray) -> float:
         """½ q̇ᵀ H q̇ + Σ mᵢ (−g · cᵢ)."""
         kin = self.kinematics(q)
         H = self.mass_matrix(q, kin)
         return float(0.5 * qd @ H @ qd - self.mass @ (kin["c"] @ self.g))
 
+    @contract(q=_Q, qd=Opt(_Q), kin=Opt(_KIN), returns=finite_result)
     def centre_of_mass(self, q: np.ndarray, qd: np.ndarray | None = None, kin=None):
         """Centre of mass (2,), and its velocity when q̇ is given."""
         kin = self.kinematics(q) if kin is None else kin

@@ -28,26 +28,34 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, check_number
+from ..contracts import Array, Obj, Opt, Real, contract, finite_result
+from ..errors import NonFiniteResult, check_result
 from ..lcp.planar import SEPARATE, SLIDE_NEG, SLIDE_POS, STICK, solve_planar_contact  # noqa: F401 (re-exported)
 from .planar import PlanarKernel
+from .specs import LinkPoints, PlanarKinematics
 
 __all__ = ["PlanarGround", "PlanarContactStep", "solve_planar_contact", "SEPARATE", "STICK", "SLIDE_POS",
            "SLIDE_NEG"]
 
 
+_Q = Array(("self.kernel.nv",))
+
+
 class PlanarGround:
     """The ground line through the origin at slope ``angle`` (radians; positive climbs toward +x)."""
 
+    @contract(angle=Real(ge=-np.pi / 3, le=np.pi / 3), friction=Real(ge=0))
     def __init__(self, angle: float = 0.0, friction: float = 0.9) -> None:
-        self.angle = check_number("angle", angle, low=-np.pi / 3, high=np.pi / 3)
-        self.mu = check_number("friction", friction, low=0.0)
+        self.angle, self.mu = float(angle), float(friction)
         self.normal = np.array([-np.sin(self.angle), np.cos(self.angle)])
         self.tangent = np.array([np.cos(self.angle), np.sin(self.angle)])
 
+    @contract(p=Array((2,), batch="first"))
     def gap(self, p: np.ndarray) -> np.ndarray:
+        """n·p: the signed distance of points p (2,) or (m, 2) above the line."""
         return p @ self.normal
 
+    @contract(x=Array(None, scalar=True))
     def height(self, x) -> np.ndarray:
         """The ground's height y at abscissa x."""
         return np.asarray(x) * np.tan(self.angle)
@@ -59,38 +67,35 @@ class PlanarContactStep:
     ``points``: (link index, point in the link frame (3,)) pairs, e.g. a heel and a toe per foot.
     """
 
+    @contract(kernel=Obj(PlanarKernel), points=LinkPoints("kernel.n"), ground=Opt(Obj(PlanarGround)),
+              erp=Real(ge=0, le=1), margin=Real(ge=0), cfm=Real(ge=0, le=1e-2))
     def __init__(self, kernel: PlanarKernel, points, ground: PlanarGround | None = None, *,
                  erp: float = 0.2, margin: float = 0.01, cfm: float = 1e-6) -> None:
-        if not isinstance(kernel, PlanarKernel):
-            raise InvalidInput(f"kernel must be a PlanarKernel, got {type(kernel).__name__}")
         pts = list(points)
-        if not pts:
-            raise InvalidInput("points must list at least one (link, point) pair")
         self.kernel = kernel
         self.links = np.array([int(lk) for lk, _ in pts])
-        if np.any(self.links < 0) or np.any(self.links >= kernel.n):
-            raise InvalidInput(f"contact links must be in 0..{kernel.n - 1}, got {self.links.tolist()}")
-        self.local = np.array([np.asarray(p, dtype=float) for _, p in pts])
-        if self.local.shape != (len(pts), 3) or not np.all(np.isfinite(self.local)):
-            raise InvalidInput(f"contact points must be finite 3-vectors, got shape {self.local.shape}")
+        self.local = np.array([np.asarray(p, dtype=float) for _, p in pts]).reshape(-1, 3)
         self.ground = PlanarGround() if ground is None else ground
-        self.erp = check_number("erp", erp, low=0.0, high=1.0)
-        self.margin = check_number("margin", margin, low=0.0)
-        self.cfm = check_number("cfm", cfm, low=0.0, high=1e-2)
+        self.erp, self.margin, self.cfm = float(erp), float(margin), float(cfm)
         self.modes = np.zeros(len(pts), dtype=int)      # per contact point, SEPARATE when not near
         self._r0z = kernel.point_offsets(self.links, self.local)
         self._nbar = complex(self.ground.normal[0], -self.ground.normal[1])
         self._tbar = complex(self.ground.tangent[0], -self.ground.tangent[1])
         self.last: dict = {}
 
+    @contract(q=_Q, qd=_Q, h=Real(gt=0), tau=_Q, kd=Opt(Array(("self.kernel.nv",), ge=0)),
+              kin=Opt(PlanarKinematics("self.kernel")))
     def step(self, q: np.ndarray, qd: np.ndarray, h: float, tau: np.ndarray, kd=None, kin=None):
         """(q⁺, u⁺) after one step of length h with joint forces τ and implicit damping gains ``kd``
-        (per coordinate, ≥ 0); ``kin``: the kernel's kinematics of q when the caller has it."""
+        (per coordinate, ≥ 0); ``kin``: the kernel's kinematics of q when the caller has it. ``last``
+        records the contact solve, with ``success``: whether its impulses meet every contact condition."""
         k, gr = self.kernel, self.ground
         H, C, kin = k.dynamics(q, qd, kin)
         d = k.damping if kd is None else k.damping + kd
         Mt = H + h * np.diag(d)
         rhs = H @ qd + h * (tau - C)
+        if not np.isfinite(Mt.sum() + rhs.sum()):      # NaN or inf anywhere (or a sum that overflows)
+            raise NonFiniteResult("the planar step's (H + h K_d) u⁺ = H q̇ + h (τ − C)", f"at h = {h:g}")
         # contact points as complex numbers x + i y; n·p = Re(p n̄)
         pz = kin["zo"][self.links] + kin["rot"][self.links] * self._r0z
         gap = (pz * self._nbar).real
@@ -108,17 +113,22 @@ class PlanarContactStep:
             b = rows @ u
             g = gap[near]
             b[0::2] += np.maximum(g, 0.0) / h + self.erp * np.minimum(g, 0.0) / h
+            if not (np.isfinite(A).all() and np.isfinite(b).all()):
+                raise NonFiniteResult("the planar contact problem", f"at h = {h:g} (a step that large or that "
+                                      "small overflows the impulse equations)")
             z, modes, info = solve_planar_contact(A, b, gr.mu, self.modes[near])
             u = u + MinvJt @ z
             self.modes[:] = SEPARATE
             self.modes[near] = modes
-            self.last = {"near": near, "impulses": z, "path": info["path"], "gap": gap}
+            self.last = {"near": near, "impulses": z, "path": info["path"], "gap": gap,
+                         "success": bool(info["success"])}
         else:
             u = np.linalg.solve(Mt, rhs)
             self.modes[:] = SEPARATE
-            self.last = {"near": near, "impulses": np.zeros(0), "path": "free", "gap": gap}
-        return q + h * u, u
+            self.last = {"near": near, "impulses": np.zeros(0), "path": "free", "gap": gap, "success": True}
+        return check_result("PlanarContactStep.step", (q + h * u, u), f"at h = {h:g}")
 
+    @contract(h=Real(gt=0), returns=finite_result)
     def contact_forces(self, h: float) -> np.ndarray:
         """Normal force per contact point over the last step (impulse / h), zero where not in contact."""
         f = np.zeros(self.local.shape[0])

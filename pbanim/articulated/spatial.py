@@ -16,6 +16,10 @@ I = [[I_c + m c×c×ᵀ, m c×], :func:`spatial_inertia` (mass m, centre of mass
      [m c×ᵀ, m 1]]          the centre of mass, all in the body's frame)
 ==========================  =============================================================================
 
+A public call (from outside the package) takes one transform, one vector, one inertia (``rotation``: one
+angle or a batch of them), checked by its contract; inside the package every function here also broadcasts
+over leading batch axes.
+
 Facts the tests check: X(E, r) X(E, r)⁻¹ = 1; (ᴮX_A v̂)·(ᴮX*_A f̂) = v̂·f̂ (power is frame-independent);
 v̂×v̂ = 0; ½ v̂ᵀ I v̂ equals ½ m |v_c|² + ½ ωᵀ I_c ω.
 """
@@ -24,12 +28,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contracts import Array, Either, Real, contract, finite_result
 from ..geometry import skew
+from .specs import Inertia, Rotation, UnitAxis
 
 __all__ = ["skew", "rotation", "plucker", "plucker_inverse", "force_transform", "crm", "crf",
            "spatial_inertia", "transform_inertia"]
 
 
+_MOTION = Array((6,), batch="first")
+
+
+@contract(axis=UnitAxis(), angle=Either(Real(), Array((None,))))
 def rotation(axis: np.ndarray, angle) -> np.ndarray:
     """The rotation matrix by ``angle`` about the unit ``axis`` (Rodrigues), batched over ``angle``.
 
@@ -42,6 +52,7 @@ def rotation(axis: np.ndarray, angle) -> np.ndarray:
     return np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * (K @ K)
 
 
+@contract(E=Rotation(), r=Array((3,)), returns=finite_result)
 def plucker(E: np.ndarray, r: np.ndarray) -> np.ndarray:
     """ᴮX_A = [[E, 0], [−E r×, E]] (..., 6, 6) for motion vectors."""
     E = np.asarray(E, dtype=float)
@@ -54,6 +65,7 @@ def plucker(E: np.ndarray, r: np.ndarray) -> np.ndarray:
     return X
 
 
+@contract(X=Array((6, 6), batch="first"))
 def plucker_inverse(X: np.ndarray) -> np.ndarray:
     """ᴬX_B = [[Eᵀ, 0], [r× Eᵀ, Eᵀ]] from ᴮX_A, blockwise (no 6×6 inverse)."""
     out = np.zeros_like(X)
@@ -73,6 +85,7 @@ def force_transform(X: np.ndarray) -> np.ndarray:
     return out
 
 
+@contract(v=_MOTION)
 def crm(v: np.ndarray) -> np.ndarray:
     """v̂× = [[ω×, 0], [v×, ω×]] (..., 6, 6)."""
     v = np.asarray(v, dtype=float)
@@ -84,11 +97,13 @@ def crm(v: np.ndarray) -> np.ndarray:
     return out
 
 
+@contract(v=_MOTION)
 def crf(v: np.ndarray) -> np.ndarray:
     """v̂×* = −(v̂×)ᵀ (..., 6, 6)."""
     return -np.swapaxes(crm(v), -1, -2)
 
 
+@contract(mass=Real(ge=0), com=Array((3,)), I_com=Inertia(), returns=finite_result)
 def spatial_inertia(mass, com, I_com) -> np.ndarray:
     """[[I_c + m c×c×ᵀ, m c×], [m c×ᵀ, m 1]] (..., 6, 6) about the frame's origin.
 

@@ -19,14 +19,18 @@ from typing import Callable
 
 import numpy as np
 
+from ..contracts import Array, Choice, Func, Int, Opt, Real, contract, finite_result
 from ..errors import InvalidInput
-from ..ode import get_method
+from ..ode import METHODS, get_method
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 from .batched import aba_batch
 from .fast import aba_fast
 from .dynamics import kinetic_energy, potential_energy
+from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
+
+_Y = JointPositions("self.tree", state=True)
 
 __all__ = ["ArticulatedSystem"]
 
@@ -43,18 +47,11 @@ class ArticulatedSystem:
     True
     """
 
+    @contract(tree=Tree(), q0=Opt(JointPositions("tree")), qd0=Opt(Array(("tree.nv",), empty=True)), torque=Opt(Func()))
     def __init__(self, tree: ArticulatedTree, q0=None, qd0=None, torque: Callable | None = None) -> None:
-        if not isinstance(tree, ArticulatedTree):
-            raise InvalidInput(f"tree must be an ArticulatedTree, got {type(tree).__name__}")
-        tree.arrays()                                      # validates a non-empty tree
         self.tree = tree
-        q = tree.neutral() if q0 is None else q0
-        qd = np.zeros(tree.nv) if qd0 is None else qd0
-        self.q0, self.qd0 = (a.copy() for a in tree.check_state(q, qd, "q0", "qd0"))
-        if self.q0.ndim != 1:
-            raise InvalidInput(f"q0 must be one state of shape ({tree.nq},), got {self.q0.shape}")
-        if torque is not None and not callable(torque):
-            raise InvalidInput(f"torque must be a callable torque(t, q, qd) -> tau, got {torque!r}")
+        self.q0 = tree.neutral() if q0 is None else np.array(q0, dtype=float)
+        self.qd0 = np.zeros(tree.nv) if qd0 is None else np.array(qd0, dtype=float)
         self.torque = torque
         self.nq, self.nv, self.split = tree.nq, tree.nv, tree.nq
         self._floating = [(s.start, v.start) for j, s, v in zip(tree.joints, tree._q_index, tree._v_index)
@@ -64,19 +61,31 @@ class ArticulatedSystem:
                          for c in range(v.start, v.stop)]
         self.nfev = 0
 
+    @property
+    def n_state(self) -> int:
+        """The length of the flat state y = [q, q̇]: nq + nv."""
+        return self.nq + self.nv
+
     def state(self) -> np.ndarray:
         return np.concatenate([self.q0, self.qd0])
 
     def _tau(self, t, q, qd):
+        """τ(t, q, q̇) from the user's callable: a value from outside arriving inside, checked here."""
         if self.torque is None:
             return np.zeros(qd.shape)
         tau = np.asarray(self.torque(t, q, qd), dtype=float)
         if tau.shape != qd.shape:
             raise InvalidInput(f"torque(t, q, qd) must return shape {qd.shape}, got {tau.shape}")
+        if not np.isfinite(tau).all():
+            raise InvalidInput(f"torque(t, q, qd) must return finite joint forces, got {tau} at t = {t}")
         return tau
 
+    @contract(q=JointPositions("self.tree", batch="first"), qd=Array(("self.nv",), batch="first", empty=True),
+              returns=finite_result)
     def qdot(self, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         """dq/dt from q̇ (differs from q̇ only on floating joints), batched over leading axes."""
+        if q.shape[:-1] != qd.shape[:-1]:
+            raise InvalidInput(f"qd must hold the states of q, got shapes {qd.shape} and {q.shape}")
         if not self._floating:
             return qd
         from ..rigid.quat import quat_multiply, quat_to_matrix
@@ -93,6 +102,7 @@ class ArticulatedSystem:
             out[..., qs + 4:qs + 7] = np.einsum("...ij,...j->...i", quat_to_matrix(n), v)
         return out
 
+    @contract(t=Real(), y=JointPositions("self.tree", state=True, batch="first"), returns=finite_result)
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """ẏ = (dq/dt, q̈) for y of shape (nq + nv,) or (K, nq + nv) (batched ABA)."""
         self.nfev += 1
@@ -101,6 +111,7 @@ class ArticulatedSystem:
         qdd = aba_fast(self.tree, q, qd, tau) if y.ndim == 1 else aba_batch(self.tree, q, qd, tau)
         return np.concatenate([self.qdot(q, qd), qdd], axis=-1)
 
+    @contract(y=_Y, returns=finite_result)
     def energy(self, y: np.ndarray) -> float:
         q, qd = y[:self.nq], y[self.nq:]
         return kinetic_energy(self.tree, q, qd) + potential_energy(self.tree, q)
@@ -110,6 +121,8 @@ class ArticulatedSystem:
             y[qs:qs + 4] /= np.linalg.norm(y[qs:qs + 4])
         return y
 
+    @contract(t_end=Real(gt=0), h=Real(gt=0), method=Choice(lambda: METHODS), record_every=Int(ge=1),
+              max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, method: str = "rk4", *, record_every: int = 1,
                  max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed steps through the one driver; ``diagnostics["energy"]`` at every recorded state."""

@@ -10,44 +10,89 @@ velocity: v̂_i = ⁱX_λ v̂_λ + S_i q̇_i.
 joint       q     q̇     X_J(q)                                              S
 =========== ===== ===== =================================================== =====================================
 revolute    1     1     rotation by q about the unit axis a                 (a, 0)
+continuous  1     1     the same, with no position limits (q unwrapped:     (a, 0)
+                        it runs past ±π)
 prismatic   1     1     translation by q a                                  (0, a)
 fixed       0     0     identity                                            (6 × 0)
 floating    7     6     q = (quaternion w, x, y, z, position p): the link's  1₆ (q̇ = body-frame (ω, v))
                         orientation and origin in the parent's frame
 =========== ===== ===== =================================================== =====================================
 
-The link inertia is given by mass m, centre of mass c and rotational inertia I_c about c, in the link
+A revolute or prismatic joint may carry position limits lower ≤ q ≤ upper (enforced by the contact
+stepper :class:`~pbanim.articulated.contact.ArticulatedContact`, which holds joint stops as unilateral
+rows), and every joint an effort limit |τ| ≤ effort and a velocity limit |q̇| ≤ velocity, kept on the model
+for controllers (URDF's ``<limit>``; ±inf: none).
+
+The link inertia is given by mass m ≥ 0, centre of mass c and rotational inertia I_c about c, in the link
 frame. I_c may be singular (a point mass: I_c = 0) but must be symmetric positive semi-definite and
-satisfy the triangle inequality of principal moments; m > 0.
+satisfy the triangle inequality of principal moments. A massless link is allowed: what must not vanish is
+the articulated inertia D = Sᵀ I^A S of each movable joint (the mass it moves), which forward dynamics
+checks (:class:`~pbanim.errors.SingularChartError` naming the joint) and
+:func:`~pbanim.articulated.dynamics.check_articulated_inertia`
+checks at load.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
+from ..contracts import Array, Choice, Index, Opt, Real, Text, contract
 from ..errors import InvalidInput
 from .spatial import plucker, rotation, spatial_inertia
+from .specs import Inertia, JointPositions, Parent, Rotation, UnitAxis
 
-__all__ = ["Joint", "Link", "ArticulatedTree", "JOINT_TYPES"]
+__all__ = ["Joint", "Link", "ArticulatedTree", "JOINT_TYPES", "ROTATING", "ONE_DOF"]
 
-JOINT_TYPES = {"revolute": (1, 1), "prismatic": (1, 1), "fixed": (0, 0), "floating": (7, 6)}
+JOINT_TYPES = {"revolute": (1, 1), "continuous": (1, 1), "prismatic": (1, 1), "fixed": (0, 0), "floating": (7, 6)}
+ROTATING = ("revolute", "continuous")           # S = (a, 0)
+ONE_DOF = ("revolute", "continuous", "prismatic")
+_LIMITED = ("revolute", "prismatic")            # the kinds that may have position limits
+_KIND = Choice(tuple(JOINT_TYPES))
+_BOUND = Real(finite=False)                     # a position limit (±inf: none)
+_RATE = Real(ge=0, finite=False)                # an effort or velocity limit (inf: none)
+_V3 = Array((3,))
 
 
+@contract(kind=_KIND, axis=UnitAxis(), R=Opt(Rotation()), p=_V3, lower=_BOUND, upper=_BOUND, effort=_RATE,
+          velocity=_RATE)
 @dataclass(frozen=True)
 class Joint:
-    """A joint: its type, unit axis (revolute, prismatic) and placement (R, p) in the parent link frame."""
+    """A joint: its type, unit axis (revolute, continuous, prismatic), placement (R, p) in the parent link
+    frame, and its limits: position lower ≤ q ≤ upper (revolute and prismatic only), |τ| ≤ effort,
+    |q̇| ≤ velocity (see the module docstring)."""
 
     kind: str
-    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
-    R: np.ndarray = field(default_factory=lambda: np.eye(3))
-    p: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axis: np.ndarray = (0.0, 0.0, 1.0)
+    R: np.ndarray | None = None          # None: the identity
+    p: np.ndarray = (0.0, 0.0, 0.0)
+    lower: float = -math.inf
+    upper: float = math.inf
+    effort: float = math.inf
+    velocity: float = math.inf
+
+    def __post_init__(self) -> None:     # arrays, and the cross-argument conditions, for every caller
+        for name, value in (("axis", self.axis), ("R", np.eye(3) if self.R is None else self.R), ("p", self.p)):
+            object.__setattr__(self, name, np.array(value, dtype=float))
+        if not self.lower <= self.upper:
+            raise InvalidInput(f"Joint: lower must be <= upper, got lower = {self.lower}, upper = {self.upper}")
+        if self.has_limits and self.kind not in _LIMITED:
+            why = "a continuous joint turns freely" if self.kind == "continuous" else "it has no one coordinate"
+            raise InvalidInput(f"Joint: lower and upper (position limits) apply to revolute and prismatic joints, "
+                               f"got a {self.kind} joint with [{self.lower}, {self.upper}] ({why})")
+
+    @property
+    def has_limits(self) -> bool:
+        """Whether a position limit is finite."""
+        return self.lower > -math.inf or self.upper < math.inf
 
 
+@contract(name=Text(), mass=Real(ge=0), com=_V3, inertia=Inertia())
 @dataclass(frozen=True)
 class Link:
-    """A rigid link: mass, centre of mass and rotational inertia about it, in the link frame."""
+    """A rigid link: mass m ≥ 0, centre of mass and rotational inertia about it, in the link frame."""
 
     name: str
     mass: float
@@ -55,15 +100,12 @@ class Link:
     inertia: np.ndarray
 
 
-def _vector(value, name: str, who: str) -> np.ndarray:
-    a = np.asarray(value, dtype=float)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise InvalidInput(f"{who}: {name} must be a finite 3-vector, got {value!r}")
-    return a
-
-
 class ArticulatedTree:
     """A tree of links and joints (see the module docstring); built by :meth:`add`.
+
+    ``joint_names[i]`` names the joint above link i; ``frames`` maps the name of a link merged into a body
+    (welded to it by a fixed joint, as :func:`~pbanim.articulated.load_urdf` does) to (body index, R, p): its
+    frame in the body's frame.
 
     >>> tree = ArticulatedTree()
     >>> tree.add("upper", -1, "revolute", axis=[0, 0, 1], mass=1.0, com=[0, -1, 0], inertia=np.zeros((3, 3)))
@@ -72,12 +114,15 @@ class ArticulatedTree:
     (1, 1)
     """
 
+    @contract(gravity=_V3)
     def __init__(self, gravity=(0.0, 0.0, -9.81)) -> None:
-        self.gravity = _vector(gravity, "gravity", "ArticulatedTree")
+        self.gravity = np.array(gravity, dtype=float)
         self.links: list[Link] = []
         self.joints: list[Joint] = []
         self.parent: list[int] = []
         self.damping: list[float] = []
+        self.joint_names: list[str] = []
+        self.frames: dict = {}
         self._q_index: list[slice] = []
         self._v_index: list[slice] = []
         self.nq = self.nv = 0
@@ -87,45 +132,32 @@ class ArticulatedTree:
     def n(self) -> int:
         return len(self.links)
 
+    @contract(name=Text(), parent=Parent("self.n"), kind=_KIND, axis=UnitAxis(), R=Opt(Rotation()), p=_V3,
+              mass=Real(ge=0), com=_V3, inertia=Opt(Inertia(principal=True)), damping=Real(ge=0), lower=_BOUND,
+              upper=_BOUND, effort=_RATE, velocity=_RATE, joint=Opt(Text()))
     def add(self, name: str, parent: int, kind: str, *, axis=(0.0, 0.0, 1.0), R=None, p=(0.0, 0.0, 0.0),
-            mass: float, com=(0.0, 0.0, 0.0), inertia=None, damping: float = 0.0) -> int:
-        """Append link ``name`` hanging from link ``parent`` (−1: the world) by a joint; returns its index."""
-        who = f"link {name!r}"
-        if kind not in JOINT_TYPES:
-            raise InvalidInput(f"{who}: joint type must be one of {list(JOINT_TYPES)}, got {kind!r}")
-        ok = not isinstance(parent, bool) and isinstance(parent, (int, float, np.integer, np.floating)) \
-            and np.isfinite(parent) and int(parent) == parent
-        if not ok or not -1 <= parent < self.n:
-            raise InvalidInput(f"{who}: parent must be −1 (the world) or an existing link 0..{self.n - 1} "
-                               f"(parents come before children, so the tree has no cycle), got {parent!r}")
+            mass: float, com=(0.0, 0.0, 0.0), inertia=None, damping: float = 0.0, lower: float = -math.inf,
+            upper: float = math.inf, effort: float = math.inf, velocity: float = math.inf,
+            joint: str | None = None) -> int:
+        """Append link ``name`` hanging from link ``parent`` (−1: the world) by a joint of type ``kind`` with
+        limits ``lower``, ``upper``, ``effort``, ``velocity`` (module docstring); returns its index.
+        ``joint`` names the joint (default: "<name>_joint")."""
         if kind == "floating" and parent != -1:
-            raise InvalidInput(f"{who}: a floating joint connects a link to the world (parent −1), got {parent}")
-        a = _vector(axis, "axis", who)
-        if kind in ("revolute", "prismatic"):
-            norm = float(np.linalg.norm(a))
-            if not norm > 1e-12:
-                raise InvalidInput(f"{who}: the {kind} joint axis must be non-zero, got {axis!r}")
-            a = a / norm
-        Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
-        if Rm.shape != (3, 3) or not np.all(np.isfinite(Rm)) or not np.allclose(Rm @ Rm.T, np.eye(3), atol=1e-9) \
-                or np.linalg.det(Rm) < 0:
-            raise InvalidInput(f"{who}: the joint placement R must be a rotation matrix, got {R!r}")
-        m = float(mass)
-        if not (np.isfinite(m) and m > 0):
-            raise InvalidInput(f"{who}: mass must be a positive finite number, got {mass}")
-        c = _vector(com, "com", who)
+            raise InvalidInput(f"ArticulatedTree.add: a floating joint connects a link to the world (parent −1), "
+                               f"got parent = {parent} for link {name!r}")
+        a = np.asarray(axis, dtype=float)
+        a = a / np.linalg.norm(a)                       # unit already from outside; from inside: made so
         Ic = np.zeros((3, 3)) if inertia is None else np.asarray(inertia, dtype=float)
         if Ic.shape == (3,):
             Ic = np.diag(Ic)
-        _check_inertia(Ic, who)
-        d = float(damping)
-        if not (np.isfinite(d) and d >= 0):
-            raise InvalidInput(f"{who}: joint damping must be a finite number >= 0, got {damping}")
+        jt = Joint(kind, a, np.eye(3) if R is None else np.asarray(R, dtype=float), np.asarray(p, dtype=float),
+                   float(lower), float(upper), float(effort), float(velocity))
         nq, nv = JOINT_TYPES[kind]
-        self.links.append(Link(str(name), m, c, Ic))
-        self.joints.append(Joint(kind, a, Rm, _vector(p, "p", who)))
+        self.links.append(Link(str(name), float(mass), np.asarray(com, dtype=float), Ic))
+        self.joints.append(jt)
         self.parent.append(int(parent))
-        self.damping.append(d)
+        self.damping.append(float(damping))
+        self.joint_names.append(f"{name}_joint" if joint is None else str(joint))
         self._q_index.append(slice(self.nq, self.nq + nq))
         self._v_index.append(slice(self.nv, self.nv + nv))
         self.nq += nq
@@ -143,7 +175,7 @@ class ArticulatedTree:
             I = np.stack([spatial_inertia(lk.mass, lk.com, lk.inertia) for lk in self.links])
             S = []
             for j in self.joints:
-                if j.kind == "revolute":
+                if j.kind in ROTATING:
                     S.append(np.concatenate([j.axis, np.zeros(3)])[:, None])
                 elif j.kind == "prismatic":
                     S.append(np.concatenate([np.zeros(3), j.axis])[:, None])
@@ -156,10 +188,11 @@ class ArticulatedTree:
                            "damping": np.repeat(self.damping, [v.stop - v.start for v in self._v_index])}
         return self._cache
 
+    @contract(i=Index("self.n"), qi=JointPositions("self", joint="i", batch="first"))
     def joint_transform(self, i: int, qi: np.ndarray) -> np.ndarray:
         """X_J(q_i) (..., 6, 6) of joint i for its coordinates q_i (..., nq_i)."""
         j = self.joints[i]
-        if j.kind == "revolute":
+        if j.kind in ROTATING:
             return plucker(np.swapaxes(rotation(j.axis, qi[..., 0]), -1, -2), np.zeros(3))
         if j.kind == "prismatic":
             return plucker(np.eye(3), qi[..., :1] * j.axis)
@@ -178,27 +211,7 @@ class ArticulatedTree:
                 q[s.start] = 1.0
         return q
 
-    def check_state(self, q, qd=None, name_q: str = "q", name_qd: str = "qd"):
-        """(q, q̇) as float arrays of shape (nq,) / (K, nq) and (nv,) / (K, nv), finite; InvalidInput otherwise."""
-        q = np.asarray(q, dtype=float)
-        if q.ndim not in (1, 2) or q.shape[-1] != self.nq or not np.all(np.isfinite(q)):
-            raise InvalidInput(f"{name_q} must be finite with shape ({self.nq},) or (K, {self.nq}), got "
-                               f"shape {q.shape}" + ("" if np.all(np.isfinite(q)) else " with non-finite values"))
-        if qd is None:
-            return q, None
-        qd = np.asarray(qd, dtype=float)
-        if qd.shape != q.shape[:-1] + (self.nv,) or not np.all(np.isfinite(qd)):
-            raise InvalidInput(f"{name_qd} must be finite with shape {q.shape[:-1] + (self.nv,)}, got shape "
-                               f"{qd.shape}" + ("" if np.all(np.isfinite(qd)) else " with non-finite values"))
-        return q, qd
-
-
-def _check_inertia(Ic: np.ndarray, who: str) -> None:
-    if Ic.shape != (3, 3) or not np.all(np.isfinite(Ic)) or not np.allclose(Ic, Ic.T, atol=1e-12 * (1 + np.abs(Ic).max())):
-        raise InvalidInput(f"{who}: inertia must be a finite symmetric 3×3 matrix (or 3 principal moments), "
-                           f"got {Ic!r}")
-    lam = np.linalg.eigvalsh(Ic)
-    tol = 1e-12 * max(1.0, float(np.abs(lam).max()))
-    if lam[0] < -tol or lam[0] + lam[1] < lam[2] - tol:
-        raise InvalidInput(f"{who}: inertia must be positive semi-definite with principal moments satisfying "
-                           f"I1 + I2 >= I3, got principal moments {lam}")
+    def limited(self) -> list[tuple[int, int, float, float]]:
+        """(q index, q̇ index, lower, upper) of every joint with a finite position limit."""
+        return [(s.start, v.start, j.lower, j.upper) for j, s, v in zip(self.joints, self._q_index, self._v_index)
+                if j.has_limits]
