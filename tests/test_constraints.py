@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from pbanim.constraints import (SOLVERS, Constraints, ConstraintSet, Distance, FixedPoint, OnCircle, OnPlane,
                                 baumgarte_feedback_map, baumgarte_spectral_radius, baumgarte_stability_limit, solve_multipliers)
-from pbanim.errors import ConvergenceError, SimulationDiverged, SingularConstraintError
+from pbanim.errors import (ConvergenceError, InvalidInput, NonFiniteResult, SimulationDiverged,
+                           SingularConstraintError)
 from pbanim.models.constrained import (bead_on_circle, cloth_patch, hanging_chain, inconsistent_x, random_chain,
                                        random_tree, redundant_rod, redundant_xy)
 from pbanim.particles import Gravity, ParticleSystem
@@ -294,7 +295,7 @@ def test_inconsistent_constraints_raise_naming_the_rows_and_the_residual():
 
 # -- G3: bad inputs ------------------------------------------------------------------------------------
 def test_bad_inputs_raise_value_errors_naming_the_argument():
-    with pytest.raises(ValueError, match=r"length must be positive, got -1.0"):
+    with pytest.raises(ValueError, match=r"Distance.__init__: lengths must be .*entries > 0.*got -1.0"):
         Distance([[0, 1]], lengths=-1.0)
     mod = hanging_chain(3)
     with pytest.raises(ValueError, match=r"ks must be a finite number >= 0, got -1"):
@@ -311,9 +312,9 @@ def test_bad_inputs_raise_value_errors_naming_the_argument():
         Constraints(mod.constraints, ks=3.0)
     with pytest.raises(ValueError, match=r"particle index 7 out of range for a system of 3 particles"):
         Scene(mod.system, [Constraints([Distance([[0, 7]], lengths=1.0)])])
-    with pytest.raises(ValueError, match=r"particle index -5 out of range for a system of 3 particles"):
-        Scene(mod.system, [Constraints([FixedPoint([-5])])])
-    with pytest.raises(ValueError, match=r"radius must be positive, got 0.0"):
+    with pytest.raises(ValueError, match=r"FixedPoint.__init__: particles must be .* >= 0.*got \[-5\]"):
+        FixedPoint([-5])
+    with pytest.raises(ValueError, match=r"OnCircle.__init__: radius must be .*entries > 0.*got 0.0"):
         OnCircle([0], [0.0, 0.0], 0.0)
     with pytest.raises(ValueError, match=r"solver must be one of .* got 'qr'"):
         solve_multipliers(mod.constraints, mod.system, mod.system.state(), solver="qr")
@@ -498,3 +499,87 @@ def test_readable_elimination_matches_the_linear_solver_with_zero_fill_on_trees(
     cs = ConstraintSet(cloth.constraints, cloth.system.N, 3, cloth.system.W, cloth.system.x0)
     x, v = cloth.system.unpack(cloth.system.state())
     assert eliminate_readable(cs.matrix(cs.assemble(x, v)), np.ones(cs.m), range(cs.m)).fill > 0
+
+
+# -- issue 27: nothing silent (each input below was a silent wrong answer or a bare error) -----------------
+def test_a_rod_from_a_particle_to_itself_is_refused():
+    # was accepted: J = 0, and λ = 0 for a constraint C = −L²/2 that no motion can satisfy
+    ps = ParticleSystem([[1.0, 0.0], [2.0, 0.5]])
+    with pytest.raises(InvalidInput, match=r"Distance.__init__: pairs must be .*no index twice in a row.*row 0 is "
+                                           r"\[0, 0\]"):
+        solve_multipliers([Distance([[0, 0]], lengths=1.0)], ps, ps.state())
+    with pytest.raises(InvalidInput, match=r"pairs .*row 1 is \[-1, -1\]"):
+        Distance([[0, -1], [-1, -1]], anchors=[0.0, 0.0])
+
+
+@pytest.mark.parametrize("solver", DIRECT + ["witkin-cg", "linear"])
+@pytest.mark.parametrize("where", ["Q", "c", "W"])
+def test_solve_lambda_refuses_nan_inputs_by_name(solver, where):
+    # witkin-dense and kkt returned λ = 0 for a NaN force, the others λ = NaN; now the argument is named
+    from pbanim.constraints import solve_lambda
+
+    ps = ParticleSystem([[1.0, 0.0], [2.0, 0.5]], [[0.0, 0.3], [0.1, 0.0]], masses=[1.0, 2.0])
+    cs = ConstraintSet([Distance([[0, -1], [0, 1]], anchors=[0.0, 0.0])], 2, 2, ps.W, ps.x0)
+    asm = cs.assemble(*ps.unpack(ps.state()))
+    args = {"Q": np.zeros(4), "c": -asm.Jdv, "W": cs.Wq.copy()}
+    args[where] = args[where].copy()
+    args[where][0] = np.nan
+    with pytest.raises(InvalidInput, match=rf"solve_lambda: {where} must be .*it has NaN or inf entries"):
+        solve_lambda(asm.J, args["W"], args["Q"], args["c"], solver, cset=cs, asm=asm)
+
+
+@pytest.mark.parametrize("solver", SOLVERS)
+def test_a_nan_force_inside_a_run_is_a_divergence_at_the_constraint_solve(solver):
+    # a force that turns NaN after t = 0 reaches the multiplier solve unchecked (inside pbanim); witkin-sparse
+    # and kkt answered λ = 0 there, the others NaN or a ConvergenceError: now SimulationDiverged with its time
+    from pbanim.particles import UserForce
+
+    ps = ParticleSystem([[1.0, 0.0], [2.0, 0.5]], masses=[1.0, 2.0])
+    bad = UserForce(lambda t, x, v: np.full(x.shape, np.nan if t > 0.005 else 0.0))
+    scene = Scene(ps, [bad, Constraints([Distance([[0, -1], [0, 1]], anchors=[0.0, 0.0])], solver=solver)])
+    with pytest.raises(SimulationDiverged, match=r"t = 0.01.*state or applied force.*constraint solve"):
+        scene.simulate(0.1, 0.01, "rk4")
+
+
+def test_min_norm_and_readable_elimination_name_bad_matrices():
+    from pbanim.constraints import eliminate_readable, min_norm_lambda
+
+    with pytest.raises(InvalidInput, match=r"min_norm_lambda: A must be .*finite.*NaN or inf entries"):
+        min_norm_lambda(np.full((2, 2), np.nan), np.ones(2))      # was λ = 0
+    with pytest.raises(InvalidInput, match=r"eliminate_readable: A must be non-singular .*zero pivot at row 0"):
+        eliminate_readable(np.zeros((1, 1)), np.ones(1), [0])      # was a bare KeyError
+    with pytest.raises(InvalidInput, match=r"eliminate_readable: A must be .*NaN or inf entries"):
+        eliminate_readable(np.array([[np.nan]]), np.ones(1), [0])  # was λ = NaN
+    with pytest.raises(InvalidInput, match=r"order must be .*an index repeats"):
+        eliminate_readable(np.eye(2), np.ones(2), [0, 0])
+
+
+def test_kinds_refuse_a_nan_state_and_name_an_undefined_angle():
+    from pbanim.constraints import Angle2D, check_constraint
+
+    rod = Distance([[0, 1]], lengths=1.0)
+    rod.bind(2, 2)
+    x = np.array([[0.0, 0.0], [1.0, 0.0]])
+    with pytest.raises(InvalidInput, match=r"Distance.evaluate: x must be .*NaN or inf entries"):
+        rod.evaluate(x * np.nan, x)                                 # was C = NaN
+    with pytest.raises(InvalidInput, match=r"x must be a float array of shape \(2, 2\).*a batch of states is not accepted"):
+        rod.value(np.stack([x, x]))
+    bend = Angle2D([[0, 1, 2]], 0.5)
+    bend.bind(3, 2)
+    with pytest.raises(InvalidInput, match=r"Angle2D.evaluate: x puts two particles of the angle \[0, 1, 2\]"):
+        bend.evaluate(np.zeros((3, 2)), np.zeros((3, 2)))          # was J = NaN
+    with pytest.raises(NonFiniteResult, match="check_constraint's finite differences"):
+        check_constraint(rod, x, x, eps=1e300)                      # was J_error = NaN, "not ok"
+
+
+def test_constraint_set_methods_refuse_an_assembly_of_another_set():
+    mod = hanging_chain(3)
+    ps = mod.system
+    cs = ConstraintSet(mod.constraints, ps.N, ps.dim, ps.W, ps.x0)
+    other = ConstraintSet([Distance([[0, 1]])], ps.N, ps.dim, ps.W, ps.x0)
+    asm = other.assemble(*ps.unpack(ps.state()))
+    with pytest.raises(InvalidInput, match=r"ConstraintSet.bands: asm must be an Assembly of this ConstraintSet.*"
+                                           r"it has 1 rows and 6 columns, the set 3 and 6"):
+        cs.bands(asm)                                               # was a bare IndexError
+    with pytest.raises(InvalidInput, match=r"permuted_matrix: asm must be .*this set's structure is 'chain'"):
+        cs.permuted_matrix(cs.assemble(*ps.unpack(ps.state())))    # was a bare AttributeError

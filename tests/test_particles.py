@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from pbanim.errors import SimulationDiverged
+from pbanim.errors import InvalidInput, SimulationDiverged
 from pbanim.models.particles import hanging_net, projectile_drag_model, two_body_spring_model
 from pbanim.ode import METHODS
 from pbanim.particles import (AnchorSprings, DampedSprings, Drag, Gravity, ParticleSystem, UserForce,
@@ -314,14 +314,17 @@ def test_user_force_callable_and_effect_subclass():
 # -- bad inputs -----------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(positions=[[0.0, 0.0, 0.0, 0.0]]), r"positions must have shape \(N, 2\) or \(N, 3\)"),
-    (dict(positions=np.zeros((0, 3))), r"N >= 1"),
-    (dict(positions=[[np.nan, 0.0]]), "positions must be finite"),
-    (dict(positions=[[0.0, 0.0]], velocities=[[np.inf, 0.0]]), "velocities must be finite"),
-    (dict(positions=[[0.0, 0.0]], velocities=[[0.0, 0.0, 0.0]]), "velocities must have the shape of positions"),
-    (dict(positions=[[0.0, 0.0]], masses=0.0), "mass must be positive, got 0.0"),
-    (dict(positions=[[0.0, 0.0]], masses=np.nan), "mass must be positive, got nan"),
-    (dict(positions=[[0.0, 0.0], [1.0, 1.0]], masses=[1.0, 2.0, 3.0]), r"masses must be a scalar or have shape \(2,\)"),
+    (dict(positions=[[0.0, 0.0, 0.0, 0.0]]), r"positions must be a float array of shape \(N, 2\) .* or a float array "
+                                             r"of shape \(N, 3\) .*got \[\[0.0, 0.0, 0.0, 0.0\]\]"),
+    (dict(positions=np.zeros((0, 3))), r"positions must be .*not empty.*got array\(\[\], shape=\(0, 3\)"),
+    (dict(positions=[[np.nan, 0.0]]), r"positions must be .*finite.*got \[\[nan, 0.0\]\]"),
+    (dict(positions=[[0.0, 0.0]], velocities=[[np.inf, 0.0]]), r"velocities must be .*finite.*got \[\[inf, 0.0\]\]"),
+    (dict(positions=[[0.0, 0.0]], velocities=[[0.0, 0.0, 0.0]]),
+     r"velocities must have the shape of positions \(1, 2\), got \(1, 3\)"),
+    (dict(positions=[[0.0, 0.0]], masses=0.0), r"masses must be .*entries > 0.*got 0.0"),
+    (dict(positions=[[0.0, 0.0]], masses=np.nan), r"masses must be .*got nan"),
+    (dict(positions=[[0.0, 0.0], [1.0, 1.0]], masses=[1.0, 2.0, 3.0]),
+     r"masses must be a float array of shape \(N,\).*N = 2.*got \[1.0, 2.0, 3.0\]"),
 ])
 def test_particle_system_rejects_bad_input(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -329,17 +332,18 @@ def test_particle_system_rejects_bad_input(kwargs, match):
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda: DampedSprings([0, 1]), r"pairs must have shape \(S, 2\), got \(2,\)"),
-    (lambda: DampedSprings([[0.5, 1]]), "pairs must be integer particle indices"),
+    (lambda: DampedSprings([0, 1]), r"pairs must be an integer array of shape \(S, 2\).*got \[0, 1\]; it has 1 axes"),
+    (lambda: DampedSprings([[0.5, 1]]), r"pairs must be .*got \[\[0.5, 1\]\]; entries are not integers"),
     (lambda: DampedSprings([[0, 3]]), r"pairs must index particles in \[0, 3\), got \[0, 3\] at spring 0"),
-    (lambda: DampedSprings([[0, 1], [2, 2]]), r"pairs must join two different particles, got \[2, 2\] at spring 1"),
-    (lambda: DampedSprings([[0, 1]], stiffness=-1.0), "stiffness must be finite and >= 0, got -1.0"),
-    (lambda: DampedSprings([[0, 1]], damping=[1.0, 2.0]), r"damping must be a scalar or have shape \(1,\)"),
-    (lambda: DampedSprings([[0, 1]], rest_length=np.nan), "rest_length must be finite and >= 0, got nan"),
+    (lambda: DampedSprings([[0, 1], [2, 2]]), r"pairs must be .*no index twice in a row.*; row 1 is \[2, 2\]"),
+    (lambda: DampedSprings([[0, 1]], stiffness=-1.0), r"stiffness must be .*entries >= 0.*got -1.0"),
+    (lambda: DampedSprings([[0, 1]], damping=[1.0, 2.0]), r"damping must be a float array of shape \(S,\).*S = 1.*"
+                                                          r"got \[1.0, 2.0\]"),
+    (lambda: DampedSprings([[0, 1]], rest_length=np.nan), "rest_length must be .*got nan"),
     (lambda: Gravity([0.0, -9.81]), r"g must have shape \(3,\) for a 3-D system"),
-    (lambda: Drag(-0.5), "damping must be finite and >= 0, got -0.5"),
+    (lambda: Drag(-0.5), r"damping must be .*entries >= 0.*got -0.5"),
     (lambda: AnchorSprings([5]), r"indices must be distinct particle indices in \[0, 3\)"),
-    (lambda: AnchorSprings([0], stiffness=0.0), "stiffness must be positive and finite, got 0.0"),
+    (lambda: AnchorSprings([0], stiffness=0.0), "stiffness must be a finite number > 0, got 0.0"),
     (lambda: UserForce(lambda t, x, v: np.zeros(5)), r"must return an array broadcastable to \(3, 3\)"),
 ])
 def test_effects_reject_bad_input(make, match):
@@ -349,7 +353,7 @@ def test_effects_reject_bad_input(make, match):
 
 
 def test_user_force_rejects_non_callable():
-    with pytest.raises(ValueError, match="force must be a callable force"):
+    with pytest.raises(ValueError, match="force must be a callable, got 3.0"):
         UserForce(3.0)
 
 
@@ -418,3 +422,76 @@ def test_bench_smoke():
     rep = run(quick=True)
     assert rep.goals and all(np.isfinite(g.measured) for g in rep.goals)
     assert all(r[-1] < 1e-12 for r in rep.tables[0].rows)  # scene step and numpy step agree
+
+
+# -- issue 27: nothing silent (each input below was a silent wrong answer or a bare error) -----------------
+def test_springs_far_apart_give_finite_forces_not_nan():
+    # |d|² overflows for |d| > 1e154: c = k_s(l − r)/l was inf/inf = NaN; now from the scaled length, and the
+    # readable loop (hypot) agrees: f = −k_s(1 − r/l) d along d (ORACLES A7: equal and opposite)
+    ps = ParticleSystem([[1e200, 0.0], [-1e200, 0.0], [0.0, 3e199]])
+    springs = DampedSprings([[0, 1], [1, 2]], stiffness=1.0, damping=0.5, rest_length=1.0)
+    Scene(ps, [springs])
+    y = ps.state()
+    f = springs.spring_forces(y)
+    assert np.isfinite(f).all()
+    assert f[0, 0] == pytest.approx(-2e200, rel=1e-12) and f[0, 1] == 0.0
+    Q = spring_forces_loop(ps.x0, ps.v0, springs.pairs, springs.ks, springs.kd, springs.rest)
+    assert np.allclose(Q[0], f[0], rtol=1e-12, atol=0) and np.allclose(Q.sum(axis=0), 0.0, atol=1e188)
+    assert springs.lengths(y)[0] == pytest.approx(2e200, rel=1e-15)         # was inf
+
+
+def test_a_zero_length_spring_pushes_nothing_and_its_jacobian_is_the_linear_spring():
+    # coincident ends, rest length 0: f = −k_s d is exactly 0 (no 0/0 direction), ∂f/∂x_a = −k_s I
+    ps = ParticleSystem([[0.5, 0.5], [0.5, 0.5]], [[1.0, 0.0], [0.0, 0.0]])
+    springs = DampedSprings([[0, 1]], stiffness=3.0, damping=1.0, rest_length=0.0)
+    scene = Scene(ps, [springs])
+    assert np.array_equal(scene.forces(0.0, ps.state()), np.zeros((2, 2)))
+    K = springs.jacobian(0.0, ps.state()).dQdx.toarray()
+    assert np.array_equal(K[:2, :2], -3.0 * np.eye(2)) and np.array_equal(K[:2, 2:], 3.0 * np.eye(2))
+    assert np.array_equal(spring_forces_loop(ps.x0, ps.v0, np.array([[0, 1]]), np.array([3.0]),
+                                             np.array([1.0]), np.array([0.0])), np.zeros((2, 2)))
+
+
+def test_a_spring_from_a_particle_to_itself_is_refused():
+    x = np.array([[0.0, 0.0], [1.0, 0.0]])
+    with pytest.raises(InvalidInput, match=r"spring_forces_loop: pairs must be .*no index twice in a row.*row 0 is "
+                                           r"\[1, 1\]"):
+        spring_forces_loop(x, x, np.array([[1, 1]]), np.ones(1), np.ones(1), np.ones(1))   # was a silent zero
+    with pytest.raises(InvalidInput, match=r"pairs must be .*an index is 2"):
+        spring_forces_loop(x, x, np.array([[0, 2]]), np.ones(1), np.ones(1), np.ones(1))   # was an IndexError
+
+
+@pytest.mark.parametrize("y, detail", [(lambda y: np.stack([y, y]), "a batch of states is not accepted here"),
+                                       (lambda y: "abc", ""), (lambda y: y[:-1], r"shape \(7,\)")])
+def test_one_state_functions_refuse_a_batch_or_a_string(y, detail):
+    # kinetic_energy(batch) was a bare ValueError (reshape), unpack("abc") a bare AttributeError
+    ps = ParticleSystem([[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [0.0, -1.0]])
+    bad = y(ps.state())
+    for f in (ps.kinetic_energy, ps.unpack, ps.linear_momentum, ps.angular_momentum, ps.center_of_mass):
+        with pytest.raises(InvalidInput, match=rf"{f.__name__}: y must be a float array of shape \(8,\).*{detail}"):
+            f(bad)
+
+
+def test_forces_add_into_q_itself_so_a_list_is_refused():
+    # Q += ... on a list converted by the check would change a copy: the force was silently lost
+    ps = ParticleSystem([[0.0, 0.0], [1.0, 0.0]], masses=2.0)
+    grav = Gravity([0.0, -10.0])
+    Scene(ps, [grav])
+    with pytest.raises(InvalidInput, match=r"Gravity.apply: Q must be a float64 numpy array of shape \(2, 2\).*"
+                                           r"written in place"):
+        grav.apply(0.0, ps.state(), [[0.0, 0.0], [0.0, 0.0]])
+    Q = np.zeros((2, 2))
+    grav.apply(0.0, ps.state(), Q)
+    assert np.array_equal(Q, [[0.0, -20.0], [0.0, -20.0]])
+
+
+def test_momenta_of_a_huge_state_overflow_to_inf_not_nan():
+    # x × m v with |x|, |v| ~ 1e200: inf − inf was NaN; now ±inf (the true value is beyond double range) or
+    # the exact value where it fits (the centre of mass of ±1e300 is 0)
+    ps = ParticleSystem([[1e200, -1e200], [-1e200, 1e200]], [[1e200, 1e200], [-1e200, 1e200]])
+    y = ps.state()
+    L, P = ps.angular_momentum(y), ps.linear_momentum(y)
+    assert not np.isnan(L).any() and not np.isnan(P).any()
+    assert np.array_equal(P, [0.0, 2e200]) and np.array_equal(L, [np.inf])
+    big = ParticleSystem([[1e300, 0.0], [-1e300, 0.0]], masses=[1e300, 1e300])
+    assert np.array_equal(big.center_of_mass(big.state()), [0.0, 0.0])   # was NaN (inf/inf)

@@ -28,12 +28,14 @@ Q_C = Jᵀλ  ``ConstraintSolution.Q_C``       (n,)
 k_s, k_d   ``ks``, ``kd``                   scalars, 1/s² and 1/s
 =========  ==============================  =================================
 
-Parts: :mod:`pbanim.constraints.kinds` (C, J, J̇q̇ of each kind), :mod:`pbanim.constraints.check`
+Parts: :mod:`pbanim.constraints.base` (the base class of the kinds and their shared argument specs),
+:mod:`pbanim.constraints.kinds` (C, J, J̇q̇ of each kind), :mod:`pbanim.constraints.check`
 (``UserConstraint``, ``check_constraint``),
 :mod:`pbanim.constraints.assembly` (J and JWJᵀ patterns, chain/tree structure),
 :mod:`pbanim.constraints.rows` (row gathers, slices and dot products of the kinds and the assembly),
 :mod:`pbanim.constraints.solvers` (witkin-dense, witkin-sparse, witkin-cg, kkt, linear; min-norm λ for
-redundant rows), :mod:`pbanim.constraints.effect` (the scene effect, projection, gains, stability).
+redundant rows), :mod:`pbanim.constraints.effect` (the scene effect, projection, gains),
+:mod:`pbanim.constraints.stability` (the step limit of Baumgarte feedback).
 
 Limiting cases
 --------------
@@ -89,10 +91,9 @@ True
 from __future__ import annotations
 
 from .assembly import Assembly, ConstraintSet, Structure
-from .effect import (STABILIZATIONS, BaumgarteGains, ConstraintProjection, Constraints,
-                                 baumgarte_feedback_map, baumgarte_gains, baumgarte_spectral_radius,
-                                 baumgarte_stability_limit, gains_from_box2d, gains_from_erp_cfm,
-                                 gains_from_mujoco, solve_multipliers)
+from .effect import (STABILIZATIONS, BaumgarteGains, ConstraintProjection, Constraints, baumgarte_gains,
+                     gains_from_box2d, gains_from_erp_cfm, gains_from_mujoco, solve_multipliers)
+from .stability import baumgarte_feedback_map, baumgarte_spectral_radius, baumgarte_stability_limit
 from .check import ConstraintCheck, UserConstraint, check_constraint
 from .kinds import (Angle2D, Constraint, Distance, FixedPoint, LinearCombination, OnCircle, OnLine,
                                 OnPlane)

@@ -26,10 +26,11 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse import csgraph
 
+from .base import DIM, N_PARTICLES
 from .check import UserConstraint
 from .kinds import Constraint
 from .rows import _dot, _span
-from ..errors import InvalidInput
+from ..contracts import Array, Flag, Obj, Opt, Seq, Spec, contract, unchecked
 
 __all__ = ["ConstraintSet", "Assembly", "Structure"]
 
@@ -81,6 +82,45 @@ def _pattern(r1: np.ndarray, r2: np.ndarray, m: int, fmt: str = "csr"):
     return mat, inv[:h], inv[h:]
 
 
+_X = Array(("self.N", "self.dim"))
+
+
+class _AssemblyOf(Spec):
+    """An :class:`Assembly` made by the set the method is called on (``self``: m rows, n coordinates), with
+    the JWJᵀ block values and the structure the method reads (a cross-argument condition, so a spec of its
+    own: it runs at the boundary only, never in the solver's loop)."""
+
+    size = "self"      # it reads the call's self: a reference, so the contract binds every argument
+
+    def __init__(self, needs: tuple = ()) -> None:
+        self.needs = tuple(needs)
+
+    def describe(self) -> str:
+        what = "an Assembly of this ConstraintSet (from its assemble)"
+        return what + (f", with pairs=True and a structure among {list(self.needs)}" if self.needs else "")
+
+    def check(self, name, value, env):
+        cs = env.values["self"]
+        if not isinstance(value, Assembly):
+            raise env.fail(name, self.describe(), value)
+        if value.C.shape != (cs.m,) or value.J.shape != (cs.m, cs.n):
+            raise env.fail(name, self.describe(), value, f"it has {value.J.shape[0]} rows and {value.J.shape[1]} "
+                           f"columns, the set {cs.m} and {cs.n}")
+        if self.needs and value.vals is None:
+            raise env.fail(name, self.describe(), value, "it has no block values (pairs=False or user kinds)")
+        if self.needs and cs.structure.kind not in self.needs:
+            raise env.fail(name, self.describe(), value, f"this set's structure is {cs.structure.kind!r}")
+        return value
+
+    def example(self, env):
+        cs = env.values["self"]
+        x = np.zeros((cs.N, cs.dim))
+        return cs.assemble(x + np.arange(cs.N)[:, None], x)
+
+    def bad(self, env):
+        return [("None", None), ("a string", "asm"), ("an array", np.zeros(3))]
+
+
 class ConstraintSet:
     """Many constraint kinds on one particle system, assembled together.
 
@@ -106,14 +146,14 @@ class ConstraintSet:
     array([0., 0., 0.])
     """
 
+    @contract(constraints=Seq(Obj(Constraint), min_len=1), N=N_PARTICLES, dim=DIM, W=Array(("$N",), gt=0),
+              x0=Opt(Array(("$N", "$dim"))))
     def __init__(self, constraints, N: int, dim: int, W, x0: np.ndarray | None = None) -> None:
         self.constraints = list(constraints)
-        if not self.constraints:
-            raise InvalidInput("constraints must be a non-empty list of Constraint objects")
         for c in self.constraints:
-            if not isinstance(c, Constraint):
-                raise InvalidInput(f"constraints must be Constraint objects, got {type(c).__name__}")
             c.bind(N, dim, x0)
+        # each kind's evaluate, unchecked (the step loop's own calls); None for user kinds (read row by row)
+        self._evaluate = [None if isinstance(c, UserConstraint) else unchecked(c.evaluate) for c in self.constraints]
         self.N, self.dim = int(N), int(dim)
         self.W = np.asarray(W, float)
         self.Wq = np.repeat(self.W, dim)
@@ -239,10 +279,11 @@ class ConstraintSet:
         return Structure(kind, bw, order, natural=bool(np.array_equal(order, np.arange(m))))
 
     # -- per step ----------------------------------------------------------------------------------
+    @contract(x=_X, v=_X, pairs=Flag())
     def assemble(self, x: np.ndarray, v: np.ndarray, pairs: bool = True) -> Assembly:
         """C, Ċ, J̇q̇ and J at (x, v) of shape (N, dim); ``pairs`` also computes the JWJᵀ block values."""
         self.assemblies += 1
-        out = [c.evaluate(x, v) if not isinstance(c, UserConstraint) else None for c in self.constraints]
+        out = [None if f is None else f(x, v) for f in self._evaluate]
         if self.blocks:
             one = len(out) == 1  # a single kind: its (fresh) arrays are used as they are
             C = out[0][0] if one else np.concatenate([o[0] for o in out])
@@ -285,6 +326,7 @@ class ConstraintSet:
             JT = J.T.tocsr()
         return Assembly(C=C, Jdv=Jdv, J=J, v=v.ravel(), vals=vals, JT=JT)
 
+    @contract(asm=_AssemblyOf())
     def matrix(self, asm: Assembly) -> sp.csr_matrix:
         """A = JWJᵀ (sparse) from an assembly."""
         if asm.vals is None:
@@ -298,6 +340,7 @@ class ConstraintSet:
         A.data = data
         return A
 
+    @contract(asm=_AssemblyOf(("chain", "banded", "tree")))
     def bands(self, asm: Assembly) -> np.ndarray:
         """A in lower band storage of the leaves-first order: ab[i − j, j] = A[order[i], order[j]]."""
         b, m = self.structure.bandwidth, self.m
@@ -307,6 +350,7 @@ class ConstraintSet:
         ab[:m] += diag if self.structure.natural else np.take(diag, self.structure.order)
         return ab.reshape(b + 1, m)
 
+    @contract(asm=_AssemblyOf(("chain",)))
     def tridiagonal(self, asm: Assembly) -> tuple[np.ndarray, np.ndarray]:
         """A chain's A in the leaves-first order as its diagonal (m,) and sub-diagonal (m − 1,); when each
         sub-diagonal entry is one pair value W_p G_{r,p}·G_{s,p}, these are read off without a bincount
@@ -318,6 +362,7 @@ class ConstraintSet:
         d = diag if self.structure.natural else np.take(diag, self.structure.order)
         return d, (off if self._e_src is None else np.take(off, self._e_src))
 
+    @contract(asm=_AssemblyOf(("tree",)))
     def permuted_matrix(self, asm: Assembly) -> sp.csc_matrix:
         """A in the leaves-first order (tree structure), CSC (A is symmetric)."""
         diag, off = asm.vals

@@ -8,7 +8,7 @@ the mass-weighted closest point) and then removes Ċ (q̇ ← q̇ − WJᵀ(JWJ�
 
 Baumgarte feedback turns the constraint error into a damped oscillator C̈ + k_d Ċ + k_s C = 0: with
 k_s = ω_b², k_d = 2ζω_b the error decays at rate ω_b (critically for ζ = 1). It is a stiff spring with
-its own step limit: see :func:`baumgarte_spectral_radius` / :func:`baumgarte_stability_limit`.
+its own step limit: see :mod:`pbanim.constraints.stability`.
 """
 
 from __future__ import annotations
@@ -21,13 +21,12 @@ import numpy as np
 from .assembly import ConstraintSet
 from .kinds import Constraint
 from .solvers import SOLVERS, ConstraintSolution, solve_lambda
-from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, Seq, contract
-from ..errors import InvalidInput, SimulationDiverged, SingularConstraintError, check_result
+from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, Seq, contract, unchecked
+from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged, SingularConstraintError
 from ..scene import Effect
 
 __all__ = ["Constraints", "ConstraintProjection", "STABILIZATIONS", "solve_multipliers", "BaumgarteGains",
-           "baumgarte_gains", "gains_from_box2d", "gains_from_mujoco", "gains_from_erp_cfm",
-           "baumgarte_feedback_map", "baumgarte_spectral_radius", "baumgarte_stability_limit"]
+           "baumgarte_gains", "gains_from_box2d", "gains_from_mujoco", "gains_from_erp_cfm"]
 
 STABILIZATIONS = ("none", "baumgarte", "projection")
 
@@ -211,6 +210,7 @@ class Constraints(Effect):
     def bind(self, system) -> None:
         self.system = system
         self.cset = ConstraintSet(self.constraints, system.N, system.dim, system.W, system.x0)
+        self._unpack = unchecked(system.unpack)     # the step loop's own calls pay no argument check
 
     def _solve(self, x, v, Qf, ks, kd, t=0.0) -> tuple[ConstraintSolution, object]:
         cset = self.cset
@@ -227,10 +227,27 @@ class Constraints(Effect):
         return sol, asm
         # END SOLUTION
 
+    def _solved(self, x, v, Qf, t):
+        """:meth:`_solve`, with a NaN or inf state or force met during a run named as a divergence."""
+        try:
+            return self._solve(x, v, Qf, self.ks, self.kd, t)
+        except NonFiniteResult:
+            _diverged(t, x, v, Qf)
+            raise
+
+    def _lam(self, asm, Qf, c, t) -> ConstraintSolution:
+        """solve_lambda with this effect's settings (the projection's solves), a NaN state named as in _solved."""
+        try:
+            return solve_lambda(asm.J, self.cset.Wq, Qf, c, self.solver, cset=self.cset, asm=asm, tol=self.tol,
+                                max_iter=self.max_iter)
+        except NonFiniteResult:
+            _diverged(t, asm.C, asm.v, Qf)
+            raise
+
     @contract(t=_TIME, y=_STATE, Q=Array(("self.system.N", "self.system.dim")))
     def constrain(self, t, y, Q):
-        x, v = self.system.unpack(y)
-        sol, _ = self._solve(x, v, np.array(Q, float).ravel(), self.ks, self.kd, t)
+        x, v = self._unpack(y)
+        sol, _ = self._solved(x, v, np.array(Q, float).ravel(), t)
         self.last = sol
         return Q + sol.Q_C.reshape(Q.shape)
 
@@ -240,13 +257,16 @@ class Constraints(Effect):
         this effect; zero outside a scene). Nothing carries over from an earlier evaluation or run."""
         x, v = self.system.unpack(y)
         Qf = np.ravel(self.applied(t, y)) if self.applied is not None else np.zeros(self.cset.n)
-        sol, asm = self._solve(x, v, Qf, self.ks, self.kd, t)
+        sol, asm = self._solved(x, v, Qf, t)
         return {"C_max": float(np.max(np.abs(asm.C), initial=0.0)),
                 "Cdot_max": float(np.max(np.abs(asm.Cdot), initial=0.0)), "lam": sol.lam}
 
     @contract(y=_STATE)
     def project(self, y: np.ndarray) -> np.ndarray:
         """Project y onto C = 0 (mass-weighted Gauss–Newton), then onto Ċ = 0; returns a new state."""
+        return self._project(y, 0.0)
+
+    def _project(self, y: np.ndarray, t: float) -> np.ndarray:
         y = np.array(y, float)
         x, v = self.system.unpack(y)
         zero = np.zeros(self.cset.n)
@@ -257,9 +277,7 @@ class Constraints(Effect):
             if cmax <= self.projection_tol:
                 break
             # J δq = −C with the smallest mass-weighted δq: the Witkin/KKT system with Q = 0, c = −C
-            sol = solve_lambda(asm.J, self.cset.Wq, zero, -asm.C, self.solver, cset=self.cset, asm=asm,
-                               tol=self.tol, max_iter=self.max_iter)
-            x += sol.qdd.reshape(x.shape)
+            x += self._lam(asm, zero, -asm.C, t).qdd.reshape(x.shape)
         else:
             asm = self.cset.assemble(x, v, pairs=False)
             cmax = float(np.max(np.abs(asm.C), initial=0.0))
@@ -268,10 +286,14 @@ class Constraints(Effect):
                 raise SingularConstraintError(bad[:20], cmax, f"position projection did not reach "
                                               f"|C| <= {self.projection_tol:g} in {self.projection_max_iter} steps")
         asm = self.cset.assemble(x, v, pairs=self.cset.blocks and self.solver not in ("kkt", "witkin-cg"))
-        sol = solve_lambda(asm.J, self.cset.Wq, zero, -asm.Cdot, self.solver, cset=self.cset, asm=asm,
-                           tol=self.tol, max_iter=self.max_iter)
-        v += sol.qdd.reshape(v.shape)
+        v += self._lam(asm, zero, -asm.Cdot, t).qdd.reshape(v.shape)
         return y
+
+
+def _diverged(t, *arrays) -> None:
+    """SimulationDiverged when one of the arrays (state, forces) is not finite: a run reached NaN or inf."""
+    if not all(np.isfinite(a).all() for a in arrays):
+        raise SimulationDiverged(t, -1, "state or applied force", "met by the constraint solve") from None
 
 
 class ConstraintProjection(Effect):
@@ -286,72 +308,4 @@ class ConstraintProjection(Effect):
 
     @contract(t=_TIME, y=Array(("self.owner.system.n_state",)), h=Real(gt=0))
     def post_step(self, t, y, h):
-        return self.owner.project(y)
-
-
-# -- the discrete feedback map (stability of Baumgarte itself) ---------------------------------------
-def _fixed_step_methods():
-    from ..ode import METHODS
-    return [k for k, m in METHODS.items() if not m.adaptive]
-
-
-_METHOD = Choice(_fixed_step_methods)
-
-
-@contract(method=_METHOD, omega_h=_GAIN, zeta=_GAIN)
-def baumgarte_feedback_map(method: str, omega_h: float, zeta: float) -> np.ndarray:
-    """The 2×2 one-step map of (C, Ċ·h) for C̈ = −k_s C − k_d Ċ integrated by ``method`` with step h,
-    as a function of ω_b h and ζ only (time measured in steps). Exact for constraints linear in q
-    (J constant), and the linearization of the error dynamics otherwise.
-
-    >>> M = baumgarte_feedback_map("symplectic_euler", 0.5, 1.0)
-    >>> round(float(np.linalg.det(M)), 12)   # symplectic Euler: det = 1 − h k_d
-    0.0
-    """
-    from ..ode import get_method
-
-    meth = get_method(method)
-    wh, z = float(omega_h), float(zeta)
-    A = np.array([[0.0, 1.0], [-wh * wh, -2 * z * wh]])
-    fun = lambda t, y: y @ A.T  # noqa: E731  (works on (2,) and batches)
-    with np.errstate(all="ignore"):     # an overflow is named below
-        cols = [np.asarray(meth.step(fun, 0.0, e, 1.0, split=1, jac=lambda t, y: A), float) for e in np.eye(2)]
-    return check_result("baumgarte_feedback_map", np.array(cols).T, f"omega_h = {wh:g}, zeta = {z:g}")
-
-
-@contract(method=_METHOD, omega_h=Array(None, ge=0, scalar=True), zeta=Array(None, ge=0, scalar=True))
-def baumgarte_spectral_radius(method: str, omega_h, zeta) -> np.ndarray:
-    """ρ(map) over arrays of ω_b h and ζ (≤ 1: the feedback is stable with this integrator and step)."""
-    try:
-        wh, z = np.broadcast_arrays(np.asarray(omega_h, float), np.asarray(zeta, float))
-    except ValueError:
-        raise InvalidInput(f"baumgarte_spectral_radius: omega_h and zeta must broadcast together, got shapes "
-                           f"{np.shape(omega_h)} and {np.shape(zeta)}") from None
-    out = np.empty(wh.shape)
-    for idx in np.ndindex(wh.shape):
-        out[idx] = np.max(np.abs(np.linalg.eigvals(baumgarte_feedback_map(method, wh[idx], z[idx]))))
-    return out
-
-
-@contract(method=_METHOD, zeta=_GAIN, upper=Real(gt=1e-3, le=1e6))
-def baumgarte_stability_limit(method: str, zeta: float, upper: float = 20.0) -> float:
-    """The largest ω_b h below which ρ ≤ 1 for all smaller ω_b h (bisection to 1e-10), for damping ratio ζ.
-
-    >>> round(baumgarte_stability_limit("symplectic_euler", 1.0), 6)   # (ωh)² + 4ωh = 4: 2√2 − 2
-    0.828427
-    """
-    grid = np.linspace(1e-3, upper, 2000)
-    rho = baumgarte_spectral_radius(method, grid, zeta)
-    bad = np.flatnonzero(rho > 1 + 1e-12)
-    if not bad.size:
-        return float("inf")
-    lo, hi = (grid[bad[0] - 1] if bad[0] else 0.0), grid[bad[0]]
-    for _ in range(200):   # bisection: width/2²⁰⁰ is far below the tolerance, so the cap is never the stop
-        if hi - lo <= 1e-10:
-            break
-        mid = 0.5 * (lo + hi)
-        if baumgarte_spectral_radius(method, mid, zeta) > 1 + 1e-12:
-            hi = mid
-        else:
-            lo = mid
-    return float(0.5 * (lo + hi))
+        return self.owner._project(y, t)

@@ -26,85 +26,16 @@ the rod tension is T = −λ L (negative λ pulls the ends together), the bead's
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 
+from .base import DIM, N_PARTICLES, X, X0, Constraint, _as_index, _per_row, _square_finite
 from .rows import _dot, _gather, _span, _take
-from ..errors import InvalidInput
+from ..contracts import Array, Int, Opt, contract
+from ..errors import InvalidInput, NonFiniteResult
+from ..particles.specs import Direction, IndexArray, point, points
+from ..particles.springs import row_norms
 
 __all__ = ["Constraint", "Distance", "FixedPoint", "OnCircle", "OnLine", "OnPlane", "LinearCombination",
            "Angle2D"]
-
-
-def _as_index(a, name: str, k: int | None = None) -> np.ndarray:
-    raw = np.array(a, ndmin=1 if k is None else 2)
-    if raw.size and raw.dtype.kind not in "iu":
-        f = raw.astype(float) if raw.dtype.kind in "fb" else None
-        if f is None or not np.all(np.isfinite(f)) or not np.all(f == np.round(f)):
-            raise InvalidInput(f"{name} must be integer particle indices, got {np.asarray(a).ravel()[:5].tolist()}")
-    arr = raw.astype(np.int64)
-    if (k is None and arr.ndim != 1) or (k is not None and (arr.ndim != 2 or arr.shape[1] != k)):
-        raise InvalidInput(f"{name} must have shape {'(m,)' if k is None else f'(m, {k})'}, got {np.shape(a)}")
-    return arr
-
-
-def _per_row(value, shape: tuple, name: str, finite: bool = True) -> np.ndarray:
-    """A float parameter broadcast to ``shape`` (one per row, or per row and axis), checked finite."""
-    a = np.asarray(value, dtype=float)
-    try:
-        out = np.broadcast_to(a, shape).copy()
-    except ValueError:
-        raise InvalidInput(f"{name} must be a scalar or broadcast to shape {shape}, got shape {a.shape}") from None
-    if finite and not np.all(np.isfinite(out)):
-        raise InvalidInput(f"{name} must be finite, got {out[~np.isfinite(out)][0]}")
-    return out
-
-
-class Constraint:
-    """Base class of a vectorized constraint kind (``m`` rows; see the module docstring).
-
-    Subclasses set ``slots`` (m, k) and implement :meth:`evaluate`. ``bind(N, dim)`` validates indices
-    against the particle system.
-    """
-
-    kind = "constraint"
-    slots: np.ndarray
-    opposite = False  # two slots with equal and opposite blocks, G[1] = −G[0] (a rod): |G[0]|² serves both
-
-    @property
-    def m(self) -> int:
-        return int(self.slots.shape[0])
-
-    def bind(self, N: int, dim: int, x0: np.ndarray | None = None) -> None:
-        bad = self.slots[(self.slots >= N) | (self.slots < -1)]
-        if bad.size:
-            raise InvalidInput(f"particle index {int(bad[0])} out of range for a system of {N} particles "
-                             f"({self.kind}); use indices in [0, {N - 1}] (or -1 for a fixed point)")
-        self.dim = dim
-
-    def evaluate(self, x: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(C (m,), G (k, m, dim), J̇q̇ (m,)) at positions x and velocities v of shape (N, dim)."""
-        raise NotImplementedError
-
-    # -- per-constraint views for students (not used in the hot path) ---------------------------------
-    def value(self, x: np.ndarray) -> np.ndarray:
-        """C(x), shape (m,)."""
-        x = np.asarray(x, float)
-        return self.evaluate(x, np.zeros_like(x))[0]
-
-    def jacobian(self, x: np.ndarray) -> sp.csr_matrix:
-        """J(x) = ∂C/∂q as a sparse (m, N·dim) matrix, q = x.ravel()."""
-        x = np.asarray(x, float)
-        N, dim = x.shape
-        _, G, _ = self.evaluate(x, np.zeros_like(x))
-        k = self.slots.shape[1]
-        rows = np.tile(np.repeat(np.arange(self.m), dim), k)
-        cols = (self.slots.T[:, :, None] * dim + np.arange(dim)).ravel()
-        keep = np.repeat(self.slots.T.ravel() >= 0, dim)
-        return sp.csr_matrix((G.ravel()[keep], (rows[keep], cols[keep])), shape=(self.m, N * dim))
-
-    def jdot_qdot(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """J̇q̇, shape (m,)."""
-        return self.evaluate(np.asarray(x, float), np.asarray(v, float))[2]
 
 
 class Distance(Constraint):
@@ -133,17 +64,14 @@ class Distance(Constraint):
     kind = "distance"
     opposite = True
 
+    @contract(pairs=IndexArray(("m", 2), world=True, distinct="rows", empty=True),
+              lengths=Opt(Array(("m",), gt=0, scalar=True, empty=True)), anchors=Opt(points("m")))
     def __init__(self, pairs, lengths=None, anchors=None) -> None:
         self.slots = _as_index(pairs, "pairs", 2)
-        if np.any(np.all(self.slots < 0, axis=1)):
-            raise InvalidInput("pairs must have at least one particle per rod, got a row (-1, -1)")
-        self.lengths_in = None if lengths is None else _per_row(lengths, (self.m,), "lengths", finite=False)
-        if self.lengths_in is not None:
-            bad = self.lengths_in[~(np.isfinite(self.lengths_in) & (self.lengths_in > 0))]
-            if bad.size:
-                raise InvalidInput(f"length must be positive, got {bad[0]}; rest lengths of rods are > 0")
+        self.lengths_in = None if lengths is None else _per_row(lengths, (self.m,), "lengths")
         self.anchors_in = anchors
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
         anchors = np.zeros(dim) if self.anchors_in is None else self.anchors_in
@@ -155,12 +83,12 @@ class Distance(Constraint):
                 raise InvalidInput("lengths must be given when no initial positions are known")
             a = _gather(x0, self.slots[:, 0], self.anchors)
             b = _gather(x0, self.slots[:, 1], self.anchors)
-            self.lengths = np.linalg.norm(b - a, axis=1)
+            self.lengths = row_norms(b - a)
             if np.any(self.lengths <= 0):
                 raise InvalidInput(f"length must be positive, got {self.lengths.min()} (coincident particles)")
         else:
             self.lengths = self.lengths_in
-        self._L2 = self.lengths ** 2
+        self._L2 = _square_finite(self.lengths, "lengths", "rods given or measured in x0")
         # rows with a fixed end: d is computed with index 0 in its place, then those (few) rows are redone
         fixed = self.slots < 0
         self._frows = np.flatnonzero(fixed.any(axis=1))
@@ -178,6 +106,7 @@ class Distance(Constraint):
             if sa is not None and sb is not None:
                 self._spans = (slice(int(free[0]), int(free[-1]) + 1), sa, sb)
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         G = np.empty((2, self.m, x.shape[1]))
         d, w = G[1], np.empty((self.m, x.shape[1]))  # G = (−d, d): d is written in place
@@ -195,10 +124,12 @@ class Distance(Constraint):
         np.negative(d, out=G[0])
         return C, G, _dot(w, w)
 
+    @contract(x=X, lam=Array(("self.m",), empty=True))
     def tension(self, x: np.ndarray, lam: np.ndarray) -> np.ndarray:
         """Rod tensions T = −λ|x_b − x_a| (positive when the rod pulls its ends together)."""
         d = _gather(x, self.slots[:, 1], self.anchors) - _gather(x, self.slots[:, 0], self.anchors)
-        return -np.asarray(lam) * np.linalg.norm(d, axis=1)
+        with np.errstate(over="ignore"):
+            return -np.asarray(lam) * row_norms(d)
 
 
 class FixedPoint(Constraint):
@@ -212,15 +143,14 @@ class FixedPoint(Constraint):
 
     kind = "fixed_point"
 
+    @contract(particles=IndexArray(("P",), empty=True), points=Opt(points("P")))
     def __init__(self, particles, points=None) -> None:
         self.particles = _as_index(particles, "particles")
         self.points_in = points
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         self.slots = np.repeat(self.particles, dim)[:, None]
-        if np.any(self.particles < 0):
-            raise InvalidInput(f"particle index {int(self.particles.min())} out of range for a system of "
-                             f"{N} particles (fixed_point); use indices in [0, {N - 1}]")
         super().bind(N, dim)
         if self.points_in is None:
             if x0 is None:
@@ -232,6 +162,7 @@ class FixedPoint(Constraint):
         self._axis = np.tile(np.arange(dim), len(self.particles))
         self._G = np.eye(dim)[self._axis][None]
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         C = x[self.particles].ravel() - self.points
         return C, self._G, np.zeros(self.m)
@@ -248,23 +179,25 @@ class OnCircle(Constraint):
 
     kind = "on_circle"
 
+    @contract(particles=IndexArray(("m",), empty=True), center=points("m"),
+              radius=Array(("m",), gt=0, scalar=True, empty=True))
     def __init__(self, particles, center, radius) -> None:
         self.slots = _as_index(particles, "particles")[:, None]
-        self.radius = _per_row(radius, (self.m,), "radius", finite=False)
-        bad = ~(self.radius > 0) | ~np.isfinite(self.radius)
-        if np.any(bad):
-            raise InvalidInput(f"radius must be positive, got {self.radius[bad][0]} (a finite radius > 0)")
+        self.radius = _per_row(radius, (self.m,), "radius")
+        self._R2 = _square_finite(self.radius, "radius", "C = ½(|x − c|² − R²)")
         self.center_in = np.asarray(center, float)
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
         self.center = _per_row(self.center_in, (self.m, dim), "center")
         self._p = self.slots[:, 0]
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         r = _take(x, self._p) - self.center
         vv = _take(v, self._p)
-        C = 0.5 * (_dot(r, r) - self.radius ** 2)
+        C = 0.5 * (_dot(r, r) - self._R2)
         return C, r[None], _dot(vv, vv)
 
 
@@ -276,17 +209,27 @@ class _Affine(Constraint):
         self._n = normals
         self._d = offsets
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         C = _dot(_take(x, self.slots[:, 0]), self._n) - self._d
         return C, self._n[None], np.zeros(self.m)
 
 
 def _unit(a, name: str) -> np.ndarray:
+    """a/|a|, scaled first by the largest |entry| (no overflow of |a|² for a finite a)."""
     a = np.asarray(a, float)
-    nrm = np.linalg.norm(a)
-    if a.ndim != 1 or not np.isfinite(nrm) or nrm == 0:
+    big = np.abs(a).max(initial=0.0) if a.ndim == 1 else 0.0
+    if not (np.isfinite(big) and big > 0):
         raise InvalidInput(f"{name} must be a non-zero finite vector, got {a.tolist()}")
-    return a / nrm
+    a = a / big
+    return a / np.linalg.norm(a)
+
+
+def _same_dims(where: str, point, name: str, other) -> None:
+    """``point`` and the direction ``other`` in one space (each is a 2- or 3-vector by its contract)."""
+    if np.shape(point) != np.shape(other):
+        raise InvalidInput(f"{where}: point and {name} must have one length (2 or 3), got {np.shape(point)} and "
+                           f"{np.shape(other)}")
 
 
 class OnPlane(_Affine):
@@ -300,11 +243,14 @@ class OnPlane(_Affine):
 
     kind = "on_plane"
 
+    @contract(particles=IndexArray(("m",), empty=True), point=point(), normal=Direction())
     def __init__(self, particles, point, normal) -> None:
+        _same_dims("OnPlane", point, "normal", normal)
         self.particles = _as_index(particles, "particles")
         self.point, self.normal = np.asarray(point, float), _unit(normal, "normal")
         self.slots = self.particles[:, None]
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         if self.normal.shape != (dim,) or self.point.shape != (dim,):
             raise InvalidInput(f"point and normal must have shape ({dim},), got {self.point.shape}, {self.normal.shape}")
@@ -319,11 +265,14 @@ class OnLine(_Affine):
 
     kind = "on_line"
 
+    @contract(particles=IndexArray(("m",), empty=True), point=point(), direction=Direction())
     def __init__(self, particles, point, direction) -> None:
+        _same_dims("OnLine", point, "direction", direction)
         self.particles = _as_index(particles, "particles")
         self.point, self.direction = np.asarray(point, float), _unit(direction, "direction")
         self.slots = np.repeat(self.particles, len(self.direction) - 1)[:, None]
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         if self.direction.shape != (dim,) or self.point.shape != (dim,):
             raise InvalidInput(f"point and direction must have shape ({dim},), got {self.point.shape}, "
@@ -346,6 +295,8 @@ class LinearCombination(Constraint):
 
     kind = "linear"
 
+    @contract(particles=IndexArray(("m", "k")), axes=IndexArray(("m", "k"), size=3, what="axes"),
+              coefficients=Array(("m", "k")), offsets=Array(("m",), scalar=True))
     def __init__(self, particles, axes, coefficients, offsets=0.0) -> None:
         self.slots = np.array(particles, dtype=np.int64, ndmin=2)
         self.axes = np.array(axes, dtype=np.int64, ndmin=2)
@@ -353,16 +304,16 @@ class LinearCombination(Constraint):
         if not (self.slots.shape == self.axes.shape == self.coef.shape):
             raise InvalidInput(f"particles, axes and coefficients must have one shape (m, k), got "
                              f"{self.slots.shape}, {self.axes.shape}, {self.coef.shape}")
-        if np.any(self.slots < 0):
-            raise InvalidInput(f"particle index {int(self.slots.min())} out of range (linear): no fixed points here")
         self.offsets = _per_row(offsets, (self.m,), "offsets")
 
+    @contract(N=N_PARTICLES, dim=DIM, x0=X0)
     def bind(self, N, dim, x0=None) -> None:
         super().bind(N, dim)
         if np.any((self.axes < 0) | (self.axes >= dim)):
             raise InvalidInput(f"axes must be in [0, {dim - 1}], got {self.axes[(self.axes < 0) | (self.axes >= dim)][0]}")
         self._G = np.ascontiguousarray((self.coef[:, :, None] * np.eye(dim)[self.axes]).transpose(1, 0, 2))
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         C = np.sum(self.coef * x[self.slots, self.axes], axis=1) - self.offsets
         return C, self._G, np.zeros(self.m)
@@ -381,22 +332,25 @@ class Angle2D(Constraint):
 
     kind = "angle"
 
+    @contract(triples=IndexArray(("m", 3), distinct="rows", empty=True), angles=Array(("m",), scalar=True, empty=True))
     def __init__(self, triples, angles) -> None:
         self.slots = _as_index(triples, "triples", 3)
         self.angles = _per_row(angles, (self.m,), "angles")
 
+    @contract(N=N_PARTICLES, dim=Int(ge=2, le=2), x0=X0)
     def bind(self, N, dim, x0=None) -> None:
-        if dim != 2:
+        if dim != 2:    # a 3-D system binds its kinds from inside pbanim: the contract did not see it
             raise InvalidInput(f"Angle2D needs a 2-D system, got dim = {dim}")
-        if np.any(self.slots < 0):
-            raise InvalidInput("triples must index particles (no -1 fixed points in Angle2D)")
         super().bind(N, dim)
 
+    @contract(x=X, v=X)
     def evaluate(self, x, v):
         a, b, c = self.slots.T
         u, w = x[a] - x[b], x[c] - x[b]
         du, dw = v[a] - v[b], v[c] - v[b]
         uu, ww = np.einsum("ij,ij->i", u, u), np.einsum("ij,ij->i", w, w)
+        if not (uu.all() and ww.all()) or np.isinf(uu).any() or np.isinf(ww).any():
+            self._undefined(x, uu, ww)
         th = np.arctan2(u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0], np.einsum("ij,ij->i", u, w))
         C = np.angle(np.exp(1j * (th - self.angles)))
         ga, gc = -_perp(u) / uu[:, None], _perp(w) / ww[:, None]
@@ -405,3 +359,12 @@ class Angle2D(Constraint):
         jd = (2 * np.einsum("ij,ij->i", up, du) * np.einsum("ij,ij->i", u, du) / uu ** 2
               - 2 * np.einsum("ij,ij->i", wp, dw) * np.einsum("ij,ij->i", w, dw) / ww ** 2)
         return C, G, jd
+
+    def _undefined(self, x, uu, ww):
+        """The angle at row r has no direction (an arm of length 0) or its arms overflow: a named error."""
+        zero = np.flatnonzero((uu == 0) | (ww == 0))
+        if zero.size:
+            r = int(zero[0])
+            raise InvalidInput(f"Angle2D.evaluate: x puts two particles of the angle {self.slots[r].tolist()} (row "
+                               f"{r}) at one point: the angle, and J, are undefined there")
+        raise NonFiniteResult("Angle2D's |u|² and |w|²", "the arms of an angle are longer than 1e154")

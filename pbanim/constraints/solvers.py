@@ -25,9 +25,12 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import ConvergenceError, InvalidInput, SingularConstraintError
+from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
+from ..errors import ConvergenceError, InvalidInput, NonFiniteResult, SingularConstraintError, check_result
+from ..particles.specs import IndexArray, Matrix
 
-__all__ = ["ConstraintSolution", "SOLVERS", "solve_lambda", "eliminate_readable", "EliminationResult"]
+__all__ = ["ConstraintSolution", "SOLVERS", "solve_lambda", "min_norm_lambda", "eliminate_readable",
+           "EliminationResult"]
 
 SOLVERS = ("auto", "witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear")
 _PIVOT = 1e-13
@@ -76,8 +79,25 @@ def _rel(res: np.ndarray, r: np.ndarray) -> float:
     return _norm(res) / max(_norm(r), 1e-300)
 
 
+def _finite(a: np.ndarray) -> bool:
+    """Every entry finite (one reduction; the entrywise test only when the sum is not finite)."""
+    return bool(np.isfinite(np.add.reduce(a, axis=None)) or np.isfinite(a).all())
+
+
+def _symbol(name: str):
+    def size(env):
+        return env.symbols[name]
+    size.__name__ = name
+    return size
+
+
+@contract(A=Matrix(("m", "m")), r=Array(("m",), empty=True), tol=Real(gt=0))
 def min_norm_lambda(A, r: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-    """Minimum-norm λ = A⁺r for symmetric PSD A; raise SingularConstraintError if r ∉ range(A)."""
+    """Minimum-norm λ = A⁺r for symmetric PSD A; raise SingularConstraintError if r ∉ range(A).
+
+    >>> min_norm_lambda(np.array([[1.0, 1.0], [1.0, 1.0]]), np.array([2.0, 2.0]))    # a rod given twice
+    array([1., 1.])
+    """
     if A.shape[0] > 4000:
         sol = spla.lsmr(sp.csr_matrix(A), r, atol=1e-15, btol=1e-15, maxiter=20 * A.shape[0])[0]
         res = A @ sol - r
@@ -86,6 +106,8 @@ def min_norm_lambda(A, r: np.ndarray, tol: float = 1e-9) -> np.ndarray:
             raise SingularConstraintError(rows, float(np.linalg.norm(res)), "detected by LSMR")
         return sol
     Ad = A.toarray() if sp.issparse(A) else np.asarray(A, float)
+    if not _finite(Ad):     # JWJᵀ assembled inside pbanim from a finite J that overflowed
+        raise NonFiniteResult("A = JWJᵀ", "the constraint Jacobian's entries are too large")
     ev, U = np.linalg.eigh(0.5 * (Ad + Ad.T))
     big = ev > 1e-12 * max(ev.max(initial=0.0), 1e-300)
     coef = U.T @ r
@@ -218,6 +240,8 @@ class EliminationResult:
     fill: int
 
 
+@contract(A=Matrix(("m", "m")), r=Array(("m",)), order=IndexArray(("m",), size=_symbol("m"), distinct="all",
+                                                                    what="row indices"))
 def eliminate_readable(A, r: np.ndarray, order) -> EliminationResult:
     """Gaussian elimination of A λ = r one row at a time, in the given order (readable reference of the
     "linear" solver; Baraff 1996).
@@ -241,7 +265,10 @@ def eliminate_readable(A, r: np.ndarray, order) -> EliminationResult:
     pos = {i: k for k, i in enumerate(order)}
     fill = 0
     for i in order:  # forward elimination
-        piv = rows[i][i]
+        piv = rows[i].get(i, 0.0)
+        if piv == 0.0:
+            raise InvalidInput(f"eliminate_readable: A must be non-singular in this order (no pivoting here), got a "
+                               f"zero pivot at row {i}; redundant rows need min_norm_lambda")
         later = [k for k in rows[i] if pos[k] > pos[i]]
         for j in later:
             f = rows[j][i] / piv
@@ -253,9 +280,13 @@ def eliminate_readable(A, r: np.ndarray, order) -> EliminationResult:
     lam = np.zeros(m)
     for i in reversed(order):  # back substitution
         lam[i] = (b[i] - sum(a * lam[k] for k, a in rows[i].items() if pos[k] > pos[i])) / rows[i][i]
-    return EliminationResult(lam, fill)
+    return EliminationResult(check_result("eliminate_readable", lam, "a pivot is too small for this A"), fill)
 
 
+@contract(J=Matrix(("m", "n")), W=Array(("n",), gt=0), Q=Array(("n",)), c=Array(("m",), empty=True),
+          solver=Choice(SOLVERS), cset=Opt(Obj("pbanim.constraints.assembly:ConstraintSet")),
+          asm=Opt(Obj("pbanim.constraints.assembly:Assembly")), A=Opt(Matrix(("m", "m"))), tol=Real(gt=0),
+          max_iter=Opt(Int(ge=1)))
 def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=None, A=None,
                  tol: float = 1e-12, max_iter: int | None = None) -> ConstraintSolution:
     """Solve for λ with a named solver (see the module docstring).
@@ -283,24 +314,30 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
     >>> round(float(sol.lam[0]), 12), sol.qdd.round(12)
     (-10.81, array([0., 0.]))
     """
-    if solver not in SOLVERS:
-        raise InvalidInput(f"solver must be one of {list(SOLVERS)}, got {solver!r}")
     W = np.asarray(W, float)
     Q = np.asarray(Q, float).ravel()
     c = np.asarray(c, float)
     J = J if sp.issparse(J) else sp.csr_matrix(np.atleast_2d(np.asarray(J, float)))
     m = J.shape[0]
+    if cset is not None and (cset.m, cset.n) != J.shape:
+        raise InvalidInput(f"solve_lambda: cset must be the constraint set J was assembled from, got one of "
+                           f"{cset.m} rows and {cset.n} coordinates for J of shape {J.shape}")
+    blocks = asm is not None and asm.vals is not None      # the linear solver reads JWJᵀ's block values
     if solver == "auto":
-        if cset is not None and cset.structure.linear:
+        if cset is not None and cset.structure.linear and blocks:
             solver = "linear"
         else:
             solver = "witkin-dense" if m <= _DENSE_AUTO else "witkin-sparse"
-    if solver == "linear" and (cset is None or not cset.structure.linear):
+    if solver == "linear" and (cset is None or not cset.structure.linear or not blocks):
         kind = "general" if cset is None else cset.structure.kind
-        raise InvalidInput(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds; "
-                         f"this set's structure is {kind!r}; use 'auto', 'witkin-sparse' or 'kkt'")
+        raise InvalidInput(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds (cset, "
+                           f"and asm assembled with pairs=True); this set's structure is {kind!r}; use 'auto', "
+                           "'witkin-sparse' or 'kkt'")
     JT = asm.JT if (asm is not None and asm.JT is not None) else J.T.tocsr()
     r = c - J @ (W * Q)
+    if not _finite(r):      # from a NaN state inside a run, or an overflow of finite inputs
+        raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
+                              f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
     it, deficient = 0, False
     if solver == "kkt":
         K = sp.bmat([[sp.diags(1.0 / W), -JT], [J, None]], format="csc")
@@ -311,7 +348,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
             z = kkt(rhs)
             qdd, lam = z[: len(Q)], z[len(Q):]
             Q_C = JT @ lam
-            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
+            return _certified(ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs)))
         lam, deficient = None, True
     elif solver == "witkin-cg":
         lam, it, res = _cg(J, JT, W, r, tol, max_iter or 10 * m + 100)
@@ -333,5 +370,13 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
     Q_C = JT @ lam
     qdd = Q + Q_C
     qdd *= W
-    return ConstraintSolution(lam, Q_C, qdd, solver, it, deficient, res if solver == "witkin-cg" else None,
-                              (J, W, r))
+    return _certified(ConstraintSolution(lam, Q_C, qdd, solver, it, deficient,
+                                         res if solver == "witkin-cg" else None, (J, W, r)))
+
+
+def _certified(sol: ConstraintSolution) -> ConstraintSolution:
+    """``sol`` when λ and q̈ are finite (a finite right-hand side can still overflow through a tiny pivot)."""
+    if not (_finite(sol.lam) and _finite(sol.qdd)):
+        raise NonFiniteResult(f"λ or q̈ from the {sol.solver!r} solve", "JWJᵀ is too badly conditioned or its "
+                              "entries too large for double precision")
+    return sol

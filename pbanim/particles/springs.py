@@ -36,18 +36,62 @@ f = −k_s(l − r)d̂ with d̂ := 0 (it is the user's job not to rest a spring 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
+from .specs import Buffer, IndexArray, Matrix
+from ..contracts import Array, Obj, Opt, Real, Text, contract, unchecked
 from ..scene import Effect
-from ..errors import InvalidInput, as_floats
+from ..errors import InvalidInput, as_floats, check_result
 
-__all__ = ["DampedSprings", "AnchorSprings", "ForceJacobian", "spring_forces_loop"]
+__all__ = ["DampedSprings", "ForceJacobian", "spring_forces_loop"]
+
+_SYSTEM = Obj("pbanim.particles.system:ParticleSystem")
+_Y = Array(("self.system.n_state",))
+_Q = Buffer(("self.system.N", "self.system.dim"))
+_T = Real()
+_PER_SPRING = Array(("S",), ge=0, scalar=True, empty=True)
 
 
+def _symbol(name: str):
+    """A size read from a shape symbol bound earlier in the call (``"N"``: the rows of x)."""
+    def size(env):
+        return env.symbols[name]
+    size.__name__ = name
+    return size
+
+
+def row_norms(d: np.ndarray) -> np.ndarray:
+    """|dᵢ| of the rows of an (S, dim) array, scaled by the largest entry where |dᵢ|² overflows (a finite
+    d never gives an infinite or NaN length; the plain sqrt(Σd²) is used where it is finite)."""
+    with np.errstate(over="ignore"):
+        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+    big = np.isinf(length) & np.isfinite(d).all(axis=1)
+    if big.any():
+        s = np.abs(d[big]).max(axis=1)
+        u = d[big] / s[:, None]
+        length[big] = s * np.sqrt(np.einsum("ij,ij->i", u, u))
+    return length
+
+
+def bilinear(f, a: np.ndarray, b: np.ndarray):
+    """f(a, b) for f bilinear (a momentum Σ m v, an angular momentum Σ x × m v): where the plain value is not
+    finite although a and b are, f(a/sa, b/sb)·sa·sb with sa, sb the largest |entries|: ±inf when the true
+    value exceeds the double range, never a NaN from inf − inf."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = f(a, b)
+    if np.isfinite(out).all() or not (np.isfinite(a).all() and np.isfinite(b).all()):
+        return out
+    sa, sb = float(np.abs(a).max(initial=0.0)) or 1.0, float(np.abs(b).max(initial=0.0)) or 1.0
+    with np.errstate(over="ignore"):
+        return f(a / sa, b / sb) * sa * sb
+
+
+@contract(dQdx=Opt(Matrix(("n", "n"), sparse=True)), dQdv=Opt(Matrix(("n", "n"), sparse=True)))
 @dataclass
 class ForceJacobian:
     """∂Q/∂x and ∂Q/∂v of one force effect, sparse (N·dim, N·dim); ``None`` means identically zero."""
@@ -68,12 +112,15 @@ def _per_spring(value: Any, S: int, name: str, fix: str) -> np.ndarray:
     return a
 
 
+@contract(x=Array(("N", "dim")), v=Array(("N", "dim")), pairs=IndexArray(("S", 2), size=_symbol("N"), distinct="rows",
+                                                                         empty=True),
+          ks=Array(("S",), ge=0, empty=True), kd=Array(("S",), ge=0, empty=True), rest=Array(("S",), ge=0, empty=True))
 def spring_forces_loop(x: np.ndarray, v: np.ndarray, pairs: np.ndarray, ks: np.ndarray, kd: np.ndarray,
                        rest: np.ndarray) -> np.ndarray:
     """Readable reference: the force of every spring, one spring at a time (a Python loop).
 
     Returns Q of shape (N, dim). Use :class:`DampedSprings` in simulations; this is for reading and for
-    checking the vectorized version.
+    checking the vectorized version. A spring of length 0 has no direction d̂ and exerts no force.
 
     >>> x = np.array([[0.0, 0.0], [2.0, 0.0]]); v = np.zeros_like(x)
     >>> spring_forces_loop(x, v, np.array([[0, 1]]), np.array([10.0]), np.array([0.0]), np.array([1.0]))
@@ -83,7 +130,7 @@ def spring_forces_loop(x: np.ndarray, v: np.ndarray, pairs: np.ndarray, ks: np.n
     Q = np.zeros_like(x, dtype=float)
     for s, (a, b) in enumerate(pairs):
         d = x[a] - x[b]
-        length = np.sqrt(d @ d)
+        length = math.hypot(*d)     # scaled: no overflow of |d|² for a finite d
         if length == 0.0:
             continue
         dhat = d / length
@@ -91,7 +138,7 @@ def spring_forces_loop(x: np.ndarray, v: np.ndarray, pairs: np.ndarray, ks: np.n
         f = -(ks[s] * (length - rest[s]) + kd[s] * ldot) * dhat
         Q[a] += f
         Q[b] -= f
-    return Q
+    return check_result("spring_forces_loop", Q, "a spring force overflows the double range")
 
 
 class DampedSprings(Effect):
@@ -125,20 +172,15 @@ class DampedSprings(Effect):
 
     phase = "force"
 
+    @contract(pairs=IndexArray(("S", 2), distinct="rows", empty=True), stiffness=_PER_SPRING, damping=_PER_SPRING,
+              rest_length=Opt(_PER_SPRING), name=Text(nonempty=True))
     def __init__(self, pairs: Any, stiffness: Any = 1.0, damping: Any = 0.0, rest_length: Any = None,
                  name: str = "springs") -> None:
-        p = np.asarray(pairs)
-        if p.size == 0:
-            p = p.reshape(0, 2)
-        if p.ndim != 2 or p.shape[1] != 2:
-            raise InvalidInput(f"pairs must have shape (S, 2), got {p.shape}")
-        if p.dtype.kind not in "iu":
-            if p.dtype.kind != "f" or not np.all(p == np.round(p)):
-                raise InvalidInput(f"pairs must be integer particle indices, got dtype {p.dtype}")
-        self.pairs = p.astype(np.intp)
+        self.pairs = np.asarray(pairs, dtype=np.intp).reshape(-1, 2)
         self.S = self.pairs.shape[0]
         self.stiffness_in, self.damping_in, self.rest_in, self.name = stiffness, damping, rest_length, name
 
+    @contract(system=_SYSTEM)
     def bind(self, system: Any) -> None:
         N, dim, S = system.N, system.dim, self.S
         a, b = self.pairs[:, 0], self.pairs[:, 1]
@@ -147,15 +189,12 @@ class DampedSprings(Effect):
             s = int(np.argwhere(bad)[0, 0])
             raise InvalidInput(f"pairs must index particles in [0, {N}), got {self.pairs[s].tolist()} "
                              f"at spring {s}")
-        if np.any(a == b):
-            s = int(np.flatnonzero(a == b)[0])
-            raise InvalidInput(f"pairs must join two different particles, got {self.pairs[s].tolist()} at spring {s}")
         self.system, self.a, self.b = system, a, b
+        self._unpack = unchecked(system.unpack)     # the step loop's own calls pay no argument check
         self.ks = _per_spring(self.stiffness_in, S, "stiffness", "use a spring stiffness k_s >= 0")
         self.kd = _per_spring(self.damping_in, S, "damping", "use a spring damping k_d >= 0")
         if self.rest_in is None:
-            d = system.x0[a] - system.x0[b]
-            self.rest = np.sqrt(np.einsum("ij,ij->i", d, d))
+            self.rest = row_norms(system.x0[a] - system.x0[b])
         else:
             self.rest = _per_spring(self.rest_in, S, "rest_length", "use a rest length r >= 0")
         self._damped = bool(np.any(self.kd > 0))
@@ -174,24 +213,31 @@ class DampedSprings(Effect):
     def _geometry(self, y: np.ndarray):
         x, v = self.system.unpack(y)
         d = x[self.a] - x[self.b]
-        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+        length = row_norms(d)
         safe = np.where(length > 0, length, 1.0)
         dhat = d / safe[:, None]
         dhat[length == 0] = 0.0
         dv = v[self.a] - v[self.b]
         return d, length, dhat, dv
 
+    @contract(y=_Y)
     def spring_forces(self, y: np.ndarray) -> np.ndarray:
-        """f of every spring on its end a, shape (S, dim).
+        """f of every spring on its end a, shape (S, dim) (see :meth:`_forces`)."""
+        return self._forces(y)
+
+    def _forces(self, y: np.ndarray) -> np.ndarray:
+        """f of every spring on its end a, shape (S, dim), for the step loop (no argument check).
 
         Written as f = −c d with c = [k_s (l − r) + k_d (v_a − v_b)·d / l] / l, so d̂ is never formed:
-        (S, dim) work is two gathers per end, two row dots and one scaling.
+        (S, dim) work is two gathers per end, two row dots and one scaling. A spring of length 0 (ends at one
+        point, whatever its rest length) has no direction and exerts no force; where l² overflows, c is
+        taken from the scaled length (the force is then ±inf at worst, never NaN).
         """
-        x, v = self.system.unpack(y)
+        x, v = self._unpack(y)
         d = np.take(x, self.a, axis=0)
         d -= np.take(x, self.b, axis=0)
-        length = np.sqrt(np.einsum("ij,ij->i", d, d))
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            length = np.sqrt(np.einsum("ij,ij->i", d, d))
             inv = 1.0 / length
             c = self.ks * (length - self.rest)
             if self._damped:
@@ -201,19 +247,30 @@ class DampedSprings(Effect):
             c *= inv
         if not np.all(np.isfinite(c)):
             c[length == 0] = 0.0       # a zero-length spring has no direction: no force
-        d *= -c[:, None]
+            big = np.isinf(length)
+            if big.any():              # |d|² overflowed: c = k_s (1 − r/l) + k_d (Δv·d̂)/l from the scaled l
+                lb = row_norms(d[big])
+                with np.errstate(over="ignore", invalid="ignore"):
+                    cb = self.ks[big] * (1.0 - self.rest[big] / lb)
+                    if self._damped:
+                        cb += self.kd[big] * (np.einsum("ij,ij->i", dv[big], d[big] / lb[:, None]) / lb)
+                c[big] = cb
+        with np.errstate(over="ignore"):
+            d *= -c[:, None]
         return d
 
+    @contract(t=_T, y=_Y, Q=_Q)
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
-        f = self.spring_forces(y).ravel()
+        f = self._forces(y).ravel()
         n = self._n
         dQ = np.bincount(self._ia, f, minlength=n)
         dQ -= np.bincount(self._ib, f, minlength=n)
         Q += dQ.reshape(Q.shape)
 
+    @contract(t=_T, y=_Y, Q=_Q)
     def apply_add_at(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         """Same as :meth:`apply`, scattering with ``np.add.at`` (kept for the benchmark's comparison)."""
-        f = self.spring_forces(y)
+        f = self._forces(y)
         np.add.at(Q, self.a, f)
         np.add.at(Q, self.b, -f)
 
@@ -224,14 +281,17 @@ class DampedSprings(Effect):
                                                                 np.r_[self.a, self.b])), shape=(S, self.system.N))
 
     # -- energy and Jacobians ----------------------------------------------------------------------
+    @contract(y=_Y)
     def lengths(self, y: np.ndarray) -> np.ndarray:
         return self._geometry(y)[1]
 
+    @contract(y=_Y)
     def potential_energy(self, y: np.ndarray) -> float:
         """V = ½ Σ k_s (l − r)²."""
         ext = self.lengths(y) - self.rest
         return float(0.5 * np.sum(self.ks * ext * ext))
 
+    @contract(t=_T, y=_Y)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, float]:
         ext = self.lengths(y) - self.rest
         return {f"V_{self.name}": float(0.5 * np.sum(self.ks * ext * ext)),
@@ -242,6 +302,7 @@ class DampedSprings(Effect):
         data = np.concatenate([blocks, blocks, -blocks, -blocks]).ravel()
         return sp.csr_matrix((data, (self._jrows, self._jcols)), shape=(self._n, self._n))
 
+    @contract(t=_T, y=_Y)
     def jacobian(self, t: float, y: np.ndarray):
         """∂Q/∂x and ∂Q/∂v as sparse (N·dim)² matrices (a :class:`pbanim.particles.ForceJacobian`)."""
         _, length, dhat, dv = self._geometry(y)
@@ -259,71 +320,3 @@ class DampedSprings(Effect):
             K -= (self.kd / safe)[:, None, None] * (dhat[:, :, None] * dvP[:, None, :] + ldot[:, None, None] * P)
             dQdv = self._assemble(-self.kd[:, None, None] * ddT)
         return ForceJacobian(self._assemble(K), dQdv)
-
-
-class AnchorSprings(Effect):
-    """Zero-rest-length damped springs pinning particles to fixed world points (Witkin's "mouse spring").
-
-    Qᵢ += −k_s (xᵢ − pᵢ) − k_d vᵢ for each anchored particle i; V = ½ Σ k_s |xᵢ − pᵢ|². Local (the force
-    on i depends on i only) and linear, so its Jacobians are constant diagonals.
-
-    Parameters
-    ----------
-    indices : array_like of int, shape (A,)
-        Anchored particles (distinct, in [0, N)).
-    points : array_like, shape (A, dim), optional
-        Anchor points; default the particles' initial positions.
-    stiffness, damping : float
-        k_s > 0, k_d ≥ 0.
-
-    Examples
-    --------
-    >>> from pbanim.particles import ParticleSystem
-    >>> from pbanim.scene import Scene
-    >>> ps = ParticleSystem([[1.0, 0.0], [5.0, 5.0]])
-    >>> Scene(ps, [AnchorSprings([0], [[0.0, 0.0]], stiffness=3.0)]).forces(0.0, ps.state())
-    array([[-3., -0.],
-           [ 0.,  0.]])
-    """
-
-    phase = "force"
-
-    def __init__(self, indices: Any, points: Any = None, stiffness: float = 1e3, damping: float = 0.0,
-                 name: str = "anchors") -> None:
-        self.idx = np.atleast_1d(np.asarray(indices)).astype(np.intp)
-        self.points_in, self.name = points, name
-        self.ks = float(stiffness)
-        self.kd = float(damping)
-        if not (np.isfinite(self.ks) and self.ks > 0):
-            raise InvalidInput(f"stiffness must be positive and finite, got {stiffness}")
-        if not (np.isfinite(self.kd) and self.kd >= 0):
-            raise InvalidInput(f"damping must be finite and >= 0, got {damping}")
-
-    def bind(self, system: Any) -> None:
-        N, dim = system.N, system.dim
-        if np.any((self.idx < 0) | (self.idx >= N)) or len(np.unique(self.idx)) != len(self.idx):
-            raise InvalidInput(f"indices must be distinct particle indices in [0, {N}), got {self.idx.tolist()}")
-        p = system.x0[self.idx] if self.points_in is None else np.asarray(self.points_in, float)
-        if p.shape != (len(self.idx), dim):
-            raise InvalidInput(f"points must have shape ({len(self.idx)}, {dim}), got {p.shape}")
-        self.system, self.points = system, p.copy()
-        n = N * dim
-        diag = np.zeros((N, dim))
-        diag[self.idx] = 1.0
-        self._Kx = sp.diags(-self.ks * diag.ravel(), shape=(n, n), format="csr")
-        self._Kv = sp.diags(-self.kd * diag.ravel(), shape=(n, n), format="csr") if self.kd > 0 else None
-
-    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
-        x, v = self.system.unpack(y)
-        Q[self.idx] -= self.ks * (x[self.idx] - self.points) + self.kd * v[self.idx]
-
-    def potential_energy(self, y: np.ndarray) -> float:
-        x, _ = self.system.unpack(y)
-        e = x[self.idx] - self.points
-        return float(0.5 * self.ks * np.sum(e * e))
-
-    def diagnostics(self, t: float, y: np.ndarray) -> dict[str, float]:
-        return {f"V_{self.name}": self.potential_energy(y)}
-
-    def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:
-        return ForceJacobian(self._Kx, self._Kv)

@@ -64,21 +64,40 @@ SIGGRAPH 1998 (implicit Euler with the spring Jacobians).
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 
+from .forces import AnchorSprings, UserForce
+from .specs import Buffer, IndexArray, point
 from .springs import _per_spring as _per_particle
-from .springs import AnchorSprings, DampedSprings, ForceJacobian, spring_forces_loop
+from .springs import DampedSprings, ForceJacobian, bilinear, spring_forces_loop
 from ..bodies import Bodies
+from ..contracts import Array, Int, Obj, Opt, Real, contract
 from ..scene import Effect
-from ..errors import InvalidInput, as_floats
+from ..errors import InvalidInput, as_floats, check_result
 
 __all__ = ["ParticleSystem", "ForceJacobian", "Gravity", "Drag", "DampedSprings", "AnchorSprings", "UserForce",
            "spring_forces_loop"]
 
+_POSITIONS = point("N")
+_Y = Array(("self.n_state",))
+_XV = Array(("self.N", "self.dim"))
+_POINTS = Array(("k", 3), empty=True)
+_T = Real()
+_SYS_Y = Array(("self.system.n_state",))
+_SYS_Q = Buffer(("self.system.N", "self.system.dim"))
+_BODIES = IndexArray(("k",), size="self.N", world=True, empty=True, what="particle indices")
 
+
+def _block_rows(env) -> int:
+    """Rows hi − lo of kick_drift's force block (lo and hi checked together: 0 ≤ lo ≤ hi ≤ N)."""
+    ps, lo, hi = env.values["self"], env.values.get("lo", 0), env.values.get("hi")
+    hi = ps.N if hi is None else hi
+    if not 0 <= lo <= hi <= ps.N:
+        raise env.fail("lo and hi", f"0 <= lo <= hi <= N = {ps.N}", (lo, hi))
+    return hi - lo
 
 
 class ParticleSystem(Bodies):
@@ -104,31 +123,28 @@ class ParticleSystem(Bodies):
     (array([ 0., -2.]), 2.0)
     """
 
+    @contract(positions=_POSITIONS, velocities=Opt(_POSITIONS), masses=Array(("N",), gt=0, scalar=True))
     def __init__(self, positions: Any, velocities: Any = None, masses: Any = 1.0) -> None:
         x = as_floats("positions", positions, ndmin=2)
-        if x.ndim != 2 or x.shape[1] not in (2, 3) or x.shape[0] == 0:
-            raise InvalidInput(f"positions must have shape (N, 2) or (N, 3) with N >= 1, got {x.shape}")
         v = np.zeros_like(x) if velocities is None else as_floats("velocities", velocities, ndmin=2)
-        if v.shape != x.shape:
-            raise InvalidInput(f"velocities must have the shape of positions {x.shape}, got {v.shape}")
+        if v.shape != x.shape:      # one condition on two arguments (the contract checks each alone)
+            raise InvalidInput(f"ParticleSystem: velocities must have the shape of positions {x.shape}, got {v.shape}")
         m = as_floats("masses", masses)
-        if m.ndim > 1 or (m.ndim == 1 and m.shape[0] != x.shape[0]):
-            raise InvalidInput(f"masses must be a scalar or have shape ({x.shape[0]},), got shape {m.shape}")
+        # values built inside pbanim (models, reduced coordinates) arrive unchecked: the contract once more
+        if x.ndim != 2 or x.shape[1] not in (2, 3) or not len(x) or m.shape not in ((), (len(x),)) or not (
+                np.isfinite(x).all() and np.isfinite(v).all() and np.isfinite(m).all() and (m > 0).all()):
+            raise InvalidInput(f"ParticleSystem: positions and velocities must be finite arrays of shape (N, 2) or "
+                               f"(N, 3) and masses positive and finite, got shapes {x.shape} and {v.shape} and "
+                               f"masses {m.ravel()[:4]}")
         m = np.broadcast_to(m, (x.shape[0],)).copy()
-        if not np.all(np.isfinite(x)) or not np.all(np.isfinite(v)):
-            which = "positions" if not np.all(np.isfinite(x)) else "velocities"
-            raise InvalidInput(f"{which} must be finite (got NaN or Inf); check the initial state")
-        if np.any(~np.isfinite(m)) or np.any(m <= 0):
-            bad = m[~(np.isfinite(m) & (m > 0))][0]
-            raise InvalidInput(f"mass must be positive, got {bad}; use a positive finite mass for every particle")
         self.x0, self.v0, self.m = x, v, m
         self.N, self.dim = x.shape
         self.split = self.N * self.dim
         with np.errstate(over="ignore"):
             self.W = 1.0 / m
         if not np.all(np.isfinite(self.W)):
-            raise InvalidInput(f"mass must be positive, got {m[~np.isfinite(self.W)][0]}, too small for its "
-                               "inverse 1/m to be finite; use a larger mass (or other units)")
+            raise InvalidInput(f"ParticleSystem: masses must be positive, got {m[~np.isfinite(self.W)][0]}, too small "
+                               "for its inverse 1/m to be finite; use a larger mass (or other units)")
         self._Wflat = np.repeat(self.W, self.dim)  # W per component: flat operands keep numpy's loops long
         self._h_cached, self._hW = None, None
 
@@ -142,10 +158,12 @@ class ParticleSystem(Bodies):
         """A fresh flat state y = [x.ravel(), v.ravel()]."""
         return np.concatenate([self.x0.ravel(), self.v0.ravel()])
 
+    @contract(x=_XV, v=_XV)
     def pack(self, x: Any, v: Any) -> np.ndarray:
         """Flat state from positions and velocities of shape (N, dim)."""
         return np.concatenate([np.asarray(x, float).reshape(-1), np.asarray(v, float).reshape(-1)])
 
+    @contract(y=_Y)
     def unpack(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Views x, v of shape (N, dim) into a flat state y."""
         return y[: self.split].reshape(self.N, self.dim), y[self.split:].reshape(self.N, self.dim)
@@ -153,6 +171,7 @@ class ParticleSystem(Bodies):
     def zero_forces(self) -> np.ndarray:
         return np.zeros((self.N, self.dim))
 
+    @contract(y=_Y, Q=_XV)
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """dy/dt = [v, W Q]."""
         # BEGIN SOLUTION ParticleSystem.derivative
@@ -162,6 +181,8 @@ class ParticleSystem(Bodies):
         return dy
         # END SOLUTION
 
+    @contract(y=_Y, Q=Buffer((_block_rows, "self.dim")), h=Real(gt=0), out=Buffer(("self.n_state",), finite=False),
+              lo=Int(ge=0), hi=Opt(Int(ge=0)))
     def kick_drift(self, y: np.ndarray, Q: np.ndarray, h: float, out: np.ndarray, lo: int = 0,
                    hi: int | None = None) -> np.ndarray:
         """Symplectic Euler for particles lo:hi from their force Q (shape (hi − lo, dim), overwritten).
@@ -185,19 +206,26 @@ class ParticleSystem(Bodies):
         # END SOLUTION
 
     # -- diagnostics -------------------------------------------------------------------------------
+    @contract(y=_Y)
     def kinetic_energy(self, y: np.ndarray) -> float:
         """T = ½ Σ mᵢ |vᵢ|²."""
         _, v = self.unpack(y)
         return float(0.5 * np.einsum("i,ij,ij->", self.m, v, v))
 
+    @contract(y=_Y)
     def linear_momentum(self, y: np.ndarray) -> np.ndarray:
-        """P = Σ mᵢ vᵢ, shape (dim,)."""
+        """P = Σ mᵢ vᵢ, shape (dim,) (±inf when it exceeds the double range, never NaN)."""
         _, v = self.unpack(y)
-        return self.m @ v
+        return bilinear(np.matmul, self.m, v)
 
+    @contract(y=_Y)
     def angular_momentum(self, y: np.ndarray) -> np.ndarray:
-        """L = Σ xᵢ × mᵢ vᵢ about the origin: shape (3,) in 3-D, (1,) (the z part) in 2-D."""
+        """L = Σ xᵢ × mᵢ vᵢ about the origin: shape (3,) in 3-D, (1,) (the z part) in 2-D (±inf when it
+        exceeds the double range, never NaN)."""
         x, v = self.unpack(y)
+        return bilinear(self._moment, x, v)
+
+    def _moment(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
         p = self.m[:, None] * v
         if self.dim == 2:
             return np.array([np.sum(x[:, 0] * p[:, 1] - x[:, 1] * p[:, 0])])
@@ -210,21 +238,26 @@ class ParticleSystem(Bodies):
     def dof(self) -> int:
         return self.dim
 
+    @contract(y=_Y)
     def generalized_velocity(self, y: np.ndarray) -> np.ndarray:
         return self.unpack(y)[1]
 
+    @contract(y=_Y)
     def inverse_mass_blocks(self, y: np.ndarray) -> np.ndarray:
         return self.W[:, None, None] * np.eye(self.dim)
 
+    @contract(y=_Y, G=_XV)
     def apply_inverse_mass(self, y: np.ndarray, G: np.ndarray) -> np.ndarray:
         return self.W[:, None] * np.asarray(G, dtype=float)
 
+    @contract(y=_Y, body_idx=_BODIES, points_world=_POINTS)
     def point_velocity(self, y: np.ndarray, body_idx, points_world) -> np.ndarray:
         i = np.asarray(body_idx, dtype=np.intp)
         v3 = np.zeros((self.N + 1, 3))
         v3[:self.N, :self.dim] = self.unpack(y)[1]
         return v3[np.where(i < 0, self.N, i)]
 
+    @contract(y=_Y, body_idx=_BODIES, points_world=_POINTS, impulses=_POINTS)
     def apply_impulses(self, y: np.ndarray, body_idx, points_world, impulses) -> np.ndarray:
         i = np.asarray(body_idx, dtype=np.intp)
         j = np.asarray(impulses, dtype=float).reshape(-1, 3)
@@ -234,11 +267,14 @@ class ParticleSystem(Bodies):
         np.add.at(dv, k, W[k, None] * j)
         y_new = np.array(y, dtype=float, copy=True)
         y_new[self.split:] += dv[:self.N, :self.dim].ravel()
-        return y_new
+        return check_result("apply_impulses", y_new, "the velocity change overflows the double range")
 
+    @contract(y=_Y)
     def center_of_mass(self, y: np.ndarray) -> np.ndarray:
+        """Σ mᵢ xᵢ / Σ mᵢ, shape (dim,)."""
         x, _ = self.unpack(y)
-        return self.m @ x / self.m.sum()
+        w = self.m / self.m.max()
+        return bilinear(np.matmul, w, x) / w.sum()
 
 
 class Gravity(Effect):
@@ -260,9 +296,11 @@ class Gravity(Effect):
     name = "gravity"
     phase = "force"
 
+    @contract(g=Opt(point()))
     def __init__(self, g: Any = None) -> None:
         self.g_in = g
 
+    @contract(system=Obj(ParticleSystem))
     def bind(self, system: Any) -> None:
         dim = system.dim
         g = (np.array([0.0, -9.81] if dim == 2 else [0.0, 0.0, -9.81]) if self.g_in is None
@@ -274,6 +312,7 @@ class Gravity(Effect):
         self.g, self.system = g, system
         self._mg = system.m[:, None] * g
 
+    @contract(t=_T, y=_SYS_Y, Q=_SYS_Q)
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         # BEGIN SOLUTION Gravity.apply
         Q += self._mg
@@ -283,15 +322,18 @@ class Gravity(Effect):
         """Q = c + d v with c = m g, d = 0 (lets :class:`pbanim.scene.Scene` fold it into one update)."""
         return self._mg, None
 
+    @contract(y=_SYS_Y)
     def potential_energy(self, y: np.ndarray) -> float:
         # BEGIN SOLUTION Gravity.potential_energy
         x, _ = self.system.unpack(y)
         return float(-np.sum(self._mg * x))
         # END SOLUTION
 
+    @contract(t=_T, y=_SYS_Y)
     def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:
         return ForceJacobian(None, None)
 
+    @contract(t=_T, y=_SYS_Y)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, float]:
         return {"V_gravity": self.potential_energy(y)}
 
@@ -315,9 +357,11 @@ class Drag(Effect):
     name = "drag"
     phase = "force"
 
+    @contract(damping=Array((None,), ge=0, scalar=True))
     def __init__(self, damping: Any = 0.1) -> None:
         self.damping_in = damping
 
+    @contract(system=Obj(ParticleSystem))
     def bind(self, system: Any) -> None:
         self.system = system
         self.kd = _per_particle(self.damping_in, system.N, "damping", "use a drag coefficient k_d >= 0")
@@ -325,6 +369,7 @@ class Drag(Effect):
         self._scalar = bool(np.all(self.kd == self.kd[0]))
         self._k0 = float(self.kd[0])
 
+    @contract(t=_T, y=_SYS_Y, Q=_SYS_Q)
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         # BEGIN SOLUTION Drag.apply
         _, v = self.system.unpack(y)
@@ -341,63 +386,7 @@ class Drag(Effect):
         """Q = c + d v with c = 0, d = −k_d (lets :class:`pbanim.scene.Scene` fold it into one update)."""
         return None, -self.kd
 
+    @contract(t=_T, y=_SYS_Y)
     def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:
         n = self.system.N * self.system.dim
         return ForceJacobian(None, sp.diags(-np.repeat(self.kd, self.system.dim), shape=(n, n), format="csr"))
-
-
-class UserForce(Effect):
-    """A user force from a callable: the small protocol for forces pbanim does not provide.
-
-    ``force(t, x, v) -> F`` receives positions and velocities of shape (N, dim) (read-only views: do not
-    modify them) and returns the force on every particle, an array broadcastable to (N, dim). Optional
-    ``potential(x) -> V`` makes the force conservative in the scene energy; optional
-    ``jacobian(t, x, v) -> (dQdx, dQdv)`` (sparse or dense (N·dim)², or None) lets implicit methods use it.
-    For more control subclass :class:`pbanim.scene.Effect` and write ``apply(t, y, Q)`` (add into Q in place).
-
-    Examples
-    --------
-    >>> from pbanim.scene import Scene
-    >>> ps = ParticleSystem([[1.0, 0.0]])
-    >>> spring_to_origin = UserForce(lambda t, x, v: -4.0 * x, name="anchor",
-    ...                              potential=lambda x: 2.0 * float(np.sum(x * x)))
-    >>> scene = Scene(ps, [spring_to_origin]); scene.pipeline
-    ('anchor', 'integrate')
-    >>> scene.forces(0.0, ps.state()), scene.potential_energy(ps.state())
-    (array([[-4., -0.]]), 2.0)
-    """
-
-    phase = "force"
-
-    def __init__(self, force: Callable, name: str = "user_force", potential: Callable | None = None,
-                 jacobian: Callable | None = None) -> None:
-        if not callable(force):
-            raise InvalidInput(f"force must be a callable force(t, x, v) -> (N, dim) array, got {force!r}")
-        self.force, self.name, self._potential, self._jacobian = force, str(name), potential, jacobian
-        if jacobian is None:
-            self.jacobian = None  # type: ignore[assignment]  # no Jacobian: implicit methods fall back to FD
-        if potential is None:
-            self.potential_energy = None  # type: ignore[assignment]
-
-    def bind(self, system: Any) -> None:
-        self.system = system
-        x, v = system.unpack(system.state())
-        F = np.asarray(self.force(0.0, x, v), dtype=float)
-        try:
-            np.broadcast_to(F, (system.N, system.dim))
-        except ValueError:
-            raise InvalidInput(f"force of {self.name!r} must return an array broadcastable to "
-                             f"({system.N}, {system.dim}), got shape {F.shape}") from None
-
-    def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
-        x, v = self.system.unpack(y)
-        Q += self.force(t, x, v)
-
-    def potential_energy(self, y: np.ndarray) -> float:  # replaced by None when no potential is given
-        x, _ = self.system.unpack(y)
-        return float(self._potential(x))  # type: ignore[misc]
-
-    def jacobian(self, t: float, y: np.ndarray) -> ForceJacobian:  # replaced by None when not given
-        x, v = self.system.unpack(y)
-        Kx, Kv = self._jacobian(t, x, v)  # type: ignore[misc]
-        return ForceJacobian(None if Kx is None else sp.csr_matrix(Kx), None if Kv is None else sp.csr_matrix(Kv))
