@@ -62,6 +62,13 @@ def link_transforms_batch(tree: ArticulatedTree, q: np.ndarray) -> list[np.ndarr
 def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ for K states at once: q (K, nq), q̇ and q̈ (K, nv) → τ (K, nv)."""
     single, q, (qd, qdd) = batch_of(q, qd=qd, qdd=qdd)
+    with np.errstate(over="ignore", invalid="ignore"):      # an overflow is named by check_result below
+        tau = _rnea_batch(tree, q, qd, qdd, f_ext)
+    check_result("rnea_batch", tau, _HUGE)
+    return tau[0] if single else tau
+
+
+def _rnea_batch(tree, q, qd, qdd, f_ext):
     A, K = tree.arrays(), q.shape[0]
     fx = external_forces(tree, f_ext, K)
     Xup = link_transforms_batch(tree, q)
@@ -80,14 +87,20 @@ def rnea_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         lam = tree.parent[i]
         if lam >= 0:
             f[lam] = f[lam] + _mtv(Xup[i], f[i])
-    check_result("rnea_batch", tau, _HUGE)
-    return tau[0] if single else tau
+    return tau
 
 
 @contract(tree=_TREE, q=_QB)
 def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
     """H(q) for K states: (K, nv, nv)."""
     single, q, _ = batch_of(q)
+    with np.errstate(over="ignore", invalid="ignore"):
+        H = _crba_batch(tree, q)
+    check_result("crba_batch", H, _HUGE)
+    return H[0] if single else H
+
+
+def _crba_batch(tree, q):
     A, K = tree.arrays(), q.shape[0]
     Xup = link_transforms_batch(tree, q)
     Ic = [np.broadcast_to(I, (K, 6, 6)).copy() for I in A["I"]]
@@ -108,8 +121,7 @@ def crba_batch(tree: ArticulatedTree, q) -> np.ndarray:
             Hij = np.swapaxes(F, 1, 2) @ A["S"][j]
             H[:, vi, A["vi"][j]] = Hij
             H[:, A["vi"][j], vi] = np.swapaxes(Hij, 1, 2)
-    check_result("crba_batch", H, _HUGE)
-    return H[0] if single else H
+    return H
 
 
 @contract(tree=_TREE, q=_QB, qd=_VB, tau=_VB, f_ext=_FB)

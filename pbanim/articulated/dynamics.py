@@ -90,6 +90,11 @@ def world_poses(tree: ArticulatedTree, q) -> tuple[list, list, np.ndarray]:
 @contract(tree=_TREE, q=_Q, qd=_V, qdd=_V, f_ext=_FEXT)
 def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
     """τ = ID(q, q̇, q̈): the joint forces that produce the accelerations q̈ (gravity included)."""
+    with np.errstate(over="ignore", invalid="ignore"):      # an overflow is named by check_result below
+        return check_result("rnea", _rnea(tree, q, qd, qdd, f_ext), _HUGE)
+
+
+def _rnea(tree, q, qd, qdd, f_ext):
     A, fx = tree.arrays(), external_forces(tree, f_ext)
     Xup = link_transforms(tree, q)
     v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
@@ -107,7 +112,7 @@ def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         lam = tree.parent[i]
         if lam >= 0:
             f[lam] = f[lam] + Xup[i].T @ f[i]
-    return check_result("rnea", tau, _HUGE)
+    return tau
 
 
 @contract(tree=_TREE, q=_Q, qd=_V, f_ext=_FEXT)
@@ -119,6 +124,11 @@ def bias_forces(tree: ArticulatedTree, q, qd, f_ext=None) -> np.ndarray:
 @contract(tree=_TREE, q=_Q)
 def crba(tree: ArticulatedTree, q) -> np.ndarray:
     """H(q), the joint-space mass matrix (nv, nv), symmetric positive definite."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return check_result("crba", _crba(tree, q), _HUGE)
+
+
+def _crba(tree, q):
     A = tree.arrays()
     Xup = link_transforms(tree, q)
     Ic = [I.copy() for I in A["I"]]
@@ -138,12 +148,17 @@ def crba(tree: ArticulatedTree, q) -> np.ndarray:
             j = tree.parent[j]
             H[vi, A["vi"][j]] = F.T @ A["S"][j]
             H[A["vi"][j], vi] = H[vi, A["vi"][j]].T
-    return check_result("crba", H, _HUGE)
+    return H
 
 
 @contract(tree=_TREE, q=_Q, qd=_V, tau=_V, f_ext=_FEXT)
 def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     """q̈ = FD(q, q̇, τ) by the articulated-body algorithm, O(n); joint damping included."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return check_result("aba", _aba(tree, q, qd, tau, f_ext), _HUGE)
+
+
+def _aba(tree, q, qd, tau, f_ext):
     A, fx = tree.arrays(), external_forces(tree, f_ext)
     tau = tau - A["damping"] * qd
     Xup = link_transforms(tree, q)
@@ -177,7 +192,7 @@ def aba(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
         ap = Xup[i] @ (a[lam] if lam >= 0 else A["a0"]) + c[i]
         qdd[vi] = Dinv[i] @ (u[i] - U[i].T @ ap)
         a[i] = ap + S @ qdd[vi]
-    return check_result("aba", qdd, _HUGE)
+    return qdd
 
 
 def pivot_error(D, label: str, q, where: str = "") -> Exception:
