@@ -64,7 +64,7 @@ def test_friction_directions_unit_tangent():
     np.testing.assert_allclose(np.linalg.norm(d, axis=2), 1.0, atol=1e-15)
     np.testing.assert_allclose(np.einsum("mkj,mj->mk", d, n), 0.0, atol=1e-15)
     np.testing.assert_allclose(d.sum(axis=1), 0.0, atol=1e-14)
-    with pytest.raises(ValueError, match="facets must be an integer ≥ 2, got 1"):
+    with pytest.raises(ValueError, match="facets must be an integer >= 2 and <= 64, got 1"):
         friction_directions(n, 1)
 
 
@@ -134,17 +134,17 @@ def test_painleve_velocity_level_solves_it():
 def test_timestepping_rejects_bad_input():
     # G3: named errors
     sc = box_on_incline(0.3, 0.5)
-    with pytest.raises(ValueError, match="friction must be finite and ≥ 0"):
+    with pytest.raises(ValueError, match=r"friction must be a float array .*entries >= 0.*, got -0.1"):
         TimeStepping(sc.system, sc.detect, sc.forces, friction=-0.1)
-    with pytest.raises(ValueError, match="solver must be 'lemke' for friction"):
+    with pytest.raises(ValueError, match="solver must be 'lemke' with friction > 0"):
         TimeStepping(sc.system, sc.detect, sc.forces, friction=0.5, solver="pgs")
-    with pytest.raises(ValueError, match="erp must be in"):
+    with pytest.raises(ValueError, match="erp must be a finite number > 0 and <= 1, got 0.0"):
         TimeStepping(sc.system, sc.detect, sc.forces, erp=0.0)
     with pytest.raises(ValueError, match="detect must be a callable"):
         TimeStepping(sc.system, 3, sc.forces)
     with pytest.raises(ValueError, match="angle must be in"):
         box_on_incline(2.0, 0.5)
-    with pytest.raises(ValueError, match="h must be a positive finite step"):
+    with pytest.raises(ValueError, match="h must be a finite number > 0, got -1.0"):
         TimeStepping(sc.system, sc.detect, sc.forces).simulate(1.0, -1.0)
 
 
@@ -189,7 +189,7 @@ def test_models_and_effects_reject_bad_input():
     with pytest.raises(ValueError, match="mass must be positive, got 0.0"):
         painleve_rod(mass=0.0)
     sc = box_on_plane()
-    with pytest.raises(ValueError, match="friction must be a finite number ≥ 0, got -1"):
+    with pytest.raises(ValueError, match="friction must be a finite number >= 0, got -1.0"):
         RestingContact(sc.detect, "lemke", friction=-1.0)
     ps2 = ParticleSystem([[0.0, 0.0]])
     with pytest.raises(ValueError, match="friction in RestingContact needs a RigidBodies system"):

@@ -139,21 +139,26 @@ def test_random_contact_lcps_certified(m, seed, redundant):
 
 def test_bad_inputs_named():
     # G3: every rejected input names the argument and the fix
-    with pytest.raises(ValueError, match="solver must be one of"):
+    with pytest.raises(ValueError, match="solver must be one of 'qp', 'lemke', .*got 'simplex'"):
         solve_lcp(np.eye(2), np.ones(2), "simplex")
-    with pytest.raises(ValueError, match=r"A must have shape \(2, 2\)"):
+    with pytest.raises(ValueError, match=r"b must be a float array of shape \(m,\) \(m = 3\).*; shape \(2,\)"):
         solve_lcp(np.eye(3), np.ones(2))
-    with pytest.raises(ValueError, match="A and b must be finite"):
+    with pytest.raises(ValueError, match=r"b must be a float array .*got \[nan\]; it has NaN or inf entries"):
         solve_lcp(np.eye(1), [np.nan])
     # a name no qpsolvers release has: the test holds whatever backends are installed (osqp included)
-    with pytest.raises(ValueError, match="backend must be an installed qpsolvers solver.*proxqp.*got 'no-such-qp'"):
+    with pytest.raises(ValueError, match="backend must be one of .*'proxqp'.*got 'no-such-qp'"):
         solve_lcp(np.eye(2), -np.ones(2), "qp", backend="no-such-qp")
-    with pytest.raises(ValueError, match="fallback must be None or one of"):
+    with pytest.raises(ValueError, match="fallback must be one of 'qp', .*got 'magic'"):
         solve_lcp(np.eye(2), -np.ones(2), "pgs", fallback="magic")
-    with pytest.raises(ValueError, match=r"tol must be a number in \(0, 1\)"):
+    with pytest.raises(ValueError, match="tol must be a finite number > 0 and < 1, got 0.0"):
         solve_lcp(np.eye(2), -np.ones(2), tol=0.0)
-    with pytest.raises(ValueError, match=r"warm_start must have shape \(2,\)"):
+    with pytest.raises(ValueError, match=r"warm_start must be .*\(m = 2\).*; shape \(3,\)"):
         solve_lcp(np.eye(2), -np.ones(2), "pgs", warm_start=np.ones(3))
+    # solver options are checked by name too (they were passed on silently: a typo ran the defaults)
+    with pytest.raises(ValueError, match="solve_lcp: solver 'pgs' takes no option 'max_iters'"):
+        solve_lcp(np.eye(2), -np.ones(2), "pgs", max_iters=10)
+    with pytest.raises(ValueError, match="omega must be a finite number > 0 and < 2, got 2.5"):
+        solve_lcp(np.eye(2), -np.ones(2), "pgs", omega=2.5)
 
 
 def test_qp_through_qpsolvers_matches_native_box():

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import median_time
+from ..lcp.qp import _failure
 
 __all__ = ["QP_STEP_HEADER", "qp_step_rows", "qp_step_time_proxsuite", "standing_controller"]
 
@@ -56,7 +57,8 @@ def _row(label: str, backend: str, native: bool, mode: str, quick: bool) -> list
 def qp_step_rows(quick: bool) -> list[list]:
     """One row per backend (proxsuite native first, then each installed qpsolvers backend) and mode:
     backend, mode, median time of one control step (ms), of building the QP alone (ms), number of QP
-    solves per step, and the step's status ("met" / "compromise": solved; "infeasible": it failed)."""
+    solves per step, and the step's status ("met" / "compromise": solved; "infeasible": it failed; "backend
+    error <type>: <message>": the backend raised, e.g. quadprog on a singular matrix)."""
     import qpsolvers
 
     rows = [_row("proxsuite (native ProxQP)", "proxqp", True, "weighted", quick),
@@ -65,8 +67,7 @@ def qp_step_rows(quick: bool) -> list[list]:
         try:
             rows.append(_row(f"{name} (qpsolvers)", name, False, "weighted", quick))
         except Exception as exc:  # noqa: BLE001  (a backend that cannot take the problem is a row that says so)
-            rows.append([f"{name} (qpsolvers)", "weighted", float("nan"), float("nan"), 0,
-                         f"failed: {type(exc).__name__}"])
+            rows.append([f"{name} (qpsolvers)", "weighted", float("nan"), float("nan"), 0, _failure(exc)])
     return rows
 
 

@@ -49,33 +49,50 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from .specs import PARTICLES, RIGID, ContactsOn, RigidState, finite_parts, state_of
 from ..collision.shapes import Contacts
+from ..contracts import Array, Either, Int, Obj, Opt, Real, contract
 from ..errors import InvalidInput, as_floats
 from ..geometry import cross
 from ..lcp.solve import delassus
+from ..lcp.specs import JacobianRows, RowIndices
 
 __all__ = ["ContactProblem", "rigid_state", "delassus_by_bodies", "assemble_rigid", "assemble_rigid_loop",
            "assemble_particles",
            "assemble_particles_loop", "make_contacts", "ContactRows", "rigid_rows", "particle_rows", "particle_blocks"]
 
 
+@contract(a=Array(("m",), ge=-1, empty=True), b=Array(("m",), ge=-1, empty=True), point=Array(("m", "d"), empty=True),
+          normal=Array(("m", "d"), empty=True), depth=Opt(Array(("m",), empty=True)))
 def make_contacts(a, b, point, normal, depth=None):
     """A contact set: the collision chapter's :class:`~pbanim.collision.shapes.Contacts` (2-D or 3-D points).
+
+    ``a``, ``b`` (m,): body indices (integers ≥ −1, −1 the static world); ``point``, ``normal`` (m, d)
+    with d = 2 or 3, unit normals from b towards a (|n| = 1 to 10⁻⁶, checked by ``Contacts``);
+    ``depth`` (m,): penetration (negative: a gap), default 0.
 
     >>> c = make_contacts([0], [-1], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]])
     >>> c.a.tolist(), c.depth.tolist()
     ([0], [0.0])
     """
+    # models and scenes call this from inside pbanim with values no contract checked: convert and check here
     a, b = (np.atleast_1d(as_floats(nm, v)) for nm, v in (("a", a), ("b", b)))
     if not (np.all(np.isfinite(a)) and np.all(a == np.round(a)) and np.all(np.isfinite(b)) and np.all(b == np.round(b))):
         raise InvalidInput(f"a and b must be body indices (integers, −1 for the world), got {a} and {b}")
     a, b = a.astype(np.intp), b.astype(np.intp)
     point = as_floats("point", point, ndmin=2)
     normal = as_floats("normal", normal, ndmin=2)
+    if point.shape[-1] not in (2, 3):
+        raise InvalidInput(f"make_contacts: point must hold 2-D or 3-D points (shape (m, 2) or (m, 3)), got shape "
+                           f"{point.shape}")
     depth = np.zeros(a.size) if depth is None else np.atleast_1d(as_floats("depth", depth))
     return Contacts(a=a, b=b, point=point, normal=normal, depth=depth)
 
 
+_ROWS = Array(("m", "d"), empty=True)
+
+
+@contract(a=RowIndices("$n_pad"), b=RowIndices("$n_pad"), Ga=_ROWS, Gb=_ROWS, n_pad=Int(ge=1))
 @dataclass
 class ContactRows:
     """Rows of a contact Jacobian, stored per contact: row i is ``Ga[i]`` on body ``a[i]`` and
@@ -95,11 +112,14 @@ class ContactRows:
     def d(self) -> int:
         return self.Ga.shape[1]
 
+    @contract(u=Either(Array(("self.n_pad", "self.d")), Array((lambda env: env.values["self"].n_pad *
+                                                                env.values["self"].d,))))
     def matvec(self, u: np.ndarray) -> np.ndarray:
         """J u for generalized velocities u of shape (n_pad, d) (or flat)."""
         u = np.reshape(u, (self.n_pad, self.d))
         return np.einsum("ij,ij->i", self.Ga, u[self.a]) - np.einsum("ij,ij->i", self.Gb, u[self.b])
 
+    @contract(z=Array(("self.a.size",), empty=True))
     def rmatvec(self, z: np.ndarray) -> np.ndarray:
         """Jᵀ z as an array of shape (n_pad, d) (forces/impulses per body)."""
         out = np.zeros((self.n_pad, self.d))
@@ -107,9 +127,14 @@ class ContactRows:
         np.add.at(out, self.b, -self.Gb * z[:, None])
         return out
 
+    @contract(other=Obj("pbanim.contact.assembly:ContactRows"), Wb=Array(("self.n_pad", "self.d", "self.d")),
+              block=Int(ge=1), returns=finite_parts)
     def gram(self, other: "ContactRows", Wb: np.ndarray, block: int = 1) -> np.ndarray:
         """J W Kᵀ (dense (m, m_other)) for block-diagonal W given as blocks ``Wb`` (n_pad, d, d); ``block``:
         rows in groups on the same two bodies (see :func:`pbanim.lcp.delassus`)."""
+        if other.n_pad != self.n_pad or other.d != self.d:
+            raise InvalidInput(f"ContactRows.gram: other must be rows on the same bodies (n_pad = {self.n_pad}, "
+                               f"d = {self.d}), got n_pad = {other.n_pad}, d = {other.d}")
         return delassus(self.a, self.b, self.Ga, self.Gb, Wb, (other.a, other.b, other.Ga, other.Gb), block)
 
     def sparse(self) -> sp.csr_matrix:
@@ -146,12 +171,20 @@ class ContactProblem:
         """The contact Jacobian as a scipy.sparse matrix (m, d·n_pad)."""
         return self.rows.sparse()
 
+    @contract(f=Array(("self.b.size",), empty=True), n_bodies=Int(ge=0), returns=finite_parts)
     def generalized_force(self, f: np.ndarray, n_bodies: int) -> np.ndarray:
-        """Q_C = Jᵀ f as an array of shape (N, d) (the world row dropped)."""
+        """Q_C = Jᵀ f as an array of shape (N, d) (the world row dropped; N = ``n_bodies`` = n_pad − 1)."""
         r = self.rows if self.force_rows is None else self.force_rows
+        if n_bodies != r.n_pad - 1:
+            raise InvalidInput(f"ContactProblem.generalized_force: n_bodies must be the number of bodies the rows "
+                               f"were built for, {r.n_pad - 1}, got {n_bodies}")
         return r.rmatvec(f)[:n_bodies]
 
 
+_RIGID_Y = Array((state_of("bodies"),))
+
+
+@contract(bodies=RIGID, y=_RIGID_Y, R=Opt(Array(("bodies.N", 3, 3))), returns=finite_parts)
 def rigid_state(bodies, y: np.ndarray, R: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Padded per-body arrays (row N = static world): x, v, ω, L, 1/m, I⁻¹ (world frame), W blocks.
     ``R`` (N, 3, 3): the rotations of y when the caller has them already (a time step computes them once)."""
@@ -171,6 +204,12 @@ def rigid_state(bodies, y: np.ndarray, R: np.ndarray | None = None) -> dict[str,
     return S
 
 
+def _rows_of_state(env) -> int:
+    return len(env.values["S"]["x"])
+
+
+@contract(S=RigidState(), a=RowIndices(_rows_of_state), b=RowIndices(_rows_of_state), p=Array(("m", 3), empty=True),
+          d=Array(("m", 3), empty=True), returns=finite_parts)
 def rigid_rows(S: dict, a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarray) -> ContactRows:
     """Rows [dᵢᵀ, (r_a × dᵢ)ᵀ] on body a and −[dᵢᵀ, (r_b × dᵢ)ᵀ] on b (a, b padded: N = world).
 
@@ -178,26 +217,6 @@ def rigid_rows(S: dict, a: np.ndarray, b: np.ndarray, p: np.ndarray, d: np.ndarr
     """
     ra, rb = p - S["x"][a], p - S["x"][b]
     return ContactRows(a, b, np.hstack([d, cross(ra, d)]), np.hstack([d, cross(rb, d)]), S["x"].shape[0])
-
-
-def delassus_by_bodies(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
-    """Readable A = J W Kᵀ, body by body: row i acts on body a[i] with +Ga[i] and on b[i] with −Gb[i], so
-
-        Aᵢⱼ = Σ_β Σ (σ gᵢ)ᵀ W_β (σ′ hⱼ)   over the ends of rows i and j that lie on the same body β.
-
-    The reference for :func:`pbanim.lcp.delassus` (same arguments; a Python loop over bodies and rows).
-    """
-    oa, ob, Ha, Hb = (a, b, Ga, Gb) if other is None else other
-    A = np.zeros((len(a), len(oa)))
-    for beta in range(Wb.shape[0]):
-        ends_j = [(i, 1.0, Ga[i]) for i in np.flatnonzero(a == beta)] + \
-            [(i, -1.0, Gb[i]) for i in np.flatnonzero(b == beta)]
-        ends_k = [(j, 1.0, Ha[j]) for j in np.flatnonzero(oa == beta)] + \
-            [(j, -1.0, Hb[j]) for j in np.flatnonzero(ob == beta)]
-        for i, si, g in ends_j:
-            for j, sj, hj in ends_k:
-                A[i, j] += si * sj * (g @ Wb[beta] @ hj)
-    return A
 
 
 def _free_accel(S: dict, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -215,6 +234,11 @@ def _padded(contacts, N: int) -> tuple[np.ndarray, np.ndarray]:
     return np.where(a < 0, N, a), np.where(b < 0, N, b)
 
 
+_RIGID_Q = Array(("bodies.N", 6))
+
+
+@contract(bodies=RIGID, y=_RIGID_Y, contacts=ContactsOn("bodies"), Q=_RIGID_Q,
+          friction=Array(("contacts.m",), ge=0, scalar=True, empty=True), slip_tol=Real(gt=0), returns=finite_parts)
 def assemble_rigid(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0,
                    slip_tol: float = 1e-9) -> ContactProblem:
     """Vectorized A = J W Jᵀ and b for rigid bodies (no Python loop over contacts).
@@ -290,60 +314,30 @@ def _velocity_terms(contacts, n, m, x, p, r, v, w, vdot, wdot) -> np.ndarray:
     return np.where(Rb > 0, centres, face)
 
 
-def assemble_rigid_loop(bodies, y: np.ndarray, contacts, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Readable per-contact version of :func:`assemble_rigid` (Baraff 1994's ``compute_aij``): returns (A, b).
-
-    Aᵢⱼ is the change of d̈ᵢ caused by a unit force fⱼ along nⱼ, applied to a_j (+) and b_j (−).
-    """
-    N = bodies.N
-    S = rigid_state(bodies, y)
-    vdot, wdot = _free_accel(S, Q)
-    m = len(contacts.a)
-    idx = lambda k: N if k < 0 else int(k)  # noqa: E731
-    A = np.zeros((m, m))
-    b = np.zeros(m)
-    for i in range(m):
-        ai, bi, pi, ni = idx(contacts.a[i]), idx(contacts.b[i]), contacts.point[i], contacts.normal[i]
-        ra, rb = pi - S["x"][ai], pi - S["x"][bi]
-        va, wa, vb, wb = S["v"][ai], S["omega"][ai], S["v"][bi], S["omega"][bi]
-        Ra, Rb = float(contacts.radius[i]), float(contacts.radius_b[i])
-        qa = np.zeros(3) if Ra > 0 else ra            # a rounded end: its centre stands in for the point
-        qb = np.zeros(3) if Rb > 0 else rb
-        qa_dd = vdot[ai] + np.cross(wdot[ai], qa) + np.cross(wa, np.cross(wa, qa))
-        qb_dd = vdot[bi] + np.cross(wdot[bi], qb) + np.cross(wb, np.cross(wb, qb))
-        dd = (va + np.cross(wa, qa)) - (vb + np.cross(wb, qb))
-        if Rb > 0:                                     # d = |q_a − x_b| − R_a − R_b
-            D = (S["x"][ai] if Ra > 0 else pi) - S["x"][bi]
-            perp = dd - (dd @ ni) * ni
-            b[i] = ni @ (qa_dd - qb_dd) + perp @ perp / np.linalg.norm(D)
-        else:                                          # b's face turns with b: ṅ = ω_b × n
-            ndot = np.cross(wb, ni)
-            b[i] = ni @ (qa_dd - qb_dd) + 2.0 * ndot @ dd - Ra * ndot @ ndot
-        for j in range(m):
-            aj, bj, pj, nj = idx(contacts.a[j]), idx(contacts.b[j]), contacts.point[j], contacts.normal[j]
-            total = 0.0
-            for body, sign_i, r_i in ((ai, 1.0, ra), (bi, -1.0, rb)):
-                for other, sign_j in ((aj, 1.0), (bj, -1.0)):
-                    if other != body:
-                        continue
-                    rj = pj - S["x"][body]
-                    dv = S["inv_mass"][body] * nj * sign_j
-                    dw = S["Iinv"][body] @ np.cross(rj, nj) * sign_j
-                    total += sign_i * ni @ (dv + np.cross(dw, r_i))
-            A[i, j] = total
-    return A, b
+def _padded_count(env) -> int:
+    return env.values["N"] + 1
 
 
+@contract(N=Int(ge=1), dim=Int(ge=2, le=3), a=RowIndices(_padded_count), b=RowIndices(_padded_count),
+          d=Array((None, "$dim"), empty=True))
 def particle_rows(N: int, dim: int, a: np.ndarray, b: np.ndarray, d: np.ndarray) -> ContactRows:
-    """Rows dᵢ on particle a and −dᵢ on b (padded indices: N = world)."""
+    """Rows dᵢ on particle a and −dᵢ on b (padded indices: N = world); ``d`` (m, dim), one per row of a."""
+    if len(d) != len(a):      # (a shape may not mix a symbol with a reference: the count is checked here)
+        raise InvalidInput(f"particle_rows: d must hold one direction per row of a ({len(a)}), got {len(d)}")
     return ContactRows(a, b, d, d, N + 1)
 
 
+@contract(system=PARTICLES)
 def particle_blocks(system) -> np.ndarray:
     """Inverse-mass blocks (N+1, dim, dim): 1/mᵢ I, and zero for the world."""
     return np.append(system.W, 0.0)[:, None, None] * np.eye(system.dim)
 
 
+_PARTICLE_Y = Array((state_of("system"),))
+_PARTICLE_Q = Array(("system.N", "system.dim"))
+
+
+@contract(system=PARTICLES, y=_PARTICLE_Y, contacts=ContactsOn("system"), Q=_PARTICLE_Q, returns=finite_parts)
 def assemble_particles(system, y: np.ndarray, contacts, Q: np.ndarray) -> ContactProblem:
     """Vectorized A = J W Jᵀ and b for point masses (2-D or 3-D; −1 = static world).
 
@@ -366,27 +360,5 @@ def assemble_particles(system, y: np.ndarray, contacts, Q: np.ndarray) -> Contac
     return ContactProblem(A=0.5 * (A + A.T), b=b, rows=rows, Wb=Wb, u=vp)
 
 
-def assemble_particles_loop(system, y: np.ndarray, contacts, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Readable per-contact version of :func:`assemble_particles`: returns (A, b)."""
-    x, v = system.unpack(y)
-    m = len(contacts.a)
-    A = np.zeros((m, m))
-    b = np.zeros(m)
-    for i in range(m):
-        ai, bi, ni = int(contacts.a[i]), int(contacts.b[i]), contacts.normal[i]
-        acc_a = Q[ai] * system.W[ai] if ai >= 0 else 0.0
-        acc_b = Q[bi] * system.W[bi] if bi >= 0 else 0.0
-        b[i] = ni @ (acc_a - acc_b)
-        if ai >= 0 and bi >= 0:
-            dv = v[ai] - v[bi]
-            dv_perp = dv - (dv @ ni) * ni
-            b[i] += dv_perp @ dv_perp / np.linalg.norm(x[ai] - x[bi])
-        for j in range(m):
-            aj, bj, nj = int(contacts.a[j]), int(contacts.b[j]), contacts.normal[j]
-            for body, si in ((ai, 1.0), (bi, -1.0)):
-                if body < 0:
-                    continue
-                for other, sj in ((aj, 1.0), (bj, -1.0)):
-                    if other == body:
-                        A[i, j] += si * sj * system.W[body] * (ni @ nj)
-    return A, b
+# the readable per-contact and per-body versions (tested equal to the vectorized ones above)
+from .readable import assemble_particles_loop, assemble_rigid_loop, delassus_by_bodies  # noqa: E402

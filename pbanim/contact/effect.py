@@ -30,14 +30,21 @@ from typing import Any, Callable
 import numpy as np
 
 from .assembly import assemble_particles, assemble_rigid
+from .specs import BODIES, check_contacts, state_of
 from ..bodies import require_bodies
+from ..contracts import Array, Choice, Flag, Func, Opt, Real, contract
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
+from ..lcp.specs import SolverOptions
 from ..errors import InconsistentContact, InfeasibleContact, InvalidInput
 from ..scene import Effect
 
 __all__ = ["RestingContact"]
 
 _STAB = ("none", "baumgarte")
+_GAIN = Real(ge=0)
+_TIME = Real()
+_STATE = Array((state_of("self.system"),))
+_FORCES = Array(("self.system.N", "self.system.dof"))
 
 
 class RestingContact(Effect):
@@ -86,32 +93,26 @@ class RestingContact(Effect):
     # (drift_free, inherited: under symplectic Euler the scene solves once per step, at (q₀, v₀), and
     # ``last`` (warm start, diagnostics) is that solve's answer; see pbanim.scene)
 
+    @contract(detect=Func(), solver=Choice(LCP_SOLVERS), stabilization=Choice(_STAB), stiffness=_GAIN, damping=_GAIN,
+              tol=Real(gt=0, lt=1), fallback=Opt(Choice(LCP_SOLVERS)), solver_options=Opt(SolverOptions()),
+              warm_start=Flag(), friction=_GAIN)
     def __init__(self, detect: Callable[[np.ndarray], Any], solver: str = "qp", *,
                  stabilization: str = "baumgarte", stiffness: float = 400.0, damping: float = 40.0,
                  tol: float = 1e-10, fallback: str | None = None, solver_options: dict | None = None,
                  warm_start: bool = True, friction: float = 0.0) -> None:
-        if not callable(detect):
-            raise InvalidInput(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
-        if solver not in LCP_SOLVERS:
-            raise InvalidInput(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
-        if stabilization not in _STAB:
-            raise InvalidInput(f"stabilization must be one of {_STAB}, got {stabilization!r}")
-        for nm, val in (("stiffness", stiffness), ("damping", damping)):
-            if not (np.isfinite(val) and val >= 0):
-                raise InvalidInput(f"{nm} must be a finite number ≥ 0, got {val}")
         self.detect, self.solver, self.stabilization = detect, solver, stabilization
         self.ks, self.kd, self.tol, self.fallback = float(stiffness), float(damping), float(tol), fallback
         self.solver_options = dict(solver_options or {})
         self.warm_start = bool(warm_start)
-        if not (np.isfinite(friction) and friction >= 0):
-            raise InvalidInput(f"friction must be a finite number ≥ 0, got {friction}")
         if friction > 0 and solver not in ("lemke", "dantzig"):
-            raise InvalidInput(f"solver must be 'lemke' or 'dantzig' with friction (A is not symmetric), got {solver!r}")
+            raise InvalidInput(f"RestingContact: solver must be 'lemke' or 'dantzig' with friction > 0 (A is not "
+                               f"symmetric), got {solver!r}")
         self.friction = float(friction)
         self.last = None          # the last ContactSolution
         self.last_contacts = None
         self.solves = 0
 
+    @contract(system=BODIES)
     def bind(self, system) -> None:
         kind = require_bodies(system, "RestingContact").kind
         if kind == "rigid":
@@ -129,9 +130,16 @@ class RestingContact(Effect):
         u = self.system.generalized_velocity(y)
         return np.vstack([u, np.zeros((1, u.shape[1]))])
 
+    @contract(t=_TIME, y=_STATE, Q=_FORCES)
     def solve(self, t: float, y: np.ndarray, Q: np.ndarray):
-        """Detect, assemble and solve at (t, y); returns (ContactSolution, ContactProblem, contacts) or None."""
+        """Detect, assemble and solve at (t, y); returns (ContactSolution, ContactProblem, contacts) or None.
+
+        What ``detect(y)`` returns must be None or a Contacts among the system's bodies, in its dimension
+        (:func:`pbanim.contact.specs.check_contacts`; anything else is :class:`~pbanim.errors.InvalidInput`
+        naming ``detect``)."""
         contacts = self.detect(y)
+        if contacts is not None:        # a user's detect: what it returns reaches the assembly unchecked
+            check_contacts("RestingContact", "detect(y)", contacts, self.system)
         if contacts is None or len(contacts.a) == 0:
             self.last, self.last_contacts = None, contacts
             return None
@@ -159,6 +167,7 @@ class RestingContact(Effect):
         self.solves += 1
         return sol, prob, contacts
 
+    @contract(t=_TIME, y=_STATE, Q=_FORCES)
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         out = self.solve(t, y, Q)
         if out is None:
@@ -166,12 +175,15 @@ class RestingContact(Effect):
         sol, prob, _ = out
         return Q + prob.generalized_force(sol.f, self._N)
 
+    @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t: float, y: np.ndarray) -> dict:
         sol, c = self.last, self.last_contacts
         if sol is None:
             return {"contact_count": 0, "contact_residual": 0.0, "contact_force_total": 0.0,
                     "max_penetration": 0.0}
         c = self.detect(y)  # penetration at the recorded state (forces: of the last solve)
+        if c is not None:
+            check_contacts("RestingContact", "detect(y)", c, self.system)
         return {"contact_count": int(sol.f.size), "contact_residual": sol.residual,
                 "contact_force_total": float(sol.f.sum()),
                 "max_penetration": float(np.max(c.depth, initial=0.0)) if c is not None else 0.0}

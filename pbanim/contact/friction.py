@@ -53,20 +53,31 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
+from .specs import BODIES, RIGID, ContactsOn, check_contacts, finite_parts, state_of
 from ..bodies import require_bodies
-from ..lcp.solve import solve_lcp
-from ..errors import InconsistentContact, InfeasibleContact, InvalidInput, check_count
+from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, Seq, contract
+from ..lcp.solve import LCP_SOLVERS, solve_lcp
+from ..lcp.specs import SolverOptions
+from ..errors import InconsistentContact, InfeasibleContact, InvalidInput
 from ..results import ContactSolution, SimResult
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 
 __all__ = ["friction_directions", "velocity_lcp", "TimeStepping", "acceleration_lcp_check"]
 
 
+#: most friction directions per contact (a cap known before any array is built: k = 10⁹ asked for 24 GB)
+MAX_FACETS = 64
+_FACETS = Int(ge=2, le=MAX_FACETS)
+
+
+@contract(normal=Array(("m", 3)), facets=_FACETS, tangent=Opt(Array((3,))))
 def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
     """k unit tangents per contact, shape (m, k, 3): dⱼ = cos(2πj/k) t₁ + sin(2πj/k) t₂.
 
-    t₁ is ``tangent`` (default the x axis, or y when the normal is near x) projected on the contact plane
-    (:func:`pbanim.geometry.cone_edges`, the frame the collision impulses use too).
+    ``normal`` (m, 3): unit vectors (to 10⁻⁶, as ``Contacts`` holds them). t₁ is ``tangent`` (default the x
+    axis, or y when the normal is near x) projected on the contact plane
+    (:func:`pbanim.geometry.cone_edges`, the frame the collision impulses use too); only its direction
+    counts (it is scaled to unit length first, so 10³⁰⁰ does not overflow). 2 ≤ k ≤ 64.
 
     >>> friction_directions([[0.0, 0.0, 1.0]], 4).round(12)[0]
     array([[ 1.,  0.,  0.],
@@ -74,23 +85,41 @@ def friction_directions(normal, facets: int = 4, tangent=None) -> np.ndarray:
            [-1.,  0.,  0.],
            [-0., -1.,  0.]])
     """
-    n = np.array(normal, dtype=float, ndmin=2)
-    facets = check_count("facets", facets, 2)
     from ..geometry import cone_edges  # the one tangent frame, shared with the collision impulses
 
-    try:
-        return cone_edges(n, int(facets), tangent)
-    except ValueError as exc:
-        raise InvalidInput(str(exc)) from None
+    n = np.array(normal, dtype=float, ndmin=2)
+    length = np.linalg.norm(n, axis=1, keepdims=True)
+    if not np.all(np.abs(length - 1.0) <= 1e-6):      # the tolerance of Contacts; the frame wants 1e-9
+        raise InvalidInput(f"friction_directions: normal must hold unit vectors (|n| = 1 to 1e-6), got lengths "
+                           f"{length.ravel()[:5].tolist()}")
+    if not np.all(np.abs(length - 1.0) <= 1e-9):
+        n /= length                                    # only then: unit normals keep collision's frame exactly
+    if tangent is not None:
+        tangent = np.asarray(tangent, dtype=float)
+        scale = np.abs(tangent).max()
+        if not scale > 0:
+            raise InvalidInput(f"friction_directions: tangent must be a nonzero direction, got {tangent.tolist()}")
+        tangent = tangent / scale
+    return cone_edges(n, int(facets), tangent)
 
 
+@contract(rows_n=Obj(ContactRows), rows_d=Opt(Obj(ContactRows)), Wb=Array(("rows_n.n_pad", "rows_n.d", "rows_n.d")),
+          mu=Array(("rows_n.a.size",), ge=0, scalar=True, empty=True),
+          u_free=Array(("rows_n.n_pad", "rows_n.d")), bias=Array(("rows_n.a.size",), empty=True), facets=_FACETS,
+          returns=finite_parts)
 def velocity_lcp(rows_n: ContactRows, rows_d: ContactRows | None, Wb: np.ndarray, mu, u_free: np.ndarray,
                  bias: np.ndarray, facets: int) -> tuple[np.ndarray, np.ndarray]:
     """The Stewart–Trinkle LCP (A, b) in the unknowns z = [p_n (m), β (mk), λ (m)].
 
-    ``rows_d`` None (frictionless): z = p_n, A = J_n W J_nᵀ (symmetric PSD), b = J_n ũ + bias.
+    ``rows_d`` None (frictionless): z = p_n, A = J_n W J_nᵀ (symmetric PSD), b = J_n ũ + bias; else
+    ``rows_d`` holds the k = ``facets`` friction rows of each contact in turn (m k rows, same bodies).
     """
     m = rows_n.a.size
+    if rows_d is not None and (rows_d.a.size != m * int(facets) or rows_d.n_pad != rows_n.n_pad
+                               or rows_d.d != rows_n.d):
+        raise InvalidInput(f"velocity_lcp: rows_d must hold facets = {facets} rows per contact of rows_n "
+                           f"(m k = {m * int(facets)} rows on n_pad = {rows_n.n_pad} bodies), got "
+                           f"{rows_d.a.size} rows on {rows_d.n_pad}")
     Ann = rows_n.gram(rows_n, Wb)
     bn = rows_n.matvec(u_free) + bias
     if rows_d is None:
@@ -145,21 +174,19 @@ class TimeStepping:
     0.5095
     """
 
+    @contract(system=BODIES, detect=Func(), forces=Seq(Obj("pbanim.scene:Effect")),
+              friction=Array((None,), ge=0, scalar=True), facets=_FACETS, solver=Choice(LCP_SOLVERS),
+              erp=Real(gt=0, le=1), tol=Real(gt=0, lt=1), tangent=Opt(Array((3,))),
+              solver_options=Opt(SolverOptions()), accept_unconverged=Flag())
     def __init__(self, system, detect: Callable, forces: Sequence[Any] = (), *, friction=0.0, facets: int = 4,
                  solver: str = "lemke", erp: float = 0.2, tol: float = 1e-10, tangent=None,
                  solver_options: dict | None = None, accept_unconverged: bool = False) -> None:
-        if not callable(detect):
-            raise InvalidInput(f"detect must be a callable detect(y) -> Contacts, got {detect!r}")
         mu = np.asarray(friction, dtype=float)
-        if mu.ndim > 1:
-            raise InvalidInput(f"friction must be a scalar or one value per contact (m,), got shape {mu.shape}")
-        if not np.all(np.isfinite(mu)) or np.any(mu < 0):
-            raise InvalidInput(f"friction must be finite and ≥ 0, got {friction}")
         if np.any(mu > 0) and solver != "lemke":
-            raise InvalidInput(f"solver must be 'lemke' for friction (the LCP is not symmetric), got {solver!r}")
-        if not (0 < erp <= 1):
-            raise InvalidInput(f"erp must be in (0, 1], got {erp}")
-        friction_directions([[0.0, 0.0, 1.0]], facets)  # validates facets
+            raise InvalidInput(f"TimeStepping: solver must be 'lemke' with friction > 0 (the LCP is not symmetric), "
+                               f"got {solver!r}")
+        if tangent is not None and not np.abs(np.asarray(tangent, dtype=float)).max() > 0:
+            raise InvalidInput(f"TimeStepping: tangent must be a nonzero direction, got {tangent}")
         kind = require_bodies(system, "TimeStepping").kind
         if kind not in ("rigid", "particles"):
             raise InvalidInput(f"TimeStepping steps particles or rigid bodies, got a {kind!r} system")
@@ -197,12 +224,15 @@ class TimeStepping:
         u = np.vstack([v + h * Q * s.W[:, None], np.zeros((1, 3))])
         return u, particle_blocks(s), (lambda a, b, p, d: particle_rows(N, 3, a, b, d)), 3
 
+    @contract(t=Real(), y=Array((state_of("self.system"),)), h=Real(gt=0))
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         """One step t → t + h; returns the new state (``self.last`` holds the LCP solution)."""
         s = self.system
         Q = self._applied(t, y)
         u, Wb, rows, nd = self._kinematics(y, Q, h)
         contacts = self.detect(y)
+        if contacts is not None:        # what a user's detect returns reaches the assembly unchecked
+            check_contacts("TimeStepping", "detect(y)", contacts, s)
         N = s.N
         self.last_info = {"contacts": contacts}
         if contacts is not None and len(contacts.a):
@@ -255,6 +285,8 @@ class TimeStepping:
         q_new = quat_multiply(quat_exp(h * w), q)
         return np.concatenate([(x + h * v).ravel(), q_new.ravel(), P_new.ravel(), L_new.ravel()])
 
+    @contract(t_end=Real(gt=0), h=Real(gt=0), y0=Opt(Array((state_of("self.system"),))), record_every=Int(ge=1),
+              max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1,
                  max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed steps from 0 to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`, same step rule);
@@ -266,6 +298,8 @@ class TimeStepping:
         keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time",
                 "lcp_unconverged")
         c0 = self.detect(y)
+        if c0 is not None:
+            check_contacts("TimeStepping", "detect(y)", c0, self.system)
         diag: dict[str, list] = {k: [0.0] for k in keys}
         diag["max_penetration"][0] = float(np.max(c0.depth, initial=0.0)) if c0 is not None else 0.0
 
@@ -273,6 +307,8 @@ class TimeStepping:
             ts.append(t1)
             ys.append(y1.copy())
             c = self.detect(y1)
+            if c is not None:
+                check_contacts("TimeStepping", "detect(y)", c, self.system)
             sol = self.last
             diag["contact_count"].append(0 if sol is None else len(self.last_info["contacts"].a))
             diag["contact_residual"].append(0.0 if sol is None else sol.residual)
@@ -288,6 +324,9 @@ class TimeStepping:
                          nsteps=grid.n_steps, diagnostics={k: np.array(v, dtype=float) for k, v in diag.items()})
 
 
+@contract(bodies=RIGID, y=Array((state_of("bodies"),)), contacts=ContactsOn("bodies"), Q=Array(("bodies.N", 6)),
+          friction=Array(("contacts.m",), ge=0, scalar=True, empty=True), solver=Choice(LCP_SOLVERS),
+          tol=Real(gt=0, lt=1))
 def acceleration_lcp_check(bodies, y: np.ndarray, contacts, Q: np.ndarray, friction=0.0, *,
                            solver: str = "lemke", tol: float = 1e-10) -> ContactSolution:
     """Solve the acceleration-level LCP (with sliding friction) and raise if it is inconsistent.

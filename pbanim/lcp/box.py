@@ -31,11 +31,24 @@ from __future__ import annotations
 import numpy as np
 
 from .pivoting import _check, _scale
+from .specs import LCP_ENTRIES
+from ..contracts import Array, Int, Opt, Real, contract
 from ..errors import InvalidInput
 
 __all__ = ["pgs_box_friction", "pgs_bounded"]
 
 
+def _contacts_of(env) -> int:
+    """m = n/3 contacts of a box-friction problem with n = b.size rows (normal, two tangents each)."""
+    return np.size(env.values["b"]) // 3
+
+
+_SQUARE = Array(("n", "n"), **LCP_ENTRIES)
+_RHS = Array(("n",), **LCP_ENTRIES)
+
+
+@contract(A=_SQUARE, b=_RHS, mu=Array((_contacts_of,), ge=0, scalar=True), max_iter=Int(ge=1),
+          tol=Real(gt=0, lt=1), warm_start=Opt(Array(("n",))))
 def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, tol: float = 1e-8,
                      warm_start=None) -> tuple:
     """Projected Gauss–Seidel for contact with box friction; unknowns per contact i: (fᵢ, tᵢ₁, tᵢ₂).
@@ -49,11 +62,13 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
     A, b = _check(A, b)
     n = b.size
     if n % 3:
-        raise InvalidInput(f"pgs_box_friction needs 3 rows per contact (normal, two tangents), got {n}")
+        raise InvalidInput(f"pgs_box_friction: A and b must have 3 rows per contact (normal, two tangents), "
+                           f"got {n} rows")
     mu = np.broadcast_to(np.asarray(mu, dtype=float), (n // 3,))
     diag = np.diag(A).copy()
-    if np.any(diag <= 0):
-        raise InvalidInput("pgs_box_friction needs A with a positive diagonal (add a little regularization)")
+    if not np.all(diag > 0):
+        raise InvalidInput(f"pgs_box_friction: A must have a positive diagonal (add a little regularization), got "
+                           f"min A_ii = {diag.min():.3g}")
     z = _warm_impulses(warm_start, n, mu)
     w = A @ z + b
     for sweep in range(1, int(max_iter) + 1):
@@ -70,6 +85,10 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
     return z, _box_residual(z, w, mu), int(max_iter)
 
 
+_BOUND = Array(("n",), finite=False, scalar=True)
+
+
+@contract(A=_SQUARE, b=_RHS, lo=_BOUND, hi=_BOUND, max_iter=Int(ge=1), tol=Real(gt=0, lt=1))
 def pgs_bounded(A: np.ndarray, b: np.ndarray, lo, hi, *, max_iter: int = 500, tol: float = 1e-10) -> tuple:
     """Projected Gauss–Seidel for the box-constrained problem w = A z + b, loᵢ ≤ zᵢ ≤ hiᵢ, with wᵢ ≥ 0 at
     zᵢ = loᵢ, wᵢ ≤ 0 at zᵢ = hiᵢ and wᵢ = 0 in between (joint limits: [0, ∞); motors: [−F, F]).
@@ -80,11 +99,12 @@ def pgs_bounded(A: np.ndarray, b: np.ndarray, lo, hi, *, max_iter: int = 500, to
     n = b.size
     lo = np.broadcast_to(np.asarray(lo, dtype=float), (n,))
     hi = np.broadcast_to(np.asarray(hi, dtype=float), (n,))
-    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo > hi):
-        raise InvalidInput(f"bounds must satisfy lo <= hi, got lo = {lo}, hi = {hi}")
+    if not (np.all(lo <= hi) and np.all(lo < np.inf) and np.all(hi > -np.inf)):   # NaN fails too
+        raise InvalidInput(f"pgs_bounded: lo and hi must satisfy lo <= hi with lo < inf and hi > -inf (a finite z "
+                           f"in each box), got lo = {lo}, hi = {hi}")
     diag = np.diag(A).copy()
-    if np.any(diag <= 0):
-        raise InvalidInput("pgs_bounded needs A with a positive diagonal")
+    if not np.all(diag > 0):
+        raise InvalidInput(f"pgs_bounded: A must have a positive diagonal, got min A_ii = {diag.min():.3g}")
     z = np.clip(np.zeros(n), lo, hi)
     w = A @ z + b
     res = np.inf

@@ -27,13 +27,22 @@ from typing import Any
 
 import numpy as np
 
-from ..results import natural_map_residual
+from .specs import LCP_ENTRIES, LIMIT as _LIMIT
+from ..contracts import Array, Int, Opt, Real, contract
 from ..errors import InvalidInput, as_floats
+from ..results import natural_map_residual
 
 __all__ = ["lemke", "dantzig", "enumerate_active_sets", "residual_threshold"]
 
 
+#: the LCP data as contracts declare them: A (m, m) and b (m,), finite, |entries| ≤ 10¹⁰⁰, m = 0 allowed
+_MATRIX = Array(("m", "m"), empty=True, **LCP_ENTRIES)
+_VECTOR = Array(("m",), empty=True, **LCP_ENTRIES)
+
+
 def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
+    """A and b as float arrays of matching shapes, finite and below 10¹⁰⁰: the check of the solvers'
+    bodies, for the values internal callers (effects, joints, collisions) hand over unchecked."""
     A = as_floats("A", A)
     b = as_floats("b", b)
     A = A.reshape(1, 1) if A.ndim == 0 else A
@@ -52,7 +61,6 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
     return A, b
 
 
-_LIMIT = 1e100
 _EPS1000 = 1000 * float(np.finfo(float).eps)
 
 
@@ -60,6 +68,7 @@ def _scale(b: np.ndarray) -> float:
     return max(1.0, float(np.abs(b).max())) if b.size else 1.0
 
 
+@contract(A=_MATRIX, b=_VECTOR, f=Array(("m",), empty=True), tol=Real(gt=0, lt=1))
 def residual_threshold(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float) -> float:
     """tol·max(1, ‖b‖∞) + 1000 ε ‖|A||f|‖∞: the residual a solution must reach to be accepted.
 
@@ -107,14 +116,10 @@ def _polish(A: np.ndarray, b: np.ndarray, f: np.ndarray, tol: float, rounds: int
 # ---------------------------------------------------------------------------------------------
 # Lemke's complementary pivoting (Cottle–Pang–Stone §4.4), lexicographic anti-cycling
 # ---------------------------------------------------------------------------------------------
-def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-9,
-          **_: Any) -> tuple[np.ndarray, str, int]:
-    """Lemke's method on w − A f − d z₀ = b with covering vector d = 1.
-
-    Returns ``(f, status, pivots)``; status is "solved", "ray" (secondary ray: for a copositive-plus A
-    the LCP is infeasible) or "max_iter". Ties in the ratio test are broken lexicographically with the
-    rows of B⁻¹, which prevents cycling on degenerate problems.
-    """
+def _lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-9,
+           **_: Any) -> tuple[np.ndarray, str, int]:
+    """Lemke's method on w − A f − d z₀ = b with covering vector d = 1 (the route of ``solve_lcp``, which
+    certifies; the public :func:`lemke` certifies its own answer)."""
     m = b.size
     if np.all(b >= 0):
         return np.zeros(m), "solved", 0
@@ -178,16 +183,9 @@ def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_to
 # ---------------------------------------------------------------------------------------------
 # Baraff 1994 / Dantzig principal pivoting: drive one contact at a time to complementarity
 # ---------------------------------------------------------------------------------------------
-def dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-12,
-            **_: Any) -> tuple[np.ndarray, str, int]:
-    """Baraff's (1994) force-computation algorithm (a Dantzig–Cottle principal pivoting method).
-
-    Keeps a clamped set C (wᵢ = 0, fᵢ ≥ 0) and an unclamped set NC (fᵢ = 0, wᵢ ≥ 0); each
-    contact d with w_d < 0 is driven to zero by moving along Δf (Δf_d = 1, A_CC Δf_C = −A_Cd) up to
-    the first blocking index. Ties are broken by the smallest index (Bland). Redundant contacts make
-    A_CC singular but consistent: solved by least squares. Status "solved", "infeasible" (no blocking
-    index: Δw_d ≤ 0, which for a PSD A proves infeasibility) or "max_iter".
-    """
+def _dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_tol: float = 1e-12,
+             **_: Any) -> tuple[np.ndarray, str, int]:
+    """Baraff's principal pivoting (the route of ``solve_lcp``; the public :func:`dantzig` certifies)."""
     m = b.size
     f = np.zeros(m)
     w = b.copy()
@@ -244,17 +242,25 @@ def dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None, pivot_
 # ---------------------------------------------------------------------------------------------
 # Enumeration of active sets: the readable O(2ᵐ) check
 # ---------------------------------------------------------------------------------------------
-def enumerate_active_sets(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-12, max_size: int = 12,
-                          **_: Any) -> tuple[np.ndarray, str, int]:
+@contract(A=_MATRIX, b=_VECTOR, tol=Real(gt=0, lt=1), max_size=Int(ge=0, le=16))
+def enumerate_active_sets(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-12,
+                          max_size: int = 12) -> tuple[np.ndarray, str, int]:
     """Try every active set S (smallest first): f_S = −A_SS⁺ b_S by least squares, f = 0 elsewhere.
 
-    Returns ``(f, status, size)`` for the first S with f ≥ −tol·s and w = A f + b ≥ −1e-9·s
-    (s = max(1, ‖A‖∞, ‖b‖∞)), status "solved"; "no active set" when none is complementary. Raises
-    ``ValueError`` for m > ``max_size`` (2ᵐ least-squares solves).
+    Returns ``(f, status, size)`` for the first S whose answer passes the certificate — f ≥ −tol·s and a
+    natural-map residual ‖min(f, w)‖∞ ≤ 1e-9·s with w = A f + b (s = max(1, ‖A‖∞, ‖b‖∞)) — status
+    "solved"; "no active set" when none does. A singular, inconsistent A_SS leaves w_S ≠ 0, which the
+    residual refuses (f ≥ 0 and w ≥ 0 alone would accept a force on a separating contact). Refuses
+    m > ``max_size`` (2ᵐ least-squares solves; ``max_size`` ≤ 16, a cap known before the first).
+
+    >>> enumerate_active_sets(np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0]))[:2]
+    (array([0.5, 0. ]), 'solved')
     """
+    A, b = _check(A, b)
     m = b.size
     if m > max_size:
-        raise InvalidInput(f"method='enumerate' is for m <= {max_size} contacts, got m = {m}; use 'lemke'")
+        raise InvalidInput(f"enumerate_active_sets: A and b have m = {m} contacts, more than max_size = {max_size} "
+                           "(2^m least-squares solves); use 'lemke'")
     if np.all(b >= 0):
         return np.zeros(m), "solved", 0
     scale = max(1.0, float(np.abs(A).max()), float(np.abs(b).max()))
@@ -263,7 +269,58 @@ def enumerate_active_sets(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-12, m
             S = list(S)
             f = np.zeros(m)
             f[S] = np.linalg.lstsq(A[np.ix_(S, S)], -b[S], rcond=None)[0]
-            w = A @ f + b
-            if f.min() >= -tol * scale and w.min() >= -1e-9 * scale:
-                return np.maximum(f, 0.0), "solved", k
+            if f.min() < -tol * scale:
+                continue
+            f = np.maximum(f, 0.0)
+            if natural_map_residual(f, A @ f + b) <= 1e-9 * scale:
+                return f, "solved", k
     return np.zeros(m), "no active set", 2 ** m - 1
+
+
+def _certified(A: np.ndarray, b: np.ndarray, f: np.ndarray, status: str, count: int, tol: float = 1e-10):
+    """The project's one certificate on a pivoting answer: a "solved" whose natural-map residual exceeds
+    :func:`residual_threshold` (or that is not finite) is reported as "inaccurate (residual r > t)"."""
+    if status == "solved":
+        if not np.isfinite(f).all():
+            return np.zeros_like(f), "inaccurate (not finite)", count
+        r, t = natural_map_residual(f, A @ f + b), residual_threshold(A, b, f, tol)
+        if not r <= t:
+            status = f"inaccurate (residual {r:.3e} > {t:.1e})"
+    return f, status, count
+
+
+@contract(A=_MATRIX, b=_VECTOR, max_iter=Opt(Int(ge=1)), pivot_tol=Real(gt=0, lt=1))
+def lemke(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None,
+          pivot_tol: float = 1e-9) -> tuple[np.ndarray, str, int]:
+    """Lemke's method on w − A f − d z₀ = b with covering vector d = 1.
+
+    Returns ``(f, status, pivots)``; status is "solved" (certified: natural-map residual within
+    :func:`residual_threshold` at tol = 1e-10), "inaccurate (...)" (the pivots ended but the answer fails
+    the certificate), "ray" (secondary ray: for a copositive-plus A the LCP is infeasible) or "max_iter"
+    (at most ``max_iter`` pivots, default 50(m + 1) + 1000). Ties in the ratio test are broken
+    lexicographically with the rows of B⁻¹, which prevents cycling on degenerate problems.
+
+    >>> lemke(np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0]))
+    (array([0.5, 0. ]), 'solved', 2)
+    """
+    A, b = _check(A, b)
+    return _certified(A, b, *_lemke(A, b, max_iter=max_iter, pivot_tol=pivot_tol))
+
+
+@contract(A=_MATRIX, b=_VECTOR, max_iter=Opt(Int(ge=1)), pivot_tol=Real(gt=0, lt=1))
+def dantzig(A: np.ndarray, b: np.ndarray, *, max_iter: int | None = None,
+            pivot_tol: float = 1e-12) -> tuple[np.ndarray, str, int]:
+    """Baraff's (1994) force-computation algorithm (a Dantzig–Cottle principal pivoting method).
+
+    Keeps a clamped set C (wᵢ = 0, fᵢ ≥ 0) and an unclamped set NC (fᵢ = 0, wᵢ ≥ 0); each
+    contact d with w_d < 0 is driven to zero by moving along Δf (Δf_d = 1, A_CC Δf_C = −A_Cd) up to
+    the first blocking index. Ties are broken by the smallest index (Bland). Redundant contacts make
+    A_CC singular but consistent: solved by least squares. Status "solved" (certified as in
+    :func:`lemke`), "inaccurate (...)", "infeasible" (no blocking index: Δw_d ≤ 0, which for a PSD A
+    proves infeasibility) or "max_iter" (at most ``max_iter`` steps, default 20(m + 1) + 100).
+
+    >>> dantzig(np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([-1.0, 1.0]))[1]
+    'solved'
+    """
+    A, b = _check(A, b)
+    return _certified(A, b, *_dantzig(A, b, max_iter=max_iter, pivot_tol=pivot_tol))

@@ -16,7 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from .pivoting import _check
 from .solve import pgs_box_friction
+from .specs import LCP_ENTRIES
+from ..contracts import Array, Indices, Int, Opt, Real, contract
+from ..errors import InvalidInput
 
 __all__ = ["solve_planar_contact", "SEPARATE", "STICK", "SLIDE_POS", "SLIDE_NEG"]
 
@@ -77,23 +81,39 @@ def _solve_modes(A, b, modes, mu):
     return T @ x
 
 
+@contract(A=Array(("n", "n"), **LCP_ENTRIES), b=Array(("n",), **LCP_ENTRIES), mu=Real(ge=0),
+          guess=Opt(Indices(4, empty=True)), tol=Real(gt=0, lt=1), max_iter=Int(ge=1))
 def solve_planar_contact(A: np.ndarray, b: np.ndarray, mu: float, guess=None, *, tol: float = 1e-9,
                          max_iter: int = 200) -> tuple[np.ndarray, np.ndarray, dict]:
     """Impulses z = (zₙ₁, zₜ₁, zₙ₂, …) of planar contacts with w = A z + b (see the module docstring).
 
-    ``guess``: contact modes to try first (previous step's). Modes are switched where a condition fails
-    (at most 3m + 3 rounds); if that cycles, projected Gauss–Seidel finds the modes. Returns (z, modes,
-    info) with info["path"] "guess" (the modes held), "modes" (switched), "pgs+polish" or "pgs" (the
-    polish failed; z is PGS's, with its residual).
+    ``guess``: contact modes to try first (previous step's; one of SEPARATE, STICK, SLIDE_POS, SLIDE_NEG
+    per contact). Modes are switched where a condition fails (at most 3m + 3 rounds); if that cycles,
+    projected Gauss–Seidel finds the modes (at most ``max_iter`` sweeps). Returns (z, modes, info) with
+    info["path"] "guess" (the modes held), "modes" (switched), "pgs+polish" or "pgs" (the polish failed;
+    z is PGS's, with its residual), and info["success"]: whether z meets every condition of the module
+    docstring (to ``tol``·(1 + ‖b‖∞) by the direct solves, to ``tol``·max(1, ‖b‖∞) by PGS's residual) —
+    the certificate, False only on the "pgs" path when PGS stopped short of it.
+
+    >>> z, modes, info = solve_planar_contact(np.eye(2), np.array([-1.0, 0.5]), 0.8)
+    >>> z.tolist(), info["path"], info["success"]
+    ([1.0, -0.5], 'modes', True)
     """
+    A, b = _check(A, b)            # internal callers (the planar step) hand them over unchecked
+    if b.size % 2:
+        raise InvalidInput(f"solve_planar_contact: A and b must have 2 rows per contact (normal, tangent), got "
+                           f"{b.size} rows")
     m = b.size // 2
-    modes = np.array(guess if guess is not None and len(guess) == m else np.zeros(m, int))
+    if guess is not None and len(guess) != m:
+        raise InvalidInput(f"solve_planar_contact: guess must hold one mode per contact (m = {m}), got "
+                           f"{len(guess)}")
+    modes = np.array(guess if guess is not None else np.zeros(m, int))
     for it in range(3 * m + 3):                           # mode switching, a cap known before it starts
         z = _solve_modes(A, b, modes, mu)
         if z is None:
             break
         if _check_modes(A, b, z, modes, mu, tol):
-            return z, modes, {"path": "guess" if it == 0 else "modes", "sweeps": it}
+            return z, modes, {"path": "guess" if it == 0 else "modes", "sweeps": it, "success": True}
         modes = _switch_modes(A @ z + b, z, modes, mu, tol * (1.0 + np.abs(b).max(initial=0.0)))
     # PGS on the 3-row form (a zero second tangent with unit diagonal), then polish its modes
     A3 = np.zeros((3 * m, 3 * m))
@@ -110,5 +130,6 @@ def solve_planar_contact(A: np.ndarray, b: np.ndarray, mu: float, guess=None, *,
                      np.where(np.abs(zt) < mu * zn * (1 - 1e-6), STICK, np.where(wt > 0, SLIDE_POS, SLIDE_NEG)))
     zp = _solve_modes(A, b, modes, mu)
     if zp is not None and _check_modes(A, b, zp, modes, mu, tol):
-        return zp, modes, {"path": "pgs+polish", "sweeps": sweeps}
-    return z, modes, {"path": "pgs", "sweeps": sweeps, "residual": res}
+        return zp, modes, {"path": "pgs+polish", "sweeps": sweeps, "success": True}
+    return z, modes, {"path": "pgs", "sweeps": sweeps, "residual": res,
+                      "success": bool(res <= tol * max(1.0, float(np.abs(b).max())))}

@@ -46,8 +46,12 @@ from typing import Any
 import numpy as np
 
 from .box import _box_residual, pgs_bounded, pgs_box_friction  # noqa: F401  (their import path)
-from .pivoting import _check, _polish, _scale, dantzig, lemke, residual_threshold
-from ..errors import InfeasibleContact, InvalidInput
+from .pivoting import _check, _dantzig, _lemke, _polish, _scale, residual_threshold
+from .qp import qp
+from .pivoting import _MATRIX, _VECTOR
+from .specs import JacobianRows, RowIndices, check_options
+from ..contracts import Array, Choice, Flag, Int, Opt, Real, contract, finite_result
+from ..errors import InfeasibleContact, InvalidInput, PbanimError
 from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["solve_lcp", "LCP_SOLVERS", "residual_threshold"]  # lemke, dantzig, pgs, qp: via this module
@@ -88,56 +92,18 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
 
 
 # ---------------------------------------------------------------------------------------------
-# QP: min ½ fᵀAf + bᵀf, f ≥ 0
-# ---------------------------------------------------------------------------------------------
-def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float = 1e-9,
-       max_iter: int | None = None, warm_start: np.ndarray | None = None, native_box: bool = True,
-       polish: bool = True, tol: float = 1e-10, **opts: Any) -> tuple[np.ndarray, str, int]:
-    """The contact QP through qpsolvers (``backend`` = any name in ``qpsolvers.available_solvers``).
-
-    With ``backend="proxqp"`` and ``native_box=True`` (default) proxsuite's dense ProxQP is called with
-    its own box constraints ``l_box = 0`` (qpsolvers would turn the bound into a dense inequality
-    block); ``native_box=False`` goes through ``qpsolvers.solve_problem`` with ``lb = 0``. Needs a
-    symmetric positive semidefinite A. ``polish`` re-solves on the active set {fᵢ > wᵢ} (like OSQP's
-    polishing) and keeps the result only when that lowers the natural-map residual: with the default
-    ``eps_abs = 1e-9`` this reaches the 1e-10 certificate at a fraction of the iterations that
-    ``eps_abs = 1e-12`` alone needs (which can stall on 1:1000 stacks).
-    """
-    import qpsolvers  # lazy: never imported unless a QP is solved
-
-    if backend not in qpsolvers.available_solvers:
-        raise InvalidInput(f"backend must be an installed qpsolvers solver, one of "
-                         f"{qpsolvers.available_solvers}, got {backend!r}")
-    m = b.size
-    x0 = None if warm_start is None else np.maximum(np.asarray(warm_start, dtype=float), 0.0)
-    if backend == "proxqp" and native_box:
-        import proxsuite
-
-        res = proxsuite.proxqp.dense.solve(A, b, None, None, None, None, None, l_box=np.zeros(m),
-                                           u_box=np.full(m, np.inf), x=x0, eps_abs=eps_abs, eps_rel=0.0,
-                                           max_iter=max_iter or 10000, **opts)
-        f, status, iters = np.asarray(res.x, dtype=float).copy(), str(res.info.status).split(".")[-1], int(res.info.iter)
-    else:
-        kw = dict(opts)
-        if backend == "proxqp":
-            kw.update(eps_abs=eps_abs, eps_rel=0.0, max_iter=max_iter or 10000)
-        prob = qpsolvers.Problem(A, b, lb=np.zeros(m))
-        sol = qpsolvers.solve_problem(prob, solver=backend, initvals=x0, **kw)
-        f = np.zeros(m) if sol.x is None else np.asarray(sol.x, dtype=float).copy()
-        info = sol.extras.get("info") if isinstance(sol.extras, dict) else None
-        status = str(getattr(info, "status", "found" if sol.found else "not_found")).split(".")[-1]
-        iters = int(getattr(info, "iter", 0))
-    if not np.all(np.isfinite(f)):
-        return np.where(np.isfinite(f), f, 0.0), status, iters
-    f = np.maximum(f, 0.0)
-    if polish:  # also after a max-iteration stop: the certificate, not the status, decides success
-        f = _polish(A, b, f, tol)
-    return f, status, iters
-
-
-# ---------------------------------------------------------------------------------------------
 # The Delassus matrix A = J W Kᵀ (collision impulses, resting contact, friction)
 # ---------------------------------------------------------------------------------------------
+def _blocks(env) -> int:
+    """n: the number of inverse-mass blocks (bodies, the world included) of the argument Wb."""
+    return len(env.values["Wb"])
+
+
+_ROWS = Array(("m", "d"), empty=True)
+
+
+@contract(a=RowIndices(_blocks), b=RowIndices(_blocks), Ga=_ROWS, Gb=_ROWS, Wb=Array(("n", "d", "d")),
+          other=Opt(JacobianRows(_blocks)), block=Int(ge=1), returns=finite_result)
 def delassus(a, b, Ga, Gb, Wb, other=None, block: int = 1) -> np.ndarray:
     """A = J W Kᵀ, dense (m, k), from per-contact Jacobian rows, without forming J, W or K.
 
@@ -148,7 +114,9 @@ def delassus(a, b, Ga, Gb, Wb, other=None, block: int = 1) -> np.ndarray:
     contacts i and j share a body. Up to 150² entries: four masked products (G_a W H_aᵀ)∘[a = a′] − …;
     above, only the pairs of row groups sharing a body with a nonzero W block, O(Σ_bodies c²) small
     products (``block = g``: rows in groups of g on the same two bodies, e.g. a contact's normal and
-    tangents). The readable loop over bodies is :func:`pbanim.contact.assembly.delassus_by_bodies`.
+    tangents). The readable loop over bodies is :func:`pbanim.contact.assembly.delassus_by_bodies`. A call
+    from outside pbanim whose products overflow (rows or inverse masses near 10¹⁵⁰) is
+    :class:`~pbanim.errors.NonFiniteResult`, never an A with inf or NaN.
 
     One particle (1/m = 0.5) on the ground (the world, body 1) with two contacts along z:
 
@@ -231,9 +199,11 @@ def _bpp_route(A: np.ndarray, b: np.ndarray, *, max_iter: int = 4, qp_fallback: 
     return g, f"{route}→qp:{st2}", iters + it2
 
 
-_IMPL = {"lemke": lemke, "dantzig": dantzig, "pgs": pgs, "qp": qp, "bpp": _bpp_route}
+_IMPL = {"lemke": _lemke, "dantzig": _dantzig, "pgs": pgs, "qp": qp, "bpp": _bpp_route}
 
 
+@contract(A=_MATRIX, b=_VECTOR, solver=Choice(LCP_SOLVERS), tol=Real(gt=0, lt=1), raise_on_failure=Flag(),
+          fallback=Opt(Choice(LCP_SOLVERS)), warm_start=Opt(Array(("m",), empty=True)), validate=Flag())
 def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure: bool = True,
               fallback: str | None = None, warm_start=None, validate: bool = True, **opts: Any) -> ContactSolution:
     """Solve the LCP  w = A f + b ≥ 0, f ≥ 0, fᵀw = 0  and certify the answer.
@@ -257,10 +227,18 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         A = J W Jᵀ themselves (the scene effect) skip it.
     warm_start : array_like, optional
         A previous answer: PGS starts from it, the QP uses it as initial guess, and the pivoting
-        methods first try its support as the active set (kept only if it certifies).
+        methods first try its support as the active set (kept only if it certifies). A guess whose
+        natural-map residual is larger than f = 0's is dropped (``extra["warm_start_dropped"]``).
     **opts
-        Solver options: ``max_iter``, ``omega`` (pgs), ``backend``, ``eps_abs``, ``native_box``,
-        ``polish`` (qp), ``pivot_tol`` (pivoting).
+        Solver options (:data:`pbanim.lcp.specs.LCP_OPTIONS`, checked; an option the solver does not take
+        is refused by name): ``max_iter``, ``polish`` (all), ``omega`` (pgs), ``pivot_tol`` (pivoting),
+        ``backend``, ``eps_abs``, ``native_box`` (qp; other names go to the backend as its settings),
+        ``active``, ``qp_fallback``, ``rho_rel``, ``refine``, ``cache`` (bpp).
+
+    A backend's own exception (quadprog or ECOS refusing the singular A of redundant contacts) or a
+    numerical failure inside a route is not raised bare: it becomes the status ("backend error …"), the
+    certificate fails, and the failure is :class:`~pbanim.errors.InfeasibleContact` naming it — or, with
+    ``raise_on_failure=False``, a solution with ``success`` False, that status and the residual of f = 0.
 
     Returns
     -------
@@ -277,31 +255,31 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
     ...
     pbanim.errors.InfeasibleContact: contact solver 'dantzig' failed: status infeasible, residual 1.000e+00...
     """
-    if solver not in _IMPL:
-        raise InvalidInput(f"solver must be one of {LCP_SOLVERS}, got {solver!r}")
-    if fallback is not None and fallback not in _IMPL:
-        raise InvalidInput(f"fallback must be None or one of {LCP_SOLVERS}, got {fallback!r}")
-    if not (np.isfinite(tol) and 0 < tol < 1):
-        raise InvalidInput(f"tol must be a number in (0, 1) (a residual relative to max(1, ‖b‖∞)), got {tol}")
-    A, b = _check(A, b)
+    A, b = _check(A, b)         # internal callers (effects, joints, collisions) reach here unchecked
     m = b.size
+    opts = check_options("solve_lcp", solver, opts)
     if solver in ("qp", "bpp") and m:
         # symmetry is always checked (O(m²); a non-symmetric A can keep a QP backend busy for minutes);
         # definiteness (an O(m³) eigenvalue computation) only with validate=True
         asym = float(np.abs(A - A.T).max())
         if asym > 1e-12 * max(1.0, float(np.abs(A).max())):
-            raise InvalidInput(f"A must be symmetric for solver='qp' (max |A − Aᵀ| = {asym:.3g}); "
+            raise InvalidInput(f"solve_lcp: A must be symmetric for solver={solver!r} (max |A − Aᵀ| = {asym:.3g}); "
                                "use solver='lemke' for friction or other non-symmetric LCPs")
         if validate and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, float(np.max(np.abs(A)))):
-            raise InvalidInput("A must be positive semidefinite for solver='qp' (the QP is then convex); "
-                             "use solver='lemke' for an indefinite LCP")
+            raise InvalidInput(f"solve_lcp: A must be positive semidefinite for solver={solver!r} (the QP is then "
+                               "convex); use solver='lemke' for an indefinite LCP")
     start = time.perf_counter()
     f, status, iters, extra = None, "", 0, {}
     if warm_start is not None:
         warm_start = np.asarray(warm_start, dtype=float)
-        if warm_start.shape != (m,):
-            raise InvalidInput(f"warm_start must have shape ({m},), got {warm_start.shape}")
-        if solver in ("lemke", "dantzig") and np.any(warm_start > 0):
+        if warm_start.shape != (m,) or not np.isfinite(warm_start).all():     # from an internal caller
+            raise InvalidInput(f"solve_lcp: warm_start must be a finite array of shape ({m},), got shape "
+                               f"{warm_start.shape}")
+        with np.errstate(over="ignore", invalid="ignore"):
+            worse = not natural_map_residual(warm_start, A @ warm_start + b) <= natural_map_residual(np.zeros(m), b)
+        if worse:       # a guess worse than f = 0 (10³⁰⁰ forces kept ProxQP busy for minutes): start cold
+            warm_start, extra["warm_start_dropped"] = None, True
+        elif solver in ("lemke", "dantzig") and np.any(warm_start > 0):
             g = _polish(A, b, np.where(warm_start > 0, 1.0, 0.0) * np.maximum(warm_start, 0), tol)
             if natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
                 f, status, extra["warm_start_hit"] = g, "solved", True
@@ -317,9 +295,11 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         else:
             try:
                 f, status, iters = _IMPL[solver](A, b, **kw)
-            except (ArithmeticError, RuntimeError, np.linalg.LinAlgError) as exc:   # a backend's own failure
-                raise InfeasibleContact(solver, f"backend error {type(exc).__name__}", float("nan"),
-                                        f"{exc}; m = {m} contacts") from exc
+            except PbanimError:
+                raise
+            except (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
+                # a numerical failure inside a route (an SVD that does not converge): a status, judged below
+                f, status, iters = np.zeros(m), f"error {type(exc).__name__}: {' '.join(str(exc).split())[:200]}", 0
         if polish and solver in ("lemke", "dantzig") and status == "solved":
             g = _polish(A, b, f, tol)  # one least-squares solve on the support: removes pivoting roundoff
             extra["polished"] = g is not f
