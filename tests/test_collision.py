@@ -23,22 +23,22 @@ def rot(axis, angle):
 # bad inputs (ORACLES G3): type and message
 # ------------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("make, match", [
-    (lambda: Sphere(0.0), "Sphere radius must be positive and finite, got 0.0"),
-    (lambda: Sphere(-1.0), "Sphere radius must be positive and finite, got -1.0"),
-    (lambda: Box([1.0, 0.0, 1.0]), r"Box half_extents must be three positive finite numbers"),
-    (lambda: Capsule(0.0, 1.0), "Capsule radius must be positive"),
-    (lambda: Capsule(0.1, 0.0), "Capsule half_length must be positive.*a capsule of zero length is a Sphere"),
-    (lambda: Plane([0.0, 0.0, 0.0]), "plane normal must be a finite nonzero"),
-    (lambda: Collisions(obstacles=[Plane()], restitution=1.5), r"restitution must lie in \[0, 1\], got 1.5"),
-    (lambda: Collisions(obstacles=[Plane()], restitution=-0.1), r"restitution must lie in \[0, 1\], got -0.1"),
-    (lambda: Collisions(obstacles=[Plane()], friction=-0.2), "friction must be a finite coefficient >= 0, got -0.2"),
-    (lambda: Collisions(obstacles=[Plane()], mode="magic"), "mode must be 'sequential' or 'simultaneous'"),
-    (lambda: Collisions(obstacles=[Plane()], friction_model="cone"), "friction_model must be 'staggered' or 'lcp'"),
-    (lambda: Collisions(obstacles=[Plane()], rest_velocity=-1.0), "rest_velocity must be a finite velocity >= 0"),
-    (lambda: Collisions(obstacles=["floor"]), "obstacles must be Plane objects"),
+    (lambda: Sphere(0.0), r"Sphere.__init__: radius must be a finite number > 0, got 0.0"),
+    (lambda: Sphere(-1.0), r"Sphere.__init__: radius must be a finite number > 0, got -1.0"),
+    (lambda: Box([1.0, 0.0, 1.0]), r"Box.__init__: half_extents must be .* entries > 0.*got \[1.0, 0.0, 1.0\]"),
+    (lambda: Capsule(0.0, 1.0), r"Capsule.__init__: radius must be a finite number > 0, got 0.0"),
+    (lambda: Capsule(0.1, 0.0), r"Capsule.__init__: half_length must be a finite number > 0, got 0.0"),
+    (lambda: Plane([0.0, 0.0, 0.0]), r"Plane.__init__: normal must be a finite nonzero 2- or 3-vector, got \[0.0"),
+    (lambda: Collisions(obstacles=[Plane()], restitution=1.5), r"restitution must be a finite number >= 0 and <= 1, got 1.5"),
+    (lambda: Collisions(obstacles=[Plane()], restitution=-0.1), r"restitution must be a finite number >= 0 and <= 1, got -0.1"),
+    (lambda: Collisions(obstacles=[Plane()], friction=-0.2), "friction must be a finite number >= 0, got -0.2"),
+    (lambda: Collisions(obstacles=[Plane()], mode="magic"), "mode must be one of 'sequential', 'simultaneous', got 'magic'"),
+    (lambda: Collisions(obstacles=[Plane()], friction_model="cone"), "friction_model must be one of 'staggered', 'lcp', got 'cone'"),
+    (lambda: Collisions(obstacles=[Plane()], rest_velocity=-1.0), "rest_velocity must be a finite number >= 0, got -1.0"),
+    (lambda: Collisions(obstacles=["floor"]), r"obstacles\[0\] must be a Plane or a \(Sphere, centre\) pair.*got 'floor'"),
     (lambda: bouncing_ball(h0=-1.0), "h0 must be a positive height, got -1.0"),
-    (lambda: broad_phase([[0, 0, 0]], 1.0, method="octree"), "broad-phase method must be 'grid' or 'all_pairs'"),
-    (lambda: solve_lcp_small(np.eye(2), [-1.0, 1.0], method="pgs"), "LCP method must be 'lemke' or 'enumerate'"),
+    (lambda: broad_phase([[0, 0, 0]], 1.0, method="octree"), "broad_phase: method must be one of 'grid', 'all_pairs', got 'octree'"),
+    (lambda: solve_lcp_small(np.eye(2), [-1.0, 1.0], method="pgs"), "method must be one of 'lemke', 'enumerate', got 'pgs'"),
 ])
 def test_bad_inputs_raise_named_value_errors(make, match):
     # ORACLES G3: ε ∉ [0, 1], μ < 0 and degenerate shapes are rejected with the value and the fix
@@ -50,19 +50,19 @@ def test_resolve_collisions_validates_restitution_and_friction():
     # ORACLES G3 at the function boundary too
     b = ImpulseBodies.make([[0, 0, 1.0]], [[0, 0, -1.0]], 1.0)
     c = Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0])
-    with pytest.raises(ValueError, match=r"restitution must lie in \[0, 1\], got 2.0"):
+    with pytest.raises(ValueError, match=r"resolve_collisions: restitution must be a finite number >= 0 and <= 1, got 2.0"):
         resolve_collisions(b, c, restitution=2.0)
-    with pytest.raises(ValueError, match="friction must be a finite coefficient >= 0, got -1.0"):
+    with pytest.raises(ValueError, match="resolve_collisions: friction must be a finite number >= 0, got -1.0"):
         resolve_collisions(b, c, friction=-1.0)
-    with pytest.raises(ValueError, match="rest_velocity must be >= 0"):
+    with pytest.raises(ValueError, match="resolve_collisions: rest_velocity must be a finite number >= 0, got -1.0"):
         resolve_collisions(b, c, rest_velocity=-1.0)
 
 
 def test_scene_driver_rejects_bad_arguments():
     bb = bouncing_ball(1.0, 0.5)
-    with pytest.raises(ValueError, match="toi must be 'event' or 'fixed', got 'later'"):
+    with pytest.raises(ValueError, match="simulate_collisions: toi must be one of 'event', 'fixed', got 'later'"):
         simulate_collisions(bb.scene(), 1.0, 0.01, toi="later")
-    with pytest.raises(ValueError, match="h must be a positive finite step, got -0.01"):
+    with pytest.raises(ValueError, match="simulate_collisions: h must be a finite number > 0, got -0.01"):
         simulate_collisions(bb.scene(), 1.0, -0.01)
     from pbanim.particles import Gravity, ParticleSystem
     from pbanim.scene import Scene
@@ -73,7 +73,7 @@ def test_scene_driver_rejects_bad_arguments():
         Collisions([Capsule(0.1, 0.5)] * 2, obstacles=[Plane()]).bind(RigidBodies(1.0, [1, 1, 1], positions=[[0, 0, 0], [1, 0, 0]]))
     with pytest.raises(ValueError, match="shapes must be one Sphere/Box/Capsule per body"):
         Collisions([Sphere(1.0)] * 3).bind(RigidBodies(1.0, [1, 1, 1], positions=[[0, 0, 0], [1, 0, 0]]))
-    with pytest.raises(ValueError, match="radius must be >= 0 for every particle"):
+    with pytest.raises(ValueError, match="Collisions.__init__: radius must be .* entries >= 0.*got -1.0"):
         Scene(ParticleSystem([[0.0, 1.0]]), [Collisions(obstacles=[Plane([0, 1])], radius=-1.0)])
 
 

@@ -15,9 +15,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from .shapes import _as3
+from ..contracts import Array, Choice, Either, Int, Opt, Real, contract
 from ..errors import InvalidInput
 
 __all__ = ["BroadPhase", "broad_phase", "all_pairs", "grid_pairs"]
+
+_CENTRES = Either(Array(("N", 3)), Array(("N", 2)))
+_RADII = Array(("N",), ge=0, scalar=True)
+_MARGIN = Real(ge=0)
+_MAX_CELLS = 2 ** 20          # cells per axis: (2²⁰ + 2)³ cell keys fit an int64
+METHODS = ("grid", "all_pairs")
 
 _FORWARD = np.array([(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)
                      if (dx, dy, dz) > (0, 0, 0)])     # the 13 lexicographically positive offsets
@@ -54,6 +61,7 @@ def _finish(i, j, tested, method):
     return BroadPhase(pairs.astype(np.intp), int(tested), method)
 
 
+@contract(centers=_CENTRES, radii=_RADII, margin=_MARGIN, block=Int(ge=1))
 def all_pairs(centers, radii, margin: float = 0.0, block: int = 512) -> BroadPhase:
     """Every pair tested (the O(N²) baseline), in row blocks to bound memory.
 
@@ -64,6 +72,7 @@ def all_pairs(centers, radii, margin: float = 0.0, block: int = 512) -> BroadPha
     N = len(c)
     r = np.broadcast_to(np.asarray(radii, dtype=float), (N,))
     out_i, out_j = [], []
+    block = int(block)
     for s in range(0, N, block):
         rows = np.arange(s, min(N, s + block))
         d2 = ((c[rows, None, :] - c[None, :, :]) ** 2).sum(-1)
@@ -86,8 +95,13 @@ def _ranges_to_pairs(order, left, right):
     return order[src], order[first + offs]
 
 
+@contract(centers=_CENTRES, radii=_RADII, margin=_MARGIN, cell=Opt(Real(gt=0)))
 def grid_pairs(centers, radii, margin: float = 0.0, cell: float | None = None) -> BroadPhase:
-    """Overlapping pairs by a uniform grid (cell ≥ largest diameter + margin).
+    """Overlapping pairs by a uniform grid (cell ≥ largest diameter + margin; default: exactly that).
+
+    A cell smaller than the largest diameter + margin would miss pairs, so it is refused. Any larger cell
+    is correct (more candidates), so a cell wider than the whole cloud, or a zero one (points, no margin),
+    is replaced by one that spans the cloud in at most 2²⁰ cells per axis (the int64 cell keys).
 
     >>> grid_pairs([[0, 0, 0], [1.5, 0, 0], [5, 0, 0]], 1.0).pairs
     array([[0, 1]])
@@ -97,10 +111,22 @@ def grid_pairs(centers, radii, margin: float = 0.0, cell: float | None = None) -
     r = np.broadcast_to(np.asarray(radii, dtype=float), (N,))
     if N < 2:
         return BroadPhase(np.zeros((0, 2), np.intp), 0, "grid")
-    size = 2.0 * float(r.max()) + margin if cell is None else float(cell)
-    if not np.isfinite(size) or size <= 0:
-        raise InvalidInput(f"grid cell size must be positive, got {size}; give spheres a radius > 0 or pass cell")
-    ijk = np.floor((c - c.min(axis=0)) / size).astype(np.int64) + 1       # ≥ 1, so offsets −1 stay ≥ 0
+    need = 2.0 * float(r.max()) + margin
+    if cell is not None and float(cell) < need:
+        raise InvalidInput(f"grid_pairs: cell must be >= the largest diameter + margin = {need:g} (a smaller "
+                           f"cell misses pairs), got {cell}")
+    size = need if cell is None else float(cell)
+    lo = c.min(axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        extent = float((c.max(axis=0) - lo).max())
+    if not np.isfinite(extent):
+        raise InvalidInput(f"grid_pairs: centers spread over more than double precision can subtract (max - "
+                           f"min overflows); rescale the scene")
+    # a larger cell is always correct: span the cloud with at most _MAX_CELLS cells per axis
+    size = max(min(size, extent) if extent > 0 else 1.0, extent / _MAX_CELLS)
+    if size <= 0:           # points at one place with no margin: any cell will do
+        size = 1.0
+    ijk = np.floor((c - lo) / size).astype(np.int64) + 1       # ≥ 1, so offsets −1 stay ≥ 0
     dims = ijk.max(axis=0) + 2
     key = (ijk[:, 0] * dims[1] + ijk[:, 1]) * dims[2] + ijk[:, 2]
     order = np.argsort(key, kind="stable")
@@ -122,6 +148,7 @@ def grid_pairs(centers, radii, margin: float = 0.0, cell: float | None = None) -
     return _finish(i[hit], j[hit], i.size, "grid")
 
 
+@contract(centers=_CENTRES, radii=_RADII, method=Choice(METHODS), margin=_MARGIN)
 def broad_phase(centers, radii, method: str = "grid", margin: float = 0.0) -> BroadPhase:
     """Overlapping sphere pairs by ``method`` = "grid" (near-linear) or "all_pairs" (quadratic).
 
@@ -130,8 +157,4 @@ def broad_phase(centers, radii, method: str = "grid", margin: float = 0.0) -> Br
     >>> bool(np.array_equal(g.pairs, a.pairs)), g.tested < a.tested
     (True, True)
     """
-    if method == "grid":
-        return grid_pairs(centers, radii, margin)
-    if method == "all_pairs":
-        return all_pairs(centers, radii, margin)
-    raise InvalidInput(f"broad-phase method must be 'grid' or 'all_pairs', got {method!r}")
+    return grid_pairs(centers, radii, margin) if method == "grid" else all_pairs(centers, radii, margin)

@@ -38,10 +38,19 @@ Several contacts.
   speeds λ as the extra unknowns), exact when the slip direction is a cone edge. Both LCPs go to the
   one LCP core (:mod:`pbanim.lcp`: Lemke with a lexicographic ratio test, then the natural-map
   certificate); an answer that does not certify stops with :class:`~pbanim.errors.InfeasibleContact`
-  (or :class:`~pbanim.errors.ConvergenceError` at the pivot cap) — never a wrong answer; "staggered"
-  always returns.
+  (or :class:`~pbanim.errors.ConvergenceError` at the pivot cap) — never a wrong answer. One round of
+  this law can leave a contact approaching (restitution and friction pull on the neighbours), so it is
+  applied in rounds until none approaches (:mod:`pbanim.collision.simultaneous`).
 
 Both conserve linear momentum exactly; with ε = 1 both conserve energy on Newton's cradle.
+
+Every answer certifies itself (ORACLES D2, D3): after the impulses no contact approaches,
+v⁺_rel ≥ −tol·S (S: the largest contact speed ‖u‖ before or after, so the bound is in the problem's own
+units; tol = 1e-12 by default, about 4500 ulps), and the kinetic energy has not grown, T⁺ ≤ T⁻(1 + tol).
+An answer that fails either stops with :class:`~pbanim.errors.ConvergenceError` naming the contact or
+the energies. The result also says what each contact was (``regime``: "colliding" faster than the
+threshold, "resting" slower, "touching" — v⁻_rel = 0 within tol·S, a grazing contact that needs no
+impulse but is reported — or "separating") and what is left (``approach``, ``energy_before/after``).
 
 =================  ==============  ============  ====================================================
 symbol             code            shape         meaning
@@ -66,21 +75,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .lcp import _friction_lcp, _normal_lcp, solve_lcp_small
-from .shapes import Contacts, check_friction, check_restitution
-from ..errors import ConvergenceError, InvalidInput
-from ..geometry import skew, tangent_basis
-from ..results import natural_map_residual
+from .shapes import Contacts
+from .specs import ContactsFor, SymmetricPSD, UnitVectors, declared
+from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, contract
+from ..errors import ConvergenceError, InvalidInput, NonFiniteResult
+from ..geometry import skew
 
 __all__ = ["ImpulseBodies", "ImpulseResult", "collision_matrix", "contact_velocity", "contact_impulse",
            "apply_impulses", "resolve_collisions"]
 
+MODES = ("sequential", "simultaneous")
+FRICTION_MODELS = ("staggered", "lcp")
+LCP_METHODS = ("lemke", "enumerate")
 
+
+@contract(x=Array(("B1", 3)), v=Array(("B1", 3)), omega=Array(("B1", 3)), inv_mass=Array(("B1",), ge=0),
+          inv_I=SymmetricPSD(("B1", 3, 3)))
 @dataclass
 class ImpulseBodies:
     """Velocities and inverse masses of B bodies plus one world row (index −1 = B), for impulses.
 
-    Build with :meth:`make`; particles have ``inv_I = 0`` and ``omega = 0``.
+    Build with :meth:`make`; particles have ``inv_I = 0`` and ``omega = 0``. Inverse masses are ≥ 0 (0: a
+    static body) and inverse inertias symmetric positive semidefinite; the world row is zero.
 
     >>> bodies = ImpulseBodies.make(x=[[0, 0, 1.0]], v=[[0, 0, -1.0]], inv_mass=[0.5])
     >>> bodies.inv_mass, bodies.B
@@ -93,12 +109,23 @@ class ImpulseBodies:
     inv_mass: np.ndarray
     inv_I: np.ndarray
 
+    def __post_init__(self) -> None:      # the world row: a cross-field rule no single spec says
+        if len(self.inv_mass) == 0 or self.inv_mass[-1] != 0 or np.any(np.asarray(self.inv_I)[-1] != 0):
+            raise InvalidInput("ImpulseBodies: inv_mass and inv_I must end with the world row, which is zero "
+                               f"(got inv_mass[-1] = {self.inv_mass[-1] if len(self.inv_mass) else None}); "
+                               "build the record with ImpulseBodies.make")
+
     @property
     def B(self) -> int:
         return len(self.inv_mass) - 1
 
+    @declared
     @classmethod
+    @contract(x=Array(("B", 3)), v=Array(("B", 3)), inv_mass=Array(("B",), ge=0, scalar=True),
+              omega=Opt(Array(("B", 3))), inv_I=Opt(Either(SymmetricPSD(("B", 3, 3)), SymmetricPSD((3, 3)))))
     def make(cls, x, v, inv_mass, omega=None, inv_I=None) -> "ImpulseBodies":
+        """The record of B bodies at centres x (B, 3) with velocities v, ω and inverse masses and inertias
+        (one for all, or one per body), plus the world row."""
         x, v = np.asarray(x, float).reshape(-1, 3), np.asarray(v, float).reshape(-1, 3)
         B = len(x)
         w = np.broadcast_to(np.asarray(inv_mass, float), (B,))
@@ -108,13 +135,14 @@ class ImpulseBodies:
         return cls(pad(x), pad(v), pad(om), pad(w), pad(iI))
 
     def kinetic_energy(self) -> float:
-        """½ Σ m v² + ½ Σ ωᵀ I ω over dynamic bodies."""
+        """½ Σ m v² + ½ Σ ωᵀ I ω over dynamic bodies (I = (I⁻¹)⁺: an axis a body cannot turn about adds 0)."""
         dyn = self.inv_mass > 0
-        T = 0.5 * np.sum((self.v[dyn] ** 2).sum(1) / self.inv_mass[dyn])
-        rot = np.abs(self.inv_I).sum(axis=(1, 2)) > 0
-        if rot.any():
-            Lw = np.linalg.solve(self.inv_I[rot], self.omega[rot][..., None])[..., 0]
-            T += 0.5 * np.sum(Lw * self.omega[rot])
+        with np.errstate(over="ignore", invalid="ignore"):
+            T = 0.5 * np.sum((self.v[dyn] ** 2).sum(1) / self.inv_mass[dyn])
+            rot = np.abs(self.inv_I).sum(axis=(1, 2)) > 0
+            if rot.any():
+                I = np.linalg.pinv(self.inv_I[rot], hermitian=True)
+                T += 0.5 * np.einsum("ni,nij,nj->", self.omega[rot], I, self.omega[rot])
         return float(T)
 
 
@@ -132,10 +160,23 @@ class ImpulseResult:
     sticking : ndarray of bool (m,)
         Contacts whose tangential velocity was brought to zero within the friction cone.
     iterations : int
-        Sweeps of the sequential loop, or pivots of the simultaneous LCP.
+        Sweeps of the sequential loop, or pivots of the simultaneous LCPs.
     mode : str
     residual : float
-        Natural-map residual of the normal LCP (simultaneous) or the most negative v_rel left (sequential).
+        Natural-map residual of the last normal LCP (simultaneous) or the most negative v_rel left (sequential).
+    extra : dict
+        ``rounds`` of the simultaneous law, ``plastic_finish`` (True when contacts still approaching after
+        ``max_iter`` rounds were stopped plastically), ``energy_capped`` (sequential impulses scaled down
+        because Newton's law with friction would have created energy).
+    regime : ndarray of str (m,)
+        Each contact before the impulses: "colliding" (faster than the threshold), "resting" (slower),
+        "touching" (v⁻_rel = 0 within tol·S: grazing, reported, no impulse needed) or "separating".
+    approach : float
+        The largest approach speed left, max(0, −min v⁺_rel) (certified ≤ ``tolerance``).
+    energy_before, energy_after : float
+        Kinetic energies (certified: after ≤ before·(1 + tol)).
+    tolerance : float
+        tol·S, the approach the certificate allowed (m/s).
     """
 
     v: np.ndarray
@@ -147,13 +188,22 @@ class ImpulseResult:
     mode: str
     residual: float = 0.0
     extra: dict = field(default_factory=dict)
+    regime: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U10"))
+    approach: float = 0.0
+    energy_before: float = 0.0
+    energy_after: float = 0.0
+    tolerance: float = 0.0
+
+
+_BODIES = Obj(ImpulseBodies)
 
 
 def _lever(bodies: ImpulseBodies, c: Contacts):
     return c.point - bodies.x[c.a], c.point - bodies.x[c.b]
 
 
-def contact_velocity(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
+@contract(bodies=_BODIES, contacts=ContactsFor("bodies"))
+def contact_velocity(bodies: ImpulseBodies, contacts: Contacts) -> np.ndarray:
     """u = ṗ_a − ṗ_b with ṗ = v + ω × r, shape (m, 3); v_rel = n·u.
 
     A ball spinning about y over the ground: its lowest point moves at v − ω × (R ẑ):
@@ -162,13 +212,15 @@ def contact_velocity(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     >>> contact_velocity(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))
     array([[-2.,  0., -2.]])
     """
+    c = contacts
     # BEGIN SOLUTION contact_velocity
     ra, rb = _lever(bodies, c)
     return (bodies.v[c.a] + np.cross(bodies.omega[c.a], ra)) - (bodies.v[c.b] + np.cross(bodies.omega[c.b], rb))
     # END SOLUTION
 
 
-def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
+@contract(bodies=_BODIES, contacts=ContactsFor("bodies"))
+def collision_matrix(bodies: ImpulseBodies, contacts: Contacts) -> np.ndarray:
     """K = (1/m_a + 1/m_b) 𝟙 − [r_a]× I_a⁻¹ [r_a]× − [r_b]× I_b⁻¹ [r_b]×, shape (m, 3, 3).
 
     A solid ball (m = 1, R = 1, I = 2/5) on the ground: 1 along n, 1 + R²/I = 7/2 along the tangents.
@@ -177,6 +229,7 @@ def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     >>> np.diag(collision_matrix(b, Contacts([0], [-1], [[0, 0, 0]], [[0, 0, 1]], [0]))[0])
     array([3.5, 3.5, 1. ])
     """
+    c = contacts
     # BEGIN SOLUTION collision_matrix
     ra, rb = _lever(bodies, c)
     Sa, Sb = skew(ra), skew(rb)
@@ -185,7 +238,8 @@ def collision_matrix(bodies: ImpulseBodies, c: Contacts) -> np.ndarray:
     # END SOLUTION
 
 
-def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
+@contract(bodies=_BODIES, contacts=ContactsFor("bodies"), J=Array(("contacts.m", 3), empty=True))
+def apply_impulses(bodies: ImpulseBodies, contacts: Contacts, J: np.ndarray) -> None:
     """In place: v_a += J/m_a, ω_a += I_a⁻¹(r_a × J); the opposite on b (repeated bodies accumulate).
 
     The world row (index −1) has zero inverse mass: it absorbs −J and stays at rest.
@@ -196,6 +250,7 @@ def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
     array([[0., 0., 0.],
            [0., 0., 0.]])
     """
+    c = contacts
     # BEGIN SOLUTION apply_impulses
     J = np.asarray(J, float).reshape(-1, 3)
     ra, rb = _lever(bodies, c)
@@ -210,11 +265,15 @@ def apply_impulses(bodies: ImpulseBodies, c: Contacts, J: np.ndarray) -> None:
     # END SOLUTION
 
 
+@contract(K=SymmetricPSD((3, 3)), u=Array((3,)), n=UnitVectors((3,)), restitution=Real(ge=0, le=1),
+          friction=Real(ge=0))
 def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: float,
                     friction: float = 0.0) -> tuple[np.ndarray, bool]:
     """Impulse J on body a at one contact (readable version): Newton's law along n, Coulomb friction.
 
-    Returns ``(J, sticking)``; J = 0 if the contact is not approaching (n·u ≥ 0).
+    Returns ``(J, sticking)``; J = 0 if the contact is not approaching (n·u ≥ 0). A singular K (a body
+    that cannot turn about some axis) gets the least-squares stick impulse; a slide direction along which
+    the contact cannot be decelerated (nᵀK(n − μ t̂) ≤ 0, a jam) gets the frictionless impulse.
 
     A particle (m = 1) hitting the ground at 2 m/s with ε = 0.5 receives j = (1 + ε)·2 = 3:
 
@@ -228,80 +287,62 @@ def contact_impulse(K: np.ndarray, u: np.ndarray, n: np.ndarray, restitution: fl
         return np.zeros(3), False
     if friction == 0.0:
         return (-(1 + restitution) * vn / float(n @ K @ n)) * n, False
-    J = np.linalg.solve(K, -restitution * vn * n - u)          # stick: u⁺ = −ε v⁻_rel n
+    J = np.linalg.lstsq(K, -restitution * vn * n - u, rcond=None)[0]   # stick: u⁺ = −ε v⁻_rel n
     jn = float(n @ J)
     Jt = J - jn * n
     if np.linalg.norm(Jt) <= friction * jn * (1 + 1e-12):
         return J, True
     ut = u - vn * n                                             # slide against the initial slip direction
-    nt = np.linalg.norm(ut)
-    t = ut / nt if nt > 0 else -Jt / np.linalg.norm(Jt)
+    nt, njt = np.linalg.norm(ut), np.linalg.norm(Jt)
+    t = ut / nt if nt > 0 else (-Jt / njt if njt > 0 else np.zeros(3))
     d = n - friction * t
+    if float(n @ K @ d) <= 0:                                   # a jam: no slide impulse decelerates
+        d = n
     return (-(1 + restitution) * vn / float(n @ K @ d)) * d, False
     # END SOLUTION
 
 
-def _tangent_friction(K: np.ndarray, u: np.ndarray, n: np.ndarray, jn: float, mu: float):
-    """Tangential impulse from the 2×2 system K_tt J_t = −u_t, clamped to the disc ‖J_t‖ ≤ μ jn."""
-    t1, t2 = tangent_basis(n)
-    T = np.stack([t1[0], t2[0]], axis=1)                       # (3, 2) tangent basis
-    ut = T.T @ u
-    if mu == 0.0 or jn <= 0 or not np.any(ut):
-        return np.zeros(3), bool(mu > 0 and jn > 0)
-    jt = np.linalg.solve(T.T @ K @ T, -ut)
-    norm = np.linalg.norm(jt)
-    if norm <= mu * jn:
-        return T @ jt, True
-    return T @ (-mu * jn * ut / np.linalg.norm(ut)), False
+def _sequential(bodies, c, eps, mu, fast, max_iter, impulse, sticking) -> tuple[int, int]:
+    """Baraff's loop over the contacts approaching faster than ``fast``, one impulse at a time; in place.
 
-
-def _restitution_scale(A, u, fc, r) -> float:
-    """The largest s in [0, 1] with ΔT(s) = (fc + s r)·u + ½ (fc + s r)ᵀA(fc + s r) ≤ 0 (roundoff allowed)."""
-    qa, qb = 0.5 * float(r @ A @ r), float(r @ u + fc @ A @ r)
-    qc = float(fc @ u + 0.5 * fc @ A @ fc)                         # ≤ 0: the plastic impulse dissipates
-    slack = 1e-12 * max(1.0, float(np.abs(fc) @ (np.abs(A) @ np.abs(fc))))
-    if qa + qb + qc <= slack:
-        return 1.0
-    if qa <= 0.0:                                                  # linear: root of qb s + qc = 0
-        return float(np.clip(-qc / qb, 0.0, 1.0)) if qb > 0 else 0.0
-    return float(np.clip((-qb + np.sqrt(max(qb * qb - 4 * qa * qc, 0.0))) / (2 * qa), 0.0, 1.0))
-
-
-def _simultaneous(bodies: ImpulseBodies, c: Contacts, e_i: np.ndarray, mu: float, lcp: str,
-                  friction_model: str = "staggered"):
-    """All normal impulses at once from the LCP (ε per contact), with friction; in place."""
-    u0n = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-    b = u0n + e_i * np.minimum(u0n, 0.0)
-    if mu > 0 and friction_model == "lcp":
-        f, J, sticking, its, residual = _friction_lcp(bodies, c, contact_velocity(bodies, c), b, mu, lcp)
-        apply_impulses(bodies, c, J)
-        return f, J - f[:, None] * c.normal, sticking, its, residual
-    A = _normal_lcp(bodies, c)
-    # compression (ε = 0): the plastic impulses f_c ⊥ A f_c + u⁻ ≥ 0 dissipate T; restitution adds
-    # s·ε_i f_c per contact (Poisson), with the largest s ≤ 1 that keeps ΔT ≤ 0 (s = 1 when every ε_i is
-    # the same: ΔT = −½(1 − ε²) f_cᵀ A f_c)
-    fc, its = solve_lcp_small(A, u0n, method=lcp)
-    f = fc + _restitution_scale(A, u0n, fc, e_i * fc) * e_i * fc
-    apply_impulses(bodies, c, f[:, None] * c.normal)
-    residual = natural_map_residual(fc, A @ fc + u0n)
-    Jt = np.zeros((c.m, 3))
-    sticking = np.zeros(c.m, bool)
-    if mu > 0:
-        K = collision_matrix(bodies, c)
-        for i in np.flatnonzero(f > 0):
+    An impulse that would create energy (Newton's law with friction, Kane's paradox: ΔT = J·u + ½JᵀKJ > 0)
+    is scaled down to the largest s J with ΔT ≤ 0 (the Coulomb cone is kept). Returns (sweeps, capped).
+    """
+    capped = 0
+    for its in range(1, max_iter + 1):
+        vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
+        colliding = np.flatnonzero(vn < -fast)
+        if colliding.size == 0:
+            return its, capped
+        for i in colliding:
             ci = c.select([i])
-            Jt[i], sticking[i] = _tangent_friction(K[i], contact_velocity(bodies, ci)[0], c.normal[i], f[i], mu)
-            apply_impulses(bodies, ci, Jt[i])
-    return f, Jt, sticking, its, residual
+            u, K = contact_velocity(bodies, ci)[0], collision_matrix(bodies, ci)[0]
+            J, stick = contact_impulse(K, u, c.normal[i], eps, mu)
+            work, quad = float(J @ u), 0.5 * float(J @ K @ J)
+            if work + quad > 1e-12 * (abs(work) + quad):
+                J, capped = J * (min(1.0, -work / quad) if work < 0 else 0.0), capped + 1
+            apply_impulses(bodies, ci, J[None])
+            impulse[i] += J
+            sticking[i] = stick
+    vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
+    raise ConvergenceError("sequential impulses", max_iter, float(-vn.min()), fast,
+                           detail=f"{int((vn < -fast).sum())} contacts still colliding")
 
 
+@contract(bodies=_BODIES, contacts=ContactsFor("bodies"), restitution=Real(ge=0, le=1), friction=Real(ge=0),
+          mode=Choice(MODES), rest_velocity=Real(ge=0), max_iter=Int(ge=1), tol=Real(gt=0, lt=1),
+          lcp=Choice(LCP_METHODS), friction_model=Choice(FRICTION_MODELS), max_rounds=Int(ge=1))
 def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: float = 1.0,
                        friction: float = 0.0, mode: str = "sequential", rest_velocity: float = 0.0,
                        max_iter: int = 1000, tol: float = 1e-12, lcp: str = "lemke",
-                       friction_model: str = "staggered") -> ImpulseResult:
+                       friction_model: str = "staggered", max_rounds: int = 100) -> ImpulseResult:
     """Apply collision impulses to ``bodies`` (in place) so no contact approaches; see the module docstring.
 
     Contacts approaching slower than ``rest_velocity`` get ε = 0 (resting contact: stopped, not bounced).
+    ``max_iter`` caps the sweeps of the sequential loop, ``max_rounds`` the rounds of the simultaneous law
+    (each an LCP; a light body trapped between heavy ones needs about π√(M/m) of them, so after the cap
+    what still approaches is stopped plastically, see :mod:`pbanim.collision.simultaneous`); ``tol`` is
+    the relative tolerance of the certificate (no approach beyond tol·S, no energy growth beyond tol·T).
 
     Three equal balls in a row, the first moving at 1 (Newton's cradle, ORACLES D2):
 
@@ -311,55 +352,40 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
     >>> c = Contacts(a=[1, 2], b=[0, 1], point=[[1, 0, 0], [3, 0, 0]], normal=[[1, 0, 0]] * 2, depth=[0, 0])
     >>> resolve_collisions(cradle(), c, 1.0, mode="sequential").v[:, 0]
     array([0., 0., 1.])
-    >>> resolve_collisions(cradle(), c, 1.0, mode="simultaneous").v[:, 0].round(12)
-    array([-0.33333333,  0.66666667,  0.66666667])
+    >>> r = resolve_collisions(cradle(), c, 1.0, mode="simultaneous"); r.v[:, 0].round(12), r.regime.tolist()
+    (array([-0.33333333,  0.66666667,  0.66666667]), ['colliding', 'touching'])
     """
-    eps, mu = check_restitution(restitution), check_friction(friction)
-    if mode not in ("sequential", "simultaneous"):
-        raise InvalidInput(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
-    if friction_model not in ("staggered", "lcp"):
-        raise InvalidInput(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
-    if rest_velocity < 0:
-        raise InvalidInput(f"rest_velocity must be >= 0, got {rest_velocity}")
-    c = contacts
-    m = c.m
-    impulse = np.zeros((m, 3))
-    sticking = np.zeros(m, bool)
-    u0n = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal) if m else np.zeros(0)
-    scale = max(1.0, float(np.abs(u0n).max())) if m else 1.0
-    its, residual = 0, 0.0
+    from .simultaneous import certified, rounds
+
+    eps, mu, rest, c, m = float(restitution), float(friction), float(rest_velocity), contacts, contacts.m
+    impulse, sticking = np.zeros((m, 3)), np.zeros(m, bool)
+    T0 = bodies.kinetic_energy()
+    u0 = contact_velocity(bodies, c) if m else np.zeros((0, 3))
+    u0n = np.einsum("ij,ij->i", u0, c.normal)
+    speed = float(np.sqrt(np.einsum("ij,ij->i", u0, u0)).max()) if m else 0.0
+    if not (np.isfinite(T0) and np.isfinite(speed)):
+        raise NonFiniteResult("resolve_collisions: the kinetic energy or a contact speed",
+                              f"T = {T0}, max |u| = {speed}")
+    its, residual, extra = 0, 0.0, {"rounds": 0, "plastic_finish": False, "energy_capped": 0}
     if m and mode == "sequential":
         # Baraff's loop over the colliding contacts (faster than rest_velocity), one impulse at a time
-        fast = max(rest_velocity, tol * scale)
-        for its in range(1, max_iter + 1):
-            vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-            colliding = np.flatnonzero(vn < -fast)
-            if colliding.size == 0:
-                break
-            for i in colliding:
-                ci = c.select([i])
-                u = contact_velocity(bodies, ci)[0]
-                J, stick = contact_impulse(collision_matrix(bodies, ci)[0], u, c.normal[i], eps, mu)
-                apply_impulses(bodies, ci, J)
-                impulse[i] += J
-                sticking[i] = stick
-        else:
-            vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-            raise ConvergenceError("sequential impulses", max_iter, float(-vn.min()), tol * scale,
-                                   detail=f"{int((vn < -fast).sum())} contacts still colliding")
+        its, extra["energy_capped"] = _sequential(bodies, c, eps, mu, max(rest, tol * speed), max_iter, impulse,
+                                                  sticking)
         # what still approaches is resting contact: stopped together (ε = 0), as Baraff hands it to ch07
         vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
-        if np.any(vn < -tol * scale):
-            f, Jt, st, _, residual = _simultaneous(bodies, c, np.zeros(m), mu, lcp, friction_model)
+        if np.any(vn < -tol * speed):
+            f, Jt, st, _, residual, more = rounds(bodies, c, 0.0, mu, rest, lcp, friction_model, max_rounds, tol,
+                                                 speed)
             impulse += f[:, None] * c.normal + Jt
             sticking |= st
+            extra.update(more)
     elif m:
         # one ε for the whole impact (Poisson): every contact restitutes when any contact collides faster
         # than the threshold, none when all are resting; one ε keeps ΔT = −½(1 − ε²) f_cᵀAf_c ≤ 0
-        e_i = np.full(m, eps if np.any(-u0n > rest_velocity) else 0.0)
-        f, Jt, sticking, its, residual = _simultaneous(bodies, c, e_i, mu, lcp, friction_model)
+        f, Jt, sticking, its, residual, more = rounds(bodies, c, eps, mu, rest, lcp, friction_model, max_rounds,
+                                                      tol, speed)
         impulse += f[:, None] * c.normal + Jt
+        extra.update(more)
     bodies.v[-1] = 0.0
     bodies.omega[-1] = 0.0
-    jn = np.einsum("ij,ij->i", impulse, c.normal) if m else np.zeros(0)
-    return ImpulseResult(bodies.v[:-1].copy(), bodies.omega[:-1].copy(), impulse, jn, sticking, its, mode, residual)
+    return certified(bodies, c, impulse, sticking, its, mode, residual, extra, u0n, T0, speed, rest, tol)

@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 from .shapes import Contacts
-from ..errors import ConvergenceError, InfeasibleContact, InvalidInput
+from ..contracts import Array, Choice, Int, Opt, Real, contract
+from ..errors import ConvergenceError, InfeasibleContact
 from ..geometry import cone_edges
 from ..lcp import delassus, enumerate_active_sets, solve_lcp
 from ..results import natural_map_residual
@@ -33,6 +34,8 @@ from ..results import natural_map_residual
 __all__ = ["solve_lcp_small"]
 
 
+@contract(A=Array(("m", "m")), b=Array(("m",)), method=Choice(("lemke", "enumerate")), max_iter=Opt(Int(ge=1)),
+          tol=Real(gt=0, lt=1))
 def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, tol: float = 1e-12):
     """Solve w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 for a small dense A (collision impulses).
 
@@ -49,8 +52,6 @@ def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, to
     >>> f.round(12)
     array([1.33333333, 0.66666667])
     """
-    if method not in ("lemke", "enumerate"):
-        raise InvalidInput(f"LCP method must be 'lemke' or 'enumerate', got {method!r}")
     A, b = np.asarray(A, float), np.asarray(b, float)
     m = len(b)
     if m == 0 or np.all(b >= 0):

@@ -25,12 +25,33 @@ from typing import Any, Sequence
 import numpy as np
 
 from .broad import grid_pairs
-from .impulse import ImpulseBodies, ImpulseResult, resolve_collisions
+from .impulse import FRICTION_MODELS, MODES, ImpulseBodies, ImpulseResult, resolve_collisions
 from .narrow import collide, sphere_plane, sphere_sphere
-from .shapes import Box, Capsule, Contacts, Plane, Sphere, check_friction, check_restitution
+from .shapes import Box, Capsule, Contacts, Plane, Sphere
+from .specs import Obstacle
 from ..bodies import require_bodies
+from ..contracts import Array, Choice, Either, Flag, Indices, Int, Obj, Opt, Real, Seq, contract
 from ..scene import Effect
 from ..errors import InvalidInput
+
+
+class _StateSize:
+    """The length of the bound system's flat state (``n_state`` where the system has it)."""
+
+    def __call__(self, env) -> int:
+        system = env.resolve("self.system")
+        n = getattr(system, "n_state", None)
+        return int(n) if n is not None else int(np.size(system.state()))
+
+    def __repr__(self) -> str:
+        return "len(system state)"
+
+
+_STATE = Array((_StateSize(),))
+_TIME = Real()
+_STEP = Real(gt=0)
+_MARGIN = Real(ge=0)
+_SHAPES = Obj(Sphere, Box, Capsule)
 
 __all__ = ["Collisions"]
 
@@ -73,37 +94,32 @@ class Collisions(Effect):
     name = "collisions"
     phase = "post_step"
 
+    @contract(shapes=Opt(Either(_SHAPES, Seq(_SHAPES, min_len=1))), obstacles=Seq(Obstacle()),
+              radius=Array(("N",), ge=0, scalar=True), restitution=Real(ge=0, le=1), friction=Real(ge=0),
+              mode=Choice(MODES), rest_velocity=Opt(Real(ge=0)), gravity=Real(ge=0), project=Flag(),
+              max_iter=Int(ge=1), friction_model=Choice(FRICTION_MODELS))
     def __init__(self, shapes=None, obstacles: Sequence = (), radius=0.0, restitution: float = 1.0,
                  friction: float = 0.0, mode: str = "sequential", rest_velocity: float | None = None,
                  gravity: float = 9.81, project: bool = True, max_iter: int = 1000,
                  friction_model: str = "staggered") -> None:
-        self.restitution = check_restitution(restitution)
-        self.friction = check_friction(friction)
-        if mode not in ("sequential", "simultaneous"):
-            raise InvalidInput(f"mode must be 'sequential' or 'simultaneous', got {mode!r}")
-        if rest_velocity is not None and not (np.isfinite(rest_velocity) and rest_velocity >= 0):
-            raise InvalidInput(f"rest_velocity must be a finite velocity >= 0, got {rest_velocity}")
-        if friction_model not in ("staggered", "lcp"):
-            raise InvalidInput(f"friction_model must be 'staggered' or 'lcp', got {friction_model!r}")
+        self.restitution, self.friction = float(restitution), float(friction)
         self.mode, self.rest_velocity, self.gravity = mode, rest_velocity, float(gravity)
         self.friction_model = friction_model
         self.project, self.max_iter = bool(project), int(max_iter)
         self.planes, self.spheres = [], []
-        for ob in obstacles:
+        for ob in obstacles:            # checked by the contract: a Plane, or (Sphere, 3-vector centre)
             if isinstance(ob, Plane):
                 self.planes.append(ob)
-            elif isinstance(ob, tuple) and len(ob) == 2 and isinstance(ob[0], Sphere):
-                c = np.asarray(ob[1], float)
-                if c.shape not in ((2,), (3,)) or not np.all(np.isfinite(c)):
-                    raise InvalidInput(f"an obstacle sphere's centre must be a finite 2- or 3-vector, got {ob[1]!r}")
-                self.spheres.append((ob[0], np.append(c, [0.0] * (3 - len(c)))))
             else:
-                raise InvalidInput(f"obstacles must be Plane objects or (Sphere, centre) pairs, got {ob!r}")
+                c = np.asarray(ob[1], float)
+                self.spheres.append((ob[0], np.append(c, [0.0] * (3 - len(c)))))
         self.shapes_in, self.radius_in = shapes, radius
         self.log: list[dict] = []
         self.last: ImpulseResult | None = None
 
     # -- binding ------------------------------------------------------------------------------------
+    @contract(system=Obj("pbanim.bodies:Bodies", what="a system with the body protocol (ParticleSystem, "
+                                                        "RigidBodies)"))
     def bind(self, system) -> None:
         self.system = require_bodies(system, "Collisions")
         self.rigid = system.kind == "rigid"
@@ -126,12 +142,11 @@ class Collisions(Effect):
             self.is_sphere = np.array([isinstance(s, Sphere) for s in sh])
             self.inv_mass = system.inv_mass
         else:
-            r = np.asarray(self.radius_in, float)
+            r = np.asarray(self.radius_in, float)      # each radius ≥ 0 by the contract; the count is known now
             if r.shape not in ((), (1,), (N,)):
-                raise InvalidInput(f"radius must be a scalar or have shape ({N},), got shape {r.shape}")
+                raise InvalidInput(f"Collisions: radius must be one number or one per particle ({N}), got shape "
+                                   f"{r.shape}")
             r = np.broadcast_to(r, (N,)).copy()
-            if not np.all(np.isfinite(r)) or np.any(r < 0):
-                raise InvalidInput(f"radius must be >= 0 for every particle, got {self.radius_in}")
             self.radius, self.is_sphere, self.dim = r, r > 0, system.dim
             if system.dim == 2:   # 2-D particles live in z = 0: a tilted plane or an off-plane sphere misses them
                 for p in self.planes:
@@ -155,6 +170,7 @@ class Collisions(Effect):
         x3[:, : self.dim] = x
         return x3, None
 
+    @contract(y=_STATE)
     def bodies(self, y) -> ImpulseBodies:
         """The bodies' velocities and inverse masses at y, with the world row (for the impulse solver)."""
         x, _ = self._poses(y)
@@ -166,6 +182,7 @@ class Collisions(Effect):
         return ImpulseBodies.make(x, v3, self.system.W)
 
     # -- detection ------------------------------------------------------------------------------
+    @contract(y=_STATE, margin=_MARGIN)
     def contacts(self, y, margin: float = 0.0) -> Contacts:
         """All contacts at state y (bodies against obstacles and against each other)."""
         x, R = self._poses(y)
@@ -214,6 +231,7 @@ class Collisions(Effect):
             parts.append(collide(self.shapes[a], x[a], R[a], self.shapes[b], x[b], R[b], a, b, margin))
         return Contacts.concatenate(parts)
 
+    @contract(y=_STATE, pairs=Opt(Indices("self.system.N", (None, 2), empty=True)))
     def gaps(self, y, pairs=None) -> np.ndarray:
         """Signed distances (> 0 apart) of every body–plane feature and of ``pairs`` of spheres."""
         x, R = self._poses(y)
@@ -238,6 +256,7 @@ class Collisions(Effect):
             out.append(np.linalg.norm(d, axis=1) - self.radius[pairs[:, 0]] - self.radius[pairs[:, 1]])
         return np.concatenate(out) if out else np.zeros(0)
 
+    @contract(y=_STATE, margin=_MARGIN)
     def sphere_pairs(self, y, margin: float) -> np.ndarray:
         """Candidate sphere pairs (both spheres) within ``margin`` — the pairs whose gap is an event."""
         x, _ = self._poses(y)
@@ -247,6 +266,7 @@ class Collisions(Effect):
         return p
 
     # -- response -------------------------------------------------------------------------------
+    @contract(t=_TIME, y=_STATE, h=_STEP, margin=_MARGIN, plastic=Flag())
     def respond(self, t: float, y: np.ndarray, h: float, margin: float = 0.0, plastic: bool = False) -> np.ndarray:
         """Impulses for the contacts at y (and projection of the penetration); returns the new state.
 
@@ -301,13 +321,16 @@ class Collisions(Effect):
             self.system.unpack(y)[0][...] += dx[:N, : self.dim]
         return y
 
+    @contract(h=_STEP)
     def threshold(self, h: float) -> float:
         """The restitution threshold (m/s) at step h: ``rest_velocity``, or 3·gravity·h by default."""
         return self.rest_velocity if self.rest_velocity is not None else 3.0 * self.gravity * h
 
+    @contract(t=_TIME, y=_STATE, h=_STEP)
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         return self.respond(t, y, h)
 
+    @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
         res = self.last
         return {"contacts": 0 if res is None else len(res.normal_impulse),

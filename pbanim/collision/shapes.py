@@ -14,8 +14,11 @@ symbol             code         shape       meaning
 a, b               ``a, b``     (m,) int    body indices (−1 = the static world)
 p                  ``point``    (m, 3)      contact point, midway between the two surfaces
 n                  ``normal``   (m, 3)      unit normal, from b towards a
-d                  ``depth``    (m,)        penetration depth (≥ 0; 0 = touching)
+d                  ``depth``    (m,)        penetration depth (0 = touching; < 0: a gap, for look-ahead)
 =================  ===========  ==========  ==================================================
+
+Touching counts: the narrow phase reports a contact when depth ≥ −margin, so two spheres exactly r_a + r_b
+apart (depth 0) are a contact, never skipped.
 """
 
 from __future__ import annotations
@@ -24,11 +27,44 @@ from dataclasses import dataclass
 from typing import Iterable
 
 import numpy as np
-from ..errors import InvalidInput, as_float, as_floats, check_positive
+
+from .specs import BodyIds, UnitVectors, declared
+from ..contracts import Array, Either, Indices, Obj, Opt, Real, Seq, Spec, contract
+from ..errors import InvalidInput, as_float, check_number
 
 __all__ = ["Contacts", "Plane", "Sphere", "Box", "Capsule", "check_restitution", "check_friction"]
 
 
+_POINTS = Either(Array(("m", 3), empty=True), Array(("m", 2), empty=True))
+_MASS = Real(gt=0)
+
+
+class _Mask(Spec):
+    """A bool array with one entry per contact (``size`` is a reference to the count)."""
+
+    def __init__(self, size) -> None:
+        self.size = size
+
+    def describe(self) -> str:
+        return "a bool array with one entry per contact"
+
+    def check(self, name, value, env):
+        a = np.asarray(value) if isinstance(value, (list, tuple, np.ndarray)) else None
+        m = int(env.resolve(self.size))
+        if a is None or a.dtype != bool or a.shape != (m,):
+            raise env.fail(name, f"a bool array of shape ({m},)", value)
+        return a
+
+    def example(self, env):
+        return np.ones(int(env.resolve(self.size)), dtype=bool)
+
+    def bad(self, env):
+        return [("None", None), ("too long", np.ones(int(env.resolve(self.size)) + 1, dtype=bool))]
+
+
+@contract(a=BodyIds(("m",)), b=BodyIds(("m",)), point=_POINTS, normal=Either(
+    UnitVectors(("m", 3), empty=True), UnitVectors(("m", 2), empty=True)), depth=Array(("m",), empty=True),
+    radius=Opt(Array(("m",), ge=0, empty=True)), radius_b=Opt(Array(("m",), ge=0, empty=True)))
 @dataclass
 class Contacts:
     """Struct of arrays of m contacts (the interface every contact solver codes against).
@@ -41,7 +77,9 @@ class Contacts:
     normal : ndarray, shape (m, 3) (or (m, 2))
         Unit normals pointing from b towards a.
     depth : ndarray, shape (m,)
-        Penetration depths ≥ 0.
+        Penetration depths (0: touching; negative: a gap, the look-ahead contacts of chapter 07).
+    radius, radius_b : ndarray, shape (m,), optional
+        Curvature radii of a's and b's features (0: a vertex or a face).
 
     Examples
     --------
@@ -65,8 +103,10 @@ class Contacts:
         self.b = np.asarray(self.b, dtype=np.intp).reshape(-1)
         point = np.asarray(self.point, dtype=float)
         normal = np.asarray(self.normal, dtype=float)
+        # the contract checks each argument of a call from outside pbanim; contacts built inside (the narrow
+        # phase, the contact chapter's make_contacts) are checked here, once, with the cross-field rules
         d = point.shape[-1] if point.ndim >= 1 and point.shape[-1] in (2, 3) else 3   # 2-D scenes: (m, 2)
-        if point.size % d or normal.size % d:
+        if point.size % d or normal.size % d or (point.ndim == normal.ndim == 2 and point.shape[1] != normal.shape[1]):
             raise InvalidInput(f"Contacts point and normal must have shape (m, 2) or (m, 3) alike, got "
                                f"{point.shape} and {normal.shape}")
         self.point = point.reshape(-1, d)
@@ -103,24 +143,26 @@ class Contacts:
     def empty(cls) -> "Contacts":
         return cls(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
 
+    @declared
     @classmethod
+    @contract(parts=Seq(Obj("pbanim.collision.shapes:Contacts")))
     def concatenate(cls, parts: Iterable["Contacts"]) -> "Contacts":
+        """One set holding every contact of ``parts`` in order (all 2-D or all 3-D)."""
         parts = [p for p in parts if p.m]
         if not parts:
             return cls.empty()
+        if len({p.point.shape[1] for p in parts}) > 1:
+            raise InvalidInput(f"Contacts.concatenate: parts mix 2-D and 3-D contacts (point widths "
+                               f"{sorted({p.point.shape[1] for p in parts})}); give contacts of one dimension")
         return cls(np.concatenate([p.a for p in parts]), np.concatenate([p.b for p in parts]),
                    np.concatenate([p.point for p in parts]), np.concatenate([p.normal for p in parts]),
                    np.concatenate([p.depth for p in parts]), np.concatenate([p.radius for p in parts]),
                    np.concatenate([p.radius_b for p in parts]))
 
+    @contract(mask=Either(_Mask("self.m"), Indices("self.m", (None,), empty=True)))
     def select(self, mask) -> "Contacts":
-        """The contacts where ``mask`` (bool array or index array) holds."""
+        """The contacts where ``mask`` (bool array of shape (m,), or contact indices) holds."""
         mask = np.asarray(mask)
-        if mask.dtype == bool and mask.shape != (self.m,):
-            raise InvalidInput(f"mask must be a bool array of shape ({self.m},) (one per contact), got {mask.shape}")
-        if mask.dtype != bool and (mask.dtype.kind not in "iu" or mask.ndim != 1
-                                   or np.any((mask < -self.m) | (mask >= self.m))):
-            raise InvalidInput(f"mask must be bool (m,) or contact indices in [0, {self.m}), got {mask!r}")
         return Contacts(self.a[mask], self.b[mask], self.point[mask], self.normal[mask], self.depth[mask],
                         self.radius[mask], self.radius_b[mask])
 
@@ -131,39 +173,40 @@ class Contacts:
 
 def _shape_inertia(shape, mass, moments) -> np.ndarray:
     """diag(moments) after checking the mass and that the moments are representable (finite, > 0)."""
-    m = _positive("mass", mass, "a body has a positive finite mass")
+    m = float(mass)
     with np.errstate(over="ignore", under="ignore", invalid="ignore"):
         d = np.array([f(m) for f in moments], dtype=float)
     if not (np.all(np.isfinite(d)) and np.all(d > 0)):
-        raise InvalidInput(f"{shape!r}.inertia({mass}) has moments {d.tolist()}, not finite and > 0 (the "
-                           "dimensions or mass overflow double precision); use moderate units")
+        raise InvalidInput(f"{shape!r}.inertia: mass {mass} gives moments {d.tolist()}, not finite and > 0 "
+                           "(a mass <= 0, or dimensions and mass that overflow double precision); use a "
+                           "positive mass in moderate units")
     return np.diag(d)
 
 
-_positive = check_positive
-
-
+@contract(restitution=Real(ge=0, le=1))
 def check_restitution(restitution) -> float:
-    """Validate ε ∈ [0, 1] (ORACLES G3).
+    """Validate ε ∈ [0, 1] (ORACLES G3): 0 is a plastic, 1 an elastic impact.
+
+    The contract refuses a bad value from outside pbanim; the body checks a value passed on from inside
+    (a model's or a design scene's own argument).
 
     >>> check_restitution(1.5)
     Traceback (most recent call last):
     ...
-    pbanim.errors.InvalidInput: restitution must lie in [0, 1], got 1.5; use 0 for a plastic and 1 for an elastic impact
+    pbanim.errors.InvalidInput: check_restitution: restitution must be a finite number >= 0 and <= 1, got 1.5
     """
     e = as_float("restitution", restitution)
     if not (0.0 <= e <= 1.0):
         raise InvalidInput(f"restitution must lie in [0, 1], got {restitution}; use 0 for a plastic and 1 "
-                         "for an elastic impact")
+                           "for an elastic impact")
     return e
 
 
+@contract(friction=Real(ge=0))
 def check_friction(friction) -> float:
-    """Validate the Coulomb coefficient μ ≥ 0 (ORACLES G3)."""
-    mu = float(friction)
-    if not (np.isfinite(mu) and mu >= 0.0):
-        raise InvalidInput(f"friction must be a finite coefficient >= 0, got {friction}; use 0 for smooth contact")
-    return mu
+    """Validate the Coulomb coefficient μ ≥ 0 (ORACLES G3); the body checks a value passed on from inside
+    pbanim, as :func:`check_restitution` does."""
+    return check_number("friction", friction, low=0.0)
 
 
 class Plane:
@@ -175,19 +218,22 @@ class Plane:
 
     static = True
 
+    @contract(normal=Either(Array((3,)), Array((2,))), offset=Real())
     def __init__(self, normal=(0.0, 0.0, 1.0), offset: float = 0.0) -> None:
-        n = as_floats("normal", normal).reshape(-1)
+        n = np.array(normal, dtype=float).reshape(-1)
         if n.size == 2:
             n = np.array([n[0], n[1], 0.0])
-        if n.shape != (3,) or not np.all(np.isfinite(n)) or np.linalg.norm(n) == 0:
-            raise InvalidInput(f"plane normal must be a finite nonzero 2- or 3-vector, got {normal}")
+        big = float(np.abs(n).max()) if n.shape == (3,) else 0.0
+        if not (np.isfinite(big) and big > 0):     # a zero normal has no direction (a spec cannot say so)
+            raise InvalidInput(f"Plane.__init__: normal must be a finite nonzero 2- or 3-vector, got "
+                               f"{np.asarray(normal).tolist()}; a plane needs a direction")
+        n = n / big                                # scaled first: |n| of a 1e300 vector overflows
         self.normal = n / np.linalg.norm(n)
         self.offset = float(offset)
-        if not np.isfinite(self.offset):
-            raise InvalidInput(f"plane offset must be finite, got {offset}")
 
+    @contract(points=Either(Array(("k", 3)), Array(("k", 2)), Array((3,)), Array((2,))))
     def distance(self, points) -> np.ndarray:
-        """Signed distance n·p − offset of points (k, 3) (or (k, 2), padded with z = 0)."""
+        """Signed distance n·p − offset of points (k, 3) (or (k, 2), padded with z = 0; or one point)."""
         p = _as3(points)
         return p @ self.normal - self.offset
 
@@ -201,12 +247,14 @@ class Sphere:
     >>> Sphere(0)
     Traceback (most recent call last):
     ...
-    pbanim.errors.InvalidInput: Sphere radius must be positive and finite, got 0; a sphere needs a radius > 0 (use a particle for a point)
+    pbanim.errors.InvalidInput: Sphere.__init__: radius must be a finite number > 0, got 0
     """
 
+    @contract(radius=Real(gt=0))
     def __init__(self, radius: float) -> None:
-        self.radius = _positive("Sphere radius", radius, "a sphere needs a radius > 0 (use a particle for a point)")
+        self.radius = float(radius)       # a point is a particle of radius 0, not a Sphere
 
+    @contract(mass=_MASS)
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia tensor of a solid sphere, (2/5) m r² 𝟙."""
         r = np.float64(self.radius)
@@ -223,19 +271,16 @@ class Box:
     (8, 3)
     """
 
+    @contract(half_extents=Array((3,), gt=0, scalar=True))
     def __init__(self, half_extents) -> None:
-        he = np.asarray(half_extents, dtype=float)
-        he = np.broadcast_to(he, (3,)).copy() if he.shape in ((), (1,), (3,)) else np.full(3, np.nan)
-        if not np.all(np.isfinite(he)) or np.any(he <= 0):
-            raise InvalidInput(f"Box half_extents must be three positive finite numbers, got {half_extents}; "
-                             "a box with a zero extent is degenerate (use a Plane)")
-        self.half_extents = he
+        self.half_extents = np.broadcast_to(np.asarray(half_extents, dtype=float), (3,)).copy()
 
     def vertices(self) -> np.ndarray:
         """The 8 corners in the body frame, (8, 3)."""
         s = np.array([[i, j, k] for i in (-1, 1) for j in (-1, 1) for k in (-1, 1)], dtype=float)
         return s * self.half_extents
 
+    @contract(mass=_MASS)
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia (m/3) diag(hy²+hz², hx²+hz², hx²+hy²)."""
         hx, hy, hz = self.half_extents
@@ -252,13 +297,14 @@ class Capsule:
     >>> Capsule(radius=0.1, half_length=0.0)
     Traceback (most recent call last):
     ...
-    pbanim.errors.InvalidInput: Capsule half_length must be positive and finite, got 0.0; a capsule of zero length is a Sphere
+    pbanim.errors.InvalidInput: Capsule.__init__: half_length must be a finite number > 0, got 0.0
     """
 
+    @contract(radius=Real(gt=0), half_length=Real(gt=0))
     def __init__(self, radius: float, half_length: float) -> None:
-        self.radius = _positive("Capsule radius", radius, "a capsule needs a radius > 0")
-        self.half_length = _positive("Capsule half_length", half_length, "a capsule of zero length is a Sphere")
+        self.radius, self.half_length = float(radius), float(half_length)    # zero length: a Sphere
 
+    @contract(mass=_MASS)
     def inertia(self, mass: float) -> np.ndarray:
         """Body-frame inertia, approximated by a solid cylinder of length 2(half_length + radius)."""
         r, hl = np.float64(self.radius), np.float64(self.half_length)

@@ -26,10 +26,11 @@ import time
 import numpy as np
 
 from .scene import Collisions
-from ..ode import get_method, solve
+from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
+from ..ode import METHODS, get_method, solve
 from ..results import SimResult
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
-from ..errors import InvalidInput, check_count
+from ..errors import InvalidInput
 
 __all__ = ["simulate_collisions"]
 
@@ -45,6 +46,15 @@ def _solve_segment(fun, t0, y0, t1, method, events, split):
     return t1, np.asarray(res.y[:, -1]), False
 
 
+def _n_state(env) -> int:
+    system = env.resolve("scene").system
+    n = getattr(system, "n_state", None)
+    return int(n) if n is not None else int(np.size(system.state()))
+
+
+@contract(scene=Obj("pbanim.scene:Scene"), t_end=Real(), h=Real(gt=0), method=Choice(lambda: METHODS),
+          toi=Choice(("event", "fixed")), t0=Real(), y0=Opt(Array((_n_state,))), record_every=Int(ge=1),
+          max_events_per_step=Int(ge=1), gap_tol=Real(ge=0), max_steps=Int(ge=1))
 def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi: str = "event", *,
                         t0: float = 0.0, y0: np.ndarray | None = None, record_every: int = 1,
                         max_events_per_step: int = 100, gap_tol: float = 1e-12,
@@ -64,10 +74,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     >>> bool(abs(res.t_events[0][0] - np.sqrt(0.2)) < 1e-12)    # √(2h₀/g)
     True
     """
-    if toi not in ("event", "fixed"):
-        raise InvalidInput(f"toi must be 'event' or 'fixed', got {toi!r}")
-    grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)
-    max_events_per_step = check_count("max_events_per_step", max_events_per_step)
+    grid = step_grid(t0, t_end, h, max_steps=max_steps, record_every=record_every)   # t_end after t0, the cap
     coll = [e for e in scene.effects if isinstance(e, Collisions)]
     if len(coll) != 1:
         raise InvalidInput(f"scene must hold exactly one Collisions effect, found {len(coll)}")
