@@ -83,8 +83,8 @@ def test_bouncing_ball_with_event_location_is_deterministic_and_restartable():
 
 @pytest.mark.parametrize("bad, message", [
     (dict(positions=[[0.0, np.nan]]), "finite"),
-    (dict(positions=[[0.0, 0.0]], masses=0.0), "mass must be positive, got 0.0"),
-    (dict(positions=[[0.0, 0.0]], masses=np.inf), "mass must be positive, got inf"),
+    (dict(positions=[[0.0, 0.0]], masses=0.0), "masses must be .*entries > 0.*got 0.0"),
+    (dict(positions=[[0.0, 0.0]], masses=np.inf), "masses must be .*finite.*got inf"),
     (dict(positions=[[0.0, 0.0, 0.0, 0.0]]), "shape"),
 ])
 def test_bad_particle_inputs_are_named(bad, message):
