@@ -3,9 +3,10 @@
 Particles moved by generalized coordinates u through a chart q = q(u): the constraint is built into the
 state, and (JᵀMJ) ü = Jᵀ(Q − M J̇ u̇) needs no multiplier. Parts: :mod:`pbanim.reduced`
 (``ReducedSystem`` from sympy maps or numeric callables), :mod:`pbanim.reduced.chart` (the singular-chart
-guard, point kinematics, the fixed-step chart driver), and, imported on demand because they load sympy,
-:mod:`pbanim.reduced.lagrangian` (L = T − V → Euler–Lagrange equations) and :mod:`pbanim.reduced.codegen`
-(compiling them to a fast numeric right-hand side). ``import pbanim.reduced`` does not import sympy.
+guard, point kinematics, the fixed-step chart driver), :mod:`pbanim.reduced.inputs` (what the chapter's
+arguments must be: real numbers or real sympy expressions, coordinates, point masses), and, imported on
+demand because they load sympy, :mod:`pbanim.reduced.lagrangian` (L = T − V → Euler–Lagrange equations)
+and :mod:`pbanim.reduced.codegen` (compiling them to a fast numeric right-hand side). ``import pbanim.reduced`` does not import sympy.
 """
 
 from __future__ import annotations

@@ -19,7 +19,6 @@ factorization that the solve needs anyway. Rounding errors in ü grow like κ·�
 from __future__ import annotations
 
 import math
-import numbers
 import time
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
@@ -27,72 +26,18 @@ from typing import Any, Callable, Sequence
 import numpy as np
 from scipy.linalg import lapack
 
-from ..contracts import Array, Choice, Either, Func, Int, Obj, Opt, Real, Seq, Spec, contract
+from ..contracts import Array, Choice, Func, Int, Opt, Real, contract
 from ..errors import InvalidInput, SingularChartError
+from .inputs import COORDS, EXPRESSIONS, SYMBOL, nonreal
 from ..derivatives import central_jacobian, directional_derivative
 
 _potrf, _pocon, _potrs = lapack.dpotrf, lapack.dpocon, lapack.dpotrs
 _addred, _maxred = np.add.reduce, np.maximum.reduce
 
 __all__ = ["ChartGuard", "ChartCheck", "check_chart", "PointKinematics", "point_kinematics", "simulate_fixed",
-           "validate_coords", "Expr", "SYMBOL", "COORDS", "EXPRESSIONS"]
+           "validate_coords"]
 
 
-class Expr(Spec):
-    """A real number or a sympy expression (the vocabulary of :mod:`pbanim.contracts` has no sympy spec).
-
-    A finite Python or numpy real is accepted (an int stays an int, so sympy keeps it exact); NaN, ±inf,
-    a complex number, a string (sympy would ``eval`` it) and None are refused. A sympy expression is
-    accepted unless it holds nan, ±oo, zoo or the imaginary unit I (a position or a mass must be real and
-    finite). sympy is imported only when a value is not a plain number.
-    """
-
-    def describe(self) -> str:
-        return "a finite real number or a real sympy expression"
-
-    def check(self, name, value, env):
-        if isinstance(value, (bool, np.bool_)) or value is None or isinstance(value, (str, bytes)):
-            raise env.fail(name, self.describe(), value)
-        if isinstance(value, numbers.Number):
-            if not isinstance(value, numbers.Real) or not math.isfinite(value):
-                raise env.fail(name, self.describe(), value)
-            return value if isinstance(value, (int, np.integer)) else float(value)
-        bad = nonreal(value)
-        if bad is None:
-            raise env.fail(name, self.describe(), value, f"a {type(value).__name__}")
-        if bad:
-            raise env.fail(name, self.describe(), value, f"it holds {bad}")
-        return value
-
-    def example(self, env):
-        return 0.5
-
-    def bad(self, env):
-        return [("NaN", math.nan), ("complex", 1j), ("inf", math.inf), ("None", None), ("a string", "x")]
-
-    def edges(self, env):
-        return [("zero", 0), ("1e300", 1e300)]
-
-
-def nonreal(e) -> str | None:
-    """For a sympy object: "" when it holds no nan, ±oo, zoo or I, else the first it holds; None when ``e``
-    is not a sympy object. (The one check of sympy inputs: specs and internal callers use it.)"""
-    import sympy
-
-    if not isinstance(e, (sympy.Basic, sympy.MatrixBase)):
-        return None
-    S = sympy.S
-    for atom, text in ((S.NaN, "nan"), (S.Infinity, "oo"), (S.NegativeInfinity, "-oo"), (S.ComplexInfinity, "zoo"),
-                       (S.ImaginaryUnit, "the imaginary unit I")):
-        if e.has(atom):
-            return text
-    return ""
-
-
-SYMBOL = Obj("sympy:Symbol", what="a sympy Symbol (sympy.symbols('q1 q2'); time enters through the t argument, "
-                                  "not dynamicsymbols)")
-COORDS = Seq(SYMBOL, min_len=1)
-EXPRESSIONS = Either(Seq(Expr()), Obj("sympy:MatrixBase", what="a sympy Matrix of expressions"))
 _GUARD_SQUARE = Array(("k", "k"))
 
 

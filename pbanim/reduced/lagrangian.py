@@ -72,7 +72,6 @@ array([ 0.  , -9.81])
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from fractions import Fraction
@@ -83,8 +82,9 @@ import numpy as np
 import sympy
 
 from .codegen import LagrangianSystem, compile_equations
-from .chart import COORDS, SYMBOL, Expr, nonreal, point_kinematics, validate_coords
-from ..contracts import Array, Choice, Either, Obj, Opt, Seq, Spec, contract
+from .chart import point_kinematics, validate_coords
+from .inputs import COORDS, SYMBOL, Expr, Hashable, PointMass, nonreal, validate_points
+from ..contracts import Array, Choice, Either, Obj, Opt, Seq, contract
 from ..errors import InvalidInput
 
 __all__ = ["EulerLagrangeEquations", "LagrangianSystem", "derive_equations", "compile_equations",
@@ -184,70 +184,6 @@ class EulerLagrangeEquations:
         return self.forces - self.velocity_terms - self.potential_gradient
 
 
-def _mass_problem(m) -> str:
-    """Why ``m`` cannot be a point mass ("" when it can): the one check of masses, for the contract
-    (:class:`PointMass`) and for internal callers. sympy comparisons are never made on NaN or complex
-    values (they raise sympy's own TypeError): the answer comes from the number's assumptions."""
-    if isinstance(m, (bool, np.bool_)) or m is None or isinstance(m, (str, bytes)):
-        return "it is not a number"
-    try:
-        x = sympy.sympify(m)
-    except (sympy.SympifyError, TypeError, ValueError):
-        return "it is not a number"
-    if not isinstance(x, sympy.Expr) or not x.is_number:
-        return "it is not a number (substitute numbers for parameters)"
-    if nonreal(x):
-        return f"it is not a finite real number (it holds {nonreal(x)})"
-    if x.is_positive is not True or x.is_finite is not True:
-        return "it is not > 0"
-    return ""
-
-
-class PointMass(Spec):
-    """A point mass of :func:`derive_equations`: a pair (mass, position), the mass a finite number > 0 (or
-    a positive sympy number), the position 1–3 real expressions in the coordinates (or a sympy Matrix)."""
-
-    _POSITION = Either(Seq(Expr(), min_len=1, max_len=3), Obj("sympy:MatrixBase"))
-
-    def describe(self) -> str:
-        return "a pair (mass > 0, position of 1–3 real expressions)"
-
-    def check(self, name, value, env):
-        if not (isinstance(value, (list, tuple)) and len(value) == 2):
-            raise env.fail(name, self.describe(), value)
-        m, r = value
-        why = _mass_problem(m)
-        if why:
-            raise env.fail(f"{name} mass", "a finite number > 0 (or a positive sympy number)", m, why)
-        return (m, self._POSITION.check(f"{name} position", r, env))
-
-    def example(self, env):
-        return (1.0, [0.5])
-
-    def bad(self, env):
-        return [("a NaN mass", (math.nan, [0.5])), ("a complex mass", (1 + 2j, [0.5])),
-                ("a negative mass", (-1.0, [0.5])), ("None", None), ("a string", "x"), ("a triple", (1.0, [0.5], 0))]
-
-
-def _validate_points(points) -> list:
-    out, dim = [], None
-    for k, item in enumerate(points):
-        if not (isinstance(item, (list, tuple)) and len(item) == 2):
-            raise InvalidInput(f"points[{k}] must be a pair (mass, position), got {item!r}")
-        m, r = item
-        r = list(r) if not isinstance(r, sympy.MatrixBase) else list(r)
-        if dim is None:
-            dim = len(r)
-        if len(r) != dim or dim not in (1, 2, 3):
-            raise InvalidInput(f"points[{k}] position must have {dim} components (all points share one "
-                             f"dimension, 1–3), got {len(r)}")
-        why = _mass_problem(m)
-        if why:
-            raise InvalidInput(f"points[{k}] mass must be a finite number > 0, got {m!r}; {why}")
-        out.append((sympy.sympify(m), [sympy.sympify(e) for e in r]))
-    return out
-
-
 _POINTS = Opt(Seq(PointMass()))
 _GRAVITY = Opt(Either(Array((None,)), Seq(Expr(), min_len=1, max_len=3)))
 _DERIVE = dict(coords=COORDS, points=_POINTS, T=Opt(Expr()), V=Expr(), gravity=_GRAVITY, forces=Opt(Seq(Expr())),
@@ -292,7 +228,7 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
     coords = validate_coords(coords)
     if points is None and T is None:
         raise InvalidInput("give points (point masses and their positions) or T (a kinetic energy), got neither")
-    pts = _validate_points(points or [])
+    pts = validate_points(points or [])
     n = len(coords)
     dim = len(pts[0][1]) if pts else 0
     g = None
@@ -414,29 +350,6 @@ def _freeze(x):
     if isinstance(x, np.ndarray):
         return tuple(x.tolist())
     return sympy.sympify(x) if not isinstance(x, (str, type(None))) else x
-
-
-class Hashable(Spec):
-    """Any value usable as a dict key (the vocabulary of :mod:`pbanim.contracts` has no such spec)."""
-
-    def describe(self) -> str:
-        return "a hashable value (a tuple of numbers and names, say)"
-
-    def check(self, name, value, env):
-        try:
-            hash(value)
-        except TypeError:
-            raise env.fail(name, self.describe(), value, "it is unhashable") from None
-        return value
-
-    def example(self, env):
-        return ("example",)
-
-    def bad(self, env):
-        return [("a list", ["n_link", 3]), ("a dict", {"n": 3})]
-
-    def edges(self, env):
-        return [("None", None)]
 
 
 @contract(coords=COORDS, points=_POINTS, key=Hashable())

@@ -65,8 +65,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .chart import (COORDS, METHOD, SYMBOL, ChartCheck, ChartGuard, Expr, check_chart, point_kinematics,
-                    simulate_fixed)
+from .chart import METHOD, ChartCheck, ChartGuard, check_chart, point_kinematics, simulate_fixed
+from .inputs import COORDS, SYMBOL, Expr
 from ..contracts import Array, Either, Func, Int, Obj, Opt, Real, Seq, Text, contract
 from ..errors import InvalidInput, NonFiniteResult, SingularChartError, check_result
 
