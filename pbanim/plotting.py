@@ -41,6 +41,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .contracts import Choice, Either, Env, Flag, Func, Int, Obj, Opt, PathLike, Real, Seq, Text, contract
+
 __all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "write_index",
            "pyplot", "STYLES", "FORMATS", "axes_without_units"]
 
@@ -70,6 +72,14 @@ FORMATS = ("png", "svg", "pdf")
 GIF_DPI = {"paper": 60, "slides": 100}
 
 
+_NAME = Text(nonempty=True)
+_FIG = Obj("matplotlib.figure:Figure", what="a matplotlib Figure")
+FORMAT = Choice(FORMATS)
+STYLE_NAME = Choice(STYLES)
+DPI_RANGE = Opt(Real(ge=10, le=1200))
+
+
+@contract(chapter=_NAME, name=_NAME, title=Text(), func=Func())
 @dataclass(frozen=True)
 class FigureSpec:
     chapter: str
@@ -85,6 +95,7 @@ class FigureSpec:
 FIGURES: dict[str, FigureSpec] = {}
 
 
+@contract(chapter=_NAME, name=_NAME, title=Text())
 def figure(chapter: str, name: str, title: str) -> Callable:
     """Register a figure function ``f(ctx) -> dict`` under ``chapter_name``."""
 
@@ -122,6 +133,10 @@ class FigureContext:
     style: str = "paper"
     issues: list[str] = field(default_factory=list)     # axes without units (see axes_without_units)
 
+    def __post_init__(self) -> None:
+        if self.out_dir is not None:
+            self.out_dir = Path(self.out_dir)
+
     def subplots(self, *args, **kwargs):
         plt = pyplot()
         plt.rcParams.update(STYLES[self.style])
@@ -133,6 +148,7 @@ class FigureContext:
         self.out_dir.mkdir(parents=True, exist_ok=True)
         return self.out_dir / f"{self.spec.key}{suffix}.{ext}"
 
+    @contract(fig=_FIG, suffix=Text())
     def save(self, fig, suffix: str = "") -> Path | None:
         """Save ``fig`` in the context's format with scrubbed metadata (same code → same bytes), then close it."""
         path = self._path(suffix, self.fmt)
@@ -149,6 +165,7 @@ class FigureContext:
         pyplot().close(fig)
         return path
 
+    @contract(fig=_FIG, update=Func(), frames=Int(ge=1, le=10_000), fps=Int(ge=1, le=100), suffix=Text())
     def save_gif(self, fig, update: Callable[[int], Any], frames: int, fps: int = 20, suffix: str = "") -> Path | None:
         """Write an animated GIF by calling ``update(i)`` for each frame (Pillow writer)."""
         path = self._path(suffix, "gif")
@@ -162,6 +179,7 @@ class FigureContext:
         return path
 
 
+@contract(chapters=Opt(Either(Seq(Text()), Obj(set, frozenset, what="a set of chapter names"))))
 def figures_of(chapters: set[str] | list[str] | None = None) -> dict[str, FigureSpec]:
     """The registered figures (all, or those of the given chapters ``chNN``), sorted by key.
 
@@ -172,6 +190,8 @@ def figures_of(chapters: set[str] | list[str] | None = None) -> dict[str, Figure
     return {k: s for k, s in sorted(FIGURES.items()) if wanted is None or s.chapter in wanted}
 
 
+@contract(spec=Obj(FigureSpec), out_dir=Opt(PathLike()), quick=Flag(), fmt=FORMAT, dpi=DPI_RANGE, style=STYLE_NAME,
+          issues=Opt(Obj(list, what="a list (it receives one line per axis without a unit)")))
 def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, fmt: str = "png",
                dpi: float | None = None, style: str = "paper", issues: list | None = None) -> tuple[dict, list[Path]]:
     """Run one figure with a fresh seeded context; return (data, files written).
@@ -179,14 +199,12 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
     ``fmt`` in :data:`FORMATS`, ``dpi`` in [10, 1200] (None: the style's default), ``style`` in
     :data:`STYLES`; ``issues``, when given, receives one line per axis without a unit.
     """
-    from .errors import InvalidInput, check_number
+    from .errors import InvalidInput
 
-    if fmt not in FORMATS:
-        raise InvalidInput(f"format must be one of {list(FORMATS)}, got {fmt!r}")
-    if style not in STYLES:
-        raise InvalidInput(f"style must be one of {sorted(STYLES)}, got {style!r}")
-    if dpi is not None:
-        dpi = check_number("dpi", dpi, low=10.0, high=1200.0)
+    env = Env("run_figure", {})         # the command line calls from inside pbanim: the contract's specs here
+    fmt, style = FORMAT.check("fmt", fmt, env), STYLE_NAME.check("style", style, env)
+    dpi = DPI_RANGE.check("dpi", dpi, env)
+    out_dir = None if out_dir is None else Path(out_dir)
     plt = pyplot()
     with plt.rc_context(STYLES[style]):
         ctx = FigureContext(spec=spec, out_dir=out_dir, quick=quick, fmt=fmt, dpi=dpi, style=style)
@@ -194,10 +212,12 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
     if issues is not None:
         issues.extend(ctx.issues)
     if not isinstance(data, dict):
-        raise TypeError(f"figure {spec.key} must return a dict of its data, got {type(data).__name__}")
+        raise InvalidInput(f"run_figure: spec must be a figure whose function returns a dict of its data; "
+                           f"{spec.key} returned a {type(data).__name__}")
     return data, ctx.files
 
 
+@contract(fig=_FIG)
 def axes_without_units(fig) -> list[str]:
     """Labels of the axes of ``fig`` that have no unit: "axes 0 x: 'time'" (empty list: all have one).
 
@@ -227,21 +247,28 @@ def axes_without_units(fig) -> list[str]:
     return missing
 
 
+@contract(specs=Obj(dict, what="a dict {key: FigureSpec}"), out_dir=PathLike(),
+          files=Obj(dict, what="a dict {key: list of paths}"), checked_by=Opt(Obj(dict, what="a dict {key: test ids}")))
 def write_index(specs: dict[str, FigureSpec], out_dir: Path, files: dict[str, list[Path]],
                 checked_by: dict[str, list[str]] | None = None) -> Path:
     """figures/README.md: one entry per figure — its file, a caption (what it shows), and the tests that
     check its data (``checked_by[key]``: "tests/test_x.py::test_name", found by the command line)."""
+    from .errors import InvalidInput
+
     lines = ["# Figures", "", "Generated by `pbanim figures`; do not edit by hand. Each figure's data is checked "
              "by the tests named in its caption (they run every figure in quick mode).", "",
              "| chapter | figure | caption | data checked by |", "| --- | --- | --- | --- |"]
     esc = lambda text: str(text).replace("|", "\\|")  # noqa: E731 - a pipe inside a cell would split the table
     for key, spec in specs.items():
+        if not isinstance(spec, FigureSpec):
+            raise InvalidInput(f"write_index: specs must map keys to FigureSpec objects, got {type(spec).__name__} "
+                               f"for {key!r}")
         fl = files.get(key) or []
         links = ", ".join(f"[{p.name}]({p.name})" for p in fl) or "—"
         tests = (checked_by or {}).get(key) or []
         by = ", ".join(f"`{t}`" for t in tests) or "—"
         lines.append(f"| {spec.chapter} | {links} | {esc(_caption(spec))} | {esc(by)} |")
-    path = out_dir / "README.md"
+    path = Path(out_dir) / "README.md"
     path.write_text("\n".join(lines) + "\n")
     return path
 

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from pbanim.cli import main
 from pbanim.compare import (ENGINES, SCENES, Body, Engine, Joint, SceneSpec, Trace, Unsupported, check_names,
-                            energy, energy_readable, run_compare, scene, top_precession)
+                            energy, energy_readable, joint_drift, run_compare, scene, top_precession)
 from pbanim.compare import harness
 from pbanim.compare.native import run_native
 from pbanim.compare.peer_bullet import _check as bullet_check
@@ -257,10 +257,11 @@ def test_crash_nan_unsupported_and_wrong_start_are_rows_and_the_run_goes_on(monk
 @pytest.mark.parametrize("call, message", [
     (lambda: run_compare(["free_fal"]), "unknown scene 'free_fal' (did you mean 'free_fall'"),
     (lambda: run_compare(["free_fall"], ["bullet"]), "unknown engine 'bullet' (did you mean 'pybullet'"),
-    (lambda: run_compare(["free_fall"], ["pbanim"], steps=[0.0]), "steps must be positive finite"),
+    (lambda: run_compare(["free_fall"], ["pbanim"], steps=[0.0]), "steps must be a float array of shape (any,) (finite, entries > 0"),
     (lambda: run_compare(["free_fall"], ["pbanim"], steps=[2.0], quick=True), "longer than scene 'free_fall'"),
     (lambda: run_compare("free_fall"), "scenes must be a list of names"),
-    (lambda: scene("tops"), "unknown scene 'tops' (did you mean 'top'"),
+    (lambda: scene("tops"), "name must be one of 'free_fall', 'projectile', 'bounce', 'incline_stick', 'incline_slide', "
+                            "'rolling', 'chain', 'cradle', 'stack', 'top', got 'tops'; did you mean 'top'"),
 ])
 def test_bad_names_and_steps_are_refused_before_running(call, message):
     with pytest.raises(InvalidInput) as info:
@@ -291,22 +292,22 @@ def test_body_validation_names_the_argument(field, value):
     if value in VALID[field]:
         Body(**kw)
     else:
-        with pytest.raises(InvalidInput, match=f"body 'b': {field}"):
+        with pytest.raises(InvalidInput, match=rf"(Body(.__init__)?: |body 'b': ){field} must be"):
             Body(**kw)
 
 
 @pytest.mark.parametrize("make, message", [
-    (lambda b: SceneSpec("s", "s", (), (0, 0, -G), 1.0, (0.1,), (0.1,)), "needs at least one body"),
-    (lambda b: SceneSpec("s", "s", (b,), (0, 0), 1.0, (0.1,), (0.1,)), "gravity must be 3 finite numbers"),
+    (lambda b: SceneSpec("s", "s", (), (0, 0, -G), 1.0, (0.1,), (0.1,)), "bodies must be a list of at least 1 of (an instance of Body), got ()"),
+    (lambda b: SceneSpec("s", "s", (b,), (0, 0), 1.0, (0.1,), (0.1,)), "gravity must be a float array of shape (3,)"),
     (lambda b: SceneSpec("s", "s", (b,), (0, 0, -G), 1.0, (2.0,), (0.1,)), "steps must be positive steps ≤ duration"),
-    (lambda b: SceneSpec("s", "s", (b,), (0, 0, -G), 1.0, (0.1,), ()), "quick_steps must be positive steps"),
+    (lambda b: SceneSpec("s", "s", (b,), (0, 0, -G), 1.0, (0.1,), ()), "quick_steps must be a float array of shape (any,) (finite, entries > 0, not empty), got ()"),
     (lambda b: SceneSpec("s", "s", (b,), (0, 0, -G), np.nan, (0.1,), (0.1,)), "duration must be a finite number"),
     (lambda b: SceneSpec("s", "s", (b,), (0, 0, -G), 1.0, (0.1,), (0.1,), joints=(Joint("ball", 1, -1, (0, 0, 0),
                                                                                        (0, 0, 0)),)),
      "joint body index 1 out of range"),
-    (lambda b: Joint("slider", 0, -1, (0, 0, 0), (0, 0, 0)), "joint kind must be one of ['hinge', 'ball']"),
+    (lambda b: Joint("slider", 0, -1, (0, 0, 0), (0, 0, 0)), "kind must be one of 'hinge', 'ball', got 'slider'"),
     (lambda b: Body("b", "cone", (0.1,), 1.0, (1, 1, 1), (0, 0, 0)), "shape must be one of"),
-    (lambda b: Body("b", "sphere", (0.1,), 1.0, (1, 0, 1), (0, 0, 0)), "inertia must be positive"),
+    (lambda b: Body("b", "sphere", (0.1,), 1.0, (1, 0, 1), (0, 0, 0)), "inertia must be a float array of shape (3,) (finite, entries > 0, not empty), got (1, 0, 1)"),
     (lambda b: Trace(np.zeros(2), np.zeros((2, 1, 3)), np.zeros((1, 1, 4)), np.zeros((2, 1, 3)),
                      np.zeros((2, 1, 3)), 0.0, 1), "trace q must have shape (2, N, 4)"),
 ])
@@ -355,3 +356,45 @@ def test_figure_error_vs_cost_rows(figure_data):
         if (e, "ok") in statuses:
             assert abs(data["orders"][f"free_fall/{e}"] - 1.0) < 0.05
     assert data["orders"]["chain/pbanim"] > 3.5
+
+
+# -- issue 27: nothing silent ------------------------------------------------------------------------------
+def test_a_trace_of_another_scene_is_refused_not_broadcast():
+    # a 1-body trace scored against the 3-rod chain used to broadcast to E = [0, 0] without a word
+    tr = Trace(np.zeros(2), np.zeros((2, 1, 3)), np.tile([1.0, 0, 0, 0], (2, 1, 1)), np.zeros((2, 1, 3)),
+               np.zeros((2, 1, 3)), 0.0, 1)
+    for f in (energy, energy_readable, joint_drift):
+        with pytest.raises(InvalidInput, match=f"{f.__name__}: tr must hold the scene's 3 bodies, got 1"):
+            f(scene("chain").spec, tr)
+    bad = Trace(np.zeros(2), np.full((2, 1, 3), np.nan), np.tile([1.0, 0, 0, 0], (2, 1, 1)), np.zeros((2, 1, 3)),
+                np.zeros((2, 1, 3)), 0.0, 1)
+    with pytest.raises(InvalidInput, match="energy: tr must be finite, got a non-finite state at t = 0"):
+        energy(scene("free_fall").spec, bad)
+
+
+def test_comparison_names_and_orders_are_never_silent():
+    cmp = run_compare(["free_fall"], ["pbanim"], quick=True, steps=[0.05, 0.025])
+    # a misspelt scene used to give [] (rows_of) and nan (order); an exact engine's order is None, not NaN
+    with pytest.raises(InvalidInput, match=r"rows_of: scene must be one of the scenes of this comparison "
+                                           r"\['free_fall'\], got 'free_fal'"):
+        cmp.rows_of("free_fal")
+    with pytest.raises(InvalidInput, match=r"order: engine must be one of the engines .*got 'mujoco'"):
+        cmp.order("free_fall", "mujoco")
+    assert cmp.order("free_fall", "pbanim") is None          # RK4 is exact on free fall (ORACLES K1)
+    assert "p " not in cmp.to_markdown().split("## free_fall")[0].split("| free_fall |")[1]
+
+
+def test_joints_and_tops_that_mean_nothing_are_refused():
+    with pytest.raises(InvalidInput, match="a and b must differ, got a = b = 0"):
+        Joint("ball", 0, 0, (0, 0, 0), (0, 0, 0))
+    with pytest.raises(InvalidInput, match=r"a hinge's axis must be a non-zero vector, got \(0.0, 0.0, 0.0\)"):
+        Joint("hinge", 0, -1, (0, 0, 0), (0, 0, 0), (0, 0, 0))
+    # a negative spin at r = 0 used to return NaN (0/0)
+    with pytest.raises(InvalidInput, match="top_precession: spin must be a finite number > 0, got -1.0"):
+        top_precession(1.0, 0.0, 1.0, 1.0, -1.0, 0.3)
+    assert top_precession(1.0, 0.0, 1.0, 1.0, 1.0, 0.3) == 0.0
+
+
+def test_a_run_of_too_many_steps_is_refused_before_it_starts():
+    with pytest.raises(InvalidInput, match=r"steps: h = 1e-09 s needs 5e\+08 steps for scene 'free_fall'"):
+        run_compare(["free_fall"], ["pbanim"], quick=True, steps=[1e-9])

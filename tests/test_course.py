@@ -292,8 +292,10 @@ def test_formats_styles_and_gif_size(fmt, magic, tmp_path):
     assert again[0].read_bytes() == files[0].read_bytes()  # ORACLES G2: same code, same bytes
 
 
-@pytest.mark.parametrize("kw, message", [({"fmt": "jpg"}, "format"), ({"style": "poster"}, "style"),
-                                         ({"dpi": -5}, "dpi"), ({"dpi": float("nan")}, "dpi")])
+@pytest.mark.parametrize("kw, message", [({"fmt": "jpg"}, "fmt must be one of 'png', 'svg', 'pdf', got 'jpg'"),
+                                         ({"style": "poster"}, "style must be one of 'paper', 'slides', got 'poster'"),
+                                         ({"dpi": -5}, "dpi must be a finite number >= 10 and <= 1200, got -5"),
+                                         ({"dpi": float("nan")}, "dpi must be a finite number >= 10 and <= 1200, got nan")])
 def test_bad_figure_options_are_named_errors(kw, message, tmp_path):
     from pbanim.plotting import run_figure
 
@@ -338,3 +340,31 @@ def test_bench_help_and_list_show_every_benchmark_and_figure(capsys):
         assert sum(line.split()[:2] == ["figure", key] for line in out) == 1
     assert sum(line.startswith("bench ") for line in out) == len(available())
     assert np.all([len(line) < 200 for line in out])
+
+
+# -- issue 27: nothing silent ------------------------------------------------------------------------------
+def test_a_mutant_with_an_empty_edit_is_refused():
+    # "" occurs in every text: str.replace("", new) used to insert new between all characters, silently
+    with pytest.raises(InvalidInput, match="mutant 'm': edits must replace non-empty text"):
+        Mutant("m", "d", (("", "X"),), ("a",))
+
+
+def test_figure_folders_may_be_strings(tmp_path):
+    # a str out_dir used to fail deep inside with "'str' object has no attribute 'mkdir'" (and "str / str")
+    from pbanim.plotting import run_figure, write_index
+
+    _, files = run_figure(_tiny_spec({}), str(tmp_path / "figs"), quick=True)
+    assert files and files[0].parent == tmp_path / "figs"
+    assert write_index({}, str(tmp_path), {}).read_text().startswith("# Figures")
+
+
+def test_run_bench_refuses_by_name():
+    from pbanim.bench import median_time, run_bench
+
+    with pytest.raises(InvalidInput, match="run_bench: name must be one of .*got 'nope'"):
+        run_bench("nope")
+    with pytest.raises(InvalidInput, match="run_bench: quick must be True or False, got 'yes'"):
+        run_bench("contracts", quick="yes")
+    # a measurement whose loop time is 1e300 s used to hang; the bound is known before it starts
+    with pytest.raises(InvalidInput, match="median_time: min_time must be a finite number >= 0 and <= 0.5, got 1e"):
+        median_time(lambda: None, 1, 1e300)

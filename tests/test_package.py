@@ -33,7 +33,7 @@ def test_cli_lists_figures_and_benchmarks():
 
 def test_cli_rejects_unknown_benchmark():
     out = subprocess.run([sys.executable, "-m", "pbanim.cli", "bench", "nope"], capture_output=True, text=True)
-    assert out.returncode == 2 and "benchmark must be one of" in out.stderr
+    assert out.returncode == 2 and "run_bench: name must be one of" in out.stderr and "got 'nope'" in out.stderr
 
 
 class Spy(Effect):

@@ -20,7 +20,8 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
-from ..errors import InvalidInput
+
+from ..contracts import Choice, Env, Flag, Func, Int, Obj, PathLike, Real, contract
 
 __all__ = ["Goal", "Table", "Report", "median_time", "available", "run_bench", "format_report", "write_json",
            "HELPERS"]
@@ -92,8 +93,12 @@ class Report:
                 "notes": self.notes}
 
 
+@contract(fn=Func(), repeats=Int(ge=1, le=1000), min_time=Real(ge=0, le=0.5))
 def median_time(fn: Callable[[], Any], repeats: int = 5, min_time: float = 0.0) -> float:
-    """Median wall time of ``fn()`` over ``repeats`` runs (each run looped until ``min_time`` s)."""
+    """Median wall time of ``fn()`` over ``repeats`` runs (each run looped until ``min_time`` s).
+
+    At most 1000 repeats looped for at most 0.5 s each: the cost of a measurement is bounded before it
+    starts (a single run of fn longer than that is measured once per repeat)."""
     times = []
     for _ in range(max(1, repeats)):
         n, start = 0, time.perf_counter()
@@ -132,12 +137,18 @@ def one_blas_thread():
     return threadpool_limits(limits=1, user_api="blas")
 
 
+FAMILY = Choice(available)
+
+
 def run_bench(name: str, quick: bool = False) -> Report:
     """Run the family ``name`` with one BLAS thread (:func:`one_blas_thread`) and return its report
-    (``InvalidInput`` for an unknown name)."""
-    names = available()
-    if name not in names:
-        raise InvalidInput(f"benchmark must be one of {names}, got {name!r}")
+    (``InvalidInput`` naming the argument for an unknown name or a quick that is not a bool).
+
+    No ``@contract``: a valid call is a whole benchmark run, which the generated fuzz cannot afford; the
+    body applies the specs a contract would (``name``: one of :func:`available`, ``quick``: a flag), for
+    every caller, the command line included."""
+    env = Env("run_bench", {})
+    name, quick = FAMILY.check("name", name, env), Flag().check("quick", quick, env)
     mod = importlib.import_module(f"pbanim.bench.{name}")
     with one_blas_thread():
         rep = mod.run(quick=quick)
@@ -146,6 +157,7 @@ def run_bench(name: str, quick: bool = False) -> Report:
     return rep
 
 
+@contract(rep=Obj(Report))
 def format_report(rep: Report) -> str:
     """The report as text: tables, notes, then one line per goal."""
     parts = [f"# pbanim bench {rep.name}"]
@@ -156,6 +168,7 @@ def format_report(rep: Report) -> str:
         "\n\n" + "\n".join(g.line() for g in rep.goals) if rep.goals else "")
 
 
+@contract(rep=Obj(Report), path=PathLike())
 def write_json(rep: Report, path: str) -> None:
     """Write the report (tables, goals with their lines, notes) as JSON to ``path``."""
     with open(path, "w") as fh:

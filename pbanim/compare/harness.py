@@ -23,7 +23,7 @@ names) and is refused before anything runs. Across the steps of one (scene, engi
 log error vs log h is the engine's observed order on that scene (:func:`pbanim.testing.order_fit`).
 
 Limiting cases: no engine installed but pbanim → one ``ok`` row per step and scene, and peer rows
-``not installed``; a scene with one step gives no order (``nan``).
+``not installed``; a scene with one step gives no order (``None``: not measured).
 
 References: A. Boeing, T. Bräunl, GRAPHITE 2007 (one scene, many engines, measured error and cost).
 """
@@ -40,13 +40,16 @@ from typing import Callable
 import numpy as np
 
 from .spec import Trace, Unsupported
+from ..contracts import Array, Choice, Env, Flag, Func, Obj, Opt, Seq, Spec, Text, contract
 from ..errors import InvalidInput, SimulationDiverged
 
 __all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions"]
 
 START_TOL = 1e-6          # m: an engine must start at the scene's positions
+MAX_RUN_STEPS = 10**6     # steps of one (scene, engine, h) run: refused before anything runs beyond it
 
 
+@contract(module=Opt(Text(nonempty=True)))
 def have(module: str | None) -> bool:
     """True when the optional package ``module`` can be imported (no import done); None: always there."""
     if module is None:
@@ -57,6 +60,7 @@ def have(module: str | None) -> bool:
         return False
 
 
+@contract(name=Text(nonempty=True), module=Opt(Text(nonempty=True)), run=Func())
 @dataclass(frozen=True)
 class Engine:
     name: str
@@ -84,6 +88,8 @@ ENGINES: dict[str, Engine] = {"pbanim": Engine("pbanim", None, _native),
                               "mujoco": Engine("mujoco", "mujoco", _mujoco)}
 
 
+@contract(kind=Choice(("scene", "engine")), names=Seq(Text()),
+          known=Obj(dict, list, tuple, set, frozenset, what="a collection of names"))
 def check_names(kind: str, names, known) -> list[str]:
     """``names`` as a list of known names, or :class:`InvalidInput` naming the first unknown one and the
     closest known ones. An engine name may carry an option after a colon (``mujoco:RK4``)."""
@@ -99,6 +105,65 @@ def check_names(kind: str, names, known) -> list[str]:
         if n not in out:
             out.append(n)
     return out
+
+
+class Names(Spec):
+    """A list of names of a registry (scenes, engines), checked by :func:`check_names` (the one check of
+    names: the contract and the internal callers, the command line among them, both use it)."""
+
+    def __init__(self, kind: str, known) -> None:
+        self.kind, self.known = kind, known
+
+    def describe(self) -> str:
+        return f"a list of names of {self.kind}s"
+
+    def check(self, name, value, env):
+        try:
+            return check_names(self.kind, value, self.known())
+        except InvalidInput as exc:
+            raise env.fail(name, self.describe(), value, str(exc)) from None
+
+    def example(self, env):
+        return [next(iter(self.known()))]
+
+    def bad(self, env):
+        return [("None", None), ("a string", next(iter(self.known()))), ("an unknown name", ["no-such-name"]),
+                ("a number", [1.0])]
+
+
+class Among(Spec):
+    """A name among those of a collection another argument holds (``"self.scenes"``): the vocabulary's
+    Choice reads a fixed registry, this one reads the object the method is called on."""
+
+    def __init__(self, ref: str, what: str) -> None:
+        # the reference is kept as ``size``: the contract machinery reads ``size`` and ``shape`` to see that a
+        # spec depends on other arguments (it then binds them all, self included)
+        self.size, self.what = ref, what
+
+    def describe(self) -> str:
+        return f"one of the {self.what}"
+
+    def check(self, name, value, env):
+        known = list(env.resolve(self.size))
+        if not isinstance(value, str) or value not in known:
+            raise env.fail(name, f"one of the {self.what} {known}", value)
+        return value
+
+    def example(self, env):
+        return list(env.resolve(self.size))[0]
+
+    def bad(self, env):
+        return [("an unknown name", "no-such-name"), ("None", None), ("a number", 1.0)]
+
+
+def _scenes():
+    from .scenes import SCENES
+    return SCENES
+
+
+SCENE_NAMES = Names("scene", _scenes)
+ENGINE_NAMES = Names("engine", lambda: ENGINES)
+STEPS = Array((None,), gt=0, scalar=True)
 
 
 def versions() -> dict[str, str]:
@@ -175,6 +240,10 @@ def _run_one(sc, engine: str, h: float, quick: bool, curves: dict | None) -> Row
     return row
 
 
+_SCENE = Among("self.scenes", "scenes of this comparison")
+_ENGINE = Among("self.engines", "engines of this comparison")
+
+
 @dataclass
 class Comparison:
     """All rows of one run, the scenes they belong to, and (on request) the plotted curves."""
@@ -186,20 +255,29 @@ class Comparison:
     date: str
     curves: dict = field(default_factory=dict)
 
+    @property
+    def engines(self) -> list:
+        """The engines of the rows, in their order."""
+        return list(dict.fromkeys(r.engine for r in self.rows))
+
+    @contract(scene=_SCENE, engine=Opt(_ENGINE))
     def rows_of(self, scene: str, engine: str | None = None) -> list:
+        """The rows of one scene (and one engine)."""
         return [r for r in self.rows if r.scene == scene and (engine is None or r.engine == engine)]
 
-    def order(self, scene: str, engine: str) -> float:
-        """Fitted slope of log error vs log h over the ok rows (nan with fewer than two usable points)."""
+    @contract(scene=_SCENE, engine=_ENGINE)
+    def order(self, scene: str, engine: str) -> float | None:
+        """Fitted slope of log error vs log h over the ok rows; None (not measured) with fewer than two usable
+        points or errors at roundoff (an exact engine has no order to fit)."""
         from ..testing import order_fit
 
         rows = [r for r in self.rows_of(scene, engine) if r.status == "ok" and r.error > 0]
         if len({r.h for r in rows}) < 2:
-            return math.nan
+            return None
         try:
             return float(order_fit([r.h for r in rows], [r.error for r in rows], window=(1e-13, 1e3)).order)
         except InvalidInput:
-            return math.nan
+            return None
 
     def summary(self) -> list[dict]:
         """One line per (scene, engine): the finest step's error and cost, and the observed order."""
@@ -222,25 +300,32 @@ class Comparison:
         return as_json(self)
 
 
+@contract(scenes=Opt(SCENE_NAMES), engines=Opt(ENGINE_NAMES), quick=Flag(), steps=Opt(STEPS), keep_curves=Flag(),
+          progress=Opt(Func()))
 def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, keep_curves: bool = False,
                 progress: Callable[[str], None] | None = None) -> Comparison:
     """Run ``scenes`` (names of :data:`~pbanim.compare.scenes.SCENES`, default all) in ``engines``
     (default all of :data:`ENGINES`) at each scene's steps (``quick``: its short sweep and duration, or
-    ``steps`` for every scene). Never raises for an engine's failure; see the module docstring."""
+    ``steps`` for every scene). Never raises for an engine's failure; see the module docstring. A run of
+    more than :data:`MAX_RUN_STEPS` steps is refused before anything runs."""
     from .scenes import SCENES
 
-    names = check_names("scene", list(SCENES) if scenes is None else scenes, SCENES)
-    engs = check_names("engine", list(ENGINES) if engines is None else engines, ENGINES)
+    # the command line calls in from inside pbanim (no contract check): the same specs, applied here
+    env = Env("run_compare", {})
+    names = SCENE_NAMES.check("scenes", list(SCENES) if scenes is None else scenes, env)
+    engs = ENGINE_NAMES.check("engines", list(ENGINES) if engines is None else engines, env)
     if steps is not None:
-        hs = np.atleast_1d(np.asarray(steps, dtype=float))
-        if hs.size == 0 or not np.all(np.isfinite(hs) & (hs > 0)):
-            raise InvalidInput(f"steps must be positive finite step sizes (s), got {steps!r}")
+        hs = np.atleast_1d(STEPS.check("steps", steps, env))
     built = {n: SCENES[n]() for n in names}
     sweeps = {n: tuple(hs) if steps is not None else (sc.spec.quick_steps if quick else sc.spec.steps)
               for n, sc in built.items()}
     for n, sweep in sweeps.items():
-        if max(sweep) > built[n].spec.time(quick):
-            raise InvalidInput(f"step h = {max(sweep):g} s is longer than scene {n!r} ({built[n].spec.time(quick):g} s)")
+        span = built[n].spec.time(quick)
+        if max(sweep) > span:
+            raise InvalidInput(f"step h = {max(sweep):g} s is longer than scene {n!r} ({span:g} s)")
+        if span / min(sweep) > MAX_RUN_STEPS:
+            raise InvalidInput(f"steps: h = {min(sweep):g} s needs {span / min(sweep):.3g} steps for scene {n!r} "
+                               f"({span:g} s), more than {MAX_RUN_STEPS}; choose a larger step")
     rows, curves = [], {} if keep_curves else None
     for n, sc in built.items():
         for h in sweeps[n]:

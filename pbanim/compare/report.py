@@ -20,6 +20,10 @@ import json
 import math
 from pathlib import Path
 
+from ..contracts import Obj, Opt, PathLike, contract
+
+_CMP = Obj("pbanim.compare.harness:Comparison")
+
 __all__ = ["markdown", "as_json", "summary_markdown", "write"]
 
 
@@ -33,6 +37,7 @@ def _esc(text: str) -> str:
     return str(text).replace("|", "\\|")
 
 
+@contract(cmp=_CMP)
 def summary_markdown(cmp) -> str:
     """The summary table: one line per scene, one column per engine."""
     engines = list(dict.fromkeys(r.engine for r in cmp.rows))
@@ -48,12 +53,13 @@ def summary_markdown(cmp) -> str:
             elif s["status"] != "ok":
                 cells.append(_esc(s["status"]))
             else:
-                order = f" · p {s['order']:.2g}" if math.isfinite(s["order"]) else ""
+                order = f" · p {s['order']:.2g}" if s["order"] is not None else ""
                 cells.append(f"{_num(s['error'], 2)} (h {s['h']:g}{order} · {_num(s['us_per_step'], 2)} µs/step)")
         lines.append(f"| {name} | {_esc(sc.error_name)} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
+@contract(cmp=_CMP)
 def markdown(cmp) -> str:
     """The whole report: header (date, mode, versions), the summary, one table per scene."""
     vers = ", ".join(f"{k} {v}" for k, v in cmp.versions.items())
@@ -76,6 +82,7 @@ def markdown(cmp) -> str:
     return "\n".join(out)
 
 
+@contract(cmp=_CMP)
 def as_json(cmp) -> dict:
     """The comparison as plain JSON types (NaN → null)."""
     def clean(v):
@@ -95,6 +102,7 @@ def as_json(cmp) -> dict:
                   "summary": cmp.summary()})
 
 
+@contract(cmp=_CMP, markdown_path=Opt(PathLike()), json_path=Opt(PathLike()))
 def write(cmp, markdown_path=None, json_path=None) -> list[Path]:
     """Write the markdown and/or JSON report; returns the paths written."""
     out = []

@@ -41,7 +41,8 @@ from typing import Callable
 import numpy as np
 
 from .spec import Body, Joint, SceneSpec, Trace, energy, joint_drift
-from ..errors import InvalidInput
+from ..contracts import Choice, Func, Obj, Real, Text, contract
+from ..errors import InvalidInput, check_result
 from ..models.collision import bouncing_ball
 from ..models.contact import incline_expected
 from ..rigid.quat import quat_from_axis_angle, quat_to_matrix
@@ -53,6 +54,7 @@ STEPS = (4e-3, 2e-3, 1e-3, 5e-4)
 QUICK = (4e-3, 2e-3)
 
 
+@contract(spec=Obj(SceneSpec), error_name=Text(), score=Func(), observable=Func(), exact=Func(), ylabel=Text())
 @dataclass(frozen=True)
 class Scene:
     """A scene, its score and its observable. ``score(trace)`` returns {"error": headline, …};
@@ -259,14 +261,18 @@ def stack(n: int = 3, friction: float = 0.5) -> Scene:
 
 
 # -- a spinning top (ORACLES K8) -------------------------------------------------------------------------
+@contract(mass=Real(gt=0), r=Real(ge=0), I1=Real(gt=0), I3=Real(gt=0), spin=Real(gt=0), theta=Real(ge=0, le=np.pi))
 def top_precession(mass, r, I1, I3, spin, theta) -> float:
-    """The slow steady precession rate Ω of a heavy symmetric top at tilt θ with axial spin ω₃ = ``spin``:
-    the smaller root of I₁′ cos θ Ω² − I₃ω₃ Ω + m g r = 0, I₁′ = I₁ + m r² (→ mgr/(I₃ω₃) as ω₃ → ∞)."""
-    a, b, c = (I1 + mass * r * r) * np.cos(theta), I3 * spin, mass * G * r
-    if not b * b > 4 * a * c:
-        raise InvalidInput(f"spin must exceed {2 * np.sqrt(a * c) / I3:.4g} rad/s (I₃ω₃ > 2√(I₁′ cos θ m g r)) for a "
-                           f"steady precession, got spin = {spin!r}")
-    return float(2 * c / (b + np.sqrt(b * b - 4 * a * c)))
+    """The slow steady precession rate Ω of a heavy symmetric top at tilt θ (0 … π from the upward vertical)
+    with axial spin ω₃ = ``spin`` > 0: the smaller positive root of I₁′ cos θ Ω² − I₃ω₃ Ω + m g r = 0,
+    I₁′ = I₁ + m r² (→ mgr/(I₃ω₃) as ω₃ → ∞; NonFiniteResult when the numbers overflow)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        a, b, c = (I1 + mass * r * r) * np.cos(theta), I3 * spin, mass * G * r
+        disc = b * b - 4 * a * c
+        if not disc > 0 and np.isfinite(disc):
+            raise InvalidInput(f"spin must exceed {2 * np.sqrt(a * c) / I3:.4g} rad/s (I₃ω₃ > 2√(I₁′ cos θ m g r)) "
+                               f"for a steady precession, got spin = {spin!r}")
+        return float(check_result("top_precession: Ω", 2 * c / (b + np.sqrt(disc))))
 
 
 def top(spin: float = 150.0, theta: float = 0.3, mass: float = 1.0, r: float = 0.1, I1: float = 9e-4,
@@ -304,8 +310,7 @@ SCENES: dict[str, Callable[[], Scene]] = {
 }
 
 
+@contract(name=Choice(SCENES))
 def scene(name: str) -> Scene:
     """The scene called ``name`` (:data:`SCENES`), or :class:`~pbanim.errors.InvalidInput` naming the closest."""
-    from .harness import check_names
-
-    return SCENES[check_names("scene", [name], SCENES)[0]]()
+    return SCENES[name]()

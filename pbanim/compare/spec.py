@@ -39,7 +39,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 import numpy as np
 
-from ..errors import InvalidInput, PbanimError, check_number
+from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, Text, contract
+from ..errors import InvalidInput, PbanimError, check_result
 from ..rigid.quat import quat_to_matrix
 
 __all__ = ["Body", "Joint", "SceneSpec", "Trace", "Unsupported", "energy", "energy_readable", "joint_drift"]
@@ -57,12 +58,20 @@ class Unsupported(PbanimError):
 
 
 def _vec(name: str, value, n: int) -> tuple:
+    """``value`` as a tuple of n floats (the data stays hashable); the checks of the values are the
+    contracts' (scenes built inside pbanim pass literal numbers)."""
     a = np.asarray(value, dtype=float).ravel()
     if a.shape != (n,) or not np.all(np.isfinite(a)):
         raise InvalidInput(f"{name} must be {n} finite numbers, got {value!r}")
     return tuple(float(x) for x in a)
 
 
+_V3 = Array((3,))
+
+
+@contract(name=Text(), shape=Choice(SHAPES), size=Array((None,), gt=0, scalar=True), mass=Real(gt=0),
+          inertia=Array((3,), gt=0), x=_V3, quat=Array((4,)), v=_V3, w=_V3, restitution=Real(ge=0, le=1),
+          friction=Real(ge=0))
 @dataclass(frozen=True)
 class Body:
     """One rigid body. ``size`` is the radius (sphere) or the half extents (box); ``shape="none"`` has no
@@ -86,24 +95,17 @@ class Body:
         if self.shape not in SHAPES:
             raise InvalidInput(f"{who}: shape must be one of {list(SHAPES)}, got {self.shape!r}")
         n = {"sphere": 1, "box": 3, "none": len(np.atleast_1d(self.size))}[self.shape]
-        object.__setattr__(self, "size", _vec(f"{who}: size", self.size, n))
-        if any(s <= 0 for s in self.size) and self.shape != "none":
-            raise InvalidInput(f"{who}: size must be positive, got {self.size}")
-        check_number(f"{who}: mass", self.mass, low=0.0, low_open=True)
-        inertia = _vec(f"{who}: inertia", self.inertia, 3)
-        if min(inertia) <= 0:
-            raise InvalidInput(f"{who}: inertia must be positive principal moments, got {inertia}")
-        object.__setattr__(self, "inertia", inertia)
-        for name, n in (("x", 3), ("quat", 4), ("v", 3), ("w", 3)):
+        object.__setattr__(self, "size", _vec(f"{who}: size", self.size, n))     # one radius, three half extents
+        for name, n in (("inertia", 3), ("x", 3), ("quat", 4), ("v", 3), ("w", 3)):
             object.__setattr__(self, name, _vec(f"{who}: {name}", getattr(self, name), n))
         q = np.asarray(self.quat)
         if abs(np.linalg.norm(q) - 1.0) > 1e-9:
             raise InvalidInput(f"{who}: quat must be a unit quaternion (w, x, y, z), got {self.quat} (norm "
                                f"{np.linalg.norm(q):.6g})")
-        check_number(f"{who}: restitution", self.restitution, low=0.0, high=1.0)
-        check_number(f"{who}: friction", self.friction, low=0.0)
+        object.__setattr__(self, "mass", float(self.mass))
 
 
+@contract(kind=Choice(JOINT_KINDS), a=Int(ge=-1), b=Int(ge=-1), anchor_a=_V3, anchor_b=_V3, axis=_V3)
 @dataclass(frozen=True)
 class Joint:
     """A joint between body ``a`` and body ``b`` (−1: the world): ``anchor_a`` / ``anchor_b`` in the bodies'
@@ -121,8 +123,18 @@ class Joint:
             raise InvalidInput(f"joint kind must be one of {list(JOINT_KINDS)}, got {self.kind!r}")
         for name in ("anchor_a", "anchor_b", "axis"):
             object.__setattr__(self, name, _vec(f"joint {name}", getattr(self, name), 3))
+        if self.a == self.b:
+            raise InvalidInput(f"a joint joins two different bodies: a and b must differ, got a = b = {self.a}")
+        if self.kind == "hinge" and not np.linalg.norm(self.axis) > 0:
+            raise InvalidInput(f"a hinge's axis must be a non-zero vector, got {self.axis}")
 
 
+_STEPS = Array((None,), gt=0)
+
+
+@contract(name=Text(nonempty=True), title=Text(), bodies=Seq(Obj(Body), min_len=1), gravity=_V3,
+          duration=Real(gt=0), steps=_STEPS, quick_steps=_STEPS, ground=Flag(), joints=Seq(Obj(Joint)),
+          params=Obj(dict, what="a dict of the scene's own numbers"), quick_duration=Opt(Real(gt=0)), notes=Text())
 @dataclass(frozen=True)
 class SceneSpec:
     """A scene described once. ``params`` holds the scene's own numbers (h₀, θ, v₀, …) that its exact
@@ -144,8 +156,10 @@ class SceneSpec:
     def __post_init__(self) -> None:
         if not self.bodies:
             raise InvalidInput(f"scene {self.name!r}: needs at least one body, got none")
+        object.__setattr__(self, "bodies", tuple(self.bodies))
+        object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "gravity", _vec(f"scene {self.name!r}: gravity", self.gravity, 3))
-        check_number(f"scene {self.name!r}: duration", self.duration, low=0.0, low_open=True)
+        object.__setattr__(self, "duration", float(self.duration))
         for name in ("steps", "quick_steps"):
             hs = tuple(float(h) for h in getattr(self, name))
             if not hs or not all(np.isfinite(h) and 0 < h <= self.duration for h in hs):
@@ -158,6 +172,7 @@ class SceneSpec:
                     raise InvalidInput(f"scene {self.name!r}: joint body index {end} out of range "
                                        f"[-1, {len(self.bodies) - 1}]")
 
+    @contract(quick=Flag())
     def time(self, quick: bool) -> float:
         return float(self.quick_duration if quick and self.quick_duration else self.duration)
 
@@ -201,17 +216,38 @@ class Trace:
         return float(self.t[np.argmax(bad)]) if bad.any() else None
 
 
+def _checked(spec: SceneSpec, tr: Trace, who: str) -> None:
+    """A trace that fits the scene (one body per body) and is finite, with non-zero quaternions."""
+    if tr.x.shape[1] != len(spec.bodies):
+        raise InvalidInput(f"{who}: tr must hold the scene's {len(spec.bodies)} bodies, got {tr.x.shape[1]}")
+    bad = tr.first_nonfinite()
+    if bad is not None:
+        raise InvalidInput(f"{who}: tr must be finite, got a non-finite state at t = {bad:.4g} s (a diverged run "
+                           "has no energy)")
+    if tr.q.size and not (np.linalg.norm(tr.q, axis=-1) > 0).all():
+        raise InvalidInput(f"{who}: tr must hold non-zero quaternions, got a zero one")
+
+
+_SPEC, _TRACE = Obj(SceneSpec), Obj(Trace)
+
+
+@contract(spec=_SPEC, tr=_TRACE)
 def energy(spec: SceneSpec, tr: Trace) -> np.ndarray:
     """E(t) of every sample (vectorized over samples and bodies), see the module docstring."""
+    _checked(spec, tr, "energy")
     m, I = spec.masses, spec.inertias
     R = quat_to_matrix(tr.q / np.linalg.norm(tr.q, axis=-1, keepdims=True))   # (k, N, 3, 3)
     wb = np.einsum("knji,knj->kni", R, tr.w)                                     # ω in body axes
-    kin = 0.5 * (m * (tr.v ** 2).sum(-1)).sum(-1) + 0.5 * (I * wb ** 2).sum(axis=(1, 2))
-    return kin - (m * (tr.x @ np.asarray(spec.gravity))).sum(-1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        kin = 0.5 * (m * (tr.v ** 2).sum(-1)).sum(-1) + 0.5 * (I * wb ** 2).sum(axis=(1, 2))
+        E = kin - (m * (tr.x @ np.asarray(spec.gravity))).sum(-1)
+    return check_result("energy E(t)", E)
 
 
+@contract(spec=_SPEC, tr=_TRACE)
 def energy_readable(spec: SceneSpec, tr: Trace) -> np.ndarray:
     """The same E(t), one sample and one body at a time (for reading; tested equal to :func:`energy`)."""
+    _checked(spec, tr, "energy_readable")
     g = np.asarray(spec.gravity)
     out = np.zeros(tr.t.size)
     for k in range(tr.t.size):
@@ -220,11 +256,13 @@ def energy_readable(spec: SceneSpec, tr: Trace) -> np.ndarray:
             I_world = R @ np.diag(body.inertia) @ R.T
             out[k] += 0.5 * body.mass * tr.v[k, i] @ tr.v[k, i] + 0.5 * tr.w[k, i] @ I_world @ tr.w[k, i]
             out[k] -= body.mass * g @ tr.x[k, i]
-    return out
+    return check_result("energy E(t)", out)
 
 
+@contract(spec=_SPEC, tr=_TRACE)
 def joint_drift(spec: SceneSpec, tr: Trace) -> np.ndarray:
     """max over the joints of |C_joint| at every sample (m); zeros when the scene has no joint."""
+    _checked(spec, tr, "joint_drift")
     if not spec.joints:
         return np.zeros(tr.t.size)
     R = quat_to_matrix(tr.q / np.linalg.norm(tr.q, axis=-1, keepdims=True))
@@ -232,5 +270,6 @@ def joint_drift(spec: SceneSpec, tr: Trace) -> np.ndarray:
     def anchor(i: int, r) -> np.ndarray:
         return np.broadcast_to(np.asarray(r), (tr.t.size, 3)) if i < 0 else tr.x[:, i] + R[:, i] @ np.asarray(r)
 
-    gaps = [np.linalg.norm(anchor(j.a, j.anchor_a) - anchor(j.b, j.anchor_b), axis=-1) for j in spec.joints]
-    return np.max(gaps, axis=0)
+    with np.errstate(over="ignore", invalid="ignore"):
+        gaps = [np.linalg.norm(anchor(j.a, j.anchor_a) - anchor(j.b, j.anchor_b), axis=-1) for j in spec.joints]
+    return check_result("joint drift |C|", np.max(gaps, axis=0))

@@ -14,13 +14,15 @@ Nothing here is imported by ``import pbanim``.
 
 from __future__ import annotations
 
+from ..contracts import Flag, PathLike, contract
 from .grader import CheckResult, GradeReport, grade, run_check
-from .registry import ASSIGNMENTS, Assignment, Check, CheckFailed, Mutant, get_assignment
+from .registry import ASSIGNMENT, ASSIGNMENTS, Assignment, Check, CheckFailed, Mutant, get_assignment
 
 __all__ = ["grade", "run_check", "GradeReport", "CheckResult", "Assignment", "Check", "Mutant", "CheckFailed",
            "ASSIGNMENTS", "get_assignment", "assignments", "make_assignment"]
 
 
+@contract(ready_only=Flag())
 def assignments(ready_only: bool = False) -> dict:
     """Every registered assignment (loads the catalog), sorted by name."""
     from . import catalog  # noqa: F401
@@ -28,6 +30,7 @@ def assignments(ready_only: bool = False) -> dict:
     return {k: a for k, a in sorted(ASSIGNMENTS.items()) if a.status == "ready" or not ready_only}
 
 
+@contract(name=ASSIGNMENT, out_dir=PathLike(), overwrite=Flag())
 def make_assignment(name: str, out_dir, *, overwrite: bool = False):
     """Write the student's starter folder for assignment ``name`` (see :mod:`pbanim.course.starter`)."""
     from .starter import write_starter

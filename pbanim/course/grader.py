@@ -27,9 +27,10 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ..errors import InvalidInput, check_positive
+from ..contracts import Choice, Env, Opt, PathLike, Real, Seq, Text, contract
+from ..errors import InvalidInput
 from .markers import find_regions
-from .registry import Assignment, get_assignment
+from .registry import ASSIGNMENT, Assignment, get_assignment
 from .sandbox import StudentImportError, load_student, run_forked, run_inline, run_isolated
 
 __all__ = ["CheckResult", "GradeReport", "grade", "run_check", "signature_problems"]
@@ -94,6 +95,7 @@ class GradeReport:
                 for r in self.results]
         return "\n".join(out) + "\n"
 
+    @contract(json_path=Opt(PathLike()), markdown_path=Opt(PathLike()))
     def write(self, json_path: str | Path | None = None, markdown_path: str | Path | None = None) -> None:
         if json_path:
             Path(json_path).write_text(json.dumps(self.to_json(), indent=1, sort_keys=True, ensure_ascii=False) + "\n")
@@ -107,7 +109,8 @@ def _student_file(a: Assignment, path) -> Path:
     if p.is_dir():
         p = p / a.filename
     if not p.is_file():
-        raise InvalidInput(f"student file {str(path)!r} not found (give the module file, e.g. "
+        raise InvalidInput(f"path must be the student's module file or its folder: {str(path)!r} not found (give "
+                           f"the module file, e.g. "
                            f"DIR/{a.filename}, or the folder that `pbanim assignment make` wrote)")
     return p
 
@@ -162,9 +165,26 @@ def _import_probe(a: Assignment, path: Path) -> dict:
     return {"status": "passed", "message": "; ".join(signature_problems(a, mod))}
 
 
+# what the limits of a check's process may be: a CPU-time limit and an address-space budget the kernel can
+# set (setrlimit takes whole seconds and bytes; a day and a terabyte are far beyond any check)
+ISOLATION = Choice(("fork", "inline"))
+TIME_LIMIT = Real(gt=0, le=86_400)
+MEMORY_MB = Real(gt=0, le=2**20)
+_LIMITS = dict(name=ASSIGNMENT, path=PathLike(), isolation=ISOLATION, time_limit=TIME_LIMIT, memory_mb=MEMORY_MB)
+
+
+def _limits(where: str, isolation, time_limit, memory_mb) -> tuple:
+    """The options checked by the same specs as the contract's (the command line calls from inside pbanim)."""
+    env = Env(where, {})
+    return (ISOLATION.check("isolation", isolation, env), TIME_LIMIT.check("time_limit", time_limit, env),
+            MEMORY_MB.check("memory_mb", memory_mb, env))
+
+
+@contract(check_id=Text(), **_LIMITS)
 def run_check(name: str, check_id: str, path, *, isolation: str = "fork", time_limit: float = 20.0,
               memory_mb: float = 1024.0) -> CheckResult:
     """Run one check of assignment ``name`` on the student file ``path`` (the public tests use this)."""
+    isolation, time_limit, memory_mb = _limits("run_check", isolation, time_limit, memory_mb)
     a = get_assignment(name)
     chk = a.get_check(check_id)
     p = _student_file(a, path)
@@ -174,6 +194,7 @@ def run_check(name: str, check_id: str, path, *, isolation: str = "fork", time_l
                        chk.physics, chk.oracle, out["message"])
 
 
+@contract(checks=Opt(Seq(Text(), min_len=1)), **_LIMITS)
 def grade(name: str, path, *, isolation: str = "fork", time_limit: float = 20.0, memory_mb: float = 1024.0,
           checks: list[str] | None = None) -> GradeReport:
     """Grade the student file (or starter folder) ``path`` against assignment ``name``.
@@ -181,12 +202,13 @@ def grade(name: str, path, *, isolation: str = "fork", time_limit: float = 20.0,
     ``isolation``: "fork" (default: each check in a child with limits) or "inline" (same process, no
     limits; for debugging). ``checks``: only these check ids (default all).
     """
-    if isolation not in ("fork", "inline"):
-        raise InvalidInput(f"isolation must be 'fork' or 'inline', got {isolation!r}")
-    time_limit = check_positive("time_limit", time_limit)
-    memory_mb = check_positive("memory_mb", memory_mb)
+    isolation, time_limit, memory_mb = _limits("grade", isolation, time_limit, memory_mb)
     a = get_assignment(name)
     p = _student_file(a, path)
+    unknown = [c for c in checks or () if c not in {k.id for k in a.checks}]
+    if unknown:
+        raise InvalidInput(f"grade: checks must be ids of {a.name}'s checks {[k.id for k in a.checks]}, got "
+                           f"{unknown}")
     selected = list(a.checks) if checks is None else [a.get_check(c) for c in checks]
     rep = GradeReport(a.name, a.title, p.name)
     if isolation == "fork":

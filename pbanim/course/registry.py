@@ -41,9 +41,11 @@ from typing import Callable
 
 import numpy as np
 
+from ..contracts import Choice, Flag, Func, Int, Obj, Seq, Text, contract
 from ..errors import InvalidInput
 
 __all__ = ["Check", "Mutant", "Assignment", "CheckFailed", "ASSIGNMENTS", "register", "get_assignment",
+           "assignment_names", "ASSIGNMENT",
            "check", "closest", "attr", "array", "close", "at_most"]
 
 
@@ -51,6 +53,11 @@ class CheckFailed(AssertionError):
     """A check's oracle is not met: the message says what was expected and what came in."""
 
 
+_NAMES = Seq(Text(nonempty=True))
+
+
+@contract(id=Text(nonempty=True), points=Int(ge=0, le=100), physics=Text(), oracle=Text(), func=Func(), public=Flag(),
+          regions=_NAMES)
 @dataclass(frozen=True)
 class Check:
     id: str
@@ -61,7 +68,12 @@ class Check:
     public: bool = True
     regions: tuple[str, ...] = ()
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "regions", tuple(self.regions))     # the contract hands in a list
 
+
+@contract(name=Text(nonempty=True), description=Text(), edits=Seq(Seq(Text(), min_len=2, max_len=2), min_len=1),
+          catches=_NAMES)
 @dataclass(frozen=True)
 class Mutant:
     """A typical student bug: text edits of the reference module and the checks that must catch it."""
@@ -71,6 +83,13 @@ class Mutant:
     edits: tuple[tuple[str, str], ...]
     catches: tuple[str, ...]
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "edits", tuple(tuple(e) for e in self.edits))
+        object.__setattr__(self, "catches", tuple(self.catches))
+        if any(not old for old, _ in self.edits):
+            raise InvalidInput(f"mutant {self.name!r}: edits must replace non-empty text, got an empty 'old'")
+
+    @contract(source=Text())
     def apply(self, source: str) -> str:
         """``source`` with every edit applied (each ``old`` must occur: a stale mutant is an error)."""
         for old, new in self.edits:
@@ -80,6 +99,9 @@ class Mutant:
         return source
 
 
+@contract(name=Text(nonempty=True), chapter=Text(nonempty=True), title=Text(), module=Text(nonempty=True),
+          summary=Text(), checks=Seq(Obj(Check)), mutants=Seq(Obj(Mutant)), status=Choice(("ready", "pending")),
+          pending_reason=Text())
 @dataclass(frozen=True)
 class Assignment:
     name: str
@@ -91,6 +113,10 @@ class Assignment:
     mutants: tuple[Mutant, ...] = ()
     status: str = "ready"             # "ready" or "pending" (chapter still being written)
     pending_reason: str = ""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", tuple(self.checks))       # the contract hands in lists
+        object.__setattr__(self, "mutants", tuple(self.mutants))
 
     @property
     def package(self) -> str:
@@ -111,12 +137,14 @@ class Assignment:
             raise InvalidInput(f"assignment {self.name!r}: module {self.module} is not installed")
         return spec.origin
 
+    @contract(check_id=Text())
     def get_check(self, check_id: str) -> Check:
+        """The check ``check_id`` (the one check of check ids: the grader's internal calls use it too)."""
         for c in self.checks:
             if c.id == check_id:
                 return c
-        raise InvalidInput(f"assignment {self.name!r} has no check {check_id!r}"
-                           f"{closest(check_id, [c.id for c in self.checks])}; checks: {[c.id for c in self.checks]}")
+        raise InvalidInput(f"assignment {self.name!r}: check_id must be one of {[c.id for c in self.checks]}, got "
+                           f"{check_id!r}{closest(check_id, [c.id for c in self.checks])}")
 
 
 ASSIGNMENTS: dict[str, Assignment] = {}
@@ -145,8 +173,22 @@ def closest(name: str, names) -> str:
     return f" (did you mean {', '.join(repr(n) for n in near)}?)" if near else ""
 
 
+def assignment_names() -> list[str]:
+    """Every registered assignment's name (loads the catalog)."""
+    from . import catalog  # noqa: F401  (registers every assignment)
+
+    return sorted(ASSIGNMENTS)
+
+
+ASSIGNMENT = Choice(assignment_names)
+
+
+@contract(name=ASSIGNMENT, ready=Flag())
 def get_assignment(name: str, ready: bool = True) -> Assignment:
-    """The assignment ``name`` (its checks loaded), or :class:`InvalidInput` suggesting the closest names."""
+    """The assignment ``name`` (its checks loaded), or :class:`InvalidInput` suggesting the closest names.
+
+    The one check of assignment names: its contract at the boundary, this body for the grader, the starter
+    and the command line inside pbanim (and a pending assignment's reason)."""
     from . import catalog  # noqa: F401  (registers every assignment)
 
     if not isinstance(name, str) or name not in ASSIGNMENTS:
