@@ -196,12 +196,15 @@ def test_limits_continuous_joints_and_mimic_are_read():
 
 def test_joint_stops_hold_in_contact_stepping():
     # a pendulum released at 0.4 rad with its hinge limited to [−0.2, 0.5]: the stop at −0.2 holds it (the
-    # free swing reaches −0.4 after half a period, ~1 s); the stop is a frictionless contact on the joint
-    def run(lower):
+    # free swing reaches −0.4 after half a period, ~1 s); the stop is a frictionless contact on the joint.
+    # The smooth integration (ArticulatedSystem) does not hold stops: it reports how far past it went
+    def pendulum(lower, upper=0.5):
         tree = ArticulatedTree(gravity=(0.0, -9.81, 0.0))
-        tree.add("rod", -1, "revolute", axis=[0, 0, 1], mass=1.0, com=[0, -1.0, 0], lower=lower, upper=0.5)
-        ac = ArticulatedContact(ArticulatedSystem(tree, [0.4]), [(0, [0.0, 10.0, 0.0])], normal=(0.0, 1.0, 0.0),
-                                offset=-100.0)
+        tree.add("rod", -1, "revolute", axis=[0, 0, 1], mass=1.0, com=[0, -1.0, 0], lower=lower, upper=upper)
+        return ArticulatedSystem(tree, [0.4])
+
+    def run(lower):
+        ac = ArticulatedContact(pendulum(lower), [(0, [0.0, 10.0, 0.0])], normal=(0.0, 1.0, 0.0), offset=-100.0)
         return ac, ac.simulate(1.2, 2e-3).y[0]
 
     _, free = run(-math.inf)
@@ -209,6 +212,10 @@ def test_joint_stops_hold_in_contact_stepping():
     assert free.min() == pytest.approx(-0.4, abs=2e-3)
     assert held.min() > -0.2 - 2e-3 and held.max() < 0.4 + 1e-9
     assert ac.limited == [(0, 0, -0.2, 0.5)]
+    res = pendulum(-0.2).simulate(1.2, 2e-3, "rk4")
+    assert res.diagnostics["limit_excursion"].max() == pytest.approx(0.2, abs=1e-3)
+    assert res.diagnostics["limit_excursion"][0] == 0.0
+    assert "limit_excursion" not in pendulum(-math.inf, math.inf).simulate(0.01, 2e-3, "rk4").diagnostics
 
 
 # --- the batched twins and the one-state functions refuse alike ------------------------------------------

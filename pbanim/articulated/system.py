@@ -8,7 +8,9 @@ and q̇ = (ω, v) in the link's own axes, so
 
 and the quaternion is renormalized after every step (as :class:`pbanim.rigid.RigidScene` does). Runs go
 through the one fixed-step driver (:mod:`pbanim.ode.driver`) with any method of :data:`pbanim.METHODS`.
-Energy E = ½ q̇ᵀH q̇ + V(q) is conserved without damping or torques: the tests measure its drift as a
+Joint position limits are not held here (a smooth right-hand side cannot stop a joint; the contact stepper
+:class:`~pbanim.articulated.contact.ArticulatedContact` holds them as stops): a run reports how far past them
+it went. Energy E = ½ q̇ᵀH q̇ + V(q) is conserved without damping or torques: the tests measure its drift as a
 slope in h (ORACLES I3).
 """
 
@@ -125,11 +127,16 @@ class ArticulatedSystem:
               max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, method: str = "rk4", *, record_every: int = 1,
                  max_steps: int = MAX_STEPS) -> SimResult:
-        """Fixed steps through the one driver; ``diagnostics["energy"]`` at every recorded state."""
+        """Fixed steps through the one driver; ``diagnostics["energy"]`` at every recorded state, and when
+        a joint has position limits ``diagnostics["limit_excursion"]``: how far (rad or m) the recorded state
+        is past them, 0 inside. This smooth integration does not hold the limits (the contact stepper
+        :class:`~pbanim.articulated.contact.ArticulatedContact` does): the diagnostic says when that matters."""
         grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
         m = get_method(method)
         y = self.state()
         check_finite(y, 0.0, 0, "initial state")
+        lim = self.tree.limited()
+        qi, lo, hi = (np.array([r[k] for r in lim]) for k in (0, 2, 3))
         ts, ys, es = [0.0], [y.copy()], [self.energy(y)]
 
         def advance(t, yy, hk):
@@ -142,5 +149,10 @@ class ArticulatedSystem:
 
         start = time.perf_counter()
         drive(advance, grid, y, record=record, record_every=record_every)
-        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=self.nfev, wall_time=time.perf_counter() - start,
-                         method=method, nsteps=grid.n_steps, diagnostics={"energy": np.array(es)})
+        Y = np.array(ys).T
+        diag = {"energy": np.array(es)}
+        if lim:
+            q = Y[qi.astype(int)]
+            diag["limit_excursion"] = np.maximum(np.maximum(lo[:, None] - q, q - hi[:, None]), 0.0).max(axis=0)
+        return SimResult(t=np.array(ts), y=Y, nfev=self.nfev, wall_time=time.perf_counter() - start,
+                         method=method, nsteps=grid.n_steps, diagnostics=diag)
