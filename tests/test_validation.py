@@ -125,15 +125,19 @@ def test_zero_contact_normal_refused():
 def test_nan_contact_geometry_refused_not_read_as_no_contact(field):
     args = {"point": [[0.0, 0.0, 0.0]], "normal": [[0.0, 0.0, 1.0]], "depth": [0.1]}
     args[field] = np.full_like(np.asarray(args[field], float), NAN)
-    with pytest.raises(InvalidInput, match="finite points and depths and unit normals"):
+    with pytest.raises(InvalidInput, match=f"make_contacts: {field} must be a float array .*\\(finite\\), got "
+                                           f"array\\(\\[.*nan.*; it has NaN or inf entries"):
         make_contacts([0], [-1], args["point"], args["normal"], args["depth"])
 
 
 def test_contact_fields_of_mismatched_size_refused():
-    with pytest.raises(InvalidInput, match="point and normal"):
+    with pytest.raises(InvalidInput, match="point must hold 2-D or 3-D points .*got shape \\(1, 1\\)"):
         make_contacts([0], [-1], [[1.0]], [[1.0]])
+    with pytest.raises(InvalidInput, match="normal must be a float array of shape \\(m, d\\) \\(m = 1, d = 3\\)"):
+        make_contacts([0], [-1], [[1.0, 0.0, 0.0]], [[1.0, 0.0]])
     c = make_contacts([0, 0], [-1, -1], [[0, 0, 0]] * 2, [[0, 0, 1.0]] * 2)
-    with pytest.raises(InvalidInput, match="mask must be a bool array of shape \\(2,\\)"):
+    with pytest.raises(InvalidInput, match="Contacts.select: mask must be a bool array with one entry per contact.*"
+                                           "got array\\(\\[ True, False, True\\]\\)"):
         c.select(np.array([True, False, True]))
 
 

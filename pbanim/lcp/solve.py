@@ -126,6 +126,11 @@ def delassus(a, b, Ga, Gb, Wb, other=None, block: int = 1) -> np.ndarray:
     array([[0.5, 0.5],
            [0.5, 0.5]])
     """
+    with np.errstate(over="ignore", invalid="ignore"):    # an overflow is named by the result's certificate
+        return _delassus(a, b, Ga, Gb, Wb, other, block)
+
+
+def _delassus(a, b, Ga, Gb, Wb, other, block) -> np.ndarray:
     oa, ob, Ha, Hb = (a, b, Ga, Gb) if other is None else other
     m, k, g, (n, d) = a.size, oa.size, int(block), (Wb.shape[0], Ga.shape[1])
     if m * k <= 150 * 150:
