@@ -191,7 +191,8 @@ def test_cli_grade_prints_the_table_and_writes_both_reports(tmp_path, capsys):
     (["grade", "ch01_particle", "."], "did you mean 'ch01_particles'"),
     (["grade", "ch01_particles", "no/such/file.py"], "not found"),
     (["grade", "ch09_presure", "."], "did you mean 'ch09_pressure'"),
-    (["grade", "ch01_particles", ".", "--time-limit", "-1"], "time_limit must be positive"),
+    (["grade", "ch01_particles", ".", "--time-limit", "-1"], "grade: time_limit must be a finite number > 0 and "
+                                                            "<= 86400, got -1.0"),
     (["assignment", "make", "ch02_integrator", "x"], "did you mean 'ch02_integrators'"),
 ])
 def test_cli_bad_input_is_one_error_line(argv, expected, capsys):
