@@ -37,6 +37,7 @@ __all__ = ["Vectors", "Rotation", "RigidState", "BodyIndices", "Flags", "Counter
 
 _ORTHO_TOL = 1e-6      # |RᵀR − E| accepted in a rotation matrix (single precision data passes)
 _SAFE = (1e-290, 1e290)  # |v|² computed directly between these; scaled by max |vᵢ| outside
+_MIN, _MAX = np.minimum.reduce, np.maximum.reduce
 
 
 def row_norms(v: np.ndarray) -> np.ndarray:
@@ -46,10 +47,10 @@ def row_norms(v: np.ndarray) -> np.ndarray:
     >>> row_norms(np.array([[3e300, 4e300, 0.0], [3e-300, 4e-300, 0.0]]))
     array([5.e+300, 5.e-300])
     """
-    with np.errstate(over="ignore", under="ignore", invalid="ignore"):
-        n2 = np.einsum("...i,...i->...", v, v)
-        if n2.size == 0 or (n2.min() > _SAFE[0] and n2.max() < _SAFE[1]):
-            return np.sqrt(n2)
+    n2 = np.einsum("...i,...i->...", v, v)       # (einsum raises no overflow warning)
+    if n2.size == 0 or (n2.min() > _SAFE[0] and n2.max() < _SAFE[1]):
+        return np.sqrt(n2)
+    with np.errstate(over="ignore", invalid="ignore"):
         s = np.abs(v).max(axis=-1)
         u = v / np.where(s > 0, s, 1.0)[..., None]
         return s * np.sqrt(np.einsum("...i,...i->...", u, u))
@@ -58,8 +59,9 @@ def row_norms(v: np.ndarray) -> np.ndarray:
 def tame(v: np.ndarray) -> np.ndarray:
     """Scale, in place, the rows of v whose |v|² would overflow or underflow to max |vᵢ| = 1 (no change to
     any other row, so a unit quaternion stays bit for bit); returns v."""
-    with np.errstate(over="ignore", under="ignore"):
-        n2 = np.einsum("...i,...i->...", v, v)
+    n2 = np.einsum("...i,...i->...", v, v)       # (einsum raises no overflow warning)
+    if n2.size == 0 or n2.min() > _SAFE[0] and n2.max() < _SAFE[1]:
+        return v
     wild = ~((n2 > _SAFE[0]) & (n2 < _SAFE[1])) & (np.abs(v).max(axis=-1) > 0)
     if wild.any():
         v[wild] /= np.abs(v[wild]).max(axis=-1, keepdims=True)
@@ -67,11 +69,14 @@ def tame(v: np.ndarray) -> np.ndarray:
 
 
 def _finite(a) -> bool:
-    a = np.asarray(a)
+    if type(a) is not np.ndarray:
+        if type(a) is float:
+            return math.isfinite(a)
+        a = np.asarray(a)
     if a.dtype.kind not in "fc":
         return True
-    with np.errstate(over="ignore", invalid="ignore"):
-        return math.isfinite(np.add.reduce(a, None)) or bool(np.isfinite(a).all())
+    # NaN propagates through min and max, ±inf lands in one of them (and neither raises a warning)
+    return a.size == 0 or math.isfinite(_MIN(a, None)) and math.isfinite(_MAX(a, None))
 
 
 def certify(what: str, out, *inputs, detail: str = ""):
@@ -324,11 +329,13 @@ class Counter(Spec):
 
 
 def certified(what: str):
-    """Decorator: the method's result (each item of a tuple) passes :func:`certify` against its arguments."""
+    """Decorator: the method's result (each item of a tuple) passes :func:`certify` against its arguments
+    (numpy's overflow warnings are silenced on the way: the overflow is named instead)."""
     def deco(f):
         @functools.wraps(f)
         def method(*args, **kwargs):
-            out = f(*args, **kwargs)
+            with np.errstate(over="ignore", invalid="ignore"):     # an overflow is named below
+                out = f(*args, **kwargs)
             inputs = args[1:] + tuple(kwargs.values())
             for o in out if isinstance(out, tuple) else (out,):
                 certify(what, o, *inputs)

@@ -156,7 +156,9 @@ class PointForce(Effect):
         f = self._forces(t, y)
         x, q, _, _ = rb.unpack(y)
         r = _matvec(rb.quat_to_matrix(q)[self.bodies], self.points)  # p − x in world axes
-        _accumulate(Q, rb.N, self._idx, f, _cross(r, f), "PointForce: F and τ = r × f", y)
+        with np.errstate(over="ignore", invalid="ignore"):          # an overflow is named in _accumulate
+            tau = _cross(r, f)
+        _accumulate(Q, rb.N, self._idx, f, tau, "PointForce: F and τ = r × f", y)
         # END SOLUTION
 
 

@@ -121,17 +121,15 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     True
     """
     q = np.asarray(quat, dtype=float)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    with np.errstate(over="ignore", under="ignore"):
-        n2 = w * w + x * x + y * y + z * z
-    if not (np.min(n2) > 1e-290 and np.max(n2) < 1e290):     # also NaN: scale each q to max |qᵢ| = 1
+    n2 = np.einsum("...i,...i->...", q, q)          # (einsum raises no overflow warning)
+    if not (n2.min() > 1e-290 and n2.max() < 1e290):     # also NaN: scale each q to max |qᵢ| = 1
         if (np.abs(q).max(axis=-1) == 0).any():
             raise InvalidInput(f"quat_to_matrix: quat must be non-zero quaternions (w, x, y, z), got a zero one "
                                f"among {q.shape[:-1] or 'one'}")
         with np.errstate(invalid="ignore"):
             q = q / np.abs(q).max(axis=-1, keepdims=True)
-        w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-        n2 = w * w + x * x + y * y + z * z
+        n2 = np.einsum("...i,...i->...", q, q)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     s = 2.0 / n2
     xx, yy, zz = s * x * x, s * y * y, s * z * z
     xy, xz, yz = s * x * y, s * x * z, s * y * z
