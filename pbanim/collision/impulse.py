@@ -79,7 +79,7 @@ from .shapes import Contacts
 from .specs import ContactsFor, SymmetricPSD, UnitVectors, declared
 from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult
-from ..geometry import skew
+from ..geometry import cross, skew
 
 __all__ = ["ImpulseBodies", "ImpulseResult", "collision_matrix", "contact_velocity", "contact_impulse",
            "apply_impulses", "resolve_collisions"]
@@ -141,8 +141,11 @@ class ImpulseBodies:
             T = 0.5 * np.sum((self.v[dyn] ** 2).sum(1) / self.inv_mass[dyn])
             rot = np.abs(self.inv_I).sum(axis=(1, 2)) > 0
             if rot.any():
-                I = np.linalg.pinv(self.inv_I[rot], hermitian=True)
-                T += 0.5 * np.einsum("ni,nij,nj->", self.omega[rot], I, self.omega[rot])
+                try:
+                    L = np.linalg.solve(self.inv_I[rot], self.omega[rot][..., None])[..., 0]
+                except np.linalg.LinAlgError:       # a singular I⁻¹: the pseudo-inverse
+                    L = np.einsum("nij,nj->ni", np.linalg.pinv(self.inv_I[rot], hermitian=True), self.omega[rot])
+                T += 0.5 * np.sum(L * self.omega[rot])
         return float(T)
 
 
@@ -166,8 +169,9 @@ class ImpulseResult:
         Natural-map residual of the last normal LCP (simultaneous) or the most negative v_rel left (sequential).
     extra : dict
         ``rounds`` of the simultaneous law, ``plastic_finish`` (True when contacts still approaching after
-        ``max_iter`` rounds were stopped plastically), ``energy_capped`` (sequential impulses scaled down
-        because Newton's law with friction would have created energy).
+        ``max_rounds`` rounds, or after a resting round's friction, were stopped by one frictionless
+        plastic LCP), ``energy_capped`` (sequential impulses scaled down because Newton's law with friction
+        would have created energy).
     regime : ndarray of str (m,)
         Each contact before the impulses: "colliding" (faster than the threshold), "resting" (slower),
         "touching" (v⁻_rel = 0 within tol·S: grazing, reported, no impulse needed) or "separating".
@@ -215,7 +219,7 @@ def contact_velocity(bodies: ImpulseBodies, contacts: Contacts) -> np.ndarray:
     c = contacts
     # BEGIN SOLUTION contact_velocity
     ra, rb = _lever(bodies, c)
-    return (bodies.v[c.a] + np.cross(bodies.omega[c.a], ra)) - (bodies.v[c.b] + np.cross(bodies.omega[c.b], rb))
+    return (bodies.v[c.a] + cross(bodies.omega[c.a], ra)) - (bodies.v[c.b] + cross(bodies.omega[c.b], rb))
     # END SOLUTION
 
 
@@ -258,8 +262,8 @@ def apply_impulses(bodies: ImpulseBodies, contacts: Contacts, J: np.ndarray) -> 
     dw = np.zeros_like(bodies.omega)
     np.add.at(dv, c.a, bodies.inv_mass[c.a, None] * J)
     np.add.at(dv, c.b, -bodies.inv_mass[c.b, None] * J)
-    np.add.at(dw, c.a, np.einsum("kij,kj->ki", bodies.inv_I[c.a], np.cross(ra, J)))
-    np.add.at(dw, c.b, -np.einsum("kij,kj->ki", bodies.inv_I[c.b], np.cross(rb, J)))
+    np.add.at(dw, c.a, np.einsum("kij,kj->ki", bodies.inv_I[c.a], cross(ra, J)))
+    np.add.at(dw, c.b, -np.einsum("kij,kj->ki", bodies.inv_I[c.b], cross(rb, J)))
     bodies.v += dv
     bodies.omega += dw
     # END SOLUTION

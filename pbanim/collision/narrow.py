@@ -294,7 +294,7 @@ def box_box(xa, Ra, ha, xb, Rb, hb, a: int = 0, b: int = 1, margin: float = 0.0)
         if best[slot] is None or overlap < best[slot][0]:
             best[slot] = (overlap, kind, idx, L if L @ d >= 0 else -L)
     face, edge = best
-    if edge is not None and edge[0] < _EDGE_BIAS * face[0] - 1e-12:
+    if edge is not None and edge[0] < face[0] - (1 - _EDGE_BIAS) * abs(face[0]) - 1e-12:   # also for gaps < 0
         overlap, _, (i, j), n = edge
         sa = np.where(Ra.T @ n >= 0, -1.0, 1.0)         # a's supporting edge: the corner nearest b
         sb = np.where(Rb.T @ n >= 0, 1.0, -1.0)

@@ -285,7 +285,7 @@ class Collisions(Effect):
         self.last = res
         if np.any(res.normal_impulse > 0):
             self.log.append({"t": t, "contacts": c.m, "impulse": float(res.normal_impulse.sum()),
-                             "vn_min": float(vn_before.min())})
+                             "vn_min": float(vn_before.min()), "regime": res.regime.tolist()})
         y = self._apply(y, c, res.impulse)
         if self.project:
             y = self._project(y, c)
@@ -332,6 +332,10 @@ class Collisions(Effect):
 
     @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
+        """The last response: contacts, total normal impulse, and how many contacts were colliding (faster
+        than the threshold), resting (slower: stopped with ε = 0) or touching (grazing, no impulse needed)."""
         res = self.last
+        count = (lambda kind: 0 if res is None else int(np.count_nonzero(res.regime == kind)))  # noqa: E731
         return {"contacts": 0 if res is None else len(res.normal_impulse),
-                "collision_impulse": 0.0 if res is None else float(res.normal_impulse.sum())}
+                "collision_impulse": 0.0 if res is None else float(res.normal_impulse.sum()),
+                "colliding": count("colliding"), "resting": count("resting"), "touching": count("touching")}

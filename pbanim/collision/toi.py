@@ -79,6 +79,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     if len(coll) != 1:
         raise InvalidInput(f"scene must hold exactly one Collisions effect, found {len(coll)}")
     col = coll[0]
+    col.last = None                 # diagnostics at t0 describe this run, not the effect's previous one
     others = [e for e in scene.effects if e.phase == "post_step" and e is not col]
     m = get_method(method)
     split = scene.system.split
