@@ -181,7 +181,7 @@ def test_bad_input_named_errors():
         simulate(s, 1.0, ["x0"], times=[1.5])
     with pytest.raises(UnknownParameter, match="does not exist"):
         simulate(s, 1.0, ["x7"])
-    with pytest.raises(InvalidInput, match="3 finite"):
+    with pytest.raises(InvalidInput, match=r"target must be a float array of shape \(3,\).*got \[1.0, 2.0\]"):
         position_goal(0, 0.5, [1.0, 2.0])
     with pytest.raises(InvalidInput, match="outside the simulated span"):
         edit(s, ["x0"], None, [position_goal(0, 2.0, [0, 0, 1.0])], 1.0)

@@ -310,8 +310,11 @@ def multiple_shooting(scene, goals, t_end, *, node_times=None, initial_states=No
     u = z[:d].copy()
     if d == 12:
         u[3:6] = quat_log(quat_multiply(seg.quat(z, 0), quat_conjugate(scene.bodies[0].orientation)))
-    ok = bool(res.success and viol <= tol)
+    certified = all(tr.certified for tr in trs)
+    ok = bool(res.success and viol <= tol and certified)
     msg = "converged: goals and continuity met" if ok else (f"not converged: constraints violated by {viol:.3e} "
-                                                             f"(SLSQP: {res.message})")
+                                                             f"(SLSQP: {res.message})"
+                                                             + ("" if certified else "; a segment passes through an "
+                                                                "obstacle"))
     return ShootingResult(u, ok, viol, E, total_it, total_sims, msg, hist, np.asarray(node_times), bool(res.success),
                           objs, names, len(impacts))

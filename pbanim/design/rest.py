@@ -120,16 +120,15 @@ _H = np.stack([2 * _U ** 3 - 3 * _U ** 2 + 1, _U ** 3 - 2 * _U ** 2 + _U, -2 * _
 
 
 def hermite_dips(g0, d0, g1, d1, h: float, tol: float):
-    """Features whose gap dips inside a step without a sign change at its ends (g > tol at both ends,
-    ġ₀ < 0 < ġ₁) to within ``tol`` by the cubic Hermite interpolant of (g, ġ): (indices, times of the minima)
-    — a touch, or two crossings hidden in one step (the caller evaluates the true gap there)."""
+    """Features whose gap reaches a minimum inside a step (g > tol at both ends, ġ₀ < 0 < ġ₁) that the cubic
+    Hermite interpolant of (g, ġ) puts near zero (within tol, or below half the smaller end gap): indices —
+    candidates for a touch or for two crossings hidden in one step (the caller finds the true minimum)."""
     cand = np.flatnonzero((g0 > tol) & (g1 > tol) & (d0 < 0) & (d1 > 0))
     if cand.size == 0:
-        return cand, np.zeros(0)
+        return cand
     p = _H[0] * g0[cand] + _H[1] * h * d0[cand] + _H[2] * g1[cand] + _H[3] * h * d1[cand]
-    imin = np.argmin(p, axis=0)
-    low = p[imin, np.arange(cand.size)] <= tol
-    return cand[low], _U[imin[low], 0] * h
+    low = p.min(axis=0) <= np.maximum(tol, 0.5 * np.minimum(g0[cand], g1[cand]))
+    return cand[low]
 
 
 class ContactState:

@@ -31,7 +31,8 @@ C           ``violation``       max |goal and continuity residuals| (m, rad, m/s
 ==========  ==================  =======================================================
 
 Solved by SLSQP (scipy.optimize) with the analytic ∂S/∂u of :func:`pbanim.design.simulate`. ``success``
-means both: SLSQP converged (KKT conditions to ``ftol``) and every constraint holds within ``tol``.
+means all three: SLSQP converged (KKT conditions to ``ftol``), every constraint holds within ``tol``, and
+the motion is certified (no recorded state inside an obstacle, :mod:`pbanim.design.rest`).
 
 Limiting cases: without sketch points E = 0 and shooting is a root finder for the goals; one node is
 single shooting.
@@ -189,7 +190,7 @@ def single_shooting(scene, u0, goals, t_end, *, names=None, sketch=None, h: floa
             E = sketch_objective(pts, lambda t: tr.position(0, t))
             dE = sum(((tr.position(0, t) - x) @ tr.d_position(0, t) for t, x in pts), np.zeros(u.size))
             cache.clear()
-            cache[key] = (E, dE, np.concatenate(c), np.vstack(Jc), len(tr.impacts))
+            cache[key] = (E, dE, np.concatenate(c), np.vstack(Jc), len(tr.impacts), tr.certified)
         return cache[key]
 
     ineq = ineq_jac = None
@@ -211,10 +212,11 @@ def single_shooting(scene, u0, goals, t_end, *, names=None, sketch=None, h: floa
 
     res = _slsqp(lambda u: run(u)[0], lambda u: run(u)[1], lambda u: run(u)[2], lambda u: run(u)[3], ineq,
                  ineq_jac, u0, maxiter, ftol, hist, objs)
-    E, _, c, _, n_imp = run(res.x)
+    E, _, c, _, n_imp, certified = run(res.x)
     viol = float(np.abs(c).max())
-    ok = bool(res.success and viol <= tol)
+    ok = bool(res.success and viol <= tol and certified)
     msg = "converged, goals met" if ok else (f"not converged: goals violated by {viol:.3e}, E = {E:.4g} after "
-                                             f"{res.nit} iterations (SLSQP: {res.message})")
+                                             f"{res.nit} iterations (SLSQP: {res.message})"
+                                             + ("" if certified else "; the motion passes through an obstacle"))
     return ShootingResult(res.x, ok, viol, E, int(res.nit), count[0], msg, hist, None, bool(res.success), objs,
                           names, n_imp)

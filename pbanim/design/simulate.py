@@ -39,6 +39,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, contract, finite_result
 from ..errors import InvalidInput, StepLimitExceeded, check_result
@@ -248,10 +249,12 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
             te, _, ev = crossings(evs, g0[hit], t, yy, t + hk, y1, hk, partial(yy))[0]
             found.append((te, int(hit[evs.index(ev)])))
         d0, d1 = gap_rates(feat, model, yy, nrm, G)[0], gap_rates(feat, model, y1, nrm, G)[0]
-        ks, ss = hermite_dips(np.where(skip, -np.inf, g0), d0, g1, d1, hk, tol0)
-        for k, s in zip(ks, ss):                # the gap dips inside the step: a touch, or in and out
+        for k in hermite_dips(np.where(skip, -np.inf, g0), d0, g1, d1, hk, tol0):
+            # the gap dips inside the step: a touch, or in and out; the true minimum along the partial step
+            low = minimize_scalar(lambda s: float(gaps(feat, partial(yy)(s), N, nrm)[k]), bounds=(0.0, hk),
+                                  method="bounded", options={"xatol": 1e-9 * hk})
+            s, gk = float(low.x), float(low.fun)
             ys = partial(yy)(s)
-            gk = float(gaps(feat, ys, N, nrm)[k])
             if gk < 0:
                 found.append((crossings(gap_fn(k), [g0[k]], t, yy, t + s, ys, s, partial(yy))[0][0], int(k)))
             elif gk <= tol0:
