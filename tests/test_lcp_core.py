@@ -49,7 +49,7 @@ def test_collision_lcp_equals_lcp_core_on_p_matrices(m, seed):
 
 
 def test_collision_lcp_keeps_its_named_errors():
-    with pytest.raises(ValueError, match="LCP method must be 'lemke' or 'enumerate', got 'pgs'"):
+    with pytest.raises(ValueError, match="solve_lcp_small: method must be one of 'lemke', 'enumerate', got 'pgs'"):
         solve_lcp_small(np.eye(2), [-1.0, 1.0], method="pgs")
     # A = [−1], b = [−1] has no solution: Lemke ends on a secondary ray, enumeration finds no set
     from pbanim.errors import InfeasibleContact

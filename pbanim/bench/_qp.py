@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import median_time
-from ..lcp.qp import _failure
+from ..lcp.qp import backend_failure
 
 __all__ = ["QP_STEP_HEADER", "qp_step_rows", "qp_step_time_proxsuite", "standing_controller"]
 
@@ -67,7 +67,7 @@ def qp_step_rows(quick: bool) -> list[list]:
         try:
             rows.append(_row(f"{name} (qpsolvers)", name, False, "weighted", quick))
         except Exception as exc:  # noqa: BLE001  (a backend that cannot take the problem is a row that says so)
-            rows.append([f"{name} (qpsolvers)", "weighted", float("nan"), float("nan"), 0, _failure(exc)])
+            rows.append([f"{name} (qpsolvers)", "weighted", float("nan"), float("nan"), 0, backend_failure(exc)])
     return rows
 
 

@@ -258,7 +258,7 @@ def _backend_runs(A: np.ndarray, b: np.ndarray) -> tuple[dict, dict]:
     for those that raise — quadprog and ECOS refuse the singular A of redundant contacts — as a status)."""
     import qpsolvers
 
-    from ..lcp.qp import _failure, backend_settings
+    from ..lcp.qp import backend_failure, backend_settings
 
     runs, failed = {}, {}
     for backend in qpsolvers.available_solvers:
@@ -268,7 +268,7 @@ def _backend_runs(A: np.ndarray, b: np.ndarray) -> tuple[dict, dict]:
         try:
             runs[backend]()
         except Exception as exc:  # noqa: BLE001 - a backend's refusal is a table entry, not a crash
-            failed[backend] = _failure(exc)
+            failed[backend] = backend_failure(exc)
             del runs[backend]
     return runs, failed
 

@@ -14,14 +14,16 @@ import numpy as np
 from .assembly import _PARTICLE_Q, _PARTICLE_Y, _RIGID_Q, _RIGID_Y, _ROWS, _free_accel, rigid_state
 from .specs import PARTICLES, RIGID, ContactsOn, finite_parts
 from ..contracts import Array, Opt, contract
-from ..lcp.solve import _blocks
-from ..lcp.specs import JacobianRows, RowIndices
+from ..lcp.specs import JacobianRows, RowIndices, length_of
 
 __all__ = ["assemble_rigid_loop", "assemble_particles_loop", "delassus_by_bodies"]
 
 
-@contract(a=RowIndices(_blocks), b=RowIndices(_blocks), Ga=_ROWS, Gb=_ROWS, Wb=Array(("n", "d", "d")),
-          other=Opt(JacobianRows(_blocks)), returns=finite_parts)
+_BLOCKS = length_of("Wb")
+
+
+@contract(a=RowIndices(_BLOCKS), b=RowIndices(_BLOCKS), Ga=_ROWS, Gb=_ROWS, Wb=Array(("n", "d", "d")),
+          other=Opt(JacobianRows(_BLOCKS)), returns=finite_parts)
 def delassus_by_bodies(a, b, Ga, Gb, Wb, other=None) -> np.ndarray:
     """Readable A = J W Kᵀ, body by body: row i acts on body a[i] with +Ga[i] and on b[i] with −Gb[i], so
 

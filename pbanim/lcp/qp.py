@@ -25,7 +25,7 @@ import numpy as np
 from .pivoting import _polish
 from ..errors import InvalidInput
 
-__all__ = ["qp", "BACKEND_TOLERANCES", "backend_settings"]
+__all__ = ["qp", "BACKEND_TOLERANCES", "backend_settings", "backend_failure"]
 
 
 def _eps(*names: str, rel: tuple = ()):
@@ -60,7 +60,7 @@ def backend_settings(backend: str, eps: float) -> dict:
     return {} if make is None else make(float(eps))
 
 
-def _failure(exc: BaseException) -> str:
+def backend_failure(exc: BaseException) -> str:
     """A backend's exception as a status: its type and message (first 200 characters)."""
     text = " ".join(str(exc).split())
     return f"backend error {type(exc).__name__}: {text[:200]}"
@@ -109,7 +109,7 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
             status = str(getattr(info, "status", "found" if sol.found else "not_found")).split(".")[-1]
             iters = int(getattr(info, "iter", 0))
     except Exception as exc:  # noqa: BLE001 - a backend's own refusal or failure becomes a status
-        return np.zeros(m), _failure(exc), 0
+        return np.zeros(m), backend_failure(exc), 0
     if not np.all(np.isfinite(f)):
         return np.where(np.isfinite(f), f, 0.0), status, iters
     f = np.maximum(f, 0.0)

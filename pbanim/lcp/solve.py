@@ -49,7 +49,7 @@ from .box import _box_residual, pgs_bounded, pgs_box_friction  # noqa: F401  (th
 from .pivoting import _check, _dantzig, _lemke, _polish, _scale, residual_threshold
 from .qp import qp
 from .pivoting import _MATRIX, _VECTOR
-from .specs import JacobianRows, RowIndices, check_options
+from .specs import JacobianRows, RowIndices, check_options, length_of
 from ..contracts import Array, Choice, Flag, Int, Opt, Real, contract, finite_result
 from ..errors import InfeasibleContact, InvalidInput, PbanimError
 from ..results import ContactSolution, natural_map_residual
@@ -94,11 +94,7 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
 # ---------------------------------------------------------------------------------------------
 # The Delassus matrix A = J W Kᵀ (collision impulses, resting contact, friction)
 # ---------------------------------------------------------------------------------------------
-def _blocks(env) -> int:
-    """n: the number of inverse-mass blocks (bodies, the world included) of the argument Wb."""
-    return len(env.values["Wb"])
-
-
+_blocks = length_of("Wb")       # n: the inverse-mass blocks (bodies, the world included)
 _ROWS = Array(("m", "d"), empty=True)
 
 

@@ -5,6 +5,7 @@ spec                       accepts
 =========================  ======================================================================
 ``RowIndices(size, rows)`` an ``Indices`` of shape (rows,) whose length binds the symbol ``rows``
                            (so that a row's body index and its Jacobian block have the same count)
+``length_of(name)``        a size: the length of the argument ``name``
 ``JacobianRows(n)``        the rows (a, b, G_a, G_b) of a second Jacobian K (``delassus``'s
                            ``other``): body indices in 0 … n − 1 and two (k, d) float arrays
 ``SolverOptions(solver)``  a dict of options for the LCP solver named by the argument ``solver``
@@ -24,12 +25,18 @@ from ..contracts import Array, Choice, Flag, Indices, Int, Obj, Opt, Real, Spec
 from ..contracts.specs import Env, short
 from ..errors import InvalidInput
 
-__all__ = ["JacobianRows", "RowIndices", "SolverOptions", "LCP_OPTIONS", "check_options", "LCP_ENTRIES", "LIMIT"]
+__all__ = ["JacobianRows", "RowIndices", "SolverOptions", "length_of", "LCP_OPTIONS", "check_options", "LCP_ENTRIES",
+           "LIMIT"]
 
 #: largest |entry| of A and b: beyond it A f and the residual threshold overflow (no certificate possible)
 LIMIT = 1e100
 #: the entries of an LCP's A and b: finite and below :data:`LIMIT` in magnitude
 LCP_ENTRIES = dict(ge=-LIMIT, le=LIMIT)
+
+
+def length_of(name: str):
+    """A size for a spec: the length of the argument ``name`` (e.g. the number of inverse-mass blocks Wb)."""
+    return lambda env: len(env.values[name])
 
 
 def _qp_backends():
