@@ -218,7 +218,7 @@ def fresh(entry):
     return Call(entry)
 
 
-def invoke(c: Call, **override):
+def invoke(c: Call, /, **override):
     pos, kw = c.args(**override)
     return c.target(*pos, **kw)
 

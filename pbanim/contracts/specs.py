@@ -246,8 +246,9 @@ class Int(Spec):
         return int(value)
 
     def example(self, env):
-        lo = self.bounds.lo
-        return int(lo + 1) if lo is not None else 1
+        lo, hi = self.bounds.lo, self.bounds.hi
+        v = int(lo + 1) if lo is not None else 1
+        return v if hi is None or v <= hi else int(lo if lo is not None else hi)
 
     def bad(self, env):
         return [("NaN", math.nan), ("inf", math.inf), ("a fraction", 1.5), ("None", None), ("a string", "1"),
