@@ -74,7 +74,7 @@ from .specs import Buffer, IndexArray, point
 from .springs import _per_spring as _per_particle
 from .springs import DampedSprings, ForceJacobian, bilinear, spring_forces_loop
 from ..bodies import Bodies
-from ..contracts import Array, Int, Obj, Opt, Real, contract
+from ..contracts import Array, Int, Obj, Opt, Real, contract, finite_result
 from ..scene import Effect
 from ..errors import InvalidInput, as_floats, check_result
 
@@ -322,7 +322,7 @@ class Gravity(Effect):
         """Q = c + d v with c = m g, d = 0 (lets :class:`pbanim.scene.Scene` fold it into one update)."""
         return self._mg, None
 
-    @contract(y=_SYS_Y)
+    @contract(y=_SYS_Y, returns=finite_result)     # huge coordinates of mixed signs: inf − inf
     def potential_energy(self, y: np.ndarray) -> float:
         # BEGIN SOLUTION Gravity.potential_energy
         x, _ = self.system.unpack(y)
