@@ -26,10 +26,13 @@ k_s, k_d            ``stiffness, damping`` scalars       Baumgarte stabilization
 
 Parts
 -----
-* :mod:`pbanim.lcp.solve` — ``solve_lcp(A, b, solver="qp"|"lemke"|"dantzig"|"pgs")`` with a
-  certificate (natural-map residual) every time; failures raise ``InfeasibleContact``.
-* :mod:`pbanim.contact.assembly` — A and b for rigid bodies and particles (vectorized + a readable
-  per-contact loop, tested equal).
+* :mod:`pbanim.lcp.solve` — ``solve_lcp(A, b, solver="qp"|"lemke"|"dantzig"|"pgs"|"bpp")`` with a
+  certificate (natural-map residual) every time; failures (a QP backend's own exception included) raise
+  ``InfeasibleContact``, or return ``success=False`` with the status when asked.
+* :mod:`pbanim.contact.assembly` — A and b for rigid bodies and particles (vectorized; the readable
+  per-contact loops, tested equal, in :mod:`pbanim.contact.readable`).
+* :mod:`pbanim.contact.specs` — what the arguments must be: systems, their states and forces, contacts
+  among their bodies (also checked on what a user's ``detect(y)`` returns inside a step).
 * :mod:`pbanim.contact.effect` — ``RestingContact``: the scene effect (phase "constraint").
 * :mod:`pbanim.contact.friction` — polyhedral friction cones and the velocity-level
   (Stewart–Trinkle / Anitescu–Potra) time-stepping scheme; Painlevé detection at the acceleration level.

@@ -4,9 +4,11 @@ One linear complementarity problem serves collision impulses, resting contact an
 
     w = A f + b ≥ 0,   f ≥ 0,   fᵀ w = 0.
 
-Parts: :mod:`pbanim.lcp.solve` (``solve_lcp``: one signature for every solver, QP through qpsolvers and
-proxsuite, projected Gauss–Seidel, the certificate; ``delassus``: the matrix A = J W Kᵀ from per-contact
-Jacobian rows), :mod:`pbanim.lcp.pivoting` (Lemke's complementary pivoting, Dantzig-style principal
+Parts: :mod:`pbanim.lcp.solve` (``solve_lcp``: one signature for every solver, projected Gauss–Seidel, the
+certificate; ``delassus``: the matrix A = J W Kᵀ from per-contact Jacobian rows), :mod:`pbanim.lcp.qp` (the
+QP through proxsuite or any qpsolvers backend, each asked for the accuracy in its own settings, a backend's
+exception returned as a status), :mod:`pbanim.lcp.specs` (what the arguments must be: the solvers' options
+by name, the rows of a second Jacobian), :mod:`pbanim.lcp.pivoting` (Lemke's complementary pivoting, Dantzig-style principal
 pivoting, enumeration of active sets), :mod:`pbanim.lcp.active_set` (block principal pivoting, the
 Goldfarb–Idnani dual active set, the box-friction active set), :mod:`pbanim.lcp.box` (projected
 Gauss–Seidel with box friction and bounds) and :mod:`pbanim.lcp.colored` (its colored, vectorized sweep). Collision impulses (chapter 06) and resting contact (chapter 07)
