@@ -15,7 +15,7 @@ from pbanim.contact.friction import friction_directions
 from pbanim.errors import InfeasibleContact, InvalidInput, NonFiniteResult
 from pbanim.lcp import delassus, enumerate_active_sets, lemke, pgs_bounded, solve_lcp, solve_planar_contact
 from pbanim.lcp.pivoting import _certified, residual_threshold
-from pbanim.lcp.qp import BACKEND_TOLERANCES, backend_settings
+from pbanim.lcp.qp import BACKEND_ITERATIONS, BACKEND_TOLERANCES, backend_settings
 from pbanim.models.contact import random_contact_lcp
 from pbanim.particles import Gravity, ParticleSystem
 from pbanim.results import natural_map_residual
@@ -62,6 +62,20 @@ def test_singular_contact_matrix_is_a_status_or_a_named_error(backend):
         solve_lcp(case.A, case.b, "qp", backend=backend, native_box=False)
     sol = solve_lcp(case.A, case.b, "qp", backend=backend, native_box=False, fallback="lemke")
     assert sol.success and sol.extra["fallback_from"]["status"].startswith("backend error")
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_max_iter_reaches_every_backend_under_its_own_name(backend):
+    # max_iter was passed to ProxQP only: OSQP, SCS, ... ran to their own caps whatever the caller asked
+    _installed(backend)
+    case = random_contact_lcp(30, False, seed=3)
+    if backend not in BACKEND_ITERATIONS:           # quadprog, HiGHS: no iteration cap pbanim knows
+        with pytest.raises(InvalidInput, match=f"max_iter is not an option of the QP backend '{backend}'"):
+            solve_lcp(case.A, case.b, "qp", backend=backend, native_box=False, max_iter=2)
+        return
+    sol = solve_lcp(case.A, case.b, "qp", backend=backend, native_box=False, max_iter=2, polish=False,
+                    raise_on_failure=False)
+    assert not sol.success and sol.iterations <= 2
 
 
 def _raising_backend(monkeypatch, message="matrix P is not positive definite"):

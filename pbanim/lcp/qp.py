@@ -25,7 +25,7 @@ import numpy as np
 from .pivoting import _polish
 from ..errors import InvalidInput
 
-__all__ = ["qp", "BACKEND_TOLERANCES", "backend_settings", "backend_failure"]
+__all__ = ["qp", "BACKEND_TOLERANCES", "BACKEND_ITERATIONS", "backend_settings", "backend_failure"]
 
 
 def _eps(*names: str, rel: tuple = ()):
@@ -48,6 +48,12 @@ BACKEND_TOLERANCES = {
     "highs": _eps("primal_feasibility_tolerance", "dual_feasibility_tolerance"),
     "quadprog": lambda e: {},            # a dual active-set method: exact up to roundoff, no tolerance
 }
+
+
+#: each backend's name for its iteration cap (``max_iter=`` of :func:`qp` is passed on under it)
+BACKEND_ITERATIONS = {"proxqp": "max_iter", "osqp": "max_iter", "clarabel": "max_iter", "piqp": "max_iter",
+                      "qpalm": "max_iter", "scs": "max_iters", "ecos": "max_iters", "cvxopt": "maxiters",
+                      "daqp": "iter_limit"}
 
 
 def backend_settings(backend: str, eps: float) -> dict:
@@ -73,8 +79,9 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
 
     With ``backend="proxqp"`` and ``native_box=True`` (default) proxsuite's dense ProxQP is called with
     its own box constraints ``l_box = 0`` (qpsolvers would turn the bound into a dense inequality
-    block); otherwise ``qpsolvers.solve_problem`` with ``lb = 0`` and the backend's tolerance options
-    at ``eps_abs`` (:func:`backend_settings`; ``opts`` override them). Needs a symmetric positive
+    block); otherwise ``qpsolvers.solve_problem`` with ``lb = 0``, the backend's tolerance options at
+    ``eps_abs`` (:func:`backend_settings`; ``opts`` override them) and ``max_iter`` under the backend's own
+    name (:data:`BACKEND_ITERATIONS`; refused by name for a backend without one). Needs a symmetric positive
     semidefinite A. ``polish`` re-solves on the active set {fᵢ > wᵢ} (like OSQP's polishing) and keeps
     the result only when that lowers the natural-map residual: with the default ``eps_abs = 1e-9`` this
     reaches the 1e-10 certificate at a fraction of the iterations that ``eps_abs = 1e-12`` alone needs.
@@ -90,8 +97,12 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
                            f"{qpsolvers.available_solvers}, got {backend!r}")
     m = b.size
     x0 = None if warm_start is None else np.maximum(np.asarray(warm_start, dtype=float), 0.0)
+    native = backend == "proxqp" and native_box
+    if max_iter is not None and not native and backend not in BACKEND_ITERATIONS:
+        raise InvalidInput(f"solve_lcp: max_iter is not an option of the QP backend {backend!r} (it has no "
+                           f"iteration cap pbanim knows); leave max_iter unset, got {max_iter}")
     try:
-        if backend == "proxqp" and native_box:
+        if native:
             import proxsuite
 
             res = proxsuite.proxqp.dense.solve(A, b, None, None, None, None, None, l_box=np.zeros(m),
@@ -101,8 +112,8 @@ def qp(A: np.ndarray, b: np.ndarray, *, backend: str = "proxqp", eps_abs: float 
             status, iters = str(res.info.status).split(".")[-1], int(res.info.iter)
         else:
             kw = {**backend_settings(backend, eps_abs), **opts}
-            if backend == "proxqp":
-                kw.setdefault("max_iter", max_iter or 10000)
+            if max_iter is not None or backend == "proxqp":
+                kw[BACKEND_ITERATIONS[backend]] = max_iter or 10000
             sol = qpsolvers.solve_problem(qpsolvers.Problem(A, b, lb=np.zeros(m)), solver=backend, initvals=x0, **kw)
             f = np.zeros(m) if sol.x is None else np.asarray(sol.x, dtype=float).copy()
             info = sol.extras.get("info") if isinstance(sol.extras, dict) else None
