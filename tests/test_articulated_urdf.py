@@ -105,7 +105,8 @@ def test_every_pybullet_urdf_pinocchio_loads_loads_and_matches_pinocchio():
     print(f"pybullet_data URDFs: {counts}, largest difference {worst:.2e}")
     for rel, msg in refusals:
         assert isinstance(msg, str) and msg.startswith("<link name=") and "I1 + I2 >= I3" in msg, (rel, msg)
-    assert counts["pinocchio"] > 1000 and counts["matched"] == counts["pbanim"] == counts["pinocchio"] - counts["refused"]
+    assert counts["pinocchio"] > 1000
+    assert counts["matched"] == counts["pbanim"] == counts["pinocchio"] - counts["refused"]
     assert counts["refused"] <= 10
 
 
@@ -190,8 +191,22 @@ def test_limits_continuous_joints_and_mimic_are_read():
     q, qd, tau = np.array([0.3, 7.0, 0.2, -0.4]), np.array([0.5, -1.0, 0.3, 2.0]), np.array([0.1, 0.0, 0.0, 0.2])
     np.testing.assert_allclose(aba(tree, q, qd, tau), aba(rev, q, qd, tau), rtol=0, atol=1e-13)
     np.testing.assert_allclose(aba_fast(tree, q, qd, tau), aba(rev, q, qd, tau), rtol=0, atol=1e-12)
-    with pytest.raises(InvalidInput, match="position limits\\) apply to revolute and prismatic joints, got a continuous"):
+    with pytest.raises(InvalidInput, match="limits\\) apply to revolute and prismatic joints, got a continuous"):
         Joint("continuous", lower=-1.0, upper=1.0)
+
+
+def test_a_floating_joint_from_the_world_link_is_a_free_body():
+    # a file's massless "world" root with a floating joint to the robot: a free body (it falls at g); a floating
+    # joint anywhere else is refused by name
+    text = _robot(_link("world"), _link("base", 2.0, "0.1 0 0"), _link("arm", 1.0, "0 0 -0.3"),
+                  _joint("free", "floating", "world", "base", xyz="0 0 1"),
+                  _joint("hinge", "revolute", "base", "arm", axis="0 1 0"))
+    tree = load_urdf(text)
+    assert tree.parent == [-1, -1, 1] and (tree.nq, tree.nv) == (8, 7)
+    qdd = aba(tree, tree.neutral(), np.zeros(7), np.zeros(7))
+    np.testing.assert_allclose(qdd[3:6], [0.0, 0.0, -9.81], atol=1e-12)       # the body frame is the world's
+    with pytest.raises(InvalidInput, match="<joint name='loose'>: a floating joint must hang from the fixed root"):
+        load_urdf(text.replace("</robot>", _link("tip", 1.0) + _joint("loose", "floating", "arm", "tip") + "</robot>"))
 
 
 def test_joint_stops_hold_in_contact_stepping():
@@ -224,7 +239,8 @@ def test_batched_variants_give_the_one_state_named_errors():
     spin = ArticulatedTree()                                 # a point mass on its own axis: D = 0
     spin.add("bead", -1, "revolute", axis=[0, 0, 1], mass=1.0, com=[0, 0, 1.0])
     z = np.zeros(1)
-    for f in (lambda: aba(spin, z, z, z), lambda: aba_fast(spin, z, z, z), lambda: aba_batch(spin, z[None], z[None], z[None])):
+    for f in (lambda: aba(spin, z, z, z), lambda: aba_fast(spin, z, z, z),
+              lambda: aba_batch(spin, z[None], z[None], z[None])):
         with pytest.raises(SingularChartError, match="joint 0.*zero articulated inertia"):
             f()
     tree = ArticulatedTree()

@@ -70,8 +70,8 @@ def batch_of(q, **others):
     for name, a in others.items():
         a = np.asarray(a, dtype=float)
         if a.shape[:-1] != q.shape[:-1]:
-            raise InvalidInput(f"{name} must hold the states of q ({'one state' if q.ndim == 1 else f'K = {q.shape[0]}'})"
-                               f", got shape {a.shape} for q of shape {q.shape}")
+            held = "one state" if q.ndim == 1 else f"K = {q.shape[0]}"
+            raise InvalidInput(f"{name} must hold the states of q ({held}), got shape {a.shape} for q of shape {q.shape}")
         out.append(a if a.ndim == 2 else a[None])
     return q.ndim == 1, (q if q.ndim == 2 else q[None]), out
 

@@ -49,7 +49,8 @@ from ..geometry import cross, tangent_basis
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
 from ..scene import Effect
-from .specs import Size, UnitAxis
+from ..rigid.domain import RigidState
+from .specs import UnitAxis
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
 
@@ -59,13 +60,7 @@ _BIG = Real(ge=-1e100, le=1e100)
 _BODY = Int(ge=-1)
 
 
-def _n_state(env) -> int:
-    s = env.resolve("self.system")
-    n = getattr(s, "n_state", None)
-    return int(n) if n is not None else 13 * int(s.N)
-
-
-_Y = Array((Size(_n_state, "13 N"),))
+_Y = RigidState("self.system")
 _T = Real()
 
 

@@ -30,7 +30,9 @@ import numpy as np
 
 from ..contracts import Array, Either, Real, contract, finite_result
 from ..geometry import skew
-from .specs import Inertia, Rotation, UnitAxis
+from ..rigid.admissible import Inertia
+from ..rigid.domain import Rotation
+from .specs import UnitAxis
 
 __all__ = ["skew", "rotation", "plucker", "plucker_inverse", "force_transform", "crm", "crf",
            "spatial_inertia", "transform_inertia"]
@@ -103,7 +105,7 @@ def crf(v: np.ndarray) -> np.ndarray:
     return -np.swapaxes(crm(v), -1, -2)
 
 
-@contract(mass=Real(ge=0), com=Array((3,)), I_com=Inertia(), returns=finite_result)
+@contract(mass=Real(ge=0), com=Array((3,)), I_com=Inertia(definite=False), returns=finite_result)
 def spatial_inertia(mass, com, I_com) -> np.ndarray:
     """[[I_c + m c×c×ᵀ, m c×], [m c×ᵀ, m 1]] (..., 6, 6) about the frame's origin.
 

@@ -8,17 +8,15 @@ spec                           accepts
                                y = [q, q̇] with ``state=True``; joint i's q_i with ``joint="i"``): finite, and
                                the quaternion of every floating joint non-zero (its norm does not matter)
 ``UnitAxis()``                 a non-zero finite 3-vector (a joint axis, a rotation axis), returned of unit length
-``Rotation()``                 a rotation matrix E (EᵀE = 1 to 1e-9, det E = +1)
-``Inertia(principal=)``        a rotational inertia I_c about the centre of mass: symmetric, positive
-                               semi-definite, principal moments with I₁ + I₂ ≥ I₃ (a point mass: 0); with
-                               ``principal=True`` also three principal moments; returned as a 3 × 3 matrix
 ``Parent(size)``               −1 (the world) or the index of an existing link
 ``LinkPoints(size)``           a list of (link, point) pairs: a link index and a 3-vector in its frame
 ``PlanarKinematics()``         the dict ``kernel.kinematics(q)`` of the call's q
 =============================  ==============================================================================
 
-The physical checks (a rotation, an inertia) are the ones a URDF file's numbers go through too
-(:mod:`.urdf` calls ``spec.check`` with the element as the place), so a refusal reads the same either way.
+Rotations and inertias are chapter 05's specs, reused: :class:`pbanim.rigid.domain.Rotation` and
+:class:`pbanim.rigid.admissible.Inertia` (``definite=False``: a link may be a point mass or massless). A URDF
+file's numbers go through the same specs (:func:`check_with`, with the element as the place), so a refusal
+reads the same either way.
 """
 
 from __future__ import annotations
@@ -30,8 +28,7 @@ import numpy as np
 
 from ..contracts import Array, Env, Obj, Spec
 
-__all__ = ["Tree", "JointPositions", "UnitAxis", "Rotation", "Inertia", "Parent", "LinkPoints",
-           "PlanarKinematics", "Size", "inertia_problem", "check_with"]
+__all__ = ["Tree", "JointPositions", "UnitAxis", "Parent", "LinkPoints", "PlanarKinematics", "Size", "check_with"]
 
 
 def _floats(name, value, env, expected, shape=None):
@@ -167,93 +164,6 @@ class UnitAxis(Spec):
 
     def edges(self, env):
         return [("tiny", np.full(3, 1e-300)), ("huge", np.full(3, 1e300)), ("not unit", [0.0, 3.0, 4.0])]
-
-
-class Rotation(Spec):
-    """A 3 × 3 rotation matrix: EᵀE = 1 to ``tol`` and det E = +1 (a reflection is refused)."""
-
-    def __init__(self, tol: float = 1e-9) -> None:
-        self.tol = tol
-
-    def describe(self) -> str:
-        return "a 3×3 rotation matrix (EᵀE = 1, det E = +1)"
-
-    def check(self, name, value, env):
-        E = _floats(name, value, env, self.describe(), (3, 3))
-        err = float(np.abs(E.T @ E - np.eye(3)).max())
-        if not err <= self.tol:
-            raise env.fail(name, self.describe(), value, f"|EᵀE − 1| = {err:.3g}")
-        if np.linalg.det(E) < 0:
-            raise env.fail(name, self.describe(), value, "det E = −1: a reflection")
-        return E
-
-    def example(self, env):
-        return np.eye(3)
-
-    def bad(self, env):
-        return [("None", None), ("a string", "x"), ("NaN", np.full((3, 3), np.nan)), ("scaled", 2.0 * np.eye(3)),
-                ("a reflection", np.diag([1.0, 1.0, -1.0])), ("a wrong shape", np.eye(2)),
-                ("a batch", np.stack([np.eye(3)] * 2))]
-
-    def edges(self, env):
-        c, s = math.cos(2.0), math.sin(2.0)
-        return [("a turn", np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])), ("a nested list", np.eye(3).tolist())]
-
-
-def inertia_problem(I: np.ndarray) -> str:
-    """Why a finite 3 × 3 matrix is not a rotational inertia about a centre of mass ("" when it is one):
-    not symmetric, not positive semi-definite, or principal moments with I₁ + I₂ < I₃ (tolerance 1e-12 of the
-    largest moment)."""
-    top = float(np.abs(I).max())
-    if top == 0.0:
-        return ""
-    S = I / top                                   # scaled: 1e300 moments do not overflow the eigensolver
-    if not np.allclose(S, S.T, rtol=0.0, atol=1e-12):
-        return "it is not symmetric"
-    lam = np.linalg.eigvalsh(0.5 * (S + S.T))
-    tol = 1e-12 * float(np.abs(lam).max())
-    if lam[0] < -tol:
-        return f"it is not positive semi-definite (principal moments {lam * top})"
-    if lam[0] + lam[1] < lam[2] - tol:
-        return f"its principal moments {lam * top} violate I1 + I2 >= I3 (no mass distribution has them)"
-    return ""
-
-
-class Inertia(Spec):
-    """A rotational inertia about the centre of mass (see :func:`inertia_problem`), as a 3 × 3 matrix; with
-    ``principal=True`` three principal moments (I₁, I₂, I₃) are accepted too and returned as diag(I)."""
-
-    def __init__(self, *, principal: bool = False) -> None:
-        self.principal = principal
-
-    def describe(self) -> str:
-        return ("a rotational inertia: a symmetric positive semi-definite 3×3 matrix" +
-                (" or 3 principal moments" if self.principal else "") + " with I1 + I2 >= I3")
-
-    def check(self, name, value, env):
-        I = _floats(name, value, env, self.describe())
-        if self.principal and I.shape == (3,):
-            I = np.diag(I)
-        if I.shape != (3, 3):
-            raise env.fail(name, self.describe(), value, f"shape {I.shape}")
-        why = inertia_problem(I)
-        if why:
-            raise env.fail(name, self.describe(), value, why)
-        return I
-
-    def example(self, env):
-        return np.diag([1.0, 1.5, 2.0])
-
-    def bad(self, env):
-        return [("None", None), ("a string", "x"), ("NaN", np.full((3, 3), np.nan)),
-                ("not symmetric", np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])),
-                ("a negative moment", np.diag([1.0, 1.0, -0.5])),
-                ("the triangle inequality violated", np.diag([1.0, 1.0, 3.0])), ("a wrong shape", np.eye(2))]
-
-    def edges(self, env):
-        out = [("zero (a point mass)", np.zeros((3, 3))), ("a rod (I1 = 0)", np.diag([0.0, 1.0, 1.0])),
-               ("huge", np.eye(3) * 1e300)]
-        return out + ([("principal moments", [1.0, 1.0, 1.5])] if self.principal else [])
 
 
 class Parent(Spec):

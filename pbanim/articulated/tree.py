@@ -42,7 +42,9 @@ import numpy as np
 from ..contracts import Array, Choice, Index, Opt, Real, Text, contract
 from ..errors import InvalidInput
 from .spatial import plucker, rotation, spatial_inertia
-from .specs import Inertia, JointPositions, Parent, Rotation, UnitAxis
+from ..rigid.admissible import Inertia
+from ..rigid.domain import Rotation
+from .specs import JointPositions, Parent, UnitAxis
 
 __all__ = ["Joint", "Link", "ArticulatedTree", "JOINT_TYPES", "ROTATING", "ONE_DOF"]
 
@@ -89,7 +91,7 @@ class Joint:
         return self.lower > -math.inf or self.upper < math.inf
 
 
-@contract(name=Text(), mass=Real(ge=0), com=_V3, inertia=Inertia())
+@contract(name=Text(), mass=Real(ge=0), com=_V3, inertia=Inertia(definite=False))
 @dataclass(frozen=True)
 class Link:
     """A rigid link: mass m ≥ 0, centre of mass and rotational inertia about it, in the link frame."""
@@ -133,8 +135,8 @@ class ArticulatedTree:
         return len(self.links)
 
     @contract(name=Text(), parent=Parent("self.n"), kind=_KIND, axis=UnitAxis(), R=Opt(Rotation()), p=_V3,
-              mass=Real(ge=0), com=_V3, inertia=Opt(Inertia(principal=True)), damping=Real(ge=0), lower=_BOUND,
-              upper=_BOUND, effort=_RATE, velocity=_RATE, joint=Opt(Text()))
+              mass=Real(ge=0), com=_V3, inertia=Opt(Inertia(moments=True, definite=False)), damping=Real(ge=0),
+              lower=_BOUND, upper=_BOUND, effort=_RATE, velocity=_RATE, joint=Opt(Text()))
     def add(self, name: str, parent: int, kind: str, *, axis=(0.0, 0.0, 1.0), R=None, p=(0.0, 0.0, 0.0),
             mass: float, com=(0.0, 0.0, 0.0), inertia=None, damping: float = 0.0, lower: float = -math.inf,
             upper: float = math.inf, effort: float = math.inf, velocity: float = math.inf,

@@ -26,7 +26,8 @@ relation q_i = multiplier q_j + offset is kept in ``tree.mimic`` but not enforce
 too): the joints move independently.
 
 The root link (the one that is no joint's child) hangs from the world by a fixed joint, or by a floating
-joint with ``floating_base=True``. rpy = (roll, pitch, yaw) are fixed-axis rotations about x, then y, then
+joint with ``floating_base=True``; a ``floating`` joint from a fixed root (a file's "world" link) makes its
+child a free body of the world. rpy = (roll, pitch, yaw) are fixed-axis rotations about x, then y, then
 z: R = R_z(yaw) R_y(pitch) R_x(roll). A rotated inertial frame gives I_link = R I Rᵀ.
 
 Anything else fails with :class:`~pbanim.errors.InvalidInput` naming the element: an unsupported joint
@@ -47,13 +48,14 @@ from ..contracts import Array, Either, Flag, PathLike, Real, Text, contract
 from ..errors import InvalidInput
 from ..rigid.inertia import parallel_axis
 from .dynamics import check_articulated_inertia
-from .specs import Inertia, UnitAxis, check_with
+from ..rigid.admissible import Inertia
+from .specs import UnitAxis, check_with
 from .tree import ArticulatedTree
 
 __all__ = ["load_urdf", "rpy_matrix"]
 
 _TYPES = ("revolute", "continuous", "prismatic", "fixed", "floating")
-_MASS, _INERTIA, _AXIS = Real(ge=0), Inertia(), UnitAxis()
+_MASS, _INERTIA, _AXIS = Real(ge=0), Inertia(definite=False), UnitAxis()
 _DAMPING, _RATE = Real(ge=0), Real(ge=0, finite=False)
 
 
@@ -247,10 +249,13 @@ def _build(links, children, root_name, floating_base, gravity) -> ArticulatedTre
         if jt is None:
             tree.add(bd["name"], -1, bd["kind"], mass=mass, com=com, inertia=I, joint="<world>")
             continue
-        if jt["type"] == "floating":
-            raise InvalidInput(f"<joint name={jt['name']!r}>: a floating joint connects the root to the world; "
-                               "use floating_base=True for a free root")
-        tree.add(bd["name"], bd["parent"], jt["type"], axis=jt["axis"], R=bd["R"], p=bd["p"], mass=mass, com=com,
+        parent = bd["parent"]
+        if jt["type"] == "floating":            # from a fixed root (a "world" link): a free body of the world
+            if parent != 0 or floating_base:
+                raise InvalidInput(f"<joint name={jt['name']!r}>: a floating joint must hang from the fixed root "
+                                   "link (the world); for a free root use floating_base=True")
+            parent = -1
+        tree.add(bd["name"], parent, jt["type"], axis=jt["axis"], R=bd["R"], p=bd["p"], mass=mass, com=com,
                  inertia=I, damping=jt["damping"], lower=jt["lower"], upper=jt["upper"], effort=jt["effort"],
                  velocity=jt["velocity"], joint=jt["name"])
     tree.frames, tree.mimic = frames, mimic
