@@ -93,6 +93,11 @@ def _left_jacobians(theta: np.ndarray) -> np.ndarray:
           tau=Real(), returns=finite_result)
 def flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: float):
     """(y(τ), T(τ)): the closed-form flight of the module docstring (new arrays; ``T`` may be None)."""
+    with np.errstate(all="ignore"):       # an overflow (τ ≈ 1e300) is named by the result's certificate
+        return _flight_map(model, y, T, tau)
+
+
+def _flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: float):
     N = model.N
     x, q, P, L = (y[:3 * N].reshape(N, 3), y[3 * N:7 * N].reshape(N, 4), y[7 * N:10 * N].reshape(N, 3),
                   y[10 * N:].reshape(N, 3))

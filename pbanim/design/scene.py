@@ -104,13 +104,14 @@ def xi(q: np.ndarray) -> np.ndarray:
 def left_jacobian(theta) -> np.ndarray:
     """J_l(θ) of SO(3) (3, 3): exp(θ + δθ) = exp(J_l δθ) exp(θ) to first order (series near a = 0)."""
     th = np.asarray(theta, dtype=float)
-    a = float(np.linalg.norm(th))
-    S = skew(th)
-    if a < 1e-4:
-        c1, c2 = 0.5 - a * a / 24.0, 1.0 / 6.0 - a * a / 120.0
-    else:
-        c1, c2 = (1.0 - np.cos(a)) / a ** 2, (a - np.sin(a)) / a ** 3
-    return np.eye(3) + c1 * S + c2 * (S @ S)
+    with np.errstate(all="ignore"):        # an overflow (|θ| ≈ 1e300) is named by the result's certificate
+        a = float(np.linalg.norm(th))
+        S = skew(th)
+        if a < 1e-4:
+            c1, c2 = 0.5 - a * a / 24.0, 1.0 / 6.0 - a * a / 120.0
+        else:
+            c1, c2 = (1.0 - np.cos(a)) / a ** 2, (a - np.sin(a)) / a ** 3
+        return np.eye(3) + c1 * S + c2 * (S @ S)
 
 
 _VEC3 = Array((3,))
