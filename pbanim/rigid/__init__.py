@@ -54,9 +54,17 @@ body dynamics", SIGGRAPH 1997 course notes; A. Witkin & D. Baraff, *Physically B
 Runge–Kutta methods on manifolds", Appl. Numer. Math. 1999; Hairer, Lubich & Wanner, *Geometric
 Numerical Integration*, §IV.8, §VII.5.
 
-Parts: :mod:`pbanim.rigid.bodies` (the system), :mod:`pbanim.rigid.quat` (quaternions),
-:mod:`pbanim.rigid.inertia` (mass properties), :mod:`pbanim.rigid.effects` (forces, torques,
-renormalization), :mod:`pbanim.rigid.scene` (scene with quaternion handling and rigid diagnostics).
+Parts: :mod:`pbanim.rigid.bodies` (the system), :mod:`pbanim.rigid.protocol` (its body protocol: points,
+impulses, inverse-mass blocks), :mod:`pbanim.rigid.quat` (quaternions), :mod:`pbanim.rigid.inertia` (mass
+properties), :mod:`pbanim.rigid.admissible` (which inertia tensors a body can have),
+:mod:`pbanim.rigid.effects` (forces, torques, renormalization), :mod:`pbanim.rigid.scene` (scene with
+quaternion handling and rigid diagnostics), :mod:`pbanim.rigid.domain` (what each argument must be: the
+specs of the argument contracts the vocabulary of :mod:`pbanim.contracts` lacks).
+
+Every public callable declares its arguments (:func:`pbanim.contracts.contract`): a call from outside
+the package with a wrong shape, a NaN, a zero quaternion, a batch of states where one is expected or an
+inertia tensor no body can have is refused by name; a result that overflows from finite input is a
+:class:`~pbanim.errors.NonFiniteResult` (:class:`~pbanim.errors.SimulationDiverged` inside a run).
 
 Example
 -------

@@ -15,10 +15,12 @@ spec                         accepts
 ``Counter()``                a list whose first item counts evaluations (incremented in place)
 ===========================  =========================================================================
 
-Two numeric helpers live here too: :func:`row_norms` (|v| along the last axis without overflow for entries
-near 10³⁰⁰ or underflow near 10⁻³⁰⁰) and :func:`certify` (a result computed from finite inputs must be
-finite, else :class:`~pbanim.errors.NonFiniteResult`; NaN in, NaN out is left to the stepping loop,
-which names it :class:`~pbanim.errors.SimulationDiverged`).
+The numeric helpers of the same checks live here too: :func:`row_norms` (|v| along the last axis without
+overflow for entries near 10³⁰⁰ or underflow near 10⁻³⁰⁰) and :func:`tame` (such rows scaled in place);
+:func:`certify` and the decorator :func:`certified` (a result computed from finite inputs must be finite,
+else :class:`~pbanim.errors.NonFiniteResult`; NaN in, NaN out is left to the stepping loop, which names
+it :class:`~pbanim.errors.SimulationDiverged`); :func:`expose` (a static or class method carries its
+contract where the surface test reads it).
 """
 
 from __future__ import annotations
@@ -122,7 +124,7 @@ class Vectors(Array):
         if self.nonzero:
             out.append(("zero", np.zeros_like(a)))
         if self.below is not None:
-            out.append(("at the norm bound", np.full(self.n, self.below / math.sqrt(self.n))))
+            out.append(("at the norm bound", np.full(self.n, self.below * (1 + 1e-12) / math.sqrt(self.n))))
         return out
 
     def edges(self, env):
