@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from pbanim.errors import InvalidInput, NonFiniteResult, SimulationDiverged
-from pbanim.rigid import (MassProperties, PointForce, QuaternionRenormalize, RigidBodies, RigidScene, dexpinv,
-                          exp_map_step, matrix_to_quat, parallel_axis, principal_axes, quat_exp, quat_from_axis_angle,
-                          quat_multiply, quat_normalize, quat_rotate, quat_to_matrix)
+from pbanim.rigid import (MassProperties, PointForce, QuaternionRenormalize, RigidBodies, RigidScene, box_mesh,
+                          dexpinv, exp_map_step, matrix_to_quat, mesh_mass_properties, parallel_axis, principal_axes,
+                          quat_exp, quat_from_axis_angle, quat_multiply, quat_normalize, quat_rotate, quat_to_matrix)
 
 QZ = np.array([1.0, 0.0, 0.0, 1.0])             # 90° about z, |q| = √2
 RZ = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
@@ -125,6 +125,18 @@ def test_impossible_inertia_tensors_are_refused_by_name(call):
         with pytest.raises(InvalidInput, match=rf"inertia must be an inertia tensor .*got .*; .*{why}"):
             call(I)
     call(np.diag([1.0, 1.0, 2.0]))         # a lamina (equality) is a body
+
+
+def test_mesh_mass_properties_certify_the_solid():
+    # before: a box with an inverted box 10 m away passed the closedness and volume checks and returned the
+    # "inertia" with moments (−109, −109, 5.2); now the result's own admissibility refuses the mesh by name
+    v1, f1 = box_mesh([2.0, 2.0, 2.0])
+    v2, f2 = box_mesh([1.0, 1.0, 1.0])
+    with pytest.raises(InvalidInput, match=r"mesh_mass_properties: faces must bound a solid .*principal moments "
+                                           r"\[-109.1"):
+        mesh_mass_properties(np.vstack([v1, v2 + [10.0, 0, 0]]), np.vstack([f1, f2[:, ::-1] + 8]))
+    hollow = mesh_mass_properties(np.vstack([v1, v2]), np.vstack([f1, f2[:, ::-1] + 8]))    # a cavity is a body
+    assert hollow.volume == 7.0 and np.all(np.linalg.eigvalsh(hollow.inertia) > 0)
 
 
 def test_matrix_to_quat_refuses_a_matrix_that_is_no_rotation():

@@ -175,6 +175,9 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     density : float
         Used unless ``mass`` is given (then density = mass / volume).
 
+    The result certifies itself: a mesh that passes the closedness and volume checks but bounds no solid
+    (an inverted part away from the rest) gives an inertia no body has, refused by name.
+
     Examples
     --------
     >>> v, f = box_mesh([1.0, 2.0, 3.0])
@@ -206,6 +209,11 @@ def mesh_mass_properties(vertices, faces, density: float = 1.0, mass: float | No
     inertia = np.trace(C) * np.eye(3) - C
     certify("mesh_mass_properties: m, c and I", np.concatenate([[m], com, inertia.ravel()]), V,
             detail=f"volume {volume:.3g}, mass {m:.3g}")
+    found = inertia_defect(inertia[None], definite=False)   # the certificate: a solid has an admissible I
+    if found is not None:
+        raise InvalidInput(f"mesh_mass_properties: faces must bound a solid (closed, outward, not inverted or "
+                           f"self-intersecting anywhere), got a mesh whose inertia no body has: {found[1]}; look "
+                           "for an inverted or overlapping part")
     return MassProperties(mass=float(m), com=com, inertia=inertia, volume=volume)
 
 
