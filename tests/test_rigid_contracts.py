@@ -91,6 +91,19 @@ def test_quaternion_product_overflow_is_named_alone_or_in_a_batch(batch):
         quat_multiply(np.ones((2, 4)), np.ones((3, 4)))
 
 
+@pytest.mark.parametrize("batch", [False, True])
+def test_inertia_helpers_agree_alone_or_in_a_batch(batch):
+    # the same named error for one tensor and for a stack holding it: an overflow, an impossible tensor
+    I, bad = np.diag([1.0, 2.0, 2.5]), np.diag([1.0, 1.0, 3.0])
+    stack = (lambda a: np.stack([I, a])) if batch else (lambda a: a)
+    with pytest.raises(NonFiniteResult, match="parallel_axis"):
+        parallel_axis(stack(I), 1.0, [1e300, 1e300, 0.0])
+    for f in (principal_axes, lambda a: parallel_axis(a, 1.0, [1.0, 0, 0])):
+        with pytest.raises(InvalidInput, match=rf"inertia must be .*{'tensor 1: ' if batch else ''}principal moments "
+                                               r"\[1. 1. 3.\] violate the triangle inequality"):
+            f(stack(bad))
+
+
 @pytest.mark.parametrize("method", ["velocities", "kinetic_energy", "rotations", "derivative"])
 def test_one_state_methods_refuse_a_batch_of_states_and_strings_by_name(method):
     # before: "cannot reshape array of size 26 into shape (1, 3)" (ValueError) or "'str' object has no
