@@ -143,8 +143,8 @@ def _first_down_root(a, b, c, tol, horizon):
     return np.where(ok, roots, np.inf).min(axis=0)
 
 
-@contract(feat=Obj(Features), model=Obj(FlightModel), y=DesignState(), normals=UnitRows(("feat.n_planes", 3), empty=True),
-          horizon=Real(gt=0, finite=False), tol=Real(ge=0))
+@contract(feat=Obj(Features), model=Obj(FlightModel), y=DesignState(),
+          normals=UnitRows(("feat.n_planes", 3), empty=True), horizon=Real(gt=0, finite=False), tol=Real(ge=0))
 def first_impact(feat, model: FlightModel, y: np.ndarray, normals: np.ndarray, horizon: float, tol: float):
     """(τ, feature) of the first impact within ``horizon`` of exact flight from y, or None."""
     if feat.n_bodies != model.N:
@@ -262,7 +262,7 @@ class ExactFlight:
 
     def current(self, t: float):
         """(y(t), T(t)) between the anchor and the next impact."""
-        return self.contacts.project(*flight_map(self.model, self.y_a, self.T_a, t - self.t_a))
+        return self.contacts.project(*_flight_map(self.model, self.y_a, self.T_a, t - self.t_a))
 
     def _touches_until(self, t1) -> None:
         while self.pending and self.pending[0][0] <= t1:
@@ -274,7 +274,7 @@ class ExactFlight:
         for _ in range(self.cap):
             if self.next is None or self.t_a + self.next[0] > t1:
                 self._touches_until(t1)
-                return self.contacts.project(flight_map(self.model, self.y_a, None, t1 - self.t_a)[0])[0]
+                return self.contacts.project(_flight_map(self.model, self.y_a, None, t1 - self.t_a)[0])[0]
             te = self.t_a + self.next[0]
             self._touches_until(te)
             ye, Te = self.current(te)

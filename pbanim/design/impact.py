@@ -126,7 +126,8 @@ def _body(y, T, N, i):
 
 
 @contract(model=Obj(FlightModel), feat=Obj(Features), k=Index("feat.n_features"), t=Real(), y=DesignState(),
-          T=Opt(Array(("model.n_params", "model.n_state"), empty=True)), normals=UnitRows(("feat.n_planes", 3), empty=True),
+          T=Opt(Array(("model.n_params", "model.n_state"), empty=True)),
+          normals=UnitRows(("feat.n_planes", 3), empty=True),
           dnormals=Opt(Array(("model.n_params", "feat.n_planes", 3), empty=True)), eps=Real(ge=0, le=1),
           deps=Opt(Array(("model.n_params",), empty=True)), locate=Flag(), rate=Opt(Array(("model.n_state",))),
           returns=finite_result)

@@ -116,7 +116,8 @@ def gaps_many(feat, Y: np.ndarray, N: int, normals: np.ndarray) -> np.ndarray:
 
 
 _U = np.linspace(0.0, 1.0, 65)[:, None]
-_H = np.stack([2 * _U ** 3 - 3 * _U ** 2 + 1, _U ** 3 - 2 * _U ** 2 + _U, -2 * _U ** 3 + 3 * _U ** 2, _U ** 3 - _U ** 2])
+_H = np.stack([2 * _U ** 3 - 3 * _U ** 2 + 1, _U ** 3 - 2 * _U ** 2 + _U,          # cubic Hermite basis
+               -2 * _U ** 3 + 3 * _U ** 2, _U ** 3 - _U ** 2])
 
 
 def hermite_dips(g0, d0, g1, d1, h: float, tol: float):

@@ -132,7 +132,7 @@ class DesignBody:
     angular_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     inertia: np.ndarray | None = None
 
-    def __post_init__(self) -> None:     # the contract checked the arguments; here: conversions and I₁ + I₂ ≥ I₃
+    def __post_init__(self) -> None:     # the contract checked the arguments; here: conversions, I₁ + I₂ ≥ I₃
         self.mass = float(self.mass)
         for name in ("position", "velocity", "angular_velocity"):
             setattr(self, name, np.array(getattr(self, name), dtype=float).reshape(3))

@@ -161,60 +161,61 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
         k = int(np.argmin(g_start))
         raise InvalidInput(f"the initial state penetrates: feature {k} (body {_feature_body(feat, k)}) has gap "
                            f"{g_start[k]:.3e} < 0; start every body outside the planes and the other bodies")
-    contacts = ContactState(scene, model, feat, nrm, dn, eps, rest_speed, contact_tol)
-    impacts: list = []
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # an overflow is named below
+        contacts = ContactState(scene, model, feat, nrm, dn, eps, rest_speed, contact_tol)
+        impacts: list = []
 
-    def impulse(k, t, yy, TT):
-        """An impulse at an instant another impact (or the start) already fixed: no impact-time term."""
-        y2, T2, imp, _ = apply_impact(model, feat, k, t, yy, TT, nrm, dn, eps, deps, locate=False)
-        return y2, T2, imp
+        def impulse(k, t, yy, TT):
+            """An impulse at an instant another impact (or the start) already fixed: no impact-time term."""
+            y2, T2, imp, _ = apply_impact(model, feat, k, t, yy, TT, nrm, dn, eps, deps, locate=False)
+            return y2, T2, imp
 
-    def resolve(k, te, ye, Te, rate):
-        """Apply the impact of feature k at te, then settle every contact touching at te."""
-        if Te is not None and contacts.on:      # a resting sphere's rate has no normal part
-            rate = contacts.project_rows(flight_rhs(model, ye) if rate is None else rate.copy())
-        yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
-        imp.grazing = imp.grazing or imp.speed < graze_speed
-        impacts.append(imp)
-        if len(impacts) > max_impacts:
-            raise TooManyImpacts(max_impacts, te)
-        yy, TT, extra = contacts.settle(te, yy, TT, impulse, hit=k)
-        imp.simultaneous = imp.simultaneous or bool(extra)
-        return yy, TT, dtau
+        def resolve(k, te, ye, Te, rate):
+            """Apply the impact of feature k at te, then settle every contact touching at te."""
+            if Te is not None and contacts.on:      # a resting sphere's rate has no normal part
+                rate = contacts.project_rows(flight_rhs(model, ye) if rate is None else rate.copy())
+            yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
+            imp.grazing = imp.grazing or imp.speed < graze_speed
+            impacts.append(imp)
+            if len(impacts) > max_impacts:
+                raise TooManyImpacts(max_impacts, te)
+            yy, TT, extra = contacts.settle(te, yy, TT, impulse, hit=k)
+            imp.simultaneous = imp.simultaneous or bool(extra)
+            return yy, TT, dtau
 
-    y, T, first = contacts.settle(t0, y, T, impulse)        # touching at the start: impacts, rests, touches
-    for imp in first:
-        imp.simultaneous = True                              # an impact at t0: one-sided in u
-        impacts.append(imp)
-    reason = exact_reason(scene, model)
-    if flight == "exact" and reason:
-        raise InvalidInput(f"flight='exact' needs spheres with isotropic inertia and no inertia parameter: {reason}")
-    use_exact = flight == "exact" or (flight == "auto" and not reason)
-    if use_exact:
-        exact = ExactFlight(model, feat, nrm, resolve, t0, y, T, contacts, max_impacts)
-        advance = exact.advance                             # the exact path drives the state alone
-    else:
-        advance = _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities, max_impacts)
-    pack = (lambda yy, TT: np.concatenate([yy, TT.ravel()]) if TT is not None else yy)
+        y, T, first = contacts.settle(t0, y, T, impulse)        # touching at the start: impacts, rests, touches
+        for imp in first:
+            imp.simultaneous = True                              # an impact at t0: one-sided in u
+            impacts.append(imp)
+        reason = exact_reason(scene, model)
+        if flight == "exact" and reason:
+            raise InvalidInput(f"flight='exact' needs spheres with isotropic inertia and no inertia parameter: {reason}")
+        use_exact = flight == "exact" or (flight == "auto" and not reason)
+        if use_exact:
+            exact = ExactFlight(model, feat, nrm, resolve, t0, y, T, contacts, max_impacts)
+            advance = exact.advance                             # the exact path drives the state alone
+        else:
+            advance = _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities, max_impacts)
+        pack = (lambda yy, TT: np.concatenate([yy, TT.ravel()]) if TT is not None else yy)
 
-    ts, ys = [t0], [y.copy()]
-    outputs = {}
-    if _key(t0) in {_key(v) for v in out_times}:
-        outputs[_key(t0)] = (y.copy(), None if T is None else T.copy())
-    Y = y.copy() if use_exact else pack(y, T)
-    nsteps = 0
+        ts, ys = [t0], [y.copy()]
+        outputs = {}
+        if _key(t0) in {_key(v) for v in out_times}:
+            outputs[_key(t0)] = (y.copy(), None if T is None else T.copy())
+        Y = y.copy() if use_exact else pack(y, T)
+        nsteps = 0
 
-    def record(t1, Y1):
-        ts.append(t1)
-        ys.append(Y1[:n].copy())
+        def record(t1, Y1):
+            ts.append(t1)
+            ys.append(Y1[:n].copy())
 
-    for b, grid in zip(breaks[1:], grids):
-        _, Y, k, _ = drive(advance, grid, Y, record=record)
-        nsteps += k
-        yy, TT = exact.current(b) if use_exact else (Y[:n], Y[n:].reshape(p, n) if sensitivities else None)
-        outputs[_key(b)] = (yy.copy(), None if TT is None else check_result("∂S/∂u", TT.copy()))
-    return _certified(feat, nrm, N, ts, ys, outputs, impacts, contacts, names, model, nsteps,
-                      "exact" if use_exact else "rk4", penetration_tol, check_start, warn)
+        for b, grid in zip(breaks[1:], grids):
+            _, Y, k, _ = drive(advance, grid, Y, record=record)
+            nsteps += k
+            yy, TT = exact.current(b) if use_exact else (Y[:n], Y[n:].reshape(p, n) if sensitivities else None)
+            outputs[_key(b)] = (yy.copy(), None if TT is None else check_result("∂S/∂u", TT.copy()))
+        return _certified(feat, nrm, N, ts, ys, outputs, impacts, contacts, names, model, nsteps,
+                          "exact" if use_exact else "rk4", penetration_tol, check_start, warn)
 
 
 def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities, max_impacts):

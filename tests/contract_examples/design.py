@@ -47,7 +47,7 @@ CALLS = {
         "shape": Sphere(0.1), "position": np.array([0.0, 0.0, 1.1]), "orientation": np.array([1.0, 0.0, 0.0, 0.0]),
         "velocity": np.zeros(3), "angular_velocity": np.zeros(3), "inertia": np.full(3, 0.004)},
     "pbanim.design.scene.DesignScene.__init__": lambda: {"bodies": [_body()], "planes": [Plane([0.0, 0.0, 1.0])]},
-    "pbanim.design.simulate.simulate": lambda: {"scene": _scene(), "t_end": 1.0, "h": 0.05, "max_steps": 2000},
+    "pbanim.design.simulate.simulate": lambda: {"scene": _scene(), "t_end": 0.6, "h": 0.1, "max_steps": 2000},
     "pbanim.design.impact.apply_impact": lambda: {"y": _falling_state(), "normals": np.array([[0.0, 0.0, 1.0]]),
                                                   "k": 0, "t": 0.0},
     "pbanim.design.exact.first_impact": lambda: {"y": _falling_state() + np.r_[0, 0, 1.0, np.zeros(10)],
