@@ -127,6 +127,17 @@ def test_tangent_touches_are_reported(flight):
         assert hits and abs(hits[0] - t_touch) < 1e-6
 
 
+@pytest.mark.parametrize("h", [0.005, 0.007])
+def test_an_exact_touch_is_grazing_whatever_graze_speed_says(h):
+    # ORACLES H4: the apex meets the ceiling exactly (a double root: the located impact has a roundoff speed
+    # of 4e-8 m/s, or none is located); graze_speed = 0 does not hide it
+    up = DesignScene([DesignBody(Sphere(R), position=[0, 0, 1.1], velocity=[0, 0, 4.0])], [Plane([0, 0, -1], offset=-2.0)],
+                     gravity=[0, 0, -G])
+    for flight in ("exact", "rk4"):
+        tr = quiet(simulate, up, 1.0, ["x0"], h=h, flight=flight, graze_speed=0.0)
+        assert not tr.differentiable
+
+
 def test_touching_and_approaching_at_the_start_is_an_impact():
     # a ball starting on the floor moving into it used to fly through (z(1) = −5.9 m): an impact at t0 now
     s = DesignScene([DesignBody(Sphere(R), position=[0, 0, R], velocity=[1.0, 0, -1.0])], [Plane([0, 0, 1])],

@@ -56,6 +56,7 @@ from .trajectory import Trajectory, _key
 __all__ = ["Trajectory", "simulate", "quat_log"]
 
 FLIGHTS = ("auto", "rk4", "exact")
+_GRAZE_FLOOR = 1e-6     # an approach this slow is a double root at roundoff (an exact touch): grazing always
 
 
 @contract(q=Array((4,), batch="first"), returns=finite_result)
@@ -102,7 +103,8 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
     times : output times in [t0, t_end] where S and ∂S/∂u are kept (the end is always one)
     h : RK4 step; impacts split steps at their located times
     max_impacts : cap on the impacts (:class:`TooManyImpacts` beyond)
-    graze_speed : an impact approaching slower is grazing (S not differentiable there)
+    graze_speed : an impact approaching slower is grazing (S not differentiable there); below 1e-6, the
+        roundoff of an exactly grazing touch, always
     rest_speed : a sphere touching a plane that presses it in, with normal speed at most this, rests on it
         (ORACLES D1, D10; :mod:`pbanim.design.rest`); 0 switches resting off (bounces then accumulate)
     contact_tol : touching tolerance, relative to max(1, |x|∞)
@@ -175,7 +177,7 @@ def simulate(scene: DesignScene, t_end: float, names=None, u=None, *, times=(), 
             if Te is not None and contacts.on:      # a resting sphere's rate has no normal part
                 rate = contacts.project_rows(flight_rhs(model, ye) if rate is None else rate.copy())
             yy, TT, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn, eps, deps, rate=rate)
-            imp.grazing = imp.grazing or imp.speed < graze_speed
+            imp.grazing = imp.grazing or imp.speed < max(graze_speed, _GRAZE_FLOOR)
             impacts.append(imp)
             if len(impacts) > max_impacts:
                 raise TooManyImpacts(max_impacts, te)
