@@ -18,6 +18,8 @@ import sys
 import time
 from pathlib import Path
 
+from .contracts import call_checked   # what the command line passes comes from the user: checked
+
 
 def _default_out() -> Path:
     # figures/ at the repository root (beside pbanim/), the place the README points to
@@ -111,7 +113,7 @@ def _figures(args, run_figure, write_index) -> int:
     total = time.perf_counter()
     for i, (key, spec) in enumerate(specs.items(), 1):
         start = time.perf_counter()
-        _, written = run_figure(spec, out, quick=args.quick, fmt=args.format, dpi=args.dpi, style=args.style,
+        _, written = call_checked(run_figure, spec, out, quick=args.quick, fmt=args.format, dpi=args.dpi, style=args.style,
                                 issues=issues)
         files[key] = written
         names = ", ".join(p.name for p in written) or "(no file)"
@@ -178,7 +180,7 @@ def cmd_compare(args) -> int:
     from .compare import run_compare, write
 
     engines = [e for e in (args.engines or "").split(",") if e] or None
-    cmp = run_compare(args.scenes or None, engines, quick=args.quick, steps=args.steps,
+    cmp = call_checked(run_compare, args.scenes or None, engines, quick=args.quick, steps=args.steps,
                       progress=lambda line: print(line, flush=True))
     print()
     print(cmp.to_markdown(), flush=True)

@@ -41,7 +41,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .contracts import Choice, Either, Env, Flag, Func, Int, Obj, Opt, PathLike, Real, Seq, Text, contract
+from .contracts import Choice, Either, Flag, Func, Int, Obj, Opt, PathLike, Real, Seq, Text, contract
 
 __all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "write_index",
            "pyplot", "STYLES", "FORMATS", "axes_without_units"]
@@ -201,9 +201,6 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
     """
     from .errors import InvalidInput
 
-    env = Env("run_figure", {})         # the command line calls from inside pbanim: the contract's specs here
-    fmt, style = FORMAT.check("fmt", fmt, env), STYLE_NAME.check("style", style, env)
-    dpi = DPI_RANGE.check("dpi", dpi, env)
     out_dir = None if out_dir is None else Path(out_dir)
     plt = pyplot()
     with plt.rc_context(STYLES[style]):

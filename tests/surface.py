@@ -32,7 +32,7 @@ class Entry:
     def contract(self):
         if self.method == "__init__":
             return contract_of(self.exported)
-        return contract_of(self.func)
+        return contract_of(self.func)            # a staticmethod / classmethod object is read through
 
 
 def public_modules() -> list:

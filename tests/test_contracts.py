@@ -247,3 +247,42 @@ def test_a_module_of_the_package_is_recognised_wherever_it_is_installed(tmp_path
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path)
     assert out.stdout.strip() == "ok"
+
+
+def test_call_checked_checks_a_call_made_from_inside_the_package():
+    # the command line is a module of the package; what it passes comes from the user
+    from pbanim.contracts import call_checked
+
+    @contract(k=Real(ge=0), returns=finite_result)
+    def f(k):
+        return k * 1e300
+
+    @contract(mass=Real(gt=0))
+    class Body:
+        def __init__(self, mass):
+            self.mass = mass
+
+        @contract(dt=Real(gt=0))
+        def advance(self, dt):
+            return dt
+
+        @classmethod
+        @contract(n=Int(ge=1))
+        def many(cls, n):
+            return [cls(1.0) for _ in range(n)]
+
+    pkg = os.path.dirname(pbanim.__file__)
+    inside = {}
+    exec(compile("def g(call, f, *a):\n    return call(f, *a)\n", os.path.join(pkg, "cli_example.py"), "exec"), inside)  # noqa: S102
+    with pytest.raises(InvalidInput, match="k must be"):
+        inside["g"](call_checked, f, -1.0)
+    with pytest.raises(NonFiniteResult):
+        inside["g"](call_checked, f, 1e10)
+    with pytest.raises(InvalidInput, match="Body: mass must be"):
+        inside["g"](call_checked, Body, 0.0)
+    with pytest.raises(InvalidInput, match="advance: dt must be"):
+        inside["g"](call_checked, Body(1.0).advance, 0.0)
+    assert inside["g"](call_checked, Body(1.0).advance, 2.0) == 2.0
+    assert contract_of(Body.__dict__["many"]) is not None       # a classmethod carries its contract
+    with pytest.raises(InvalidInput, match="many: n must be a positive integer"):
+        Body.many(0)

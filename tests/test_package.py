@@ -84,7 +84,7 @@ def test_scene_rejects_bad_step():
 
 
 def test_mass_must_be_positive():
-    with pytest.raises(ValueError, match="mass must be positive, got -1.0"):
+    with pytest.raises(ValueError, match=r"masses must be a float array .*entries > 0.* got -1.0"):
         ParticleSystem([[0.0, 0.0]], masses=-1.0)
 
 

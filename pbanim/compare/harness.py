@@ -40,7 +40,7 @@ from typing import Callable
 import numpy as np
 
 from .spec import Trace, Unsupported
-from ..contracts import Array, Choice, Env, Flag, Func, Obj, Opt, Seq, Spec, Text, contract
+from ..contracts import Array, Choice, Flag, Func, Obj, Opt, Seq, Spec, Text, contract
 from ..errors import InvalidInput, SimulationDiverged
 
 __all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions"]
@@ -310,12 +310,10 @@ def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, k
     more than :data:`MAX_RUN_STEPS` steps is refused before anything runs."""
     from .scenes import SCENES
 
-    # the command line calls in from inside pbanim (no contract check): the same specs, applied here
-    env = Env("run_compare", {})
-    names = SCENE_NAMES.check("scenes", list(SCENES) if scenes is None else scenes, env)
-    engs = ENGINE_NAMES.check("engines", list(ENGINES) if engines is None else engines, env)
+    names = list(SCENES) if scenes is None else list(scenes)
+    engs = list(ENGINES) if engines is None else list(engines)
     if steps is not None:
-        hs = np.atleast_1d(STEPS.check("steps", steps, env))
+        hs = np.atleast_1d(np.asarray(steps, dtype=float))
     built = {n: SCENES[n]() for n in names}
     sweeps = {n: tuple(hs) if steps is not None else (sc.spec.quick_steps if quick else sc.spec.steps)
               for n, sc in built.items()}

@@ -29,10 +29,25 @@ import numpy as np
 
 from .specs import Env, Spec, _is_ref
 
-__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked", "finite_result"]
+__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked", "finite_result", "call_checked",
+           "lenient_signatures"]
 
 _PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
-_STATE = {"always": False}
+_STATE = {"always": False, "lenient": False}
+
+
+class lenient_signatures:
+    """Context manager: a contract naming a parameter the function lacks drops that spec instead of raising
+    at import. For the grader loading a student's copy of a reference module: a changed signature must be
+    reported as a wrong signature when the function is called, not as a decorator's complaint at import."""
+
+    def __enter__(self):
+        self._old, _STATE["lenient"] = _STATE["lenient"], True
+        return self
+
+    def __exit__(self, *exc):
+        _STATE["lenient"] = self._old
+        return False
 
 
 class boundary_checks:
@@ -69,6 +84,9 @@ class Contract:
         params = list(self.signature.parameters.values())
         names = [p.name for p in params]
         unknown = set(specs) - set(names)
+        if unknown and _STATE["lenient"]:
+            specs = {k: v for k, v in specs.items() if k in names}
+            unknown = set()
         if unknown:
             raise TypeError(f"contract of {where} names {sorted(unknown)}, which are not among its "
                             f"parameters {names}")
@@ -177,7 +195,9 @@ def contract(returns=None, **specs):
             obj.__contract__ = obj.__init__.__contract__
             return obj
         if isinstance(obj, (staticmethod, classmethod)):
-            return type(obj)(_wrap(obj.__func__, specs, obj.__func__.__qualname__, returns))
+            wrapped = type(obj)(_wrap(obj.__func__, specs, obj.__func__.__qualname__, returns))
+            wrapped.__contract__ = wrapped.__func__.__contract__
+            return wrapped
         return _wrap(obj, specs, obj.__qualname__, returns)
 
     return deco
@@ -207,8 +227,33 @@ def unchecked(f):
     return raw if owner is None else raw.__get__(owner)
 
 
+def call_checked(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)`` checked as a call from user code, wherever it is made (the command line is a
+    module of the package, yet what it passes comes from the user); ``fn`` without a contract is just
+    called."""
+    c = contract_of(fn)
+    if isinstance(fn, type):
+        if c is not None:                           # the class's __init__ (self is not checked)
+            a2, kwargs = c.check((None,) + args, kwargs)
+            args = tuple(a2[1:])
+        return fn(*args, **kwargs)
+    if c is None:
+        return fn(*args, **kwargs)
+    bound_self = getattr(fn, "__self__", None)
+    raw = fn.__wrapped__ if bound_self is None else fn.__wrapped__.__get__(bound_self)
+    if c.method and bound_self is not None:
+        a2, kwargs = c.check((bound_self,) + args, kwargs)
+        args = tuple(a2[1:])
+    else:
+        args, kwargs = c.check(args, kwargs)
+    out = raw(*args, **kwargs)
+    return c.returns(out, c.where, c.bind(args, kwargs)) if c.returns is not None else out
+
+
 def contract_of(obj):
     """The :class:`Contract` of a callable or class, or None."""
     if isinstance(obj, type):
         return obj.__dict__.get("__contract__") or getattr(obj.__dict__.get("__init__"), "__contract__", None)
+    if isinstance(obj, (staticmethod, classmethod)):      # either order of the two decorators
+        return getattr(obj, "__contract__", None) or getattr(obj.__func__, "__contract__", None)
     return getattr(obj, "__contract__", None)

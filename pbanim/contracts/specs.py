@@ -349,7 +349,7 @@ class Array(Spec):
         return what + (f" ({', '.join(extra)})" if extra else "")
 
     def _dims(self, env: Env):
-        return [env.resolve(d) for d in self.shape] if self._has_refs else self.shape
+        return [env.resolve(d) if _is_ref(d) else d for d in self.shape] if self._has_refs else self.shape
 
     def check(self, name, value, env):
         if type(value) is np.ndarray and value.dtype is _F64:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..contracts import call_checked   # what the command line passes comes from the user: checked
 from ..errors import InvalidInput
 
 __all__ = ["add_course_commands", "assignment_lines"]
@@ -55,7 +56,7 @@ def _cmd_assignment(args) -> int:
 def _cmd_grade(args) -> int:
     from .grader import grade
 
-    rep = grade(args.name, args.path, time_limit=args.time_limit, memory_mb=args.memory_mb)
+    rep = call_checked(grade, args.name, args.path, time_limit=args.time_limit, memory_mb=args.memory_mb)
     print(rep.table())
     folder = Path(args.path) if Path(args.path).is_dir() else Path(args.path).parent
     json_path = args.json or folder / "report.json"

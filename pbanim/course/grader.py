@@ -27,7 +27,7 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
-from ..contracts import Choice, Env, Opt, PathLike, Real, Seq, Text, contract
+from ..contracts import Choice, Opt, PathLike, Real, Seq, Text, contract
 from ..errors import InvalidInput
 from .markers import find_regions
 from .registry import ASSIGNMENT, Assignment, get_assignment
@@ -173,18 +173,10 @@ MEMORY_MB = Real(gt=0, le=2**20)
 _LIMITS = dict(name=ASSIGNMENT, path=PathLike(), isolation=ISOLATION, time_limit=TIME_LIMIT, memory_mb=MEMORY_MB)
 
 
-def _limits(where: str, isolation, time_limit, memory_mb) -> tuple:
-    """The options checked by the same specs as the contract's (the command line calls from inside pbanim)."""
-    env = Env(where, {})
-    return (ISOLATION.check("isolation", isolation, env), TIME_LIMIT.check("time_limit", time_limit, env),
-            MEMORY_MB.check("memory_mb", memory_mb, env))
-
-
 @contract(check_id=Text(), **_LIMITS)
 def run_check(name: str, check_id: str, path, *, isolation: str = "fork", time_limit: float = 20.0,
               memory_mb: float = 1024.0) -> CheckResult:
     """Run one check of assignment ``name`` on the student file ``path`` (the public tests use this)."""
-    isolation, time_limit, memory_mb = _limits("run_check", isolation, time_limit, memory_mb)
     a = get_assignment(name)
     chk = a.get_check(check_id)
     p = _student_file(a, path)
@@ -202,7 +194,6 @@ def grade(name: str, path, *, isolation: str = "fork", time_limit: float = 20.0,
     ``isolation``: "fork" (default: each check in a child with limits) or "inline" (same process, no
     limits; for debugging). ``checks``: only these check ids (default all).
     """
-    isolation, time_limit, memory_mb = _limits("grade", isolation, time_limit, memory_mb)
     a = get_assignment(name)
     p = _student_file(a, path)
     unknown = [c for c in checks or () if c not in {k.id for k in a.checks}]

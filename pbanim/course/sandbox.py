@@ -34,7 +34,6 @@ are deterministic (ORACLES G2).
 
 from __future__ import annotations
 
-import ast
 import importlib.util
 import json
 import os
@@ -45,6 +44,7 @@ import time
 import traceback
 from pathlib import Path
 
+from ..contracts import lenient_signatures
 from .registry import Assignment, CheckFailed
 
 __all__ = ["run_isolated", "run_forked", "run_inline", "load_student", "STATUSES", "StudentImportError"]
@@ -74,9 +74,10 @@ def load_student(path: str | Path, tag: str = "student"):
     sys.modules[name] = mod                      # dataclasses and pickling look the module up by name
     try:
         try:
-            tree = lenient_contracts(ast.parse(path.read_text(encoding="utf-8"), filename=str(path)))
-            mod.__dict__[_LENIENT] = lenient_contract
-            exec(compile(tree, str(path), "exec"), mod.__dict__)     # noqa: S102 - the student's own module
+            # a student who changed a marked function's signature reads "wrong signature" when the check calls
+            # it, not the contract's complaint at import that it names a parameter that is gone
+            with lenient_signatures():
+                spec.loader.exec_module(mod)
         except BaseException:
             sys.modules.pop(name, None)
             raise
@@ -88,47 +89,6 @@ def load_student(path: str | Path, tag: str = "student"):
         raise StudentImportError(f"{path.name} does not import: {type(exc).__name__}: {exc}"
                                  f"{_where(exc, path)}") from None
     return mod
-
-
-_LENIENT = "_pbanim_lenient_contract"
-
-
-def lenient_contracts(tree: ast.Module) -> ast.Module:
-    """``tree`` with every ``@contract(...)`` decorator calling :func:`lenient_contract` instead (line numbers
-    unchanged; the loader puts that function in the module's namespace).
-
-    The reference modules declare pbanim's argument contracts (:mod:`pbanim.contracts`). A student who
-    changes a marked function's signature must read "wrong signature" in the report (the grader compares
-    signatures), not the decorator's complaint, at import, that its contract names a parameter that is gone.
-    """
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
-            for d in node.decorator_list:
-                f = d.func if isinstance(d, ast.Call) else None
-                if isinstance(f, ast.Name) and f.id == "contract" or isinstance(f, ast.Attribute) and f.attr == "contract":
-                    d.func = ast.copy_location(ast.Name(_LENIENT, ast.Load()), f)
-    return tree
-
-
-def lenient_contract(**specs):
-    """:func:`pbanim.contracts.contract` keeping only the specs that name parameters the decorated object has."""
-    import inspect
-
-    from ..contracts import contract
-
-    def deco(obj):
-        f = obj.__func__ if isinstance(obj, (staticmethod, classmethod)) else (
-            obj.__dict__.get("__init__") if isinstance(obj, type) else obj)
-        try:
-            names = set(inspect.signature(f).parameters)
-        except (TypeError, ValueError):
-            return obj
-        try:
-            return contract(**{k: v for k, v in specs.items() if k in names})(obj)
-        except TypeError:
-            return obj
-
-    return deco
 
 
 def _where(exc: BaseException, path: Path) -> str:

@@ -191,9 +191,6 @@ class ReducedSystem:
         self.kinematics = kinm
         return self
 
-    # a classmethod object does not carry its function's attributes: the surface test and the fuzz read it here
-    from_sympy.__contract__ = from_sympy.__func__.__contract__
-
     # -- set-up ---------------------------------------------------------------------------------
     def _setup(self, kin, masses, dim, forces, u0, udot0, max_cond, name) -> None:
         from ..particles.system import ParticleSystem
