@@ -876,6 +876,14 @@ def test_grazing_contact_is_reported_as_touching():
         res = resolve_collisions(ImpulseBodies(b.x, b.v.copy(), b.omega.copy(), b.inv_mass, b.inv_I), c, 0.5,
                                  mode=mode)
         assert res.regime.tolist() == ["touching", "touching"] and np.all(res.normal_impulse == 0)
+    # in a scene: a particle sliding exactly on the ground (no gravity) touches it at every step, and says so
+    from pbanim.particles import ParticleSystem
+    from pbanim.scene import Scene
+
+    scene = Scene(ParticleSystem([[0.0, 0.0]], [[1.0, 0.0]]), [Collisions(obstacles=[Plane([0, 1])], gravity=0.0)])
+    res = simulate_collisions(scene, 0.1, 0.01, toi="event")
+    assert res.t_events[0].size == 0 and np.all(res.diagnostics["touching"][1:] == 1)
+    assert np.all(res.y[1] == 0.0) and np.all(res.y[2] == 1.0)
 
 
 @pytest.mark.parametrize("h", [0.01, 0.05, 0.1, 0.125])

@@ -37,9 +37,11 @@ tangential velocities unchanged; μ → ∞ makes every impact stick.
 
 Parts: :mod:`pbanim.collision.shapes` (shapes, ``Contacts``), :mod:`pbanim.collision.narrow`,
 :mod:`pbanim.collision.broad`, :mod:`pbanim.collision.lcp` (small LCPs: Lemke, enumeration),
-:mod:`pbanim.collision.impulse`, :mod:`pbanim.collision.scene` (the
-``Collisions`` post-step effect), :mod:`pbanim.collision.toi` (the driver ``simulate_collisions``,
-event location vs fixed-step detection).
+:mod:`pbanim.collision.impulse` (with :mod:`pbanim.collision.simultaneous`: the simultaneous law in
+rounds, and the certificate every impulse answer passes: no contact left approaching, no energy gained),
+:mod:`pbanim.collision.scene` (the ``Collisions`` post-step effect), :mod:`pbanim.collision.toi` (the driver
+``simulate_collisions``, event location vs fixed-step detection), :mod:`pbanim.collision.specs` (what the
+arguments must be: body indices, unit normals, rotations, PSD matrices — the contracts' extra vocabulary).
 
 References: Witkin & Baraff, *Physically Based Modeling* SIGGRAPH course notes (Baraff: Rigid body
 simulation, §8 collisions); Baraff 1989 (analytical methods for dynamic non-penetrating rigid bodies);

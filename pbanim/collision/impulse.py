@@ -135,7 +135,7 @@ class ImpulseBodies:
         return cls(pad(x), pad(v), pad(om), pad(w), pad(iI))
 
     def kinetic_energy(self) -> float:
-        """½ Σ m v² + ½ Σ ωᵀ I ω over dynamic bodies (I = (I⁻¹)⁺: an axis a body cannot turn about adds 0)."""
+        """½ Σ m v² + ½ Σ ωᵀ I ω over dynamic bodies (I = (I⁻¹)⁺ when I⁻¹ is singular)."""
         dyn = self.inv_mass > 0
         with np.errstate(over="ignore", invalid="ignore"):
             T = 0.5 * np.sum((self.v[dyn] ** 2).sum(1) / self.inv_mass[dyn])

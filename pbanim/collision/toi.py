@@ -100,6 +100,7 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
         """The step from t to t + hk, split at every located impact (at most max_events_per_step)."""
         t1 = t + hk
         vrest = col.threshold(hk)
+        settled = None          # the time at which the boundary check found nothing colliding
         for _ in range(max_events_per_step):
             vmax = float(np.abs(y[split:]).max()) if y.size > split else 0.0
             pairs = col.sphere_pairs(y, margin=2 * (vmax + col.gravity * hk) * hk + gap_tol)
@@ -110,12 +111,17 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
             dlt = 1e-7 * max(1.0, float(np.abs(y[:split]).max())) / max(float(np.abs(f0[:split]).max()), 1.0)
             gdot = (col.gaps(y + dlt * f0, pairs) - g) / dlt
             # a pair already touching at the start of the step but approaching fast is an impact that
-            # fell on the step boundary: respond elastically now (not plastically after the step)
-            if np.any((g <= gap_tol) & (-gdot >= vrest)):
-                y = col.respond(t, y, hk, margin=10 * gap_tol)
-                impact_t.append(t)
-                impact_y.append(y.copy())
-                continue
+            # fell on the step boundary: respond elastically now (not plastically after the step). ġ is a
+            # difference quotient: the impact counts only when the response finds a contact colliding
+            # (a grazing touch, ġ = 0 with a zero threshold, was taken for max_events_per_step impacts)
+            if t != settled and np.any((g <= gap_tol) & (-gdot > vrest)):
+                y_new = col.respond(t, y, hk, margin=10 * gap_tol)
+                if col.last is not None and np.any(col.last.regime == "colliding"):
+                    y = y_new
+                    impact_t.append(t)
+                    impact_y.append(y.copy())
+                    continue
+                settled = t
             active = (g > gap_tol) & ~((g < vrest * hk) & (-gdot < vrest))
             if not active.any():
                 return m.step(fun, t, y, t1 - t, split=split)
