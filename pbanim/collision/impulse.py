@@ -76,7 +76,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .shapes import Contacts
-from .specs import ContactsFor, SymmetricPSD, UnitVectors, declared
+from .specs import ContactsFor, SymmetricPSD, UnitVectors
 from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult
 from ..geometry import cross, skew
@@ -119,7 +119,6 @@ class ImpulseBodies:
     def B(self) -> int:
         return len(self.inv_mass) - 1
 
-    @declared
     @classmethod
     @contract(x=Array(("B", 3)), v=Array(("B", 3)), inv_mass=Array(("B",), ge=0, scalar=True),
               omega=Opt(Array(("B", 3))), inv_I=Opt(Either(SymmetricPSD(("B", 3, 3)), SymmetricPSD((3, 3)))))

@@ -28,7 +28,7 @@ from typing import Iterable
 
 import numpy as np
 
-from .specs import BodyIds, UnitVectors, declared
+from .specs import BodyIds, UnitVectors
 from ..contracts import Array, Either, Indices, Obj, Opt, Real, Seq, Spec, contract
 from ..errors import InvalidInput, as_float, check_number
 
@@ -143,7 +143,6 @@ class Contacts:
     def empty(cls) -> "Contacts":
         return cls(np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
 
-    @declared
     @classmethod
     @contract(parts=Seq(Obj("pbanim.collision.shapes:Contacts")))
     def concatenate(cls, parts: Iterable["Contacts"]) -> "Contacts":

@@ -26,14 +26,7 @@ import numpy as np
 
 from ..contracts import Array, Spec
 
-__all__ = ["BodyIds", "UnitVectors", "Rotations", "SymmetricPSD", "ContactsFor", "Obstacle", "declared"]
-
-
-def declared(descriptor):
-    """A classmethod over ``@contract`` made to carry the contract itself, where the surface enumeration and
-    the fuzz read it (``contract`` wraps the function inside the descriptor)."""
-    descriptor.__contract__ = descriptor.__func__.__contract__
-    return descriptor
+__all__ = ["BodyIds", "UnitVectors", "Rotations", "SymmetricPSD", "ContactsFor", "Obstacle"]
 
 
 class BodyIds(Spec):
