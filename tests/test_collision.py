@@ -914,3 +914,7 @@ def test_impact_slower_than_the_threshold_is_reported_as_resting():
     res = simulate_collisions(scene, 0.75, 0.25, toi="event")
     assert res.t_events[0].size == 0 and res.y[3, -1] == 0.0
     assert res.diagnostics["resting"].tolist() == [0, 0, 1, 1] and res.diagnostics["colliding"].sum() == 0
+    # a second run of the same scene starts from its own t0: the effect's last response (the resting
+    # contact above) was reported again at t = 0 before
+    again = simulate_collisions(scene, 0.75, 0.125, toi="event")
+    assert again.diagnostics["contacts"][0] == 0 and again.t_events[0].tolist() == [0.5]
