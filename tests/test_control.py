@@ -78,7 +78,7 @@ def test_bad_gains_and_targets_are_named():
         PDServo({"a": 0}, 2, kp=1.0, kv=np.nan)
     with pytest.raises(InvalidGains, match="kp"):
         PDServo({"a": 0}, 2, kp=[1.0, 2.0, 3.0], kv=1.0)
-    with pytest.raises(InvalidInput, match="indices"):
+    with pytest.raises(InvalidInput, match=r"joints\['a'\] must be an index in 0 … 1, got 5"):
         PDServo({"a": 5}, 2, kp=1.0, kv=1.0)
     servo = PDServo({"a": 0}, 2, kp=1.0, kv=1.0)
     with pytest.raises(UnknownJoint, match="elbow"):

@@ -263,15 +263,34 @@ def test_weighted_solution_tends_to_the_prioritized_one_at_rate_one():
 # backends agree
 # --------------------------------------------------------------------------------------------------
 def test_qpsolvers_route_agrees_with_native_proxsuite():
-    # ORACLES F10: the same QP through qpsolvers.solve_problem gives the same torques (measured 3.7e-6 N m of
-    # 22 N m, 1.7e-7 relative; bound 1e-6 relative)
+    # ORACLES F10, whatever backends are installed: an answer the backend's multipliers certify optimal (status
+    # met or compromise, KKT residual ≤ 1e-7) has the native answer's accelerations and task errors (measured
+    # ≤ 5.9e-8 m/s² and 4.4e-7 over 11 backends; bound 1e-6 (1 + |·|)) and its torques to 1e-3 relative
+    # (measured ≤ 1.3e-4, PIQP; 3e-8 … 8e-8 for the others: the torques that squeeze between the two feet are
+    # set by the 1e-6 regularization alone, resolved to each solver's accuracy); any other answer says so
+    # (unconverged or infeasible, with a message). Before: HiGHS gave torques 117 N m off as a "compromise",
+    # ECOS raised a bare ProblemError
     qpsolvers = pytest.importorskip("qpsolvers")
+    from pbanim.control.qp import KKT_TOL
+
     q, qd = _state(0.3, np.zeros(6), 0.2 * np.ones(6))
-    native = _controller(q, contact_speed=10.0).solve(q, qd)
-    for name in qpsolvers.available_solvers:
-        other = _controller(q, contact_speed=10.0, backend=name, native=False).solve(q, qd)
-        assert other.success, (name, other.message)
-        assert np.abs(other.tau - native.tau).max() <= 1e-6 * np.abs(native.tau).max(), name
+    for mode in ("weighted", "prioritized"):           # prioritized: HiGHS ran for minutes before its cap was set
+        native = _controller(q, mode, contact_speed=10.0).solve(q, qd)
+        assert native.status == "compromise" and native.kkt <= 1e-2 * KKT_TOL
+        certified = []
+        for name in qpsolvers.available_solvers:
+            other = _controller(q, mode, contact_speed=10.0, backend=name, native=False).solve(q, qd)
+            if other.status not in ("met", "compromise"):
+                assert other.status in ("unconverged", "infeasible") and other.message, (name, other.status)
+                assert not other.kkt <= KKT_TOL or not other.success, name
+                continue
+            certified.append(name)
+            assert other.kkt <= KKT_TOL, name
+            assert np.abs(other.qdd - native.qdd).max() <= 1e-6 * (1 + np.abs(native.qdd).max()), (mode, name)
+            for task, e in native.task_errors.items():
+                assert abs(other.task_errors[task] - e) <= 1e-6 * (1 + e), (mode, name, task)
+            assert np.abs(other.tau - native.tau).max() <= 1e-3 * np.abs(native.tau).max(), (mode, name)
+        assert "proxqp" not in qpsolvers.available_solvers or "proxqp" in certified
 
 
 # --------------------------------------------------------------------------------------------------
@@ -384,9 +403,11 @@ def test_bad_controller_arguments_are_refused_by_name():
     with pytest.raises(InvalidGains):
         _controller(q, torque_limits=[1.0, 2.0])
     ctrl = _controller(q)
-    with pytest.raises(InvalidInput, match="qd must have shape"):
+    with pytest.raises(InvalidInput, match=r"qd must be a float array of shape \(9,\).* got array\(\[0., 0., 0.\]\); "
+                                           r"shape \(3,\)"):
         ctrl.solve(q, np.zeros(3))
-    with pytest.raises(InvalidInput, match="q must be finite"):
+    with pytest.raises(InvalidInput, match=r"q must be a float array of shape \(9,\).* got an array of shape \(9,\) .*"
+                                           r"NaN or inf entries"):
         ctrl.solve(np.full(9, np.nan), qd)
     with pytest.raises(InvalidInput, match="contacts"):
         ctrl.solve(q, qd, contacts=[7])
@@ -417,13 +438,15 @@ def test_importing_the_controller_loads_no_qp_solver():
 
 
 def test_benchmark_helper_rows_run():
-    # ORACLES F10: the benchmark's QP step solves (status met or compromise) for every backend, proxsuite first;
-    # speed itself is measured by `pbanim bench control`, never asserted here
+    # ORACLES F10: the benchmark's QP step solves for proxsuite (status met or compromise, both modes) and gives
+    # every other installed backend a row with its status (a backend that cannot take the problem, or whose
+    # answer is not certified, says so there); speed itself is measured by `pbanim bench control`, never asserted
     from pbanim.bench._qp import QP_STEP_HEADER, qp_step_rows
 
     rows = qp_step_rows(quick=True)
     assert rows[0][0].startswith("proxsuite") and all(len(r) == len(QP_STEP_HEADER) for r in rows)
-    assert all(r[5] in ("met", "compromise") and r[2] > 0 for r in rows), rows
+    assert all(r[5] in ("met", "compromise") and r[2] > 0 for r in rows[:2]), rows[:2]
+    assert all(isinstance(r[5], str) and r[5] for r in rows), rows
 
 
 def test_point_task_alone_is_met():

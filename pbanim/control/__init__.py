@@ -9,7 +9,11 @@ module                 what it holds
 :mod:`.simbicon`       SIMBICON's controller and two gaits; :mod:`.walk` runs it with contact and pushes
 :mod:`.qp`             the optimization controller after de Lasa et al. 2010 (weighted or prioritized QPs),
                        with :mod:`.qp_tasks`, :mod:`.qp_features`, :mod:`.qp_solve`, :mod:`.qp_balance`
+:mod:`.specs`          the argument specs the contracts of this chapter need beyond :mod:`pbanim.contracts`
 =====================  =====================================================================================
+
+Every public callable declares what its arguments must be (:func:`pbanim.contracts.contract`), checked at
+calls from outside the package; the step loops (the walk, the balance) call the unchecked functions.
 
 qpsolvers and proxsuite load the first time a QP is solved.
 """

@@ -16,7 +16,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..errors import InvalidInput, check_number
+from ..contracts import Anything, Obj, Opt, Real, Seq, Text, contract
+from ..errors import InvalidInput
+from .specs import Mapping, Names, NotBefore, named
 
 __all__ = ["Transition", "StateMachine", "InvalidMachine"]
 
@@ -25,6 +27,11 @@ class InvalidMachine(InvalidInput):
     """A state machine whose graph is wrong: an unknown state, an unreachable one, a dead end."""
 
 
+_NAME = Text(nonempty=True)
+_NOW = NotBefore("self.entered")            # a time of the run: not before the current state began
+
+
+@contract(source=_NAME, target=_NAME, after=Opt(Real(gt=0)), on=Opt(_NAME))
 @dataclass(frozen=True)
 class Transition:
     """From state ``source`` to ``target`` after ``after`` seconds in ``source`` or on the event ``on``."""
@@ -38,21 +45,19 @@ class Transition:
         if (self.after is None) == (self.on is None):
             raise InvalidMachine(f"transition {self.source!r} -> {self.target!r} needs exactly one trigger: "
                                  f"after=<seconds> or on=<event>, got after={self.after!r}, on={self.on!r}")
-        if self.after is not None:
-            check_number("after", self.after, low=0.0, low_open=True)
 
 
 class StateMachine:
     """States (name → payload, e.g. a dict of targets), transitions and the initial state."""
 
+    @contract(states=named(InvalidMachine, Mapping(_NAME, Anything("a state's payload: whatever the controller "
+                                                                   "keeps per state (targets, a Phase)"), min_len=1)),
+              transitions=named(InvalidMachine, Seq(Obj(Transition))), initial=named(InvalidMachine, _NAME),
+              final=named(InvalidMachine, Names()))
     def __init__(self, states: dict, transitions, initial: str, final=()) -> None:
-        if not isinstance(states, dict) or not states:
-            raise InvalidMachine(f"states must be a non-empty dict name -> payload, got {states!r}")
         self.states = dict(states)
         self.transitions = list(transitions)
         for tr in self.transitions:
-            if not isinstance(tr, Transition):
-                raise InvalidMachine(f"transitions must be Transition objects, got {tr!r}")
             for end in (tr.source, tr.target):
                 if end not in self.states:
                     raise InvalidMachine(f"transition {tr.source!r} -> {tr.target!r} names the unknown state "
@@ -60,6 +65,9 @@ class StateMachine:
         if initial not in self.states:
             raise InvalidMachine(f"initial state {initial!r} is not one of {sorted(self.states)}")
         final = set(final)
+        if final - set(self.states):
+            raise InvalidMachine(f"final names the unknown states {sorted(final - set(self.states))}; states are "
+                                 f"{sorted(self.states)}")
         reached, frontier = {initial}, [initial]
         while frontier:                                  # each state enters the frontier once: ≤ len(states)
             s = frontier.pop()
@@ -76,6 +84,7 @@ class StateMachine:
         self.initial = initial
         self.reset()
 
+    @contract(t=Real())
     def reset(self, t: float = 0.0) -> None:
         """Back to the initial state at time t; the trace restarts."""
         self.state, self.entered = self.initial, float(t)
@@ -85,12 +94,16 @@ class StateMachine:
     def payload(self):
         return self.states[self.state]
 
+    @contract(t=_NOW)
     def time_in_state(self, t: float) -> float:
+        """The time t − t_entered spent in the current state at time t."""
         return float(t) - self.entered
 
+    @contract(t=_NOW, events=Names())
     def update(self, t: float, events=()) -> bool:
         """Fire the first transition out of the current state whose trigger holds at time t (an elapsed
-        time or one of ``events``); True when the state changed."""
+        time or one of ``events``); True when the state changed. Time runs forward: t is not before the
+        current state began."""
         ev = set(events)
         for tr in self.transitions:
             if tr.source != self.state:
@@ -101,8 +114,10 @@ class StateMachine:
                 return True
         return False
 
+    @contract(t_end=_NOW)
     def intervals(self, t_end: float) -> list[tuple[float, float, str]]:
-        """The trace as (start, end, state) intervals up to ``t_end`` (for shading figures)."""
+        """The trace as (start, end, state) intervals up to ``t_end`` (for shading figures; t_end is not
+        before the last state began)."""
         out = []
         for k, (t0, s) in enumerate(self.trace):
             t1 = self.trace[k + 1][0] if k + 1 < len(self.trace) else float(t_end)

@@ -21,13 +21,14 @@ Two ways to combine tasks (``mode``):
 
 * **weighted**: one QP with the sum above;
 * **prioritized**: one QP per priority level ℓ = 0, 1, …, each minimizing only its own tasks subject to the
-  constraints *and* to A_ℓ' x = A_ℓ' x*_ℓ' (± ``priority_tol``) for every level ℓ' above: for a convex
+  constraints *and* to A_ℓ' x = A_ℓ' x*_ℓ' for every level ℓ' above: for a convex
   least-squares objective over a polyhedron the optimal set is exactly {x feasible : A x = A x*}, so a lower
   level can use only what the higher ones leave free (ORACLES F13). A last QP minimizes the regularization.
 
 The result (:class:`QPResult`) says what happened, never only a number: ``"met"`` (every task's desired
 acceleration reached), ``"compromise"`` (the constraints hold but some target cannot be met: the
-least-squares compromise, with each task's error named in the message; ORACLES F12) or ``"infeasible"``
+least-squares compromise, with each task's error named in the message; ORACLES F12), ``"unconverged"``
+(the constraints hold, but the solver's multipliers do not certify the answer optimal) or ``"infeasible"``
 (the constraints are inconsistent or the solver failed: which constraint group is violated and by how
 much). Every answer is judged by residuals computed here, not by the solver's claim (ORACLES F10).
 
@@ -65,17 +66,26 @@ import numpy as np
 
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarGround
-from ..errors import InvalidInput, PbanimError, check_number
+from ..contracts import Array, Choice, Either, Flag, Index, Indices, Int, Obj, Opt, Real, Seq, Text, contract
+from ..errors import InvalidInput, NonFiniteResult, PbanimError
 from .biped import BIPED_JOINTS
-from .pd import _gains
-from .qp_features import centroidal, check_state
-from .qp_solve import contact_rows, keep_level, solve_qp
-from .qp_tasks import InvalidTask, Task, UnknownTask, check_tasks, task_rows
+from .pd import InvalidGains, _per_joint
+from .qp_features import centroidal
+from .qp_solve import backends, check_backend, contact_rows, keep_level, solve_qp
+from .qp_tasks import TARGET, InvalidTask, Task, UnknownTask, check_tasks, task_rows
+from .specs import Count, KinematicsOf, Mapping, Mask, Pair, named
 
 __all__ = ["MODES", "InfeasibleControl", "InvalidTask", "QPController", "QPResult", "Task", "UnknownTask"]
 
 MODES = ("weighted", "prioritized")
-STATUSES = ("met", "compromise", "infeasible")
+STATUSES = ("met", "compromise", "unconverged", "infeasible")
+KKT_TOL = 1e-7      # the relative KKT residual up to which an answer is certified optimal (native ProxQP: ≤ 3e-9)
+_TOL = Real(gt=0, lt=1)                 # a relative tolerance: 1 or more would call anything a match
+_STATE = Array(("self.kernel.nv",))
+_KIN = Opt(KinematicsOf())
+_CONTACTS = Opt(Either(Mask("self.links.size"), Indices("self.links.size", empty=True, distinct=True)))
+_ACTUATED = Count("actuated", default=lambda env: env.values["kernel"].nv - 3,
+                  text="the number of actuated coordinates")
 
 
 class InfeasibleControl(PbanimError, RuntimeError):
@@ -93,9 +103,12 @@ class QPResult:
     ``tau`` and ``qdd`` have one entry per coordinate (zero torque on unactuated ones); ``forces`` (m, 2)
     the (normal, tangential) force of every contact point (zero where ``active`` is False). ``residuals``
     holds the largest violation of each constraint group ("dynamics" N or N m, "contact" m/s², "cone" and
-    "limits"), ``task_errors`` each task's ‖J q̈ + J̇ q̇ − ÿ*‖ at the answer. When ``status`` is "infeasible"
-    the arrays hold the solver's last iterate, for diagnosis only (:meth:`QPController.torques` raises
-    :class:`InfeasibleControl` instead of returning them).
+    "limits"), ``task_errors`` each task's ‖J q̈ + J̇ q̇ − ÿ*‖ at the answer, ``kkt`` the largest relative
+    KKT residual of the QPs solved (:func:`~pbanim.control.qp_solve.kkt_residual`; inf when a backend gives
+    no multipliers). ``status``: "met" or "compromise" (constraints hold, the answer certified optimal:
+    kkt ≤ :data:`KKT_TOL`), "unconverged" (constraints hold, optimality not certified: usable torques, maybe
+    not the optimum), "infeasible" (a constraint fails, or no answer: the arrays hold the solver's last
+    iterate for diagnosis only, and :meth:`QPController.torques` raises :class:`InfeasibleControl`).
     """
 
     status: str
@@ -111,10 +124,11 @@ class QPResult:
     iterations: int = 0
     build_time: float = 0.0
     solve_time: float = 0.0
+    kkt: float = 0.0
 
     @property
     def success(self) -> bool:
-        """True when the constraints hold (status "met" or "compromise")."""
+        """True when the constraints hold (status "met", "compromise" or "unconverged")."""
         return self.status != "infeasible"
 
 
@@ -128,32 +142,27 @@ class QPController:
     (default: the biped's :data:`BIPED_JOINTS` when the tree is the biped, else each link's own name).
     """
 
+    @contract(kernel=Obj(PlanarKernel), points=Seq(Pair(Index("kernel.n"), Array((3,)))),
+              ground=Opt(Obj(PlanarGround)), tasks=Seq(Obj(Task)), mode=Choice(MODES),
+              actuated=Opt(Indices("kernel.nv", empty=True, distinct=True)),
+              joints=Opt(Mapping(Text(), Index("kernel.nv"))),
+              torque_limits=named(InvalidGains, Array((_ACTUATED,), ge=0, finite=False, scalar=True, empty=True)),
+              min_normal=Real(ge=0), contact_tol=Real(ge=0), contact_speed=Real(ge=0), regularization=Real(gt=0),
+              task_tol=_TOL, feasibility_tol=_TOL, backend=Choice(backends), native=Flag(),
+              eps_abs=_TOL, max_iter=Int(ge=1, le=100_000))
     def __init__(self, kernel: PlanarKernel, points, ground: PlanarGround | None = None, tasks=(), *,
                  mode: str = "weighted", actuated=None, joints: dict | None = None, torque_limits=np.inf,
                  min_normal: float = 0.0, contact_tol: float = 2e-3, contact_speed: float = 0.05, regularization: float = 1e-6,
-                 priority_tol: float = 1e-6, task_tol: float = 1e-4, feasibility_tol: float = 1e-6,
+                 task_tol: float = 1e-4, feasibility_tol: float = 1e-6,
                  backend: str = "proxqp", native: bool = True, eps_abs: float = 1e-9, max_iter: int = 2000):
-        if not isinstance(kernel, PlanarKernel):
-            raise InvalidInput(f"kernel must be a PlanarKernel, got {type(kernel).__name__}")
         self.kernel, nv = kernel, kernel.nv
         pts = list(points)
         self.links = np.array([int(lk) for lk, _ in pts], dtype=int)
-        self.local = np.array([np.asarray(p, dtype=float) for _, p in pts]).reshape(len(pts), -1)
-        if np.any(self.links < 0) or np.any(self.links >= kernel.n) or self.local.shape[1:] != (3,) \
-                or not np.all(np.isfinite(self.local)):
-            raise InvalidInput(f"points must be (link in 0..{kernel.n - 1}, finite 3-vector) pairs, got links "
-                               f"{self.links.tolist()} and points of shape {self.local.shape}")
-        if ground is not None and not isinstance(ground, PlanarGround):
-            raise InvalidInput(f"ground must be a PlanarGround, got {type(ground).__name__}")
+        self.local = np.array([np.asarray(p, dtype=float) for _, p in pts], dtype=float).reshape(len(pts), 3)
         self.ground = ground or PlanarGround()
-        if mode not in MODES:
-            raise InvalidInput(f"mode must be one of {MODES}, got {mode!r}")
         self.mode = mode
-        act = np.arange(3, nv) if actuated is None else np.asarray(actuated)
-        if act.dtype.kind not in "iu" or act.ndim != 1 or np.any(act < 0) or np.any(act >= nv) \
-                or len(set(act.tolist())) != act.size:
-            raise InvalidInput(f"actuated must be distinct coordinate indices in 0..{nv - 1}, got {actuated!r}")
-        self.actuated, self.na = act.astype(int), int(act.size)
+        act = np.arange(3, nv) if actuated is None else np.asarray(actuated, dtype=int)
+        self.actuated, self.na = act, int(act.size)
         self.S = np.zeros((self.na, nv))
         self.S[np.arange(self.na), self.actuated] = 1.0
         names = [lk.name for lk in kernel.tree.links]
@@ -161,23 +170,18 @@ class QPController:
             joints = dict(BIPED_JOINTS) if names[-1] == "right_foot" and nv == len(BIPED_JOINTS) else \
                 {nm: int(kernel.vidx[i]) for i, nm in enumerate(names) if kernel.vidx[i] >= 0}
         self.joints = dict(joints)
-        self.torque_limits = _gains("torque_limits", torque_limits, self.na, allow_inf=True)
-        self.min_normal = check_number("min_normal", min_normal, low=0.0)
-        self.contact_tol = check_number("contact_tol", contact_tol, low=0.0)
-        self.contact_speed = check_number("contact_speed", contact_speed, low=0.0)
-        self.eps = check_number("regularization", regularization, low=0.0, low_open=True)
-        self.priority_tol = check_number("priority_tol", priority_tol, low=0.0, low_open=True)
-        self.task_tol = check_number("task_tol", task_tol, low=0.0, low_open=True)
-        self.feasibility_tol = check_number("feasibility_tol", feasibility_tol, low=0.0, low_open=True)
-        self.eps_abs = check_number("eps_abs", eps_abs, low=0.0, low_open=True)
-        self.max_iter = int(check_number("max_iter", max_iter, low=1))
+        self.torque_limits = _per_joint(torque_limits, self.na)
+        self.min_normal, self.contact_tol, self.contact_speed = float(min_normal), float(contact_tol), float(contact_speed)
+        self.eps, self.task_tol = float(regularization), float(task_tol)
+        self.feasibility_tol, self.eps_abs, self.max_iter = float(feasibility_tol), float(eps_abs), int(max_iter)
         self.native = bool(native)
-        self.backend = _check_backend(backend, self.native)
+        self.backend = check_backend(backend, self.native)
         self.tasks = check_tasks(tasks, kernel, self.joints)
         M = float(kernel.mass.sum())
         self.f_scale = M * max(float(np.linalg.norm(kernel.g)), 1.0)
 
     # -- tasks -------------------------------------------------------------------------------
+    @contract(name=Text())
     def task(self, name: str) -> Task:
         """The task called ``name`` (:class:`UnknownTask` when there is none)."""
         for t in self.tasks:
@@ -189,15 +193,18 @@ class QPController:
         self.task(name)
         self.tasks = check_tasks([new if t.name == name else t for t in self.tasks], self.kernel, self.joints)
 
+    @contract(name=Text(), target=named(InvalidTask, Opt(TARGET)))
     def set_target(self, name: str, target) -> None:
         """Give the task ``name`` a new target (validated)."""
         self._replace(name, self.task(name).with_target(target))
 
+    @contract(name=Text(), weight=named(InvalidTask, Real(ge=0)))
     def set_weight(self, name: str, weight) -> None:
         """Give the task ``name`` a new weight (≥ 0, finite)."""
         self._replace(name, self.task(name).with_weight(weight))
 
     # -- the problem ------------------------------------------------------------------------
+    @contract(q=_STATE, qd=_STATE, kin=_KIN)
     def active_contacts(self, q: np.ndarray, qd: np.ndarray, kin: dict | None = None) -> np.ndarray:
         """Which contact points are on the ground, a boolean mask (m,): gap ≤ ``contact_tol`` and not
         leaving it (normal speed ≤ ``contact_speed``; a heel that lifts while the foot rolls is not held)."""
@@ -214,28 +221,30 @@ class QPController:
         return active, J, k.bias_acceleration(kin, self.links, p, qd)
 
     def _mask(self, contacts, kin, qd) -> tuple:
+        """(mask, J, J̇q̇): the contacts given (a mask or indices, checked by the contract) or the active ones."""
         active, J, Jb = self._contacts(kin, qd)
-        m = self.links.size
         if contacts is None:
             return active, J, Jb
         c = np.asarray(contacts)
-        if c.dtype == bool and c.shape == (m,):
+        if c.dtype == bool:
             return c.copy(), J, Jb
-        if c.ndim == 1 and c.dtype.kind in "iu" and np.all((c >= 0) & (c < m)):
-            mask = np.zeros(m, bool)
-            mask[c] = True
-            return mask, J, Jb
-        raise InvalidInput(f"contacts must be a boolean mask of {m} points or indices in 0..{m - 1}, got {contacts!r}")
+        mask = np.zeros(self.links.size, bool)
+        mask[c] = True
+        return mask, J, Jb
 
+    @contract(q=_STATE, qd=_STATE, kin=_KIN, contacts=_CONTACTS)
     def build(self, q, qd, kin: dict | None = None, contacts=None) -> dict:
         """The QP's matrices at (q, q̇): equalities (``Aeq``, ``beq``), cone rows (``G`` x ≤ 0), bounds
         (``lb``, ``ub``), task rows (``tasks``: (task, A, b) with error A x − b) and the pieces they came from."""
         k = self.kernel
-        q, qd = check_state(k, q, qd)
+        q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
         kin = k.kinematics(q) if kin is None else kin
         H, C, kin = k.dynamics(q, qd, kin)
         cf = centroidal(k, q, qd, kin)
         active, J, Jb = self._mask(contacts, kin, qd)
+        if not np.isfinite(H.sum() + C.sum() + Jb.sum() + cf.bias.sum() + cf.L_bias):
+            raise NonFiniteResult("QPController.build: the equations of motion at (q, q̇)",
+                                  "the state's speeds or positions are too large")
         Jnt, bnt, keep = contact_rows(J[active], Jb[active], self.ground)
         nv, na, m2 = k.nv, self.na, Jnt.shape[0]
         N = nv + na + m2
@@ -262,6 +271,7 @@ class QPController:
                 "H": H, "C": C, "Jnt": Jnt, "bnt": bnt, "keep": keep, "N": N}
 
     # -- solving ----------------------------------------------------------------------------
+    @contract(q=_STATE, qd=_STATE, kin=_KIN, contacts=_CONTACTS, raise_on_failure=Flag())
     def solve(self, q, qd, kin: dict | None = None, contacts=None, *, raise_on_failure: bool = False) -> QPResult:
         """Solve the control QP at (q, q̇) (weighted or prioritized by ``mode``); see :class:`QPResult`."""
         t0 = time.perf_counter()
@@ -277,13 +287,13 @@ class QPController:
             for t, A, b in live:
                 Q += t.weight * A.T @ A
                 g -= t.weight * A.T @ b
-            x, st, it = solve_qp(Q, g, C=P["G"], l=np.full(P["G"].shape[0], -np.inf), u=np.zeros(P["G"].shape[0]),
-                                 **common)
+            x, st, it, kkt = solve_qp(Q, g, C=P["G"], l=np.full(P["G"].shape[0], -np.inf),
+                                      u=np.zeros(P["G"].shape[0]), **common)
             statuses.append(st)
             iters += it
         else:
-            x, statuses, iters = self._prioritized(P, live, common)
-        result = self._judge(P, x, statuses, iters, t1 - t0, time.perf_counter() - t1)
+            x, statuses, iters, kkt = self._prioritized(P, live, common)
+        result = self._judge(P, x, statuses, iters, kkt, t1 - t0, time.perf_counter() - t1)
         if raise_on_failure and not result.success:
             raise InfeasibleControl(result)
         return result
@@ -296,7 +306,7 @@ class QPController:
         required so far; its status says so ("… kept level above").
         """
         G, zero, N = P["G"], np.zeros(P["G"].shape[0]), P["N"]
-        Aeq, beq, x, statuses, iters = P["Aeq"], P["beq"], None, [], 0
+        Aeq, beq, x, statuses, iters, kkt = P["Aeq"], P["beq"], None, [], 0, 0.0
         levels = [[(t, A, b) for t, A, b in live if t.priority == lv] for lv in sorted({t.priority for t, _, _ in live})]
         for here in levels + [None]:
             if here is None:                                   # the last level: the regularization
@@ -304,19 +314,20 @@ class QPController:
             else:
                 Q = sum(t.weight * A.T @ A for t, A, _ in here)
                 g = -sum(t.weight * A.T @ b for t, A, b in here)
-            xk, st, it = solve_qp(Q, g, C=G, l=zero - np.inf, u=zero, **dict(common, Aeq=Aeq, beq=beq, x0=x))
+            xk, st, it, kk = solve_qp(Q, g, C=G, l=zero - np.inf, u=zero, **dict(common, Aeq=Aeq, beq=beq, x0=x))
             iters += it
             if x is not None and not self._feasible(xk, Aeq, beq, G, P["lb"], P["ub"]) \
                     and self._feasible(x, Aeq, beq, G, P["lb"], P["ub"]):
                 statuses.append(f"{st} (kept level above)")
+                kkt = np.inf                                   # this level's tasks were not optimized
                 continue
-            x = xk
+            x, kkt = xk, max(kkt, kk)
             statuses.append(st)
             if not np.all(np.isfinite(x)):
                 break
             if here is not None:                               # keep this optimum (rows Aeq does not fix yet)
                 Aeq, beq = keep_level(Aeq, beq, np.vstack([A for _, A, _ in here]), x)
-        return x, statuses, iters
+        return x, statuses, iters, kkt
 
     def _feasible(self, x, Aeq, beq, G, lb, ub) -> bool:
         """x satisfies the equalities, the cone rows and the bounds to ``feasibility_tol`` (force scale)."""
@@ -326,11 +337,12 @@ class QPController:
         return bool(np.abs(Aeq @ x - beq).max(initial=0.0) <= tol and (G @ x).max(initial=0.0) <= tol
                     and np.maximum(lb - x, x - ub).max(initial=0.0) <= tol)
 
+    @contract(q=_STATE, qd=_STATE, kin=_KIN)
     def torques(self, q, qd, kin: dict | None = None) -> np.ndarray:
         """τ (nv,) of one control step; :class:`InfeasibleControl` when the QP has no feasible answer."""
         return self.solve(q, qd, kin, raise_on_failure=True).tau
 
-    def _judge(self, P, x, statuses, iters, t_build, t_solve) -> QPResult:
+    def _judge(self, P, x, statuses, iters, kkt, t_build, t_solve) -> QPResult:
         """The answer checked against every constraint and task, with a status and a message."""
         nv, na = self.kernel.nv, self.na
         finite = np.all(np.isfinite(x))
@@ -344,7 +356,8 @@ class QPController:
         tol = {"dynamics": self.feasibility_tol * (self.f_scale + np.abs(P["C"]).max()),
                "contact": self.feasibility_tol * (1.0 + np.abs(P["bnt"]).max(initial=0.0)),
                "cone": self.feasibility_tol * self.f_scale, "limits": self.feasibility_tol * self.f_scale}
-        errors = {t.name: float(np.linalg.norm(A @ x - b)) for t, A, b in P["tasks"]}
+        with np.errstate(over="ignore"):                  # targets near MAX_DATUM: an error of inf, said so
+            errors = {t.name: float(np.linalg.norm(A @ x - b)) for t, A, b in P["tasks"]}
         bad = [g for g in res if not res[g] <= tol[g]]
         tau = np.zeros(nv)
         tau[self.actuated] = tau_a
@@ -355,6 +368,11 @@ class QPController:
             what = "; ".join(f"{g} violated by {res[g]:.3g} (tolerance {tol[g]:.1e})" for g in bad) or "no finite answer"
             msg = (f"the control QP's constraints are inconsistent or the solver failed ({', '.join(statuses)}): "
                    f"{what}; relax the limits or targets, or check the contacts")
+        elif not kkt <= KKT_TOL:
+            status = "unconverged"
+            msg = (f"the constraints hold but the solver's answer is not certified optimal ({', '.join(statuses)}): "
+                   f"KKT residual {kkt:.1e} > {KKT_TOL:.0e}; the torques are usable and the task errors are as "
+                   f"reported, but the least-squares optimum may be better (a more accurate backend, or more max_iter)")
         else:
             missed = {t.name: errors[t.name] for t, A, b in P["tasks"]
                       if t.weight > 0 and errors[t.name] > self.task_tol * (1.0 + np.linalg.norm(b))}
@@ -363,22 +381,4 @@ class QPController:
                 f"task {n!r} misses its desired acceleration by {e:.3g}" for n, e in missed.items()))
         return QPResult(status=status, message=msg, tau=tau, qdd=qdd.copy(), forces=forces, active=P["active"],
                         task_errors=errors, residuals=res, tolerances=tol, solver_status=statuses,
-                        iterations=int(iters), build_time=t_build, solve_time=t_solve)
-
-
-def _check_backend(backend: str, native: bool) -> str:
-    """``backend`` when it can be called (proxsuite for the native route, else an installed qpsolvers solver)."""
-    if backend == "proxqp" and native:
-        try:
-            import proxsuite  # noqa: F401  (lazy: only a controller that solves needs it)
-        except ImportError:
-            raise InvalidInput("backend 'proxqp' (native) needs proxsuite: pip install proxsuite") from None
-        return backend
-    try:
-        import qpsolvers
-    except ImportError:
-        raise InvalidInput(f"backend {backend!r} needs qpsolvers: pip install qpsolvers") from None
-    if backend not in qpsolvers.available_solvers:
-        raise InvalidInput(f"backend must be an installed qpsolvers solver, one of {qpsolvers.available_solvers}, "
-                           f"got {backend!r}")
-    return backend
+                        iterations=int(iters), build_time=t_build, solve_time=t_solve, kkt=float(kkt))

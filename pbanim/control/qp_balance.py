@@ -41,12 +41,16 @@ import numpy as np
 
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarContactStep, PlanarGround
-from ..errors import check_count, check_number
+from ..contracts import Array, Choice, Int, Real, Text, contract
+from ..errors import check_number
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped import BIPED_JOINTS as JI
 from .biped import biped_contact_points, planar_biped
-from .qp import InfeasibleControl, QPController
-from .qp_tasks import Task
+from .pd import InvalidGains
+from .qp import MODES, InfeasibleControl, QPController
+from .qp_solve import backends
+from .qp_tasks import InvalidTask, Task
+from .specs import Mapping, named
 from .walk import fall_cause
 
 __all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance"]
@@ -73,16 +77,27 @@ def crouched_state(kernel: PlanarKernel, knee: float = 0.3) -> tuple[np.ndarray,
         return q, float(kernel.centre_of_mass(q)[0] - 0.5 * (soles[:, 0].min() + soles[:, 0].max()))
 
     lo, hi = -0.6, 0.6 + knee                      # the offset changes sign between these leans
+    lo_sign = pose(lo)[1] > 0
     for _ in range(60):                             # bisection: a cap known before it starts
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if (pose(mid)[1] > 0) == (pose(lo)[1] > 0) else (lo, mid)
+        if (pose(mid)[1] > 0) == lo_sign:
+            lo = mid
+        else:
+            hi = mid
     return pose(0.5 * (lo + hi))[0], np.zeros(kernel.nv)
 
 
+_GAIN = named(InvalidTask, Real(ge=0))
+_TASK_GAINS = dict(kp=_GAIN, kd=_GAIN, momentum=_GAIN, posture_kp=_GAIN, posture_kd=_GAIN, posture_weight=_GAIN,
+                   momentum_weight=_GAIN)
+
+
+@contract(com_target=Array((2,)), posture=Mapping(Text(), Real(), min_len=1), **_TASK_GAINS)
 def balance_tasks(com_target, posture: dict, *, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                   posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
                   momentum_weight: float = 1e-3) -> list:
-    """The three tasks of the module docstring (the centre of mass at priority 0, the rest at 1)."""
+    """The three tasks of the module docstring (the centre of mass at priority 0, the rest at 1): gains
+    k_p, k_d of the centre of mass, k_L (``momentum``), the posture's k_q, k_q' and the two lower weights."""
     return [Task("com", target=com_target, kp=kp, kd=kd, weight=1.0, priority=0),
             Task("momentum", kd=momentum, weight=momentum_weight, priority=1),
             Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=posture_weight, priority=1)]
@@ -117,6 +132,7 @@ class BalanceResult:
     wall_time: float
     qp_time: float
 
+    @contract(last=Real(gt=0))
     def com_error(self, last: float = 0.5) -> float:
         """Largest |c − c̄| over the last ``last`` seconds (m)."""
         k = self.t >= self.t[-1] - last
@@ -127,17 +143,23 @@ class BalanceResult:
         return self.outcome == "balanced"
 
 
+@contract(push=Real(ge=-1e4, le=1e4), t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MODES),
+          control_every=Int(ge=1), friction=Real(ge=0), knee=Real(ge=0, le=1.2),
+          torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
+          backend=Choice(backends), max_steps=Int(ge=1), **_TASK_GAINS)
 def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, push_time: float = 0.5,
                      mode: str = "weighted", control_every: int = 1, friction: float = 0.9, knee: float = 0.3,
                      torque_limits=300.0, record_every: int = 5, backend: str = "proxqp",
-                     max_steps: int = MAX_STEPS, **task_options) -> BalanceResult:
+                     max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
+                     posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
+                     momentum_weight: float = 1e-3) -> BalanceResult:
     """Stand the planar biped with the QP controller and push it (``push`` N s at ``push_time`` s).
 
-    ``task_options`` go to :func:`balance_tasks` (gains and weights).
+    ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`.
     """
-    push = check_number("push", push, low=-1e4, high=1e4)
-    push_time = check_number("push_time", push_time, low=0.0)
-    every = check_count("control_every", control_every)
+    task_options = dict(kp=kp, kd=kd, momentum=momentum, posture_kp=posture_kp, posture_kd=posture_kd,
+                        posture_weight=posture_weight, momentum_weight=momentum_weight)
+    every = int(control_every)
     tree = planar_biped()
     kernel = PlanarKernel(tree)
     ground = PlanarGround(0.0, friction)

@@ -48,22 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..articulated.planar import PlanarKernel
-from ..errors import InvalidInput, as_floats
 
-__all__ = ["Centroidal", "angular_momentum_loop", "centroidal", "check_state", "point_feature"]
-
-
-def check_state(kernel: PlanarKernel, q, qd) -> tuple[np.ndarray, np.ndarray]:
-    """(q, q̇) as finite float arrays of the kernel's size, or :class:`InvalidInput` naming which is wrong."""
-    out = []
-    for name, v in (("q", q), ("qd", qd)):
-        a = as_floats(name, v, ndmin=1)
-        if a.shape != (kernel.nv,):
-            raise InvalidInput(f"{name} must have shape ({kernel.nv},) (one entry per coordinate), got {a.shape}")
-        if not np.all(np.isfinite(a)):
-            raise InvalidInput(f"{name} must be finite, got {a.tolist()}")
-        out.append(a)
-    return out[0], out[1]
+__all__ = ["Centroidal", "angular_momentum_loop", "centroidal", "point_feature"]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

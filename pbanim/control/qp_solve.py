@@ -21,8 +21,11 @@ dependent (the rows already fixed are left out).
 
 with proxsuite's dense ProxQP called directly (``backend="proxqp"``, ``native=True``: its own box
 constraints, as :func:`pbanim.lcp.solve_lcp` does), or through ``qpsolvers.solve_problem`` for any
-installed backend (two-sided rows become one-sided G x ≤ h rows). It returns the solver's answer and
-status as they are; :meth:`pbanim.control.qp.QPController.solve` judges them by residuals.
+installed backend (two-sided rows and finite bounds become one-sided G x ≤ h rows; ``max_iter`` goes to
+the backend's own iteration cap, :data:`ITERATION_OPTION`). It returns the solver's answer and
+status as they are, and a backend that raises (a solver error, a problem it refuses) as a non-finite
+answer with the error in its status; :meth:`pbanim.control.qp.QPController.solve` judges every answer
+by residuals, so a failure comes back flagged "infeasible", never as numbers.
 
 Notation: Jⱼ the (2, nv) Jacobian of contact point j, J_c the stacked rows n·Jⱼ, t·Jⱼ (2m, nv), x the QP's
 unknowns (q̈, τ, f).
@@ -40,7 +43,45 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg.lapack import dgeqp3
 
-__all__ = ["contact_rows", "keep_level", "solve_qp"]
+from ..errors import InvalidInput
+
+__all__ = ["backends", "check_backend", "contact_rows", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
+
+# the option capping each backend's iterations (the controller's max_iter is passed to it: HiGHS's QP solver,
+# uncapped by default, ran for minutes on a prioritized level); a backend not listed keeps its own cap
+ITERATION_OPTION = {"proxqp": "max_iter", "osqp": "max_iter", "scs": "max_iters", "piqp": "max_iter", "qpalm": "max_iter",
+                    "clarabel": "max_iter", "ecos": "max_iters", "highs": "qp_iteration_limit", "daqp": "iter_limit",
+                    "cvxopt": "maxiters"}
+MAX_DATUM = 1e150                  # the largest |entry| of a QP's data whose square double precision holds
+
+
+def backends() -> list:
+    """The backends a controller can use: "proxqp" (proxsuite called directly), then every solver qpsolvers
+    finds installed (none when qpsolvers is not installed). Imports qpsolvers when first asked."""
+    try:
+        import qpsolvers
+    except ImportError:
+        return ["proxqp"]
+    return ["proxqp"] + [b for b in qpsolvers.available_solvers if b != "proxqp"]
+
+
+def check_backend(backend: str, native: bool) -> str:
+    """``backend`` when it can be called (proxsuite for the native route, else an installed qpsolvers solver),
+    or :class:`InvalidInput` saying what to install."""
+    if backend == "proxqp" and native:
+        try:
+            import proxsuite  # noqa: F401  (lazy: only a controller that solves needs it)
+        except ImportError:
+            raise InvalidInput("backend 'proxqp' (native) needs proxsuite: pip install proxsuite") from None
+        return backend
+    try:
+        import qpsolvers
+    except ImportError:
+        raise InvalidInput(f"backend {backend!r} needs qpsolvers: pip install qpsolvers") from None
+    if backend not in qpsolvers.available_solvers:
+        raise InvalidInput(f"backend must be an installed qpsolvers solver, one of {qpsolvers.available_solvers}, "
+                           f"got {backend!r}")
+    return backend
 
 
 def contact_rows(J: np.ndarray, Jb: np.ndarray, ground, rank_tol: float = 1e-9) -> tuple:
@@ -87,13 +128,69 @@ def keep_level(Aeq: np.ndarray, beq: np.ndarray, Ak: np.ndarray, x: np.ndarray,
 
 
 def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: str = "proxqp", native: bool = True,
-             eps_abs: float = 1e-9, max_iter: int = 2000) -> tuple[np.ndarray, str, int]:
-    """(x, solver status, iterations) of the QP above; x may be non-finite when the solver gives up.
+             eps_abs: float = 1e-9, max_iter: int = 2000) -> tuple[np.ndarray, str, int, float]:
+    """(x, solver status, iterations, KKT residual) of the QP above; x may be non-finite when the solver gives
+    up. The KKT residual (:func:`kkt_residual`, from the solver's multipliers, in the scaled variables) says
+    how far x is from the optimum; inf when the backend gives no multipliers or fails.
+
+    Data beyond :data:`MAX_DATUM` in magnitude are not sent to the solver (ProxQP stalls on them for
+    max_iter × 1500 inner iterations, minutes, where squares overflow): x is NaN and the status says why,
+    as for a backend that raises. The caller judges x by its residuals either way.
 
     ``scale``: D > 0 per unknown; the solver sees x̃ = D⁻¹x (torques and forces of hundreds of newtons
     next to accelerations of a few m/s² otherwise mislead ProxQP's infeasibility test). ``x0``: a
     starting point (a feasible one, e.g. the level above's answer, is used as a warm start).
     """
+    big = max(_largest(a) for a in (Q, g, Aeq, beq, C, l, u, lb, ub))
+    if not big <= MAX_DATUM:
+        return (np.full(Q.shape[0], np.nan), f"not solved: the QP's data reach {big:.3g}, beyond {MAX_DATUM:g} (their "
+                f"squares overflow double precision and the solver stalls; lower the gains, weights or targets)", 0,
+                np.inf)
+    try:
+        return _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter)
+    except Exception as exc:  # noqa: BLE001 - any backend failure is an answer the caller flags by residuals
+        return np.full(Q.shape[0], np.nan), f"backend {backend} failed: {type(exc).__name__}: {str(exc)[:200]}", 0, \
+            np.inf
+
+
+def kkt_residual(Q, g, A, b, x, y, rows) -> float:
+    """How far (x, y, z) is from the optimality conditions of min ½xᵀQx + gᵀx s.t. A x = b, l ≤ M x ≤ u
+    (``rows``: (M, l, u, z) blocks; z > 0 on an active upper side, z < 0 on a lower one), relative to
+    the size of their terms: the larger of
+
+        ‖Q x + g + Aᵀy + Σ Mᵀz‖∞ / (1 + the largest term)                    (stationarity)
+        |xᵀQx + gᵀx + bᵀy + Σ (u·z⁺ + l·z⁻)| / (1 + Σ |each term|)          (the duality gap)
+
+    where a multiplier on an infinite side adds to the gap (it is not dual feasible). With the primal
+    residuals, which the controller checks itself, these certify x optimal; inf when a multiplier is
+    missing. Cost: a few products of the QP's size."""
+    if y is None or any(z is None for *_, z in rows) or not np.all(np.isfinite(x)):
+        return np.inf
+    y = np.asarray(y, dtype=float)
+    terms = [Q @ x, g, A.T @ y] + [M.T @ np.asarray(z, dtype=float) for M, _, _, z in rows]
+    stat = np.abs(sum(terms)).max(initial=0.0) / (1.0 + max(np.abs(t).max(initial=0.0) for t in terms))
+    parts, stray = [float(x @ terms[0]), float(g @ x), float(b @ y)], 0.0
+    for M, lo, hi, z in rows:
+        zp, zm = np.maximum(z, 0.0), np.minimum(z, 0.0)
+        fu, fl = np.isfinite(hi), np.isfinite(lo)
+        parts += [float(hi[fu] @ zp[fu]), float(lo[fl] @ zm[fl])]
+        stray += float(zp[~fu].sum() - zm[~fl].sum())
+    gap = (abs(sum(parts)) + stray) / (1.0 + sum(abs(p) for p in parts))
+    out = max(float(stat), float(gap))
+    return out if out == out else np.inf
+
+
+def _largest(a: np.ndarray) -> float:
+    """The largest finite |entry| of a (infinite bounds are no data), NaN when an entry is NaN."""
+    a = np.asarray(a, dtype=float)
+    if not a.size:
+        return 0.0
+    m = np.abs(a[np.isfinite(a) | np.isnan(a)])
+    return float(m.max()) if m.size else 0.0
+
+
+def _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter):
+    """The backend call of :func:`solve_qp` (which turns its exceptions into a flagged answer)."""
     D = np.ones(Q.shape[0]) if scale is None else np.asarray(scale, dtype=float)
     Qs, gs, As, Cs = D[:, None] * Q * D, D * g, Aeq * D, C * D
     lbs, ubs = lb / D, ub / D
@@ -104,16 +201,25 @@ def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: s
         kw = {} if xs0 is None else {"x": xs0, "initial_guess": proxsuite.proxqp.InitialGuess.WARM_START}
         r = proxsuite.proxqp.dense.solve(Qs, gs, As, beq, Cs, l, u, l_box=lbs, u_box=ubs, eps_abs=eps_abs, eps_rel=0.0,
                                          max_iter=max_iter, **kw)
-        return D * np.array(r.x, dtype=float), str(r.info.status).split(".")[-1], int(r.info.iter)
+        xs, z, m = np.array(r.x, dtype=float), np.array(r.z, dtype=float), Cs.shape[0]
+        kkt = kkt_residual(Qs, gs, As, beq, xs, r.y, [(Cs, l, u, z[:m]), (np.eye(xs.size), lbs, ubs, z[m:])])
+        return D * xs, str(r.info.status).split(".")[-1], int(r.info.iter), kkt
     import qpsolvers  # lazy, as above
 
-    up, lo = np.isfinite(u), np.isfinite(l)
-    G = np.vstack([Cs[up], -Cs[lo]])
-    h = np.concatenate([u[up], -l[lo]])
-    kw = {"eps_abs": eps_abs, "eps_rel": 0.0, "max_iter": max_iter} if backend == "proxqp" else {}
-    prob = qpsolvers.Problem(Qs, gs, G if G.shape[0] else None, h if G.shape[0] else None, As, beq, lbs, ubs)
+    # every one-sided row with a finite side, the finite bounds among them (some backends, e.g. ECOS, refuse
+    # an infinite entry in h or in the bounds they turn into rows)
+    up, lo, bu, bl, eye = np.isfinite(u), np.isfinite(l), np.isfinite(ubs), np.isfinite(lbs), np.eye(Q.shape[0])
+    G = np.vstack([Cs[up], -Cs[lo], eye[bu], -eye[bl]])
+    h = np.concatenate([u[up], -l[lo], ubs[bu], -lbs[bl]])
+    kw = {"eps_abs": eps_abs, "eps_rel": 0.0} if backend == "proxqp" else {}
+    if backend in ITERATION_OPTION:
+        kw[ITERATION_OPTION[backend]] = max_iter
+    prob = qpsolvers.Problem(Qs, gs, G if G.shape[0] else None, h if G.shape[0] else None, As, beq)
     sol = qpsolvers.solve_problem(prob, solver=backend, initvals=xs0, **kw)
-    x = np.full(Q.shape[0], np.nan) if sol.x is None else D * np.asarray(sol.x, dtype=float)
+    xs = np.full(Q.shape[0], np.nan) if sol.x is None else np.asarray(sol.x, dtype=float)
     info = sol.extras.get("info") if isinstance(sol.extras, dict) else None
     status = str(getattr(info, "status", "found" if sol.found else "not_found")).split(".")[-1]
-    return x, status, int(getattr(info, "iter", 0) or 0)
+    y = np.zeros(0) if As.shape[0] == 0 else sol.y
+    z = np.zeros(0) if G.shape[0] == 0 else sol.z
+    kkt = kkt_residual(Qs, gs, As, beq, xs, y, [(G, np.full(h.size, -np.inf), h, z)])
+    return D * xs, status, int(getattr(info, "iter", 0) or 0), kkt

@@ -36,9 +36,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import InvalidInput, as_floats, check_number
+from ..contracts import Array, Choice, Either, Int, Opt, Real, Text, contract
+from ..errors import InvalidInput
 from .pd import UnknownJoint
 from .qp_features import Centroidal, point_feature
+from .specs import Mapping, named
 
 __all__ = ["TASK_KINDS", "InvalidTask", "Task", "UnknownTask", "task_rows"]
 
@@ -53,13 +55,16 @@ class InvalidTask(InvalidInput):
     """A task with a bad weight, gain, priority or target (the message says which and what came in)."""
 
 
-def _vector2(name: str, value) -> np.ndarray:
-    v = as_floats(name, value, ndmin=1)
-    if v.shape != (2,) or not np.all(np.isfinite(v)):
-        raise InvalidTask(f"{name} must be a finite 2-vector (x, y) [m], got {value!r}")
-    return v
+_TASK_GAIN = named(InvalidTask, Real(ge=0))
+# a target: a 2-vector (com, point), a number (momentum) or a dict joint name -> angle (posture); which one
+# the kind asks for is checked by the task itself
+TARGET = Either(Array((None,)), Real(), Mapping(Text(), Real(), min_len=1))
 
 
+@contract(kind=named(UnknownTask, Choice(TASK_KINDS)), target=named(InvalidTask, Opt(TARGET)), kp=_TASK_GAIN,
+          kd=_TASK_GAIN, weight=_TASK_GAIN, priority=named(InvalidTask, Int(ge=0)), name=Text(), link=Int(ge=-1),
+          local=named(InvalidTask, Array((3,))), acceleration=named(InvalidTask, Opt(Array((None,)))),
+          velocity=named(InvalidTask, Opt(Array((None,)))))
 @dataclass(frozen=True)
 class Task:
     """One objective of the QP controller (see the module docstring for the kinds and their targets).
@@ -69,7 +74,7 @@ class Task:
     >>> Task("balance")
     Traceback (most recent call last):
     ...
-    pbanim.control.qp_tasks.UnknownTask: task kind must be one of ('com', 'momentum', 'point', 'posture'), got 'balance'
+    pbanim.control.qp_tasks.UnknownTask: Task: kind must be one of 'com', 'momentum', 'point', 'posture', got 'balance'
     """
 
     kind: str
@@ -86,59 +91,60 @@ class Task:
     _target: np.ndarray = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
-        if self.kind not in TASK_KINDS:
-            raise UnknownTask(f"task kind must be one of {TASK_KINDS}, got {self.kind!r}")
+        # the contract has checked each field alone (calls from outside; balance_tasks' values are checked by
+        # its callers' contracts); what a field must be given the kind is checked here
         set_ = lambda k, v: object.__setattr__(self, k, v)
         set_("name", self.name or self.kind)
-        if not isinstance(self.name, str):
-            raise InvalidTask(f"task name must be a string, got {self.name!r}")
-        for g in ("kp", "kd", "weight"):
-            try:
-                set_(g, check_number(f"task {self.name!r}: {g}", getattr(self, g), low=0.0))
-            except InvalidInput as exc:
-                raise InvalidTask(str(exc)) from None
-        if isinstance(self.priority, bool) or not isinstance(self.priority, (int, np.integer)) or self.priority < 0:
-            raise InvalidTask(f"task {self.name!r}: priority must be an integer >= 0 (0 first), got {self.priority!r}")
+        set_("_target", _target_of(self.kind, self.target, self.name))
         size = self.size
-        if self.kind == "posture":
-            if not isinstance(self.target, dict) or not self.target:
-                raise InvalidTask(f"task {self.name!r}: a posture target must be a non-empty dict joint name -> "
-                                  f"angle [rad], got {self.target!r}")
-            vals = as_floats(f"task {self.name!r}: posture angles", list(self.target.values()))
-            if not np.all(np.isfinite(vals)):
-                raise InvalidTask(f"task {self.name!r}: posture angles must be finite, got {self.target!r}")
-            tgt = vals
-        elif self.kind == "momentum":
-            tgt = np.array([check_number(f"task {self.name!r}: target", 0.0 if self.target is None else self.target)])
-        else:
-            tgt = _vector2(f"task {self.name!r}: target", self.target)
-        set_("_target", tgt)
         for ref in ("acceleration", "velocity"):
             v = getattr(self, ref)
-            arr = np.zeros(size) if v is None else as_floats(f"task {self.name!r}: {ref}", v, ndmin=1)
-            if arr.shape != (size,) or not np.all(np.isfinite(arr)):
-                raise InvalidTask(f"task {self.name!r}: {ref} must be {size} finite numbers, got {v!r}")
+            arr = np.zeros(size) if v is None else np.array(v, dtype=float).reshape(-1)
+            if arr.shape != (size,):
+                raise InvalidTask(f"task {self.name!r}: {ref} must be {size} finite numbers (the feature's size), "
+                                  f"got {v!r}")
             set_(ref, arr)
-        if self.kind == "point":
-            loc = as_floats(f"task {self.name!r}: local", self.local, ndmin=1)
-            if loc.shape != (3,) or not np.all(np.isfinite(loc)):
-                raise InvalidTask(f"task {self.name!r}: local must be a finite 3-vector, got {self.local!r}")
-            set_("local", tuple(loc))
+        set_("local", tuple(float(c) for c in np.asarray(self.local, dtype=float).reshape(-1)))
 
     @property
     def size(self) -> int:
         """Rows of the task (feature dimension)."""
         return {"com": 2, "momentum": 1, "point": 2}.get(self.kind, len(self.target) if isinstance(self.target, dict) else 0)
 
+    @contract(target=named(InvalidTask, Opt(TARGET)))
     def with_target(self, target) -> Task:
         """A copy with a new target (validated like the original; a posture of another size drops its references)."""
         keep = self.kind != "posture" or (isinstance(target, dict) and len(target) == self.size)
         return replace(self, target=target, acceleration=self.acceleration if keep else None,
                        velocity=self.velocity if keep else None)
 
+    @contract(weight=_TASK_GAIN)
     def with_weight(self, weight) -> Task:
         """A copy with a new weight (≥ 0, finite)."""
         return replace(self, weight=weight)
+
+
+def _target_of(kind: str, target, name: str) -> np.ndarray:
+    """ȳ as an array of the feature's size for a task of this kind, or :class:`InvalidTask` naming target."""
+    if kind == "posture":
+        if not isinstance(target, dict) or not target:
+            raise InvalidTask(f"task {name!r}: target of a posture task must be a non-empty dict joint name -> "
+                              f"angle [rad], got {target!r}")
+        return np.array([float(v) for v in target.values()])
+    if isinstance(target, dict):
+        raise InvalidTask(f"task {name!r}: target of a {kind} task must be "
+                          f"{'a number' if kind == 'momentum' else 'a 2-vector'}, got a dict")
+    if kind == "momentum":
+        t = np.array([0.0 if target is None else target], dtype=float).reshape(-1)
+        if t.shape != (1,):
+            raise InvalidTask(f"task {name!r}: target of a momentum task must be one number L̄ [kg m²/s], got "
+                              f"{target!r}")
+        return t
+    t = None if target is None else np.array(target, dtype=float)
+    if t is None or t.shape != (2,):
+        raise InvalidTask(f"task {name!r}: target of a {kind} task must be a finite 2-vector (x, y) [m], got "
+                          f"{target!r}")
+    return t
 
 
 def check_tasks(tasks, kernel, joints: dict) -> list:

@@ -31,18 +31,28 @@ and ankles relative to the segment above); d, v as above; δt the timed states' 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
 
-from ..errors import InvalidInput, check_number
+from ..articulated.planar import PlanarKernel
+from ..contracts import Array, Choice, Flag, Obj, Opt, Real, Text, contract, unchecked
+from ..errors import InvalidInput
 from .biped import BIPED_JOINTS as JI
 from .fsm import StateMachine, Transition
-from .pd import _gains
+from .specs import KinematicsOf, Mapping, Names, NotBefore, Pair
 
 __all__ = ["Phase", "Gait", "WALK", "FAST_WALK", "Simbicon"]
 
+_ANGLE = Real(ge=-np.pi, le=np.pi)              # a target angle [rad]
+_FEEDBACK = Real(ge=0)                           # c_d [rad/m], c_v [rad s/m]: a negative gain moves the foot the wrong way
+JOINT_KINDS = ("hip", "knee", "ankle", "torso")
+_GAINS = Mapping(Choice(JOINT_KINDS), Real(ge=0), keys=JOINT_KINDS)
+STATES = ("R0", "R1", "L0", "L1")
+_STATE = Array(("self.kernel.nv",))
 
+
+@contract(swh=_ANGLE, swk=_ANGLE, swa=_ANGLE, stk=_ANGLE, sta=_ANGLE, tor=_ANGLE, cd=_FEEDBACK, cv=_FEEDBACK)
 @dataclass(frozen=True)
 class Phase:
     """Targets of one state (radians) and its balance-feedback gains."""
@@ -57,9 +67,12 @@ class Phase:
     cv: float = 0.0
 
 
+@contract(name=Text(), dt=Real(gt=0, le=5), phases=Pair(Obj(Phase), Obj(Phase)), kp=_GAINS, kv=_GAINS,
+          limit=Real(gt=0))
 @dataclass(frozen=True)
 class Gait:
-    """δt, the two phases (timed, then until foot strike), and PD gains per joint kind."""
+    """δt ∈ (0, 5] s, the two phases (timed, then until foot strike), PD gains per joint kind (hip, knee,
+    ankle, torso; ≥ 0) and the torque limit (> 0)."""
 
     name: str
     dt: float
@@ -67,16 +80,6 @@ class Gait:
     kp: dict = field(default_factory=lambda: {"hip": 300.0, "knee": 300.0, "ankle": 30.0, "torso": 300.0})
     kv: dict = field(default_factory=lambda: {"hip": 30.0, "knee": 30.0, "ankle": 3.0, "torso": 30.0})
     limit: float = 400.0
-
-    def __post_init__(self):
-        check_number("dt", self.dt, low=0.0, low_open=True, high=5.0)
-        if len(self.phases) != 2 or not all(isinstance(p, Phase) for p in self.phases):
-            raise InvalidInput(f"gait {self.name!r}: phases must be two Phase objects, got {self.phases!r}")
-        for d, label in ((self.kp, "kp"), (self.kv, "kv")):
-            if set(d) != {"hip", "knee", "ankle", "torso"}:
-                raise InvalidInput(f"gait {self.name!r}: {label} must give hip, knee, ankle and torso gains, got {sorted(d)}")
-            _gains(label, list(d.values()), 4)
-        check_number("limit", self.limit, low=0.0, low_open=True)
 
 
 WALK = Gait("walk", 0.3, (Phase(swh=0.5, swk=-1.1, swa=0.6, stk=-0.05, sta=0.0, cv=0.2),
@@ -94,25 +97,30 @@ class Simbicon:
     "stable" (stable PD on knees and ankles); ``kernel``: the biped's :class:`PlanarKernel`.
     """
 
+    @contract(kernel=Obj(PlanarKernel), gait=Obj(Gait), feedback=Flag(), servo=Choice(("explicit", "stable")),
+              start=Choice(STATES))
     def __init__(self, kernel, gait: Gait = WALK, *, feedback: bool = True, servo: str = "explicit",
                  start: str = "R0") -> None:
-        if not isinstance(gait, Gait):
-            raise InvalidInput(f"gait must be a Gait, got {type(gait).__name__}")
-        if servo not in ("explicit", "stable"):
-            raise InvalidInput(f"servo must be 'explicit' or 'stable', got {servo!r}")
+        names = [lk.name for lk in kernel.tree.links]
+        if kernel.nv != len(JI) or not {"left_foot", "right_foot", "torso"} <= set(names):
+            raise InvalidInput(f"Simbicon: kernel must be the planar biped's (pbanim.control.biped.planar_biped: "
+                               f"{len(JI)} coordinates, a torso and two feet), got {kernel.nv} coordinates and links "
+                               f"{names}")
         self.kernel, self.gait, self.feedback, self.servo = kernel, gait, bool(feedback), servo
         p0, p1 = gait.phases
         states = {"R0": p0, "R1": p1, "L0": p0, "L1": p1}
         self.fsm = StateMachine(states, [Transition("R0", "R1", after=gait.dt), Transition("R1", "L0", on="left_strike"),
                                          Transition("L0", "L1", after=gait.dt), Transition("L1", "R0", on="right_strike")],
                                 initial=start)
-        names = [lk.name for lk in kernel.tree.links]
         self.ankle_link = {s: names.index(f"{s}_foot") for s in ("left", "right")}
         self.history: list = []
+        self._balance = unchecked(self.balance)           # this class's or a subclass's, without the wrapper
 
     def sides(self) -> tuple[str, str]:
+        """(stance, swing): "right", "left" in states R0, R1 and the mirror in L0, L1."""
         return SIDES[self.fsm.state[0]]
 
+    @contract(q=_STATE, qd=_STATE, kin=Opt(KinematicsOf()))
     def balance(self, q, qd, kin=None) -> tuple[float, float]:
         """(d, v): the centre of mass's horizontal offset from the stance ankle, and its horizontal velocity."""
         k = self.kernel
@@ -121,17 +129,20 @@ class Simbicon:
         stance = self.sides()[0]
         return float(com[0] - kin["o"][self.ankle_link[stance]][0]), float(vcom[0])
 
+    @contract(t=NotBefore("self.fsm.entered"), q=_STATE, qd=_STATE, events=Names(), kin=Opt(KinematicsOf()),
+              h=Real(ge=0))
     def torques(self, t, q, qd, events=(), kin=None, h: float = 0.0):
         """Joint forces for the state (q, q̇) at time t after the events of the last step; ``h`` the step
         (stable PD). Records (t, state, d, v, {joint: (target, angle)}) in :attr:`history` (hips and torso
-        in the world frame)."""
-        self.fsm.update(t, events)
+        in the world frame). Runs inside a step loop with no check of its own: the contract checks calls
+        from outside."""
+        _update(self.fsm, t, events)
         ph: Phase = self.fsm.payload
         stance, swing = self.sides()
         g = self.gait
         kp, kv = g.kp, g.kv
         tau, k = np.zeros(q.size), np.zeros(q.size)
-        d, v = self.balance(q, qd, kin)
+        d, v = self._balance(q, qd, kin)
         fb = (ph.cd * d + ph.cv * v) if self.feedback else 0.0
         rec = {}
         # joint-space servos: swing knee and ankle, stance knee and ankle
@@ -158,10 +169,21 @@ class Simbicon:
         self.history.append((t, self.fsm.state, d, v, rec))
         return tau, k
 
+    @contract(t=Real())
     def reset(self, t: float = 0.0) -> None:
-        self.fsm.reset(t)
+        """Back to the initial state at time t, history cleared."""
+        _reset(self.fsm, t)
         self.history = []
 
     def with_gait(self, **changes) -> "Simbicon":
-        """A fresh controller with gait fields replaced (e.g. ``dt=0.25``)."""
+        """A fresh controller with gait fields replaced (e.g. ``dt=0.25``; checked as a new :class:`Gait`)."""
+        unknown = sorted(set(changes) - {f.name for f in fields(Gait)})
+        if unknown:
+            raise InvalidInput(f"Simbicon.with_gait: {unknown} are not gait fields; the fields are "
+                               f"{[f.name for f in fields(Gait)]}")
         return Simbicon(self.kernel, replace(self.gait, **changes), feedback=self.feedback, servo=self.servo)
+
+
+# the machine's raw methods for the step loop (a call from inside the package skips the check anyway; these
+# skip the wrapper too, so a controller step costs what it cost before contracts)
+_update, _reset = unchecked(StateMachine.update), unchecked(StateMachine.reset)

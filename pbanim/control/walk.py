@@ -22,7 +22,8 @@ import numpy as np
 
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarContactStep, PlanarGround
-from ..errors import InvalidInput, check_number
+from ..contracts import Choice, Flag, Int, Obj, Opt, Real, contract, unchecked
+from ..errors import InvalidInput
 from .biped import BIPED_JOINTS as JI, biped_contact_points, planar_biped
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .simbicon import WALK, Gait, Simbicon
@@ -34,21 +35,16 @@ class Fell(Exception):
     """Raised inside the loop to stop it at a fall (caught by :func:`simulate_walk`)."""
 
 
+@contract(impulse=Real(ge=-1e4, le=1e4), phase=Real(ge=0, lt=1), count=Int(ge=2))
 @dataclass(frozen=True)
 class Push:
-    """An impulse ``impulse`` (N s, +x forward) on the torso at ``phase`` ∈ [0, 1) of the ``count``-th right
-    step (0: the right foot strikes, 1: the left foot strikes)."""
+    """An impulse ``impulse`` (N s, +x forward, |P| ≤ 10⁴) on the torso at ``phase`` ∈ [0, 1) of the
+    ``count``-th right step (0: the right foot strikes, 1: the left foot strikes; count ≥ 2: a step before
+    it gives the duration)."""
 
     impulse: float
     phase: float = 0.5
     count: int = 10
-
-    def __post_init__(self):
-        check_number("impulse", self.impulse, low=-1e4, high=1e4)
-        check_number("phase", self.phase, low=0.0, high=1.0, high_open=True)
-        if not isinstance(self.count, int) or self.count < 2:
-            raise InvalidInput(f"push count must be an integer >= 2 (a step before it gives the duration), "
-                               f"got {self.count!r}")
 
 
 @dataclass
@@ -69,6 +65,7 @@ class WalkResult:
     push_time: float | None = None
     targets: list = field(default_factory=list)
 
+    @contract(last=Real(gt=0))
     def speed(self, last: float = 5.0) -> float:
         """Mean forward speed of the centre of mass over the last ``last`` seconds (m/s)."""
         k = self.t >= self.t[-1] - last
@@ -97,17 +94,26 @@ def fall_cause(kernel, kin, q, ground) -> str:
     return ""
 
 
+@contract(gait=Obj(Gait), t_end=Real(gt=0), h=Real(gt=0), slope=Real(ge=-np.pi / 3, le=np.pi / 3), feedback=Flag(),
+          push=Opt(Obj(Push)), servo=Choice(("explicit", "stable")), friction=Real(ge=0), record_every=Int(ge=1),
+          max_steps=Int(ge=1), controller=Opt(Obj(Simbicon)))
 def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, slope: float = 0.0,
                   feedback: bool = True, push: Push | None = None, servo: str = "explicit",
                   friction: float = 0.9, record_every: int = 20, max_steps: int = MAX_STEPS,
                   controller: Simbicon | None = None) -> WalkResult:
-    """Walk the planar biped with SIMBICON on a ground of slope ``slope`` (rad) from a standing start."""
+    """Walk the planar biped with SIMBICON on a ground of slope ``slope`` (rad, |slope| ≤ π/3) from a
+    standing start. ``controller``: a :class:`Simbicon` of one's own (it carries its gait, feedback and
+    servos, so those three are then not given)."""
+    if controller is not None and (gait is not WALK or feedback is not True or servo != "explicit"):
+        raise InvalidInput("simulate_walk: give either controller (which carries its own gait, feedback and "
+                           "servo) or gait, feedback and servo, not both")
     tree = planar_biped()
     kernel = PlanarKernel(tree)
     ground = PlanarGround(slope, friction)
     stepper = PlanarContactStep(kernel, biped_contact_points(tree), ground)
     ctrl = controller or Simbicon(kernel, gait, feedback=feedback, servo=servo)
     ctrl.reset()
+    torques = unchecked(ctrl.torques)
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
     q0 = np.zeros(tree.nq)
     q0[1] = float(ground.height(0.0)) + 1e-4
@@ -128,7 +134,7 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
         before = ctrl.fsm.state
         kin = state.pop("kin", None) or kernel.kinematics(q)
         kernel.com_jacobians(kin)                                  # cached in kin: shared by controller and step
-        tau, kd = ctrl.torques(t, q, qd, state["events"], kin, hh)
+        tau, kd = torques(t, q, qd, state["events"], kin, hh)
         if ctrl.fsm.state != before:
             state["entries"][ctrl.fsm.state] = state["entries"].get(ctrl.fsm.state, 0) + 1
             state["enter"][ctrl.fsm.state] = t

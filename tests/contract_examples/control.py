@@ -1,0 +1,129 @@
+"""Valid calls for pbanim.control (chapter 08, part 2): servos, state machines, SIMBICON, the QP controller.
+
+Runs are kept to a handful of steps (a walk or a balance of 5–10 steps): the fuzz calls each entry a few
+dozen times.
+"""
+
+import functools
+
+import numpy as np
+
+from pbanim.articulated.planar import PlanarKernel
+from pbanim.articulated.planar_step import PlanarGround
+from pbanim.control import (WALK, Gait, Phase, PDServo, Push, QPController, Simbicon, StateMachine, Task,
+                            Transition, simulate_balance, simulate_walk)
+from pbanim.control.biped import BIPED_JOINTS, biped_contact_points, planar_biped
+from pbanim.control.qp_balance import BalanceResult, balance_tasks, crouched_state
+from pbanim.control.walk import WalkResult
+
+
+@functools.lru_cache(maxsize=1)
+def _biped():
+    """The biped's kernel (read only: every object below may share it)."""
+    return PlanarKernel(planar_biped())
+
+
+def _servo():
+    return PDServo({"hip": 1, "knee": 3}, nv=5, kp=[100.0, 50.0], kv=[10.0, 5.0], limits=[1e9, 20.0])
+
+
+def _machine():
+    return StateMachine({"A": 0, "B": 1}, [Transition("A", "B", after=0.3), Transition("B", "A", on="e")], "A")
+
+
+@functools.lru_cache(maxsize=1)
+def _crouched():
+    return crouched_state(_biped(), 0.3)
+
+
+def _stance():
+    q, qd = _crouched()
+    return q.copy(), qd + 0.01
+
+
+def _tasks():
+    k = _biped()
+    q, _ = _stance()
+    posture = {nm: float(q[i]) for nm, i in (("left_knee", 4), ("right_knee", 7))}
+    return balance_tasks(k.centre_of_mass(q) + [0.01, 0.0], posture)
+
+
+def _qp():
+    k = _biped()
+    return QPController(k, biped_contact_points(k.tree), PlanarGround(0.0, 0.9), _tasks(), torque_limits=300.0)
+
+
+def _qp_state(ctrl=None):
+    q, qd = _stance()
+    return {"q": q, "qd": qd}
+
+
+@functools.lru_cache(maxsize=1)
+def _short_walk():
+    """A result record (read only: speed does not change it)."""
+    return simulate_walk(WALK, 0.02, 2e-3, servo="stable", record_every=1)
+
+
+@functools.lru_cache(maxsize=1)
+def _short_balance():
+    """A result record (read only: com_error does not change it)."""
+    return simulate_balance(5.0, 0.02, 2e-3, push_time=0.004)
+
+
+INSTANCES = {
+    PDServo: _servo,
+    StateMachine: _machine,
+    Transition: lambda: Transition("A", "B", after=0.3),
+    Phase: lambda: WALK.phases[0],
+    Gait: lambda: WALK,
+    Simbicon: lambda: Simbicon(_biped(), WALK),
+    Push: lambda: Push(50.0, 0.4, 2),
+    WalkResult: _short_walk,
+    Task: lambda: Task("com", target=(0.0, 1.0), kp=10.0, kd=5.0),
+    QPController: _qp,
+    BalanceResult: _short_balance,
+}
+
+_M = np.array([[2.0, 0.3], [0.3, 1.0]])
+
+CALLS = {
+    "pbanim.control.pd.PDServo.__init__": lambda: {"joints": {"hip": 0}, "nv": 2, "world": ["hip"],
+                                                   "angles": {"hip": np.array([1.0, 1.0])}},
+    "pbanim.control.pd.PDServo.target_vector": lambda: {"targets": {"hip": 0.5}},
+    "pbanim.control.pd.PDServo.explicit": lambda: {"targets": {"hip": 0.5}},
+    "pbanim.control.pd.PDServo.stable": lambda: {"targets": {"hip": 0.5}},
+    "pbanim.control.pd.stable_pd_acceleration": lambda: {
+        "M": _M, "C": np.array([0.1, -0.2]), "q": np.array([0.3, -0.1]), "qd": np.array([1.0, 0.5]),
+        "target": np.array([0.0, 0.2])},
+    "pbanim.control.pd.servo_track": lambda: {"target": np.sin, "h": 0.01, "t_end": 0.1},
+    "pbanim.control.pd.largest_stable_step": lambda: {"kp": 100.0, "kv": 20.0},
+    "pbanim.control.fsm.StateMachine.__init__": lambda: {
+        "states": {"A": 0, "B": 1}, "transitions": [Transition("A", "B", after=0.3), Transition("B", "A", on="e")],
+        "initial": "A"},
+    "pbanim.control.fsm.Transition.__init__": lambda: {"source": "A", "target": "B", "after": 0.3, "on": None},
+    "pbanim.control.simbicon.Gait.__init__": lambda: {"name": "g", "dt": 0.3, "phases": WALK.phases,
+                                                       "kp": dict(WALK.kp), "kv": dict(WALK.kv)},
+    "pbanim.control.simbicon.Simbicon.__init__": lambda: {"kernel": _biped()},
+    "pbanim.control.simbicon.Simbicon.balance": _qp_state,
+    "pbanim.control.simbicon.Simbicon.torques": lambda ctrl: {**_qp_state(), "t": 0.1, "h": 1e-3},
+    "pbanim.control.walk.simulate_walk": lambda: {"t_end": 0.01, "h": 2e-3, "record_every": 1},
+    "pbanim.control.qp.QPController.__init__": lambda: {
+        "kernel": _biped(), "points": biped_contact_points(_biped().tree), "tasks": _tasks(),
+        "joints": dict(BIPED_JOINTS)},
+    "pbanim.control.qp.QPController.task": lambda: {"name": "com"},
+    "pbanim.control.qp.QPController.set_target": lambda: {"name": "com", "target": np.array([0.0, 1.0])},
+    "pbanim.control.qp.QPController.set_weight": lambda: {"name": "com"},
+    "pbanim.control.qp.QPController.active_contacts": _qp_state,
+    "pbanim.control.qp.QPController.build": _qp_state,
+    "pbanim.control.qp.QPController.solve": _qp_state,
+    "pbanim.control.qp.QPController.torques": _qp_state,
+    "pbanim.control.qp_balance.simulate_balance": lambda: {"t_end": 0.004, "h": 2e-3, "push_time": 0.002},
+}
+
+EXEMPT = {
+    "pbanim.control.walk.WalkResult.__init__": "a result record simulate_walk builds; users read it",
+    "pbanim.control.qp.QPResult.__init__": "a result record QPController.solve builds; users read it",
+    "pbanim.control.qp_balance.BalanceResult.__init__": "a result record simulate_balance builds; users read it",
+}
+
+ENFORCED = ("pbanim.control.",)
