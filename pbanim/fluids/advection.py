@@ -43,14 +43,15 @@ import math
 
 import numpy as np
 
-from ..errors import InvalidInput, check_positive
-from .grid import check_field
+from ..contracts import Choice, Obj, Real, contract
+from ..errors import InvalidInput, NonFiniteResult
 from .interpolate import _sample as sample
 from .interpolate import component_at_faces, pad_field
+from .specs import Cells, Velocity, finite_fields, quiet
 
 BACKTRACES = ("euler", "midpoint")
 
-__all__ = ["ADVECTION", "BACKTRACES", "advect_scalar", "advect_velocity", "check_method", "semi_lagrangian_loop"]
+__all__ = ["ADVECTION", "BACKTRACES", "advect_scalar", "advect_velocity", "semi_lagrangian_loop"]
 
 # name → (interpolation order, correction, limited)
 ADVECTION = {
@@ -61,11 +62,10 @@ ADVECTION = {
     "maccormack_unlimited": ("linear", "maccormack", False),
 }
 
-
-def check_method(method: str) -> tuple:
-    if method not in ADVECTION:
-        raise InvalidInput(f"advection method must be one of {sorted(ADVECTION)}, got {method!r}")
-    return ADVECTION[method]
+_GRID = Obj("pbanim.fluids.grid:Grid")
+_H = Real(gt=0)
+_METHOD = Choice(ADVECTION)
+_BACKTRACE = Choice(BACKTRACES)
 
 
 def _positions(grid, component):
@@ -112,17 +112,13 @@ def _one(grid, q, component, X, vel, h, method, pads, padded=None, backtrace="eu
     return out
 
 
-def _check_backtrace(backtrace):
-    if backtrace not in BACKTRACES:
-        raise InvalidInput(f"backtrace must be one of {BACKTRACES}, got {backtrace!r}")
-
-
+@contract(grid=_GRID, u=Velocity(), h=_H, method=_METHOD, backtrace=_BACKTRACE, returns=finite_fields)
+@quiet
 def advect_velocity(grid, u: list, h: float, method: str = "semi_lagrangian", backtrace: str = "euler") -> list:
-    """Every velocity component carried by u itself over one step ``h``: a new list of face arrays."""
-    h = check_positive("h", h)
-    check_method(method)
-    _check_backtrace(backtrace)
-    u = grid.check_velocity(u)
+    """Every velocity component carried by u itself over one step ``h``: a new list of face arrays.
+
+    A departure point whose coordinate overflows (Δt |u| near 10³⁰⁸ on a periodic axis) is
+    :class:`~pbanim.errors.NonFiniteResult`."""
     pads = [pad_field(grid, c, i) for i, c in enumerate(u)]
     out = []
     for i in range(grid.dim):
@@ -131,14 +127,11 @@ def advect_velocity(grid, u: list, h: float, method: str = "semi_lagrangian", ba
     return grid.close(out)
 
 
+@contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, method=_METHOD, backtrace=_BACKTRACE, returns=finite_fields)
+@quiet
 def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_lagrangian",
                   backtrace: str = "euler") -> np.ndarray:
     """A cell-centred scalar carried by u over one step ``h`` (0 inside obstacles)."""
-    h = check_positive("h", h)
-    check_method(method)
-    _check_backtrace(backtrace)
-    u = grid.check_velocity(u)
-    s = check_field("s", s, grid.shape)
     X = _positions(grid, None)
     pads = [pad_field(grid, c, i) for i, c in enumerate(u)] if backtrace != "euler" else None
     out = _one(grid, s, None, X, grid.faces_to_cells(u), h, method, pads, backtrace=backtrace)
@@ -147,6 +140,8 @@ def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_la
     return out
 
 
+@contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, returns=finite_fields)
+@quiet
 def semi_lagrangian_loop(grid, s: np.ndarray, u: list, h: float) -> np.ndarray:
     """The readable version of Stam's step for a 2-D cell scalar: one cell at a time, bilinear by hand.
 
@@ -154,10 +149,7 @@ def semi_lagrangian_loop(grid, s: np.ndarray, u: list, h: float) -> np.ndarray:
     teaching and for that test only.
     """
     if grid.dim != 2:
-        raise InvalidInput(f"semi_lagrangian_loop is the 2-D teaching version; the grid has {grid.dim} axes")
-    h = check_positive("h", h)
-    u = grid.check_velocity(u)
-    s = check_field("s", s, grid.shape)
+        raise InvalidInput(f"semi_lagrangian_loop: grid must be 2-D (the teaching version), got {grid.dim} axes")
     (nx, ny), dx = grid.shape, grid.dx
     uc, vc = grid.faces_to_cells(u)
     out = np.zeros_like(s)
@@ -182,6 +174,8 @@ def semi_lagrangian_loop(grid, s: np.ndarray, u: list, h: float) -> np.ndarray:
             if not grid.periodic[1]:
                 y = min(max(y, 0.0), ny * dx)
             sx, sy = x / dx - 0.5, y / dx - 0.5         # sample coordinates
+            if not (math.isfinite(sx) and math.isfinite(sy)):
+                raise NonFiniteResult(f"the departure point of cell ({i}, {j})", f"x/Δx = {sx:g}, y/Δx = {sy:g}")
             i0, j0 = math.floor(sx), math.floor(sy)
             tx, ty = sx - i0, sy - j0
             out[i, j] = ((1 - tx) * (1 - ty) * value(i0, j0) + tx * (1 - ty) * value(i0 + 1, j0)

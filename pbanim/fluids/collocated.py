@@ -39,13 +39,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contracts import Choice, Int, Obj, Opt, Real, contract
 from ..errors import InvalidInput
-from .grid import check_field
-from .poisson import solve_cells
+from .poisson import POISSON_METHODS, _solve, check_method_fits
+from .specs import MAX_ITER, MAX_SWEEPS, Cells, Velocity, finite_fields, quiet
 
 __all__ = ["COLLOCATED_STENCILS", "collocated_divergence", "collocated_gradient", "project_collocated"]
 
 COLLOCATED_STENCILS = ("compact", "wide")
+
+_GRID = Obj("pbanim.fluids.grid:Grid")
+_U = Velocity(at="cells")
 
 
 def _shifted(grid, q, axis, sign_normal):
@@ -66,6 +70,8 @@ def _shifted(grid, q, axis, sign_normal):
     return e[tuple(hi)], e[tuple(lo)]
 
 
+@contract(grid=_GRID, u=_U, returns=finite_fields)
+@quiet
 def collocated_divergence(grid, u: list) -> np.ndarray:
     """D_c u: centred differences of the cell-centred components."""
     div = np.zeros(grid.shape)
@@ -75,6 +81,8 @@ def collocated_divergence(grid, u: list) -> np.ndarray:
     return div / (2.0 * grid.dx)
 
 
+@contract(grid=_GRID, p=Cells(), returns=finite_fields)
+@quiet
 def collocated_gradient(grid, p: np.ndarray) -> list:
     """G_c p: centred differences of the cell pressure (mirrored at walls)."""
     out = []
@@ -100,25 +108,28 @@ def _wide_spectral(grid, r):
     return fft.irfftn(P, s=grid.shape)
 
 
-def project_collocated(grid, u, method: str = "spectral", stencil: str = "compact", **options):
+@contract(grid=_GRID, u=_U, method=Choice(POISSON_METHODS), stencil=Choice(COLLOCATED_STENCILS),
+          iterations=Int(ge=0, le=MAX_SWEEPS), omega=Real(gt=0, le=1), tol=Real(gt=0, le=1),
+          max_iter=Opt(Int(ge=1, le=MAX_ITER)), returns=finite_fields)
+@quiet
+def project_collocated(grid, u, method: str = "spectral", stencil: str = "compact", *, iterations: int = 20,
+                       omega: float = 1.0, tol: float = 1e-12, max_iter: int | None = None):
     """Stam's projection of cell-centred velocities: solve for p, return (u − G_c p, SolveInfo or None).
 
     ``stencil="compact"`` solves L p = D_c u with any method of :func:`~pbanim.fluids.poisson.solve_cells`
-    (Stam: ``gauss_seidel`` with 20 sweeps); ``"wide"`` solves D_c G_c p = D_c u exactly by FFT (periodic
-    boxes only).
+    and its options (Stam: ``gauss_seidel`` with 20 sweeps); ``"wide"`` solves D_c G_c p = D_c u exactly by
+    FFT (periodic boxes only).
     """
     if grid.has_obstacles:
-        raise InvalidInput("project_collocated is the teaching comparison on a plain box; the grid has obstacles")
-    if not isinstance(u, (list, tuple)) or len(u) != grid.dim:
-        raise InvalidInput(f"u must be a list of {grid.dim} cell arrays, got {type(u).__name__}")
-    u = [check_field(f"u[{i}]", c, grid.shape) for i, c in enumerate(u)]
-    if stencil not in COLLOCATED_STENCILS:
-        raise InvalidInput(f"stencil must be one of {COLLOCATED_STENCILS}, got {stencil!r}")
+        raise InvalidInput("project_collocated: grid must be a plain box (the teaching comparison), got one with "
+                           f"{int(grid.solid.sum())} obstacle cells")
     div = collocated_divergence(grid, u)
     if stencil == "wide":
         if not all(grid.periodic):
-            raise InvalidInput(f"the wide stencil is solved by FFT on periodic boxes only; boundary {grid.boundary}")
+            raise InvalidInput(f"project_collocated: the wide stencil is solved by FFT on periodic boxes only; the "
+                               f"grid has boundary {grid.boundary}")
         p, info = _wide_spectral(grid, div), None
     else:
-        p, info = solve_cells(grid, -div, 0.0, 1.0, method, **options)
+        check_method_fits(grid, method, "project_collocated")
+        p, info = _solve(grid, -div, np.zeros(grid.shape), 0.0, 1.0, method, iterations, omega, tol, max_iter)
     return [c - g for c, g in zip(u, collocated_gradient(grid, p))], info

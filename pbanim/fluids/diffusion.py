@@ -38,11 +38,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, check_count, check_number, check_positive
-from .grid import check_field
-from .poisson import SolveInfo, _cg, _spectral, relax, solve_cells
+from ..contracts import Choice, Int, Obj, Opt, Real, contract
+from ..errors import InvalidInput, check_result
+from .poisson import SolveInfo, _cg, _solve, _spectral, check_method_fits, relax
+from .specs import MAX_ITER, MAX_SWEEPS, Cells, Velocity, finite_fields, quiet
 
-__all__ = ["DIFFUSION_METHODS", "FaceOperator", "diffuse_scalar", "diffuse_velocity"]
+__all__ = ["DIFFUSION_METHODS", "FaceOperator", "diffuse_scalar", "diffuse_velocity", "diffusion_coefficient"]
 
 DIFFUSION_METHODS = ("gauss_seidel", "jacobi", "cg", "fft")
 
@@ -94,28 +95,39 @@ class FaceOperator:
         return np.where(self.closed, 0.0, self.a * self.laplacian(z, walls=True))
 
 
-def _check(grid, nu, h, method, iterations, tol, max_iter, what):
-    nu = check_number(what, nu, low=0.0)
-    h = check_positive("h", h)
-    iterations = check_count("iterations", iterations, minimum=0)
-    tol = check_number("tol", tol, low=0.0, high=1.0, low_open=True)
-    max_iter = 20 * max(grid.shape) + 100 if max_iter is None else check_count("max_iter", max_iter)
-    return nu, h, iterations, tol, max_iter
+_GRID = Obj("pbanim.fluids.grid:Grid")
+_COEF = Real(ge=0)
+_H = Real(gt=0)
+_SWEEPS = Int(ge=0, le=MAX_SWEEPS)
+_TOL = Real(gt=0, le=1)
+_MAX_ITER = Opt(Int(ge=1, le=MAX_ITER))
 
 
+def diffusion_coefficient(grid, coef: float, h: float, what: str) -> float:
+    """a = νΔt (or κΔt), with its largest diagonal entry a·2d/Δx² finite, else NonFiniteResult naming it."""
+    with np.errstate(over="ignore"):
+        a = coef * h
+        check_result(f"the diffusion coefficient {what}·h", a * (2 * grid.dim + 2) / grid.dx ** 2,
+                     f"{what} = {coef:g}, h = {h:g}, Δx = {grid.dx:g}")
+    return a
+
+
+@contract(grid=_GRID, u=Velocity(), nu=_COEF, h=_H, method=Choice(DIFFUSION_METHODS), iterations=_SWEEPS, tol=_TOL,
+          max_iter=_MAX_ITER, returns=finite_fields)
+@quiet
 def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, iterations: int = 20,
                      tol: float = 1e-12, max_iter: int | None = None) -> tuple[list, list]:
-    """Solve (I − νΔt ∇²) u¹ = u⁰ component by component; returns (u¹, [SolveInfo per component])."""
-    nu, h, iterations, tol, max_iter = _check(grid, nu, h, method, iterations, tol, max_iter, "viscosity")
-    if method not in DIFFUSION_METHODS:
-        raise InvalidInput(f"diffusion method must be one of {DIFFUSION_METHODS}, got {method!r}")
-    u = grid.check_velocity(u)
+    """Solve (I − νΔt ∇²) u¹ = u⁰ component by component; returns (u¹, [SolveInfo per component]).
+
+    ``iterations``: sweeps of gauss_seidel / jacobi; ``tol``, ``max_iter`` (default 20·max(n) + 100): the
+    stop and the cap of cg (:class:`~pbanim.errors.ConvergenceError` past it)."""
     if nu == 0:
         return [c.copy() for c in u], [SolveInfo(method, 0, 0.0) for _ in u]
     if method == "fft" and (grid.has_obstacles or not all(grid.periodic)):
-        raise InvalidInput(f"diffusion method 'fft' needs a periodic box without obstacles; this grid has "
+        raise InvalidInput(f"diffuse_velocity: method 'fft' needs a periodic box without obstacles; this grid has "
                            f"boundary {grid.boundary} and {int(grid.solid.sum())} solid cells (use 'cg')")
-    a = nu * h
+    max_iter = 20 * max(grid.shape) + 100 if max_iter is None else max_iter
+    a = diffusion_coefficient(grid, nu, h, "nu")
     out, infos = [], []
     for i, c in enumerate(u):
         A = FaceOperator(grid, i, a)
@@ -133,13 +145,14 @@ def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, 
     return out, infos
 
 
+@contract(grid=_GRID, s=Cells(), kappa=_COEF, h=_H, method=Choice(DIFFUSION_METHODS + ("dct", "spectral")),
+          iterations=_SWEEPS, tol=_TOL, max_iter=_MAX_ITER, returns=finite_fields)
+@quiet
 def diffuse_scalar(grid, s: np.ndarray, kappa: float, h: float, method: str = "cg", *, iterations: int = 20,
                    tol: float = 1e-12, max_iter: int | None = None) -> tuple[np.ndarray, SolveInfo]:
     """Solve (I − κΔt L) s¹ = s⁰ (no flux through walls and obstacles); returns (s¹, SolveInfo)."""
-    kappa, h, iterations, tol, max_iter = _check(grid, kappa, h, method, iterations, tol, max_iter, "diffusivity")
-    if method not in DIFFUSION_METHODS + ("dct", "spectral"):
-        raise InvalidInput(f"diffusion method must be one of {DIFFUSION_METHODS + ('dct', 'spectral')}, got {method!r}")
-    s = check_field("s", s, grid.shape)
     if kappa == 0:
         return s.copy(), SolveInfo(method, 0, 0.0)
-    return solve_cells(grid, s, 1.0, kappa * h, method, iterations=iterations, tol=tol, max_iter=max_iter, x0=s)
+    check_method_fits(grid, method, "diffuse_scalar")
+    a = diffusion_coefficient(grid, kappa, h, "kappa")
+    return _solve(grid, s.copy(), s.copy(), 1.0, a, method, iterations, 1.0, tol, max_iter)

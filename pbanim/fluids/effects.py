@@ -37,10 +37,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, as_floats, check_count, check_number
-from .advection import _check_backtrace, advect_scalar, advect_velocity, check_method
+from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, Text, contract, finite_result
+from ..errors import InvalidInput, check_result
+from .advection import ADVECTION, BACKTRACES, advect_scalar, advect_velocity
 from .diffusion import DIFFUSION_METHODS, diffuse_scalar, diffuse_velocity
 from .poisson import POISSON_METHODS, _solve, check_method_fits
+from .specs import MAX_ITER, MAX_SWEEPS, Named, StateOn, Velocity, finite_fields, quiet
 
 __all__ = [
     "PHASES",
@@ -57,6 +59,13 @@ __all__ = [
 
 PHASES = ("force", "advect", "diffuse", "project")
 
+_GRID = Obj("pbanim.fluids.grid:Grid")
+_STATE = StateOn()
+_H = Real(gt=0)
+_NAME = Text(nonempty=True)
+_SWEEPS = Int(ge=0, le=MAX_SWEEPS)
+_TOL = Real(gt=0, le=1)
+
 
 class FluidEffect:
     """A stage of the fluid step: ``bind(grid, state)`` validates once, ``apply(grid, state, h)`` updates
@@ -68,6 +77,7 @@ class FluidEffect:
     def __init__(self) -> None:
         self.info: dict = {}
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
         """Validate against the grid and the state; called once by the scene."""
 
@@ -81,12 +91,21 @@ class FluidEffect:
         if name not in state.scalars:
             raise InvalidInput(f"{who} needs the scalar {name!r}; the scene has {sorted(state.scalars)}")
 
+    def _bound(self, grid, attr: str):
+        """What ``bind`` prepared (``attr``), or InvalidInput when the effect was not bound, or bound to a grid of
+        another shape (``apply`` called by hand)."""
+        value = getattr(self, attr, None)
+        if value is None or getattr(self, "_shape", grid.shape) != grid.shape:
+            raise InvalidInput(f"{self.name}.apply: bind(grid, state) must come first, with a grid of this shape "
+                               f"{grid.shape} (FluidScene binds every effect)")
+        return value
 
-def _cell_mask(grid, region, name: str) -> np.ndarray:
-    arr = as_floats(name, region)
-    if arr.shape != grid.shape or not np.all(np.isfinite(arr)):
-        raise InvalidInput(f"{name} must be a finite array of the cell shape {grid.shape}, got shape {arr.shape}")
-    return arr * grid.fluid
+
+def _cell_mask(grid, region, who: str) -> np.ndarray:
+    """The region's weights on the fluid cells: its shape is the grid's (known at bind, not at construction)."""
+    if region.shape != grid.shape:
+        raise InvalidInput(f"{who}: region must be an array of the cell shape {grid.shape}, got shape {region.shape}")
+    return region * grid.fluid
 
 
 class Source(FluidEffect):
@@ -94,17 +113,22 @@ class Source(FluidEffect):
 
     phase = "force"
 
+    @contract(field=_NAME, rate=Real(), region=Array(None))
     def __init__(self, field: str, rate: float, region) -> None:
         super().__init__()
-        self.field, self.rate, self.region = field, check_number("rate", rate), region
+        self.field, self.rate, self.region = field, float(rate), np.array(region, dtype=float)
         self.name = f"source[{field}]"
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
         self._need_scalar(state, self.field, self.name)
-        self.weights = _cell_mask(grid, self.region, "region")
+        self.weights, self._shape = _cell_mask(grid, self.region, self.name), grid.shape
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
-        state.scalars[self.field] += (h * self.rate) * self.weights
+        weights = self._bound(grid, "weights")
+        self._need_scalar(state, self.field, self.name)
+        state.scalars[self.field] += (h * self.rate) * weights
 
 
 class Force(FluidEffect):
@@ -113,20 +137,26 @@ class Force(FluidEffect):
     phase = "force"
     name = "force"
 
+    @contract(f=Array((None,)), region=Opt(Array(None)))
     def __init__(self, f, region=None) -> None:
         super().__init__()
-        self.f, self.region = as_floats("f", f, ndmin=1), region
+        self.f = np.array(f, dtype=float)
+        self.region = None if region is None else np.array(region, dtype=float)
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
-        if self.f.shape != (grid.dim,) or not np.all(np.isfinite(self.f)):
-            raise InvalidInput(f"f must be {grid.dim} finite numbers, got {self.f}")
-        w = np.ones(grid.shape) if self.region is None else _cell_mask(grid, self.region, "region")
+        if self.f.shape != (grid.dim,):
+            raise InvalidInput(f"Force: f must be {grid.dim} numbers (one per axis of the grid), got {self.f}")
+        w = np.ones(grid.shape) if self.region is None else _cell_mask(grid, self.region, self.name)
         self.weights = [grid.cells_to_faces(w, i) * grid.open[i] for i in range(grid.dim)]
+        self._shape = grid.shape
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
+        weights = self._bound(grid, "weights")
         for i in range(grid.dim):
             if self.f[i] != 0:
-                state.u[i] += (h * self.f[i]) * self.weights[i]
+                state.u[i] += (h * self.f[i]) * weights[i]
 
 
 class Buoyancy(FluidEffect):
@@ -135,23 +165,26 @@ class Buoyancy(FluidEffect):
     phase = "force"
     name = "buoyancy"
 
+    @contract(alpha=Real(ge=0), beta=Real(ge=0), ambient=Real(), density=_NAME, temperature=Opt(_NAME),
+              axis=Int(ge=0, le=2))
     def __init__(self, alpha: float = 0.0, beta: float = 1.0, ambient: float = 0.0, density: str = "density",
                  temperature: str | None = "temperature", axis: int = 1) -> None:
         super().__init__()
-        self.alpha = check_number("alpha", alpha, low=0.0)
-        self.beta = check_number("beta", beta, low=0.0)
-        self.ambient = check_number("ambient", ambient)
+        self.alpha, self.beta, self.ambient = float(alpha), float(beta), float(ambient)
         self.density, self.temperature = density, temperature
-        self.axis = check_count("axis", axis, minimum=0, maximum=2)
+        self.axis = int(axis)
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
         if self.axis >= grid.dim:
-            raise InvalidInput(f"axis must be below the grid dimension {grid.dim}, got {self.axis}")
+            raise InvalidInput(f"Buoyancy: axis must be below the grid dimension {grid.dim}, got {self.axis}")
         self._need_scalar(state, self.density, self.name)
         if self.temperature is not None:
             self._need_scalar(state, self.temperature, self.name)
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
+        self.bind(grid, state)                 # three look-ups: what bind checks holds for this state too
         f = -self.alpha * state.scalars[self.density]
         if self.temperature is not None:
             f = f + self.beta * (state.scalars[self.temperature] - self.ambient)
@@ -166,6 +199,8 @@ def _ddx(grid, c: np.ndarray, axis: int) -> np.ndarray:
     return np.gradient(c, grid.dx, axis=axis)
 
 
+@contract(grid=_GRID, u=Velocity(), returns=finite_fields)
+@quiet
 def vorticity(grid, u: list):
     """ω = ∇ × u at the cells: a scalar field in 2-D, a list of 3 fields in 3-D."""
     c = grid.faces_to_cells(u)
@@ -181,28 +216,44 @@ class VorticityConfinement(FluidEffect):
     phase = "force"
     name = "vorticity_confinement"
 
+    @contract(epsilon=Real(ge=0))
     def __init__(self, epsilon: float) -> None:
         super().__init__()
-        self.epsilon = check_number("epsilon", epsilon, low=0.0)
+        self.epsilon = float(epsilon)
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
         f, _ = confinement_force(grid, state.u, self.epsilon)
         for i in range(grid.dim):
             state.u[i] += h * grid.cells_to_faces(f[i] * grid.fluid, i) * grid.open[i]
 
 
+@contract(grid=_GRID, u=Velocity(), epsilon=Real(ge=0))
 def confinement_force(grid, u: list, epsilon: float):
-    """(f, N) at the cells: f = ε Δx (N × ω), N = ∇|ω| / |∇|ω|| (0 where |ω| is flat)."""
-    w = vorticity(grid, u)
-    mag = np.abs(w) if grid.dim == 2 else np.sqrt(sum(c * c for c in w))
-    eta = [_ddx(grid, mag, a) for a in range(grid.dim)]
-    norm = np.sqrt(sum(e * e for e in eta)) + 1e-12 * (float(mag.max()) + 1e-300) / grid.dx
-    N = [e / norm for e in eta]
-    s = epsilon * grid.dx
-    if grid.dim == 2:
-        return [s * N[1] * w, -s * N[0] * w], N
-    return [s * (N[1] * w[2] - N[2] * w[1]), s * (N[2] * w[0] - N[0] * w[2]),
-            s * (N[0] * w[1] - N[1] * w[0])], N
+    """(f, N) at the cells: f = ε Δx (N × ω), N = ∇|ω| / |∇|ω|| (0 where |ω| is flat).
+
+    The lengths |ω| and |∇|ω|| are taken without squaring (no overflow on the way); a force that overflows
+    all the same is :class:`~pbanim.errors.NonFiniteResult`."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        w = vorticity(grid, u)
+        mag = np.abs(w) if grid.dim == 2 else _length(w)
+        eta = [_ddx(grid, mag, a) for a in range(grid.dim)]
+        check_result("∇|ω| (the vorticity confinement)", eta)
+        norm = _length(eta) + 1e-12 * (float(mag.max()) + 1e-300) / grid.dx
+        N = [e / norm for e in eta]
+        s = epsilon * grid.dx
+        if grid.dim == 2:
+            f = [s * N[1] * w, -s * N[0] * w]
+        else:
+            f = [s * (N[1] * w[2] - N[2] * w[1]), s * (N[2] * w[0] - N[0] * w[2]), s * (N[0] * w[1] - N[1] * w[0])]
+    check_result("the vorticity confinement force ε Δx (N × ω)", f, f"ε = {epsilon:g}, Δx = {grid.dx:g}")
+    return f, N
+
+
+def _length(v: list) -> np.ndarray:
+    """|v| of a field of 2 or 3 components, by hypot (no overflow of the squares)."""
+    out = np.hypot(v[0], v[1])
+    return out if len(v) == 2 else np.hypot(out, v[2])
 
 
 class Diffusion(FluidEffect):
@@ -210,28 +261,30 @@ class Diffusion(FluidEffect):
 
     phase = "diffuse"
 
+    @contract(viscosity=Real(ge=0), method=Choice(DIFFUSION_METHODS), diffusivity=Opt(Named(Real(ge=0))),
+              iterations=_SWEEPS, tol=_TOL)
     def __init__(self, viscosity: float = 0.0, method: str = "cg", *, diffusivity: dict | None = None,
                  iterations: int = 20, tol: float = 1e-12) -> None:
         super().__init__()
-        self.viscosity = check_number("viscosity", viscosity, low=0.0)
-        self.diffusivity = {k: check_number(f"diffusivity[{k!r}]", v, low=0.0) for k, v in (diffusivity or {}).items()}
-        if method not in DIFFUSION_METHODS:
-            raise InvalidInput(f"diffusion method must be one of {DIFFUSION_METHODS}, got {method!r}")
-        self.method, self.iterations = method, check_count("iterations", iterations, minimum=0)
-        self.tol = check_number("tol", tol, low=0.0, high=1.0, low_open=True)
+        self.viscosity = float(viscosity)
+        self.diffusivity = {k: float(v) for k, v in (diffusivity or {}).items()}
+        self.method, self.iterations, self.tol = method, int(iterations), float(tol)
         self.name = f"diffuse[{method}]"
 
     def stages(self) -> list:
         return [self] if self.viscosity > 0 or any(v > 0 for v in self.diffusivity.values()) else []
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
         for k in self.diffusivity:
             self._need_scalar(state, k, self.name)
         # refuse fft on a box it cannot solve now, not at the first step
         if self.viscosity > 0 and self.method == "fft" and (grid.has_obstacles or not all(grid.periodic)):
-            raise InvalidInput("diffusion method 'fft' needs a periodic box without obstacles (use 'cg')")
+            raise InvalidInput(f"{self.name}: method 'fft' needs a periodic box without obstacles (use 'cg')")
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
+        self.bind(grid, state)                 # the scalars named and the method's box, checked again
         kw = dict(iterations=self.iterations, tol=self.tol)
         if self.viscosity > 0:
             state.u, infos = diffuse_velocity(grid, state.u, self.viscosity, h, self.method, **kw)
@@ -248,21 +301,25 @@ class Advection(FluidEffect):
 
     phase = "advect"
 
+    @contract(method=Choice(ADVECTION), fields=Opt(Seq(_NAME)), velocity=Flag(), backtrace=Choice(BACKTRACES))
     def __init__(self, method: str = "semi_lagrangian", fields=None, velocity: bool = True,
                  backtrace: str = "euler") -> None:
         super().__init__()
-        check_method(method)
-        _check_backtrace(backtrace)
-        self.method, self.fields, self.velocity, self.backtrace = method, fields, bool(velocity), backtrace
+        self.method, self.velocity, self.backtrace = method, bool(velocity), backtrace
+        self.fields = None if fields is None else list(fields)
         self.name = f"advect[{method}]" if backtrace == "euler" else f"advect[{method}, {backtrace}]"
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
         self.names = list(state.scalars) if self.fields is None else list(self.fields)
         for k in self.names:
             self._need_scalar(state, k, self.name)
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
         u = state.u
+        for k in self._bound(grid, "names"):
+            self._need_scalar(state, k, self.name)
         for k in self.names:
             state.scalars[k] = advect_scalar(grid, state.scalars[k], u, h, self.method, self.backtrace)
         if self.velocity:
@@ -274,24 +331,25 @@ class Projection(FluidEffect):
 
     phase = "project"
 
+    @contract(method=Choice(POISSON_METHODS), iterations=_SWEEPS, omega=Real(gt=0, le=1), tol=_TOL,
+              max_iter=Opt(Int(ge=1, le=MAX_ITER)), measure=Flag())
     def __init__(self, method: str = "dct", *, iterations: int = 20, omega: float = 1.0, tol: float = 1e-12,
                  max_iter: int | None = None, measure: bool = True) -> None:
         super().__init__()
-        if method not in POISSON_METHODS:
-            raise InvalidInput(f"projection method must be one of {POISSON_METHODS}, got {method!r}")
         self.method = method
-        self.kw = dict(iterations=check_count("iterations", iterations, minimum=0),
-                       omega=check_number("omega", omega, low=0.0, high=1.0, low_open=True),
-                       tol=check_number("tol", tol, low=0.0, high=1.0, low_open=True),
-                       max_iter=None if max_iter is None else check_count("max_iter", max_iter))
+        self.kw = dict(iterations=int(iterations), omega=float(omega), tol=float(tol),
+                       max_iter=None if max_iter is None else int(max_iter))
         self.measure = bool(measure)   # False: skip ‖r − A p‖∞ (one operator application; the bench's step)
         self.name = f"project[{method}]"
         self.pressure = None
 
+    @contract(grid=_GRID, state=_STATE)
     def bind(self, grid, state) -> None:
-        check_method_fits(grid, self.method)             # fail at build time, not at the first step
+        check_method_fits(grid, self.method, self.name)  # fail at build time, not at the first step
 
+    @contract(grid=_GRID, state=_STATE, h=_H)
     def apply(self, grid, state, h):
+        check_method_fits(grid, self.method, self.name)
         r = grid.divergence(state.u)
         r *= -1.0
         p, info = _solve(grid, r, np.zeros(grid.shape), 0.0, 1.0, self.method, residual=self.measure, **self.kw)

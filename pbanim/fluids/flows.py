@@ -33,7 +33,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, check_count, check_number, check_positive
+from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, contract, finite_result
+from ..errors import InvalidInput, check_result
+from .advection import ADVECTION
+from .diffusion import DIFFUSION_METHODS
 from .effects import (
     Advection,
     Buoyancy,
@@ -43,7 +46,9 @@ from .effects import (
     VorticityConfinement,
 )
 from .grid import Grid
+from .poisson import POISSON_METHODS
 from .scene import FluidScene
+from .specs import MAX_CELLS, GridShape, finite_fields, quiet
 
 __all__ = [
     "GHIA_RE100",
@@ -63,12 +68,18 @@ GHIA_RE100 = np.array([
     (0.9766, 0.84123), (1.0000, 1.00000)])
 
 
+_GRID = Obj(Grid)
+MAX_SIDE = int(MAX_CELLS ** 0.5)      # the largest square grid: 2048 × 2048
+
+
+@contract(grid=_GRID, amplitude=Real(), mode=Int(ge=1), returns=finite_fields)
 def taylor_green(grid: Grid, amplitude: float = 1.0, mode: int = 1) -> list:
-    """The Taylor–Green velocity on the faces of a periodic square grid (k = 2π·mode / L)."""
+    """The Taylor–Green velocity on the faces of a periodic square grid (k = 2π·mode / L, mode < n/2)."""
     if grid.dim != 2 or not all(grid.periodic) or grid.shape[0] != grid.shape[1]:
-        raise InvalidInput(f"taylor_green needs a periodic square 2-D grid, got {grid!r}")
-    amplitude = check_number("amplitude", amplitude)
-    mode = check_count("mode", mode, maximum=grid.shape[0] // 2 - 1)
+        raise InvalidInput(f"taylor_green: grid must be a periodic square 2-D grid, got {grid!r}")
+    if mode > grid.shape[0] // 2 - 1:
+        raise InvalidInput(f"taylor_green: mode must be at most n/2 − 1 = {grid.shape[0] // 2 - 1} on this grid "
+                           f"(a finer mode is not resolved), got {mode}")
     k = 2.0 * np.pi * mode / grid.extent[0]
     x, y = grid.positions(0)
     u = amplitude * np.cos(k * x) * np.sin(k * y)
@@ -77,42 +88,58 @@ def taylor_green(grid: Grid, amplitude: float = 1.0, mode: int = 1) -> list:
     return [u, v]
 
 
+@contract(e0=Real(ge=0), nu=Real(ge=0), k=Real(), t=Array(None, scalar=True, empty=True),
+          returns=finite_result)
 def taylor_green_energy(e0: float, nu: float, k: float, t) -> np.ndarray:
-    """E(t) = E(0) e^(−4νk²t), the exact kinetic energy of the decaying vortex."""
-    return e0 * np.exp(-4.0 * nu * k * k * np.asarray(t, dtype=float))
+    """E(t) = E(0) e^(−4νk²t), the exact kinetic energy of the decaying vortex (an overflow, e.g. of k² or
+    of the growth backwards in time, is :class:`~pbanim.errors.NonFiniteResult`)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        rate = 4.0 * nu * k * k
+        if e0 == 0 or rate == 0:           # 0 · e^(...) and E(0) · e^0 without inf · 0
+            return np.full(np.shape(t), e0) if np.ndim(t) else e0
+        return e0 * np.exp(-rate * np.asarray(t, dtype=float))
 
 
+@contract(grid=_GRID, psi=Func(), returns=finite_fields)
+@quiet
 def stream_velocity(grid: Grid, psi) -> list:
     """u = ∂ψ/∂y, v = −∂ψ/∂x on the faces, ψ a function of the corner coordinates (x, y) (2-D)."""
     if grid.dim != 2:
-        raise InvalidInput(f"stream_velocity is 2-D; the grid has {grid.dim} axes")
-    if not callable(psi):
-        raise InvalidInput(f"psi must be a function psi(x, y) of the corner coordinates, got {type(psi).__name__}")
+        raise InvalidInput(f"stream_velocity: grid must be 2-D, got {grid.dim} axes")
     nodes = [np.arange(n + (0 if p else 1)) * grid.dx for n, p in zip(grid.shape, grid.periodic)]
     X, Y = np.meshgrid(*nodes, indexing="ij")
-    P = np.asarray(psi(X, Y), dtype=float)
+    try:
+        P = np.asarray(psi(X, Y), dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInput(f"stream_velocity: psi must return numbers, its return could not be read ({exc})") from None
     if P.shape != X.shape or not np.all(np.isfinite(P)):
-        raise InvalidInput(f"psi must return finite values of the corner shape {X.shape}, got {P.shape}")
+        raise InvalidInput(f"stream_velocity: psi must return finite values of the corner shape {X.shape}, got "
+                           f"shape {P.shape}" + ("" if P.shape != X.shape else " with NaN or inf entries"))
     dy = (np.roll(P, -1, axis=1) - P) if grid.periodic[1] else np.diff(P, axis=1)
     dx = (np.roll(P, -1, axis=0) - P) if grid.periodic[0] else np.diff(P, axis=0)
     return [dy / grid.dx, -dx / grid.dx]
 
 
+@contract(n=Int(ge=3, le=MAX_SIDE), reynolds=Real(gt=0), lid=Real(), advection=Choice(ADVECTION),
+          projection=Choice(POISSON_METHODS), diffusion=Choice(DIFFUSION_METHODS))
 def lid_driven_cavity(n: int, reynolds: float = 100.0, lid: float = 1.0, *, advection: str = "semi_lagrangian",
                       projection: str = "dct", diffusion: str = "cg") -> FluidScene:
-    """The unit square with the top wall sliding at ``lid``: ν = lid / Re, at rest at t = 0."""
-    n = check_count("n", n, minimum=3)
-    reynolds = check_positive("reynolds", reynolds)
-    lid = check_number("lid", lid)
+    """The unit square with the top wall sliding at ``lid``: ν = lid / Re, at rest at t = 0 (ν overflowing
+    is :class:`~pbanim.errors.NonFiniteResult`)."""
     grid = Grid((n, n), 1.0 / n, "walls", lids={"y+": (lid, 0.0)})
-    nu = abs(lid) / reynolds
+    with np.errstate(over="ignore"):
+        nu = check_result("the viscosity ν = lid / reynolds", abs(lid) / reynolds, f"lid = {lid:g}, reynolds = "
+                          f"{reynolds:g}")
     return FluidScene(grid, [Advection(advection), Diffusion(nu, diffusion), Projection(projection)])
 
 
+@contract(scene=Obj(FluidScene))
 def centreline_u(scene: FluidScene) -> tuple[np.ndarray, np.ndarray]:
     """(y, u) on the vertical centre line of a 2-D wall box (u averaged over the two middle columns of
     faces when n is odd), with the wall values (0 at the bottom, the lid at the top) appended."""
     g, u = scene.grid, scene.state.u[0]
+    if g.dim != 2 or g.periodic[1]:
+        raise InvalidInput(f"centreline_u: scene must be on a 2-D grid with walls along y, got {g!r}")
     nx = g.shape[0]
     col = u[nx // 2] if nx % 2 == 0 else 0.5 * (u[nx // 2] + u[nx // 2 + 1])
     y = (np.arange(g.shape[1]) + 0.5) * g.dx
@@ -121,6 +148,8 @@ def centreline_u(scene: FluidScene) -> tuple[np.ndarray, np.ndarray]:
             np.concatenate([[0.0], col, [0.0 if top is None else top[0]]]))
 
 
+@contract(shape=GridShape(dims=(2,), minimum=8), obstacle=Flag(), projection=Opt(Choice(POISSON_METHODS)),
+          advection=Choice(ADVECTION), confinement=Real(ge=0), buoyancy=Real(ge=0))
 def smoke_plume(shape=(64, 96), *, obstacle: bool = True, projection: str | None = None,
                 advection: str = "maccormack", confinement: float = 2.0, buoyancy: float = 4.0) -> FluidScene:
     """Hot smoke released at the bottom of a closed box, rising around a disc (obstacle).
@@ -129,9 +158,7 @@ def smoke_plume(shape=(64, 96), *, obstacle: bool = True, projection: str | None
     density), vorticity confinement ε, advection of velocity and scalars, projection (``mgpcg`` with the
     obstacle, ``dct`` without, unless given).
     """
-    grid_shape = tuple(check_count(f"shape[{i}]", n, minimum=8) for i, n in enumerate(shape))
-    if len(grid_shape) != 2:
-        raise InvalidInput(f"smoke_plume is 2-D: shape must have 2 entries, got {shape!r}")
+    grid_shape = tuple(int(n) for n in shape)
     nx, ny = grid_shape
     dx = 1.0 / nx
     X, Y = Grid(grid_shape, dx).positions()
@@ -142,7 +169,7 @@ def smoke_plume(shape=(64, 96), *, obstacle: bool = True, projection: str | None
     source = ((np.abs(X - 0.5) < 0.08) & (Y < 0.1 * ny * dx) & (Y > 2 * dx)).astype(float)
     method = projection or ("mgpcg" if obstacle else "dct")
     effects = [Source("density", 4.0, source), Source("temperature", 6.0, source),
-               Buoyancy(alpha=0.1, beta=check_number("buoyancy", buoyancy, low=0.0)),
+               Buoyancy(alpha=0.1, beta=buoyancy),
                VorticityConfinement(confinement), Advection(advection), Projection(method)]
     zeros = np.zeros(grid_shape)
     return FluidScene(grid, effects, scalars={"density": zeros, "temperature": zeros})

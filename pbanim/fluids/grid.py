@@ -26,7 +26,7 @@ cells; every face touching one is closed.
 ==========  =================================================================================
 symbol      meaning
 ==========  =================================================================================
-n, d        cells per axis (≥ 3 each), number of axes (2 or 3)
+n, d        cells per axis (≥ 3 each, at most 2²² cells in all), number of axes (2 or 3)
 Δx          cell side (``dx``)
 uᵢ          velocity component i on the faces normal to axis i; shape n with nᵢ + 1 along i at walls
 open_f      1 on a face fluid can cross, 0 on wall faces and faces touching a solid cell
@@ -46,34 +46,33 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInput, as_floats, check_count, check_positive
+from ..contracts import Anything, Array, Choice, Either, Env, Index, Opt, Real, Seq, Text, contract, finite_result
+from ..errors import InvalidInput
+from .specs import Cells, GridShape, Mask, Named, Slots, Velocity, finite_fields, quiet
 
-__all__ = ["BOUNDARIES", "SIDES", "Grid", "check_field"]
+__all__ = ["BOUNDARIES", "SIDES", "Grid"]
 
 BOUNDARIES = ("periodic", "walls")
 SIDES = {f"{a}{s}": (i, k) for i, a in enumerate("xyz") for k, s in enumerate("-+")}
+DX_RANGE = (1e-100, 1e100)      # Δx^d, 1/Δx² and the operators' entries stay finite
+
+_AXIS = Opt(Index("self.dim"))
+_U = Velocity("self")
+_P = Cells("self")
 
 
-def check_field(name: str, value, shape: tuple) -> np.ndarray:
-    """``value`` as a finite float array of ``shape`` (a copy), or :class:`InvalidInput` naming ``name``."""
-    arr = as_floats(name, value)
-    if arr.shape != tuple(shape):
-        raise InvalidInput(f"{name} must have shape {tuple(shape)}, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise InvalidInput(f"{name} must be finite, got {arr[tuple(bad)]} at index {tuple(int(b) for b in bad)}")
-    return arr
-
-
+@contract(shape=GridShape(), dx=Real(ge=DX_RANGE[0], le=DX_RANGE[1]),
+          boundary=Either(Choice(BOUNDARIES), Seq(Choice(BOUNDARIES), min_len=2, max_len=3)),
+          solid=Opt(Mask("$shape")), lids=Opt(Named(Array((None,)), keys=tuple(SIDES))))
 class Grid:
     """A box of square cells with periodic or wall boundaries, optional sliding walls and obstacles.
 
     Parameters
     ----------
-    shape : sequence of 2 or 3 ints, each ≥ 3
+    shape : sequence of 2 or 3 ints, each ≥ 3, at most ``MAX_CELLS`` = 2²² cells in all
         Cells per axis (axis 0 is x, axis 1 is y, axis 2 is z; arrays are indexed [x, y(, z)]).
-    dx : float > 0
-        Cell side Δx.
+    dx : float in [1e-100, 1e100]
+        Cell side Δx (the range keeps Δx^d and 1/Δx² finite).
     boundary : "periodic" | "walls", or one of them per axis
     solid : bool array of ``shape``, optional
         Obstacle cells (stationary).
@@ -90,30 +89,16 @@ class Grid:
     """
 
     def __init__(self, shape, dx: float = 1.0, boundary="walls", solid=None, lids=None) -> None:
-        if isinstance(shape, (int, np.integer)) or not hasattr(shape, "__len__"):
-            raise InvalidInput(f"shape must be a sequence of 2 or 3 cell counts, got {shape!r}")
-        if len(shape) not in (2, 3):
-            raise InvalidInput(f"shape must have 2 or 3 entries (a 2-D or 3-D grid), got {len(shape)}: {tuple(shape)}")
-        self.shape = tuple(check_count(f"shape[{i}]", n, minimum=3) for i, n in enumerate(shape))
+        self.shape = tuple(int(n) for n in shape)
         self.dim = len(self.shape)
-        self.dx = check_positive("dx", dx)
+        self.dx = float(dx)
         kinds = (boundary,) * self.dim if isinstance(boundary, str) else tuple(boundary)
-        if len(kinds) != self.dim or any(k not in BOUNDARIES for k in kinds):
-            raise InvalidInput(f"boundary must be one of {BOUNDARIES} or one per axis ({self.dim} entries), "
+        if len(kinds) != self.dim:
+            raise InvalidInput(f"Grid: boundary must be one of {BOUNDARIES} or one per axis ({self.dim} entries), "
                                f"got {boundary!r}")
         self.boundary = kinds
         self.periodic = tuple(k == "periodic" for k in kinds)
-        if solid is None:
-            self.solid = np.zeros(self.shape, dtype=bool)
-        else:
-            s = np.asarray(solid)
-            if s.shape != self.shape:
-                raise InvalidInput(f"solid must be a mask of shape {self.shape} (one entry per cell), got {s.shape}")
-            if s.dtype != bool and not np.all(np.isin(s, (0, 1))):
-                raise InvalidInput("solid must be a boolean mask (True = obstacle cell), got values other than 0/1")
-            self.solid = s.astype(bool)
-            if self.solid.all():
-                raise InvalidInput("solid covers every cell: no fluid is left")
+        self.solid = np.zeros(self.shape, dtype=bool) if solid is None else np.asarray(solid, dtype=bool)
         self.has_obstacles = bool(self.solid.any())
         self.fluid = ~self.solid
         self.lids = self._check_lids(lids)
@@ -121,22 +106,26 @@ class Grid:
 
     # -- construction helpers ----------------------------------------------------------------------
     def _check_lids(self, lids) -> dict:
+        """The sliding walls by (axis, side); what the contract cannot say: a side of this grid's axes, a wall
+        (not a periodic axis), a tangential velocity of d components."""
         out = {}
         for key, vel in dict(lids or {}).items():
-            if key not in SIDES or SIDES[key][0] >= self.dim:
-                raise InvalidInput(f"lids keys must be sides {[s for s, (a, _) in SIDES.items() if a < self.dim]}, "
-                                   f"got {key!r}")
+            if SIDES[key][0] >= self.dim:
+                raise InvalidInput(f"Grid: lids keys must be sides {[s for s, (a, _) in SIDES.items() if a < self.dim]}"
+                                   f", got {key!r}")
             axis, side = SIDES[key]
             if self.periodic[axis]:
-                raise InvalidInput(f"lids[{key!r}]: axis {'xyz'[axis]} is periodic, it has no wall to slide")
-            v = as_floats(f"lids[{key!r}]", vel)
-            if v.shape != (self.dim,) or not np.all(np.isfinite(v)):
-                raise InvalidInput(f"lids[{key!r}] must be {self.dim} finite numbers, got {vel!r}")
+                raise InvalidInput(f"Grid: lids[{key!r}]: axis {'xyz'[axis]} is periodic, it has no wall to slide")
+            v = np.array(vel, dtype=float)
+            if v.shape != (self.dim,):
+                raise InvalidInput(f"Grid: lids[{key!r}] must be {self.dim} finite numbers, got {vel!r}")
             if v[axis] != 0:
-                raise InvalidInput(f"lids[{key!r}] must be tangential to the wall (component {axis} = 0), got {v}")
+                raise InvalidInput(f"Grid: lids[{key!r}] must be tangential to the wall (component {axis} = 0), "
+                                   f"got {v}")
             out[(axis, side)] = v
         return out
 
+    @contract(i=Index("self.dim"))
     def face_shape(self, i: int) -> tuple:
         """Shape of the array of velocity component i (one more face along i at walls)."""
         return tuple(n + (0 if self.periodic[a] or a != i else 1) for a, n in enumerate(self.shape))
@@ -162,6 +151,7 @@ class Grid:
     def zeros_cells(self) -> np.ndarray:
         return np.zeros(self.shape)
 
+    @contract(component=_AXIS)
     def offset(self, component: int | None) -> np.ndarray:
         """Where samples sit inside a cell, in cells: ½ on every axis for cells, 0 along i for uᵢ."""
         o = np.full(self.dim, 0.5)
@@ -169,6 +159,7 @@ class Grid:
             o[component] = 0.0
         return o
 
+    @contract(component=_AXIS)
     def positions(self, component: int | None = None) -> list:
         """Coordinates of the samples of uᵢ (``component = i``) or of the cells (None), one array per axis."""
         shape = self.shape if component is None else self.face_shape(component)
@@ -180,13 +171,14 @@ class Grid:
     def extent(self) -> tuple:
         return tuple(n * self.dx for n in self.shape)
 
+    @contract(u=Anything("the value under check: answered by the face arrays it holds or by InvalidInput naming "
+                         "it"), name=Text(nonempty=True))
     def check_velocity(self, u, name: str = "u") -> list:
-        """``u`` as a list of finite face arrays of the right shapes, or :class:`InvalidInput`."""
-        if not isinstance(u, (list, tuple)) or len(u) != self.dim:
-            raise InvalidInput(f"{name} must be a list of {self.dim} face arrays (one per component), "
-                               f"got {type(u).__name__}{'' if not hasattr(u, '__len__') else f' of length {len(u)}'}")
-        return [check_field(f"{name}[{i}]", c, self.face_shape(i)) for i, c in enumerate(u)]
+        """``u`` as a list of finite float face arrays of the right shapes (copies), or :class:`InvalidInput`
+        naming ``name`` (the contract's own check of a velocity, :class:`~pbanim.fluids.specs.Velocity`)."""
+        return [np.array(c) for c in _U.check(name, u, Env("Grid.check_velocity", {"self": self}))]
 
+    @contract(u=_U)
     def close(self, u: list) -> list:
         """Set the velocity on closed faces (walls, obstacles) to zero, in place; returns ``u``."""
         for c, o in zip(u, self.open):
@@ -194,6 +186,8 @@ class Grid:
         return u
 
     # -- the discrete operators ---------------------------------------------------------------------
+    @contract(u=_U, returns=finite_result)
+    @quiet
     def divergence(self, u: list) -> np.ndarray:
         """(D u)_c = Σᵢ (uᵢ(c + ½eᵢ) − uᵢ(c − ½eᵢ)) / Δx, one value per cell."""
         # BEGIN SOLUTION Grid.divergence
@@ -206,6 +200,8 @@ class Grid:
         return div / self.dx
         # END SOLUTION
 
+    @contract(p=_P, out=Opt(Slots("self")), returns=finite_fields)
+    @quiet
     def gradient(self, p: np.ndarray, out: list | None = None) -> list:
         """(G p)_f = open_f (p(c + eᵢ) − p(c)) / Δx on the faces of each axis (0 on closed faces)."""
         # BEGIN SOLUTION Grid.gradient
@@ -222,6 +218,8 @@ class Grid:
         return out
         # END SOLUTION
 
+    @contract(p=_P, returns=finite_result)
+    @quiet
     def laplacian(self, p: np.ndarray) -> np.ndarray:
         """L p = D open G p: the pressure operator (Neumann at walls and obstacles)."""
         return self.divergence(self.gradient(p))
@@ -242,6 +240,8 @@ class Grid:
         return s
         # END SOLUTION
 
+    @contract(c=_P, i=Index("self.dim"), returns=finite_result)
+    @quiet
     def cells_to_faces(self, c: np.ndarray, i: int) -> np.ndarray:
         """Average of the two cells beside each face of axis i (the wall faces take their one cell)."""
         if self.periodic[i]:
@@ -255,6 +255,8 @@ class Grid:
         hi[i] = slice(1, None)
         return 0.5 * (e[tuple(lo)] + e[tuple(hi)])
 
+    @contract(u=_U, returns=finite_result)
+    @quiet
     def faces_to_cells(self, u: list) -> list:
         """The velocity at the cell centres: the mean of the two faces of each component."""
         out = []
@@ -269,12 +271,16 @@ class Grid:
                 out.append(0.5 * (c[tuple(lo)] + c[tuple(hi)]))
         return out
 
+    @contract(u=_U, density=Real(gt=0), returns=finite_result)
     def kinetic_energy(self, u: list, density: float = 1.0) -> float:
         """E = ½ ρ Σ_faces u² Δx^d (each face once: the MAC inner product in which the projection is
-        orthogonal)."""
-        with np.errstate(over="ignore", invalid="ignore"):     # an overflowing field reports inf energy
+        orthogonal). Called by a user, an overflow is :class:`~pbanim.errors.NonFiniteResult`; inside a run
+        it reads inf, which the run reports as divergence."""
+        with np.errstate(over="ignore", invalid="ignore"):
             return 0.5 * density * self.dx ** self.dim * float(sum(np.sum(c * c) for c in u))
 
+    @contract(s=_P, returns=finite_result)
+    @quiet
     def total(self, s: np.ndarray) -> float:
         """∫ s dV over the fluid cells (the mass of a scalar)."""
         return float(np.sum(s[self.fluid])) * self.dx ** self.dim

@@ -33,10 +33,13 @@ SIGGRAPH 2001 (the monotone cubic); F. N. Fritsch, R. E. Carlson, SIAM J. Numer.
 from __future__ import annotations
 
 import itertools
+import math
 
 import numpy as np
 
-from ..errors import InvalidInput
+from ..contracts import Choice, Flag, Int, Obj, Opt, contract
+from ..errors import InvalidInput, NonFiniteResult
+from .specs import Cells, Points, finite_fields, quiet
 
 __all__ = ["ORDERS", "component_at_faces", "monotone_cubic_1d", "pad_field", "sample"]
 
@@ -104,6 +107,9 @@ def _coordinates(grid, shape, component, points):
             s = np.clip(x, 0.0, grid.shape[a] * grid.dx)
             s *= inv
             s += GHOSTS - off[a]                      # ≥ 1.5 > 0: truncation is the floor
+        if s.size and not math.isfinite(s.max()):     # x/Δx overflowed (mod(±inf) is NaN), or x is NaN
+            raise NonFiniteResult(f"a sample coordinate x/Δx along axis {a}",
+                                  f"a point at {_far(x)} with Δx = {grid.dx:g}")
         j = s.astype(np.intp)
         s -= j                                        # the fraction, in place
         if grid.periodic[a]:
@@ -111,6 +117,12 @@ def _coordinates(grid, shape, component, points):
         idx.append(j)
         frac.append(s)
     return idx, frac
+
+
+def _far(x) -> str:
+    """The farthest coordinate among ``x`` (for a message)."""
+    with np.errstate(invalid="ignore"):
+        return f"{x[np.argmax(np.abs(x))]:g}"
 
 
 def _lerp(flat, base, strides, frac, offset, axis):
@@ -125,27 +137,24 @@ def _lerp(flat, base, strides, frac, offset, axis):
     return a
 
 
+@contract(grid=Obj("pbanim.fluids.grid:Grid"), q=Cells(faces="component"), component=Opt(Int(ge=0, le=2)),
+          points=Points(), order=Choice(ORDERS), padded=Opt(Cells(faces="component", pad=GHOSTS)), bounds=Flag(),
+          returns=finite_fields)
+@quiet
 def sample(grid, q: np.ndarray, component: int | None, points, order: str = "linear",
            padded: np.ndarray | None = None, bounds: bool = False):
     """Values of the field ``q`` (cells when ``component`` is None, else velocity component i) at ``points``.
 
     ``points`` is a list of d coordinate arrays of one shape; the result has that shape. ``bounds=True``
     also returns the min and max of the 2^d linear-stencil corners of each point (MacCormack's clamp).
-    ``padded`` may pass ``pad_field(grid, q, component)`` computed once for several calls.
+    ``padded`` may pass ``pad_field(grid, q, component)`` computed once for several calls (its inner part
+    must be ``q``). A departure point so far away that its sample coordinate overflows on a periodic axis is
+    :class:`~pbanim.errors.NonFiniteResult`.
     """
-    from .grid import check_field
-
-    if order not in ORDERS:
-        raise InvalidInput(f"order must be one of {ORDERS}, got {order!r}")
-    if component is not None and component not in range(grid.dim):
-        raise InvalidInput(f"component must be None (cells) or an axis 0..{grid.dim - 1}, got {component!r}")
-    q = check_field("q", q, grid.shape if component is None else grid.face_shape(component))
-    if not isinstance(points, (list, tuple)) or len(points) != grid.dim:
-        raise InvalidInput(f"points must be a list of {grid.dim} coordinate arrays, got {type(points).__name__}")
-    pts = [np.asarray(p, dtype=float) for p in points]
-    if any(p.shape != pts[0].shape for p in pts) or not all(np.all(np.isfinite(p)) for p in pts):
-        raise InvalidInput(f"points must be {grid.dim} finite arrays of one shape, got shapes {[p.shape for p in pts]}")
-    return _sample(grid, q, component, pts, order, padded, bounds)
+    if padded is not None and not np.array_equal(padded[(slice(GHOSTS, -GHOSTS),) * grid.dim], q):
+        raise InvalidInput("sample: padded must be pad_field(grid, q, component) (its inner part is q), got "
+                           "another field")
+    return _sample(grid, q, component, points, order, padded, bounds)
 
 
 def _sample(grid, q, component, points, order="linear", padded=None, bounds=False):

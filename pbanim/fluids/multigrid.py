@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
-from .poisson import CellOperator, _direct, _dot, relax
+from .poisson import CellOperator, _direct, _norm, relax, unit_scale, warm_start
 
 __all__ = ["levels", "multigrid_solve", "v_cycle"]
 
@@ -95,16 +95,21 @@ def v_cycle(hierarchy, b: np.ndarray, alpha: float, beta: float, level: int = 0)
 
 
 def multigrid_solve(grid, A, r, x, alpha, beta, tol, max_iter):
-    """V-cycles on the residual until ‖r − A x‖₂ ≤ tol ‖r‖₂ (at most ``max_iter`` cycles); (x, cycles)."""
+    """V-cycles on the residual until ‖r − A x‖₂ ≤ tol ‖r‖₂ (at most ``max_iter`` cycles); (x, cycles). r and x
+    are scaled by :func:`~pbanim.fluids.poisson.unit_scale` first (the cycle is linear)."""
+    s = unit_scale(r, x)
+    if s != 1.0:
+        x, k = multigrid_solve(grid, A, r * s, x * s, alpha, beta, tol, max_iter)
+        return x / s, k
     hierarchy = levels(grid, alpha, beta)
-    target = tol * max(_dot(r, r) ** 0.5, np.finfo(float).tiny)
-    res = r - A(x)
+    x, res, r_norm = warm_start(A, r, x)
     for k in range(max_iter + 1):
-        norm = _dot(res, res) ** 0.5
-        if norm <= target:
+        norm = _norm(res)
+        if norm <= tol * r_norm:
             return x, k
         if k == max_iter:
             break
         x = x + v_cycle(hierarchy, res, alpha, beta)
         res = r - A(x)
-    raise ConvergenceError("multigrid", max_iter, norm, tol, "relative 2-norm residual of (αI − βL)x = r")
+    raise ConvergenceError("multigrid", max_iter, norm / r_norm, tol, "relative 2-norm residual ‖r − Ax‖/‖r‖ of "
+                           "(αI − βL)x = r")

@@ -45,9 +45,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConvergenceError, InvalidInput, check_count, check_number
+from ..contracts import Choice, Int, Obj, Opt, Real, contract
+from ..errors import ConvergenceError, InvalidInput, check_result
+from .specs import MAX_ITER, MAX_SWEEPS, Cells, finite_fields, quiet
 
-__all__ = ["POISSON_METHODS", "CellOperator", "SolveInfo", "relax", "solve_cells", "spectral_eigenvalues"]
+__all__ = ["POISSON_METHODS", "CellOperator", "SolveInfo", "relax", "solve_cells", "spectral_eigenvalues", "unit_scale"]
 
 POISSON_METHODS = ("gauss_seidel", "jacobi", "cg", "pcg", "multigrid", "mgpcg", "fft", "dct", "spectral", "direct")
 
@@ -67,7 +69,9 @@ class CellOperator:
 
     def __init__(self, grid, alpha: float, beta: float) -> None:
         self.grid, self.alpha, self.beta = grid, float(alpha), float(beta)
-        d = alpha + beta * grid.neighbours() / grid.dx ** 2
+        with np.errstate(over="ignore"):
+            d = alpha + beta * grid.neighbours() / grid.dx ** 2
+        check_result("the diagonal α + β·nb/Δx² of αI − βL", d, f"α = {alpha:g}, β = {beta:g}, Δx = {grid.dx:g}")
         d[grid.solid | (d == 0)] = 1.0
         self.diag = d
 
@@ -187,22 +191,57 @@ def _dot(a, b) -> float:
     return float(np.multiply(a, b).sum())
 
 
-def _cg(A, r, x, tol, max_iter, precondition, name):
-    """Preconditioned conjugate gradients from x; stops when ‖r − A x‖₂ ≤ tol ‖r‖₂ (capped)."""
+def _norm(v) -> float:
+    """‖v‖₂, without overflow of the squares (scaled by max |v| when Σ v² is not finite)."""
+    with np.errstate(over="ignore"):
+        n = _dot(v, v) ** 0.5
+    if np.isfinite(n):
+        return n
+    m = float(np.abs(v).max())
+    return m * _dot(v / m, v / m) ** 0.5 if np.isfinite(m) and m > 0 else m
+
+
+def unit_scale(*arrays) -> float:
+    """A power of two s with s·max|a| near 1 when max|a| is beyond 2^±200 (else 1): the Krylov solves work on
+    s·r and s·x, exactly, so that their inner products of 10³⁰⁰-sized fields do not overflow (a linear
+    operator: A(s x) = s A(x))."""
+    m = max((float(np.abs(a).max()) for a in arrays if a.size), default=0.0)
+    if m == 0 or 2.0 ** -200 < m < 2.0 ** 200 or not np.isfinite(m):
+        return 1.0
+    return 2.0 ** -np.frexp(m)[1]
+
+
+def warm_start(A, r, x):
+    """(x, r − A x, ‖r‖₂) from the start x, or from 0 when x leaves a larger residual than 0 does (the field
+    itself as the start of an implicit solve with a huge νΔt: A x is νΔt/Δx² times larger than r)."""
     res = r - A(x)
-    target = tol * max(_dot(r, r) ** 0.5, np.finfo(float).tiny)
+    r_norm = max(_norm(r), np.finfo(float).tiny)
+    if not _norm(res) <= r_norm:
+        return np.zeros_like(r), r.copy(), r_norm
+    return x, res, r_norm
+
+
+def _cg(A, r, x, tol, max_iter, precondition, name):
+    """Preconditioned conjugate gradients from x (from 0 when x is a worse start); stops when ‖r − A x‖₂ ≤
+    tol ‖r‖₂ (capped; the error reports the relative residual). r and x are scaled by :func:`unit_scale`."""
+    s = unit_scale(r, x)
+    if s != 1.0:
+        x, k = _cg(A, r * s, x * s, tol, max_iter, precondition, name)
+        return x / s, k
+    x, res, r_norm = warm_start(A, r, x)
+    target = tol * r_norm
     z = precondition(res)
     p = z.copy()
     rz = _dot(res, z)
     for k in range(max_iter + 1):
-        norm = _dot(res, res) ** 0.5
+        norm = _norm(res)
         if norm <= target:
             return x, k
         if k == max_iter:
             break
         Ap = A(p)
         pAp = _dot(p, Ap)
-        if pAp <= 0:
+        if not pAp > 0:                 # breakdown, or an operator too large for its inner products
             break
         step = rz / pAp
         x = x + step * p
@@ -212,10 +251,14 @@ def _cg(A, r, x, tol, max_iter, precondition, name):
         if rz_old == 0:                 # breakdown (cannot happen with an SPD preconditioner)
             break
         p = z + (rz / rz_old) * p
-    raise ConvergenceError(name, k, _dot(r - A(x), r - A(x)) ** 0.5, tol,
-                           "relative 2-norm residual of (αI − βL)x = r")
+    raise ConvergenceError(name, k, _norm(r - A(x)) / r_norm, tol, "relative 2-norm residual ‖r − Ax‖/‖r‖ of "
+                           "(αI − βL)x = r")
 
 
+@contract(grid=Obj("pbanim.fluids.grid:Grid"), r=Cells(), alpha=Real(ge=0), beta=Real(gt=0),
+          method=Choice(POISSON_METHODS), iterations=Int(ge=0, le=MAX_SWEEPS), omega=Real(gt=0, le=1),
+          tol=Real(gt=0, le=1), max_iter=Opt(Int(ge=1, le=MAX_ITER)), x0=Opt(Cells()), returns=finite_fields)
+@quiet
 def solve_cells(grid, r, alpha: float = 0.0, beta: float = 1.0, method: str = "dct", *, iterations: int = 20,
                 omega: float = 1.0, tol: float = 1e-12, max_iter: int | None = None, x0=None):
     """Solve (α I − β L) x = r on the cells of ``grid``; returns ``(x, SolveInfo)``.
@@ -223,32 +266,23 @@ def solve_cells(grid, r, alpha: float = 0.0, beta: float = 1.0, method: str = "d
     ``iterations`` is the number of sweeps of gauss_seidel / jacobi (Stam: 20); ``omega`` Jacobi's weight
     in (0, 1]; ``tol`` and ``max_iter`` (default 20·max(n) + 100) the stop and the cap of the CGs
     (multigrid: max_iter/10 cycles). With α = 0 the part of r that is constant over a fluid region is not
-    solvable and is dropped.
+    solvable and is dropped. An operator whose entries β/Δx² overflow is
+    :class:`~pbanim.errors.NonFiniteResult`.
     """
-    from .grid import check_field
-
-    if method not in POISSON_METHODS:
-        raise InvalidInput(f"method must be one of {POISSON_METHODS}, got {method!r}")
-    alpha = check_number("alpha", alpha, low=0.0)
-    beta = check_number("beta", beta, low=0.0, low_open=True)
-    r = check_field("r", r, grid.shape)
-    iterations = check_count("iterations", iterations, minimum=0)
-    omega = check_number("omega", omega, low=0.0, high=1.0, low_open=True)
-    tol = check_number("tol", tol, low=0.0, high=1.0, low_open=True)
-    max_iter = None if max_iter is None else check_count("max_iter", max_iter)
-    x = np.zeros(grid.shape) if x0 is None else check_field("x0", x0, grid.shape)
     check_method_fits(grid, method)
-    return _solve(grid, r, x, alpha, beta, method, iterations, omega, tol, max_iter)
+    x = np.zeros(grid.shape) if x0 is None else np.array(x0, dtype=float)
+    return _solve(grid, np.array(r, dtype=float), x, alpha, beta, method, iterations, omega, tol, max_iter)
 
 
-def check_method_fits(grid, method: str) -> None:
-    """:class:`InvalidInput` when an exact spectral method is asked of a box it cannot diagonalize."""
+def check_method_fits(grid, method: str, where: str = "solve_cells", name: str = "method") -> None:
+    """:class:`InvalidInput` when an exact spectral method is asked of a box it cannot diagonalize (the
+    message names the callable ``where`` and the argument ``name``)."""
     if method in ("fft", "dct", "spectral"):
         want = {"fft": "periodic", "dct": "walls"}.get(method)
         if grid.has_obstacles or (want and any(k != want for k in grid.boundary)):
-            raise InvalidInput(f"method {method!r} needs a box with {want or 'any boundary'} on every axis and no "
-                               f"obstacle; this grid has boundary {grid.boundary} and {int(grid.solid.sum())} solid "
-                               "cells (use 'pcg' or 'direct')")
+            raise InvalidInput(f"{where}: {name} {method!r} needs a box with {want or 'any boundary'} on every axis "
+                               f"and no obstacle; this grid has boundary {grid.boundary} and "
+                               f"{int(grid.solid.sum())} solid cells (use 'pcg' or 'direct')")
 
 
 def _regions(grid):

@@ -38,20 +38,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import (
-    InvalidInput,
-    SimulationDiverged,
-    check_count,
-    check_number,
-    check_positive,
-)
+from ..contracts import Array, Int, Obj, Opt, Real, Seq, Text, contract
+from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged
 from ..ode.driver import MAX_STEPS, step_grid
 from .effects import PHASES, FluidEffect
-from .grid import Grid, check_field
+from .grid import Grid
+from .specs import Cells, Named, Velocity, quiet
 
-__all__ = ["FluidResult", "FluidScene", "FluidState"]
+__all__ = ["FluidResult", "FluidScene", "FluidState", "check_fields"]
 
 
+def check_fields(t: float, step: int, u: list, scalars: dict, detail: str = "") -> None:
+    """:class:`~pbanim.errors.SimulationDiverged` naming the first velocity component or scalar that is not
+    finite (nothing when all are)."""
+    for i, c in enumerate(u):
+        if not np.isfinite(c).all():
+            raise SimulationDiverged(t, step, f"velocity component {i}", detail)
+    for k, v in scalars.items():
+        if not np.isfinite(v).all():
+            raise SimulationDiverged(t, step, f"scalar {k!r}", detail)
+
+
+@contract(u=Seq(Array(None), min_len=2, max_len=3), scalars=Named(Array(None)), t=Real())
 @dataclass
 class FluidState:
     """The velocity on the faces, the cell scalars, and the time."""
@@ -100,26 +108,20 @@ class FluidScene:
     ('advect[semi_lagrangian]', 'project[fft]')
     """
 
+    @contract(grid=Obj(Grid), effects=Seq(Obj(FluidEffect)), u=Opt(Velocity()), scalars=Opt(Named(Cells())),
+              density=Real(gt=0))
     def __init__(self, grid: Grid, effects=(), u=None, scalars=None, density: float = 1.0) -> None:
-        if not isinstance(grid, Grid):
-            raise InvalidInput(f"grid must be a pbanim.fluids.Grid, got {type(grid).__name__}")
         self.grid = grid
-        self.density = check_positive("density", density)
-        vel = grid.zeros_velocity() if u is None else grid.check_velocity(u)
-        sc = {}
-        for k, v in dict(scalars or {}).items():
-            if not isinstance(k, str) or not k:
-                raise InvalidInput(f"scalars keys must be non-empty names, got {k!r}")
-            sc[k] = check_field(f"scalars[{k!r}]", v, grid.shape) * grid.fluid
+        self.density = float(density)
+        vel = grid.zeros_velocity() if u is None else [np.array(c, dtype=float) for c in u]
+        sc = {k: np.array(v, dtype=float) * grid.fluid for k, v in (scalars or {}).items()}
         self.state = FluidState(grid.close(vel), sc, 0.0)
         stages = []
         for e in effects:
-            if not isinstance(e, FluidEffect):
-                raise InvalidInput(f"effects must be FluidEffect instances (pbanim.fluids.effects), got {e!r}")
             stages += e.stages()
         for e in stages:
-            if e.phase not in PHASES:
-                raise InvalidInput(f"effect {e.name!r} has phase {e.phase!r}; expected one of {PHASES}")
+            if e.phase not in PHASES:      # a user's own FluidEffect subclass
+                raise InvalidInput(f"FluidScene: effect {e.name!r} has phase {e.phase!r}; expected one of {PHASES}")
             e.bind(grid, self.state)
         self.stages = [e for ph in PHASES for e in stages if e.phase == ph]
         self.nsteps = 0
@@ -129,23 +131,24 @@ class FluidScene:
         """Ordered names of the stages one step runs."""
         return tuple(e.name for e in self.stages)
 
+    @contract(h=Real(gt=0))
     def step(self, h: float) -> FluidState:
-        """One step of size ``h`` through the pipeline (in place); returns the state."""
-        h = check_positive("h", h)
+        """One step of size ``h`` through the pipeline (in place); returns the state. A field that stops being
+        finite, or an overflow inside a stage, is :class:`~pbanim.errors.SimulationDiverged`."""
         s = self.state
         with np.errstate(over="ignore", invalid="ignore"):      # an overflow is reported just below, by name
             for e in self.stages:
-                e.apply(self.grid, s, h)
-        for i, c in enumerate(s.u):
-            if not np.isfinite(c).all():
-                raise SimulationDiverged(s.t, self.nsteps, f"velocity component {i}")
-        for k, v in s.scalars.items():
-            if not np.isfinite(v).all():
-                raise SimulationDiverged(s.t, self.nsteps, f"scalar {k!r}")
+                try:
+                    e.apply(self.grid, s, h)
+                except NonFiniteResult as exc:        # the field that overflowed first, else what the stage met
+                    check_fields(s.t, self.nsteps, s.u, s.scalars, f"before stage {e.name} ended")
+                    raise SimulationDiverged(s.t, self.nsteps, exc.what, f"in stage {e.name}") from exc
+        check_fields(s.t, self.nsteps, s.u, s.scalars)
         s.t += h
         self.nsteps += 1
         return s
 
+    @quiet
     def measure(self) -> dict:
         """Kinetic energy, largest divergence, the scalars' totals, and the stages' last measurements."""
         g, s = self.grid, self.state
@@ -157,19 +160,21 @@ class FluidScene:
             out.update(e.info)
         return out
 
+    @contract(t_end=Real(), h=Real(gt=0), record_every=Int(ge=1), frame_every=Opt(Int(ge=1)),
+              keep=Seq(Text(nonempty=True)), max_steps=Int(ge=1), max_energy=Real(ge=0, finite=False))
     def simulate(self, t_end: float, h: float, *, record_every: int = 1, frame_every: int | None = None,
                  keep=(), max_steps: int = MAX_STEPS, max_energy: float = np.inf) -> FluidResult:
-        """Step from the current time to ``t_end`` with step ``h`` (the one step rule).
+        """Step from the current time to ``t_end`` with step ``h`` (the one step rule; at most ``max_steps``
+        steps, :class:`~pbanim.errors.StepLimitExceeded` before the first one otherwise).
 
         ``keep`` names the fields stored every ``frame_every`` steps (scalars by name, ``"speed"`` for |u| at
         the cells); ``max_energy`` makes a run whose kinetic energy exceeds it raise ``SimulationDiverged``.
         """
-        sg = step_grid(self.state.t, check_number("t_end", t_end), h, max_steps=max_steps,
-                       record_every=check_count("record_every", record_every))
-        frame_every = None if frame_every is None else check_count("frame_every", frame_every)
+        sg = step_grid(self.state.t, t_end, h, max_steps=max_steps, record_every=record_every)
         for k in keep:
             if k != "speed" and k not in self.state.scalars:
-                raise InvalidInput(f"keep names scalars {sorted(self.state.scalars)} or 'speed', got {k!r}")
+                raise InvalidInput(f"FluidScene.simulate: keep must name scalars among {sorted(self.state.scalars)} "
+                                   f"or 'speed', got {k!r}")
         diag = {k: [v] for k, v in self.measure().items()}
         diag["step_time"] = [0.0]
         ts, frames, ftimes = [self.state.t], {k: [] for k in keep}, []

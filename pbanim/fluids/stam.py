@@ -47,23 +47,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import (
-    InvalidInput,
-    SimulationDiverged,
-    check_count,
-    check_number,
-    check_positive,
-)
+from ..contracts import Choice, Flag, Int, Obj, Opt, Real, Seq, contract
+from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged
 from ..ode.driver import MAX_STEPS, step_grid
 from .collocated import _shifted, collocated_divergence, project_collocated
-from .diffusion import diffuse_scalar
-from .grid import Grid, check_field
+from .diffusion import diffuse_scalar, diffusion_coefficient
+from .grid import Grid
 from .interpolate import _sample, pad_field
-from .poisson import POISSON_METHODS, SolveInfo, _cg, relax
+from .poisson import POISSON_METHODS, SolveInfo, _cg, check_method_fits, relax
+from .scene import check_fields
+from .specs import MAX_ITER, MAX_SWEEPS, Cells, Named, Velocity, finite_fields, quiet
 
 __all__ = ["STAM_DIFFUSION", "StamResult", "StamSolver", "advect_collocated"]
 
 STAM_DIFFUSION = ("gauss_seidel", "jacobi", "cg", "fft")
+
+_GRID = Obj(Grid)
+_CELLS_U = Velocity(at="cells")
+_H = Real(gt=0)
 
 
 class _MirroredOperator:
@@ -91,7 +92,7 @@ def _diffuse_component(grid, c, i, nu, h, method, iterations, tol, max_iter):
     """(I − νΔt ∇²) c¹ = c for velocity component i with Stam's mirrors; returns (c¹, SolveInfo)."""
     if grid.periodic[i]:                                     # same operator as a scalar's: reuse it
         return diffuse_scalar(grid, c, nu, h, method, iterations=iterations, tol=tol, max_iter=max_iter)
-    A = _MirroredOperator(grid, i, nu * h)
+    A = _MirroredOperator(grid, i, diffusion_coefficient(grid, nu, h, "viscosity"))
     if method == "cg":
         x, its = _cg(A, c, c.copy(), tol, max_iter, lambda v: v / A.diag, "stam diffusion cg")
     else:
@@ -109,22 +110,22 @@ def _padded(grid, q, component):
     return P
 
 
+@contract(grid=_GRID, fields=Seq(Cells()), components=Seq(Opt(Int(ge=0, le=2))), u=_CELLS_U, h=_H,
+          returns=finite_fields)
+@quiet
 def advect_collocated(grid, fields: list, components: list, u: list, h: float) -> list:
     """Stam's ``advect``: each cell field q ← q(x − Δt u(x)), linear, u the cell-centred velocity.
 
     ``components[j]`` is the velocity axis of ``fields[j]`` (its normal ghosts are odd at walls) or None for
     a scalar. Departure points outside a wall box are clipped to the wall.
     """
-    h = check_positive("h", h)
-    if not isinstance(u, (list, tuple)) or len(u) != grid.dim:
-        raise InvalidInput(f"u must be a list of {grid.dim} cell arrays, got {type(u).__name__}")
-    u = [check_field(f"u[{i}]", c, grid.shape) for i, c in enumerate(u)]
-    if not isinstance(fields, (list, tuple)) or len(fields) != len(components):
-        raise InvalidInput(f"fields and components must be lists of one length, got {fields!r:.40} and {components!r}")
+    if len(fields) != len(components):
+        raise InvalidInput(f"advect_collocated: components must have one entry per field ({len(fields)}), got "
+                           f"{components!r}")
     for j, comp in enumerate(components):
-        if comp is not None and comp not in range(grid.dim):
-            raise InvalidInput(f"components[{j}] must be None or an axis 0..{grid.dim - 1}, got {comp!r}")
-    fields = [check_field(f"fields[{j}]", q, grid.shape) for j, q in enumerate(fields)]
+        if comp is not None and comp >= grid.dim:
+            raise InvalidInput(f"advect_collocated: components[{j}] must be None or an axis in 0 … {grid.dim - 1}, "
+                               f"got {comp!r}")
     return _advect(grid, fields, components, u, h)
 
 
@@ -164,51 +165,39 @@ class StamSolver:
     self_advect : False drops the velocity's advection stage (Stokes flow; the scalars are still carried)
     """
 
+    @contract(grid=_GRID, u=Opt(_CELLS_U), scalars=Opt(Named(Cells())), viscosity=Real(ge=0),
+              diffusivity=Opt(Named(Real(ge=0))), sources=Opt(Named(Cells())), forces=Opt(_CELLS_U),
+              diffusion=Choice(STAM_DIFFUSION), projection=Opt(Choice(POISSON_METHODS)),
+              iterations=Int(ge=0, le=MAX_SWEEPS), tol=Real(gt=0, le=1), max_iter=Opt(Int(ge=1, le=MAX_ITER)),
+              pre_project=Flag(), self_advect=Flag(), density=Real(gt=0))
     def __init__(self, grid, u=None, scalars=None, *, viscosity: float = 0.0, diffusivity=None, sources=None,
                  forces=None, diffusion: str = "gauss_seidel", projection: str | None = "gauss_seidel",
                  iterations: int = 20, tol: float = 1e-10, max_iter: int | None = None,
                  pre_project: bool = False, self_advect: bool = True, density: float = 1.0) -> None:
-        if not isinstance(grid, Grid):
-            raise InvalidInput(f"grid must be a pbanim.fluids.Grid, got {type(grid).__name__}")
+        where = "StamSolver"
         if grid.has_obstacles or grid.lids:
-            raise InvalidInput("StamSolver runs on a plain box: the grid must have no obstacles and no sliding lids")
-        self.grid, self.density = grid, check_positive("density", density)
-        self.u = self._cells("u", u if u is not None else [np.zeros(grid.shape)] * grid.dim)
-        self.scalars = {}
-        for k, v in dict(scalars or {}).items():
-            if not isinstance(k, str) or not k:
-                raise InvalidInput(f"scalars keys must be non-empty names, got {k!r}")
-            self.scalars[k] = check_field(f"scalars[{k!r}]", v, grid.shape)
-        self.nu = check_number("viscosity", viscosity, low=0.0)
-        self.kappa = {}
-        for k, v in dict(diffusivity or {}).items():
-            if k not in self.scalars:
-                raise InvalidInput(f"diffusivity names scalars {sorted(self.scalars)}, got {k!r}")
-            self.kappa[k] = check_number(f"diffusivity[{k!r}]", v, low=0.0)
-        self.sources = {}
-        for k, v in dict(sources or {}).items():
-            if k not in self.scalars:
-                raise InvalidInput(f"sources names scalars {sorted(self.scalars)}, got {k!r}")
-            self.sources[k] = check_field(f"sources[{k!r}]", v, grid.shape)
-        self.forces = None if forces is None else self._cells("forces", forces)
-        if diffusion not in STAM_DIFFUSION:
-            raise InvalidInput(f"diffusion must be one of {STAM_DIFFUSION}, got {diffusion!r}")
+            raise InvalidInput(f"{where}: grid must be a plain box (no obstacles, no sliding lids), got {grid!r}")
+        self.grid, self.density = grid, float(density)
+        self.u = [np.array(c, dtype=float) for c in (u if u is not None else [np.zeros(grid.shape)] * grid.dim)]
+        self.scalars = {k: np.array(v, dtype=float) for k, v in (scalars or {}).items()}
+        self.nu = float(viscosity)
+        for what, named in (("diffusivity", diffusivity), ("sources", sources)):
+            unknown = sorted(set(named or {}) - set(self.scalars))
+            if unknown:
+                raise InvalidInput(f"{where}: {what} must name scalars among {sorted(self.scalars)}, got {unknown}")
+        self.kappa = {k: float(v) for k, v in (diffusivity or {}).items()}
+        self.sources = {k: np.array(v, dtype=float) for k, v in (sources or {}).items()}
+        self.forces = None if forces is None else [np.array(c, dtype=float) for c in forces]
         if diffusion == "fft" and not all(grid.periodic):
-            raise InvalidInput(f"diffusion 'fft' needs a periodic box; boundary {grid.boundary} (use 'cg')")
-        if projection is not None and projection not in POISSON_METHODS:
-            raise InvalidInput(f"projection must be None or one of {POISSON_METHODS}, got {projection!r}")
+            raise InvalidInput(f"{where}: diffusion 'fft' needs a periodic box, the grid has boundary {grid.boundary} "
+                               "(use 'cg')")
+        if projection is not None:
+            check_method_fits(grid, projection, where, "projection")
         self.diffusion, self.projection = diffusion, projection
-        self.iterations = check_count("iterations", iterations, minimum=0)
-        self.tol = check_number("tol", tol, low=0.0, high=1.0, low_open=True)
-        self.max_iter = 20 * max(grid.shape) + 100 if max_iter is None else check_count("max_iter", max_iter)
+        self.iterations, self.tol = int(iterations), float(tol)
+        self.max_iter = 20 * max(grid.shape) + 100 if max_iter is None else int(max_iter)
         self.pre_project, self.self_advect = bool(pre_project), bool(self_advect)
         self.t, self.nsteps, self.info = 0.0, 0, {}
-
-    def _cells(self, name, u) -> list:
-        if not isinstance(u, (list, tuple)) or len(u) != self.grid.dim:
-            raise InvalidInput(f"{name} must be a list of {self.grid.dim} cell arrays (one per component), "
-                               f"got {type(u).__name__}")
-        return [check_field(f"{name}[{i}]", c, self.grid.shape) for i, c in enumerate(u)]
 
     @property
     def pipeline(self) -> tuple:
@@ -223,9 +212,7 @@ class StamSolver:
         return tuple(vel + sc)
 
     def _check_finite(self) -> None:
-        for i, c in enumerate(self.u):
-            if not np.isfinite(c).all():
-                raise SimulationDiverged(self.t, self.nsteps, f"velocity component {i}")
+        check_fields(self.t, self.nsteps, self.u, {})
 
     def _project(self):
         self._check_finite()                  # the solvers refuse non-finite input: report it by name first
@@ -233,9 +220,20 @@ class StamSolver:
         self.u, info = project_collocated(self.grid, self.u, self.projection, "compact", **opts)
         self.info["projection_residual"] = info.residual
 
+    @contract(h=_H)
     def step(self, h: float) -> None:
-        """One step of Stam's ``vel_step`` then ``dens_step`` (in place)."""
-        h = check_positive("h", h)
+        """One step of Stam's ``vel_step`` then ``dens_step`` (in place); a field that stops being finite, or
+        an overflow on the way, is :class:`~pbanim.errors.SimulationDiverged`."""
+        try:
+            self._step(h)
+        except NonFiniteResult as exc:                # the field that overflowed first, else what a stage met
+            check_fields(self.t, self.nsteps, self.u, self.scalars, "before the step ended")
+            raise SimulationDiverged(self.t, self.nsteps, exc.what) from exc
+        check_fields(self.t, self.nsteps, self.u, self.scalars)
+        self.t += h
+        self.nsteps += 1
+
+    def _step(self, h: float) -> None:
         g = self.grid
         with np.errstate(over="ignore", invalid="ignore"):      # an overflow is reported below, by name
             if self.forces is not None:
@@ -258,13 +256,8 @@ class StamSolver:
                     s, _ = diffuse_scalar(g, s, self.kappa[k], h, self.diffusion, iterations=self.iterations,
                                           tol=self.tol, max_iter=self.max_iter)
                 self.scalars[k] = _advect(g, [s], [None], self.u, h)[0]
-        self._check_finite()
-        for k, v in self.scalars.items():
-            if not np.isfinite(v).all():
-                raise SimulationDiverged(self.t, self.nsteps, f"scalar {k!r}")
-        self.t += h
-        self.nsteps += 1
 
+    @quiet
     def measure(self) -> dict:
         """Kinetic energy ½ρ Σ|u|²Δx^d, max |D_c u|, and ∫ s dV of each scalar."""
         g = self.grid
@@ -273,9 +266,11 @@ class StamSolver:
         out.update({f"total_{k}": g.total(v) for k, v in self.scalars.items()})
         return out
 
+    @contract(t_end=Real(), h=_H, max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, *, max_steps: int = MAX_STEPS) -> StamResult:
-        """Step to ``t_end`` by the one step rule (:func:`pbanim.ode.driver.step_grid`), recording every step."""
-        sg = step_grid(self.t, check_number("t_end", t_end), h, max_steps=max_steps)
+        """Step to ``t_end`` by the one step rule (:func:`pbanim.ode.driver.step_grid`), recording every step
+        (at most ``max_steps`` steps: :class:`~pbanim.errors.StepLimitExceeded` before the first one)."""
+        sg = step_grid(self.t, t_end, h, max_steps=max_steps)
         diag = {k: [v] for k, v in self.measure().items()}
         ts = [self.t]
         for k in range(sg.n_steps):
