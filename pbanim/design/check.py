@@ -27,43 +27,44 @@ from __future__ import annotations
 import numpy as np
 
 from ..derivatives import central_jacobian
-from ..errors import InvalidInput, check_number
+from ..contracts import Array, Flag, Obj, Opt, Real, Seq, contract
+from ..errors import InvalidInput
 from ..rigid import quat_conjugate, quat_multiply
+from .scene import DesignScene
 from .simulate import quat_log, simulate
+from .specs import OutputTriples, ParameterNames, Quaternion, u_size
+from .trajectory import Trajectory
 
 __all__ = ["output_vector", "analytic_jacobian", "fd_jacobian"]
 
 
-def _outputs(outputs):
-    out = []
-    for o in outputs:
-        if len(o) != 3 or o[2] not in ("position", "orientation"):
-            raise InvalidInput(f"outputs must be (body, time, 'position' | 'orientation') triples, got {o!r}")
-        out.append((int(o[0]), float(o[1]), o[2]))
-    if not out:
-        raise InvalidInput("outputs must name at least one (body, time, kind)")
-    return out
-
-
+@contract(tr=Obj(Trajectory), outputs=OutputTriples("tr"), reference=Opt(Seq(Opt(Quaternion()))))
 def output_vector(tr, outputs, reference=None) -> np.ndarray:
-    """Stack of positions and orientation rotation vectors (relative to ``reference`` quaternions)."""
+    """Stack of positions and orientation rotation vectors (relative to ``reference`` quaternions: one per
+    output, None where the output is a position)."""
+    if reference is not None and len(reference) != len(outputs):
+        raise InvalidInput(f"output_vector: reference must hold one quaternion (or None) per output, "
+                           f"{len(outputs)}, got {len(reference)}")
     vals = []
     for k, (i, t, kind) in enumerate(outputs):
         if kind == "position":
             vals.append(tr.position(i, t))
         else:
             q = tr.orientation(i, t)
-            ref = q if reference is None else reference[k]
+            ref = q if reference is None or reference[k] is None else reference[k]
             vals.append(quat_log(quat_multiply(q, quat_conjugate(ref))))
     return np.concatenate(vals)
 
 
+@contract(tr=Obj(Trajectory), outputs=OutputTriples("tr"))
 def analytic_jacobian(tr, outputs) -> np.ndarray:
     """∂(stacked outputs)/∂u from a trajectory simulated with sensitivities, (3·len(outputs), p)."""
-    rows = [tr.d_position(i, t) if kind == "position" else tr.d_orientation(i, t) for i, t, kind in _outputs(outputs)]
+    rows = [tr.d_position(i, t) if kind == "position" else tr.d_orientation(i, t) for i, t, kind in outputs]
     return np.vstack(rows)
 
 
+@contract(scene=Obj(DesignScene), names=ParameterNames("scene"), u=Opt(Array((u_size(),))), t_end=Real(),
+          outputs=OutputTriples("scene"), delta=Real(gt=0), richardson=Flag(), h=Real(gt=0), relative=Flag())
 def fd_jacobian(scene, names, u, t_end, outputs, *, delta: float = 1e-4, richardson: bool = True,
                 h: float = 0.005, relative: bool = True) -> np.ndarray:
     """∂(outputs)/∂u by centred differences of S (plain, or Richardson-extrapolated), (3·len(outputs), p).
@@ -71,8 +72,6 @@ def fd_jacobian(scene, names, u, t_end, outputs, *, delta: float = 1e-4, richard
     ``delta`` is the step (times max(1, |u_k|) when ``relative``). Every perturbed run must have the same
     number of impacts as the nominal one.
     """
-    outputs = _outputs(outputs)
-    delta = check_number("delta", delta, low=0.0, low_open=True)
     u = np.asarray(scene.vector(names) if u is None else u, dtype=float)
     times = sorted({t for _, t, _ in outputs if t < t_end})
     base = simulate(scene, t_end, names, u, times=times, h=h, sensitivities=False, warn=False)

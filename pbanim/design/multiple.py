@@ -40,16 +40,23 @@ import dataclasses
 
 import numpy as np
 
-from ..errors import InvalidInput, as_floats, check_count, check_number
+from ..contracts import Array, Flag, Int, Obj, Opt, Real, Seq, contract
+from ..errors import InvalidInput, check_result
 from ..rigid import quat_conjugate, quat_exp, quat_multiply, quat_to_matrix
-from .control import _check_goals
+from .control import _GOALS, _check_goals
 from .scene import left_jacobian
-from .shooting import ShootingResult, _goal_rows, _single_body, _sketch, _slsqp, clearance, record_step, state_names
+from .shooting import (_SCENE, _SHOOT, ShootingResult, _goal_rows, _single_body, _sketch, _slsqp, clearance, record_step,
+                       state_names)
+from .specs import SketchPoints
 from .simulate import quat_log, simulate
 
 __all__ = ["multiple_shooting", "sketch_impacts", "nodes_from_sketch", "states_from_sketch", "refine_states"]
 
 
+_TIMES = Array((None,))
+
+
+@contract(scene=_SCENE, sketch=SketchPoints())
 def sketch_impacts(scene, sketch) -> np.ndarray:
     """Times of the impacts a sketch shows: its points of locally least clearance against the planes."""
     pts = sorted(_sketch(sketch, -np.inf, np.inf), key=lambda p: p[0])
@@ -60,6 +67,7 @@ def sketch_impacts(scene, sketch) -> np.ndarray:
     return ts[[i for i in range(1, len(pts) - 1) if gap[i] < gap[i - 1] and gap[i] <= gap[i + 1]]]
 
 
+@contract(scene=_SCENE, sketch=SketchPoints(), t_end=Real(gt=0))
 def nodes_from_sketch(scene, sketch, t_end: float) -> np.ndarray:
     """Node times: 0 and the midpoints between successive impacts the sketch shows (:func:`sketch_impacts`)."""
     _sketch(sketch, 0.0, t_end)
@@ -67,19 +75,21 @@ def nodes_from_sketch(scene, sketch, t_end: float) -> np.ndarray:
     return np.concatenate([[0.0], 0.5 * (hits[:-1] + hits[1:])])
 
 
+@contract(scene=_SCENE, sketch=SketchPoints(), node_times=_TIMES, window=Real(gt=0),
+          impacts=Opt(Array((None,), empty=True)))
 def states_from_sketch(scene, sketch, node_times, window: float, impacts=None):
     """(x, v) at each node time: least-squares fit of x(t) = x_k + v_k (t − t_k) + ½ g (t − t_k)² (gravity
     known) to the sketch points within ``window`` of t_k that lie in the same flight (strictly between the
     sketch's impacts around t_k, default :func:`sketch_impacts`); the two nearest points if fewer."""
     pts = _sketch(sketch, -np.inf, np.inf)
-    window = check_number("window", window, low=0.0, low_open=True)
+    window = float(window)
     ts, X = np.array([t for t, _ in pts]), np.array([x for _, x in pts])
     if len(ts) < 2:
         raise InvalidInput(f"need at least 2 sketch points to fit node states, got {len(ts)}")
     hits = (sketch_impacts(scene, pts) if len(ts) >= 3 else np.zeros(0)) if impacts is None else \
-        as_floats("impacts", impacts, ndmin=1).reshape(-1)
+        np.asarray(impacts, dtype=float).reshape(-1)
     out = []
-    for tk in as_floats("node_times", node_times, ndmin=1).reshape(-1):
+    for tk in np.asarray(node_times, dtype=float).reshape(-1):
         lo = hits[hits <= tk].max(initial=-np.inf)
         hi = hits[hits > tk].min(initial=np.inf)
         near = np.flatnonzero((np.abs(ts - tk) <= window) & (ts > lo) & (ts < hi))
@@ -89,11 +99,18 @@ def states_from_sketch(scene, sketch, node_times, window: float, impacts=None):
             near = pool[np.argsort(np.abs(ts[pool] - tk))[:2]]
         dt = ts[near] - tk
         A = np.stack([np.ones_like(dt), dt], axis=1)
-        coef = np.linalg.lstsq(A, X[near] - 0.5 * dt[:, None] ** 2 * scene.gravity, rcond=None)[0]
-        out.append((coef[0], coef[1]))
+        with np.errstate(all="ignore"):
+            try:
+                coef = np.linalg.lstsq(A, X[near] - 0.5 * dt[:, None] ** 2 * scene.gravity, rcond=None)[0]
+            except np.linalg.LinAlgError:
+                coef = np.full((2, 3), np.nan)          # named just below
+        out.append(tuple(check_result(f"states_from_sketch: the fit at node time {tk:g}", coef[:2], "the node lies "
+                                      "too far from the sketch for double precision")))
     return out
 
 
+@contract(scene=_SCENE, sketch=SketchPoints(), node_times=_TIMES, states=Seq(Seq(Array((3,)), min_len=2, max_len=2)),
+          t_end=Real(gt=0), h=Real(gt=0), max_nfev=Int(ge=1, le=10_000))
 def refine_states(scene, sketch, node_times, states, t_end: float, *, h: float = 0.005, max_nfev: int = 20):
     """Each node's (x, v) refit by simulation: least squares (scipy ``least_squares``, analytic Jacobian)
     of the run from t_k over the sketch points up to the node after next, so the fit sees the impacts
@@ -101,7 +118,7 @@ def refine_states(scene, sketch, node_times, states, t_end: float, *, h: float =
     from scipy.optimize import least_squares
 
     pts = _sketch(sketch, 0.0, t_end)
-    nt = np.append(as_floats("node_times", node_times, ndmin=1).reshape(-1), t_end)
+    nt = np.append(np.asarray(node_times, dtype=float).reshape(-1), t_end)
     out = []
     for k, (x, v) in enumerate(states):
         a, b = nt[k], nt[min(k + 2, len(nt) - 1)]
@@ -209,6 +226,10 @@ def _unknowns(states, d):
     return np.concatenate(z), refs
 
 
+@contract(scene=_SCENE, goals=_GOALS, t_end=Real(gt=0), node_times=Opt(_TIMES),
+          initial_states=Opt(Seq(Seq(Array((None,)), min_len=2, max_len=4), min_len=1)), u0=Opt(Array((None,))),
+          sketch=Opt(SketchPoints()), nodes=Int(ge=1, le=1000), slide=Flag(), max_slides=Int(ge=0, le=100),
+          window=Real(gt=0), **_SHOOT)
 def multiple_shooting(scene, goals, t_end, *, node_times=None, initial_states=None, u0=None, sketch=None,
                       nodes: int = 4, h: float = 0.005, maxiter: int = 100, tol: float = 1e-6, ftol: float = 1e-10,
                       margin: float = 1e-4, slide: bool = True, max_slides: int = 3, window: float = 0.15):
@@ -222,16 +243,13 @@ def multiple_shooting(scene, goals, t_end, *, node_times=None, initial_states=No
     _single_body(scene)
     goals = _check_goals(scene, goals, 0.0, t_end)
     pts = _sketch(sketch, 0.0, t_end)
-    tol = check_number("tol", tol, low=0.0, low_open=True)
-    max_slides = check_count("max_slides", max_slides, minimum=0)
-    margin = check_number("margin", margin, low=0.0)
     names = state_names(scene, goals)
     d = 6 if len(names) == 2 else 12
     times = sorted({g.time for g in goals} | {t for t, _ in pts})
     if node_times is None:
         node_times = nodes_from_sketch(scene, pts, t_end) if pts and initial_states is None else \
-            np.linspace(0.0, t_end, check_count("nodes", nodes) + 1)[:-1]
-    node_times = as_floats("node_times", node_times, ndmin=1).reshape(-1)
+            np.linspace(0.0, t_end, int(nodes) + 1)[:-1]
+    node_times = np.asarray(node_times, dtype=float).reshape(-1)
     if node_times[0] != 0.0 or np.any(np.diff(node_times) <= 0) or node_times[-1] >= t_end:
         raise InvalidInput(f"node_times must start at 0 and increase below t_end = {t_end}, got {node_times}")
     if initial_states is None:

@@ -49,13 +49,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..collision import Sphere
-from ..errors import InvalidInput, check_count, check_number
+from ..contracts import Array, Func, Int, Obj, Opt, Real, Seq, contract, finite_result
+from ..errors import InvalidInput
 from ..rigid import quat_conjugate, quat_exp, quat_multiply, quat_to_matrix
-from .control import _check_goals
+from .control import _GOALS, Goal, _check_goals
 from .exact import exact_applies
 from .impact import Features
-from .scene import left_jacobian
+from .scene import DesignScene, left_jacobian
 from .simulate import quat_log, simulate
+from .specs import ParameterNames, Quaternion, SketchPoints
 
 __all__ = ["ShootingResult", "single_shooting", "sketch_objective", "state_names", "clearance", "record_step"]
 
@@ -88,6 +90,10 @@ class ShootingResult:
     impacts: int = 0
 
 
+_SCENE = Obj(DesignScene)
+
+
+@contract(points=SketchPoints(), tr_pos=Func())
 def sketch_objective(points, tr_pos):
     """E = ½ Σ |x(t_j) − x̄_j|² for sketch points [(t_j, x̄_j)] and positions tr_pos(t)."""
     return 0.5 * sum(float(np.sum((tr_pos(t) - x) ** 2)) for t, x in points)
@@ -111,6 +117,7 @@ def _single_body(scene):
         raise InvalidInput(f"shooting here designs one body's motion; the scene has {scene.N} bodies")
 
 
+@contract(scene=_SCENE, goals=Seq(Obj(Goal)))
 def state_names(scene, goals=()) -> list[str]:
     """The node state's parameter names: ``["x0", "v0"]`` for an isotropic sphere without orientation
     goals (its rotation is invisible to the problem), else ``["x0", "theta0", "v0", "omega0"]``."""
@@ -119,9 +126,16 @@ def state_names(scene, goals=()) -> list[str]:
     return TRANSLATION if iso and not any(g.kind == "orientation" for g in goals) else FULL
 
 
+@contract(scene=_SCENE, x=Array((3,)), theta=Opt(Array((3,))), ref=Opt(Quaternion()), margin=Real(ge=0),
+          returns=finite_result)
 def clearance(scene, x, theta=None, ref=None, margin: float = 0.0):
     """(gap − margin (F,), ∂/∂x (F, 3), ∂/∂θ (F, 3)): every feature of body 0 against every plane, at
     position x and orientation exp(½θ) ⊗ ref (θ = 0, ref = the body's when not given)."""
+    with np.errstate(all="ignore"):        # an overflow (|θ| ≈ 1e300) is named by the result's certificate
+        return _clearance(scene, x, theta, ref, margin)
+
+
+def _clearance(scene, x, theta, ref, margin):
     feat = Features(scene)
     b = scene.bodies[0]
     th = np.zeros(3) if theta is None else np.asarray(theta, float)
@@ -134,6 +148,7 @@ def clearance(scene, x, theta=None, ref=None, margin: float = 0.0):
     return g, n, np.cross(s_w, n) @ left_jacobian(th)
 
 
+@contract(scene=_SCENE, names=ParameterNames("scene", empty=True), h=Real(gt=0), span=Real(gt=0))
 def record_step(scene, names, h: float, span: float) -> float:
     """The grid step for runs whose recorded states nobody reads: the whole span when the flight is exact
     (the grid then only sets where states are recorded), else ``h`` (the RK4 step, which sets the accuracy)."""
@@ -160,10 +175,14 @@ def _slsqp(fun, jac, eq, eq_jac, ineq, ineq_jac, x0, maxiter, ftol, hist, objs):
         objs.append(float(fun(z)))
 
     return minimize(fun, x0, jac=jac, method="SLSQP", constraints=cons, callback=cb,
-                    options={"maxiter": check_count("maxiter", maxiter),
-                             "ftol": check_number("ftol", ftol, low=0.0, low_open=True)})
+                    options={"maxiter": int(maxiter), "ftol": float(ftol)})
 
 
+_SHOOT = dict(h=Real(gt=0), maxiter=Int(ge=1, le=100_000), tol=Real(gt=0), ftol=Real(gt=0), margin=Real(ge=0))
+
+
+@contract(scene=_SCENE, u0=Opt(Array((None,))), goals=_GOALS, t_end=Real(gt=0), names=Opt(ParameterNames("scene")),
+          sketch=Opt(SketchPoints()), **_SHOOT)
 def single_shooting(scene, u0, goals, t_end, *, names=None, sketch=None, h: float = 0.005, maxiter: int = 100,
                     tol: float = 1e-6, ftol: float = 1e-10, margin: float = 1e-4) -> ShootingResult:
     """Optimize u (default the body's initial state, :func:`state_names`; any parameter ``names``) so that
@@ -171,12 +190,13 @@ def single_shooting(scene, u0, goals, t_end, *, names=None, sketch=None, h: floa
     _single_body(scene)
     goals = _check_goals(scene, goals, 0.0, t_end)
     pts = _sketch(sketch, 0.0, t_end)
-    tol = check_number("tol", tol, low=0.0, low_open=True)
-    margin = check_number("margin", margin, low=0.0)
     names = scene.check_names(state_names(scene, goals) if names is None else names)
     sl = scene.slices(names)
     u0 = np.asarray(scene.vector(names) if u0 is None else u0, dtype=float).reshape(-1)
-    scene.values(names, u0)                                     # checks size and finiteness
+    if u0.size != sum(scene.size(k) for k in names):
+        raise InvalidInput(f"single_shooting: u0 must hold {sum(scene.size(k) for k in names)} numbers for {names}, "
+                           f"got {u0.size}")
+    scene.values(names, u0)                                     # masses, moments, ε in range
     times = sorted({g.time for g in goals} | {t for t, _ in pts})
     cache, hist, objs, count = {}, [], [], [0]
     hh = record_step(scene, names, h, t_end)

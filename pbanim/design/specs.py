@@ -1,16 +1,20 @@
 """What the arguments of chapter 10's callables must be, beyond the shared vocabulary (:mod:`pbanim.contracts`).
 
-Three specs that :mod:`pbanim.contracts.specs` cannot say with its own words:
+Specs that :mod:`pbanim.contracts.specs` cannot say with its own words:
 
 * :class:`ParameterNames` — names of the parameter vector u of a design scene (``x0``, ``theta1``,
   ``restitution``, ``normal0``, ...: the scene's own list, which depends on the scene), distinct, at least
   one (a single string stands for a list of one); refused with :class:`~pbanim.design.UnknownParameter`;
 * :class:`Quaternion` — a non-zero quaternion (w, x, y, z) (normalized by the callee, so any length but 0);
 * :class:`DesignState` — a design state y = [x, q, P, L] (13N,) of a flight model, finite, with non-zero
-  quaternions (q/|q| is the orientation; q = 0 has none).
+  quaternions (q/|q| is the orientation; q = 0 has none);
+* :class:`UnitRows` — plane normals n, rows of length 1;
+* :class:`SketchPoints` — a motion sketch [(t, x̄), ...];
+* :class:`OutputTriples` — outputs [(body, t, "position" | "orientation"), ...] of a trajectory.
 
 The contract machinery knows that a spec reads another argument when it has a ``size`` given as a reference
-(:func:`pbanim.contracts.declare._refs`); :class:`ParameterNames` keeps the reference to its scene there.
+(:func:`pbanim.contracts.declare._refs`); :class:`ParameterNames` and :class:`OutputTriples` keep the
+reference to their scene or trajectory there.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import numpy as np
 from ..contracts import Array, Spec
 from ..contracts.specs import short
 
-__all__ = ["ParameterNames", "Quaternion", "DesignState", "UnitRows", "u_size"]
+__all__ = ["ParameterNames", "Quaternion", "DesignState", "UnitRows", "SketchPoints", "OutputTriples", "u_size"]
 
 
 class ParameterNames(Spec):
@@ -167,3 +171,72 @@ class UnitRows(Array):
 
     def edges(self, env):
         return [e for e in super().edges(env) if e[0] not in ("zeros", "1e300 entries")]
+
+
+class SketchPoints(Spec):
+    """A motion sketch: a list of (time, 3-vector) pairs, finite (returned as [(float, array(3))]); the span
+    the times must lie in is the callee's to check (it depends on other arguments)."""
+
+    def __init__(self, *, min_len: int = 0) -> None:
+        self.min_len = min_len
+
+    def describe(self) -> str:
+        return "a list of (time, 3 finite numbers) sketch points" + (f", at least {self.min_len}" if self.min_len
+                                                                     else "")
+
+    def check(self, name, value, env):
+        if not isinstance(value, (list, tuple)) or len(value) < self.min_len:
+            raise env.fail(name, self.describe(), value)
+        out = []
+        for k, item in enumerate(value):
+            try:
+                t, x = item
+                t, x = float(t), np.array(x, dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                raise env.fail(name, self.describe(), value, f"point {k} is not a (time, 3-vector) pair") from None
+            if x.shape != (3,) or not (np.isfinite(t) and np.all(np.isfinite(x))):
+                raise env.fail(name, self.describe(), value, f"point {k} is ({t}, {x})")
+            out.append((t, x))
+        return out
+
+    def example(self, env):
+        return [(0.1 * k, np.array([0.1 * k, 0.0, 1.0])) for k in range(max(3, self.min_len))]
+
+    def bad(self, env):
+        return [("None", None), ("a string", "x"), ("a point of 2 numbers", [(0.1, [1.0, 2.0])]),
+                ("a NaN time", [(np.nan, [0.0, 0.0, 1.0])])]
+
+
+class OutputTriples(Spec):
+    """Outputs of a trajectory: a non-empty list of (body, time, "position" | "orientation") triples, the body
+    an index into ``owner``'s bodies (a reference: a Trajectory or a DesignScene, both have ``N``)."""
+
+    def __init__(self, owner: str) -> None:
+        self.size = "$" + owner + ".N"
+
+    def describe(self) -> str:
+        return "a non-empty list of (body index, time, 'position' | 'orientation') triples"
+
+    def check(self, name, value, env):
+        n = int(env.resolve(self.size))
+        if not isinstance(value, (list, tuple)) or not value:
+            raise env.fail(name, self.describe(), value)
+        out = []
+        for k, item in enumerate(value):
+            ok = isinstance(item, (list, tuple)) and len(item) == 3
+            if ok:
+                i, t, kind = item
+                ok = (isinstance(i, (int, np.integer)) and not isinstance(i, bool) and 0 <= i < n
+                      and isinstance(t, (int, float, np.floating, np.integer)) and np.isfinite(t)
+                      and kind in ("position", "orientation"))
+            if not ok:
+                raise env.fail(name, self.describe(), value, f"item {k} is {item!r} (bodies 0 … {n - 1})")
+            out.append((int(i), float(t), kind))
+        return out
+
+    def example(self, env):
+        return [(0, 0.5, "position")]
+
+    def bad(self, env):
+        return [("None", None), ("empty", []), ("an unknown kind", [(0, 0.5, "velocity")]),
+                ("a body past the end", [(int(env.resolve(self.size)), 0.5, "position")])]

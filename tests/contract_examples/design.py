@@ -63,3 +63,35 @@ EXEMPT = {
 }
 
 ENFORCED = ("pbanim.design.",)
+
+
+# -- the functions of pbanim.design's modules outside the package's __all__ (control, check, shooting,
+# multiple): contracts too, fuzzed by hand with these (they are not on the enumerated surface)
+def _goal():
+    from pbanim.design.control import position_goal
+
+    return [position_goal(0, 0.6, [0.3, 0.0, 0.5])]
+
+
+_SKETCH = [(0.1 * k, np.array([0.05 * k, 0.0, 1.1 - 5.0 * (0.1 * k) ** 2])) for k in range(1, 5)]
+
+CALLS.update({
+    "pbanim.design.control.goal_system": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1},
+    "pbanim.design.control.edit": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1,
+                                           "max_iter": 3},
+    "pbanim.design.control.drag": lambda: {"scene": _scene(), "time": 0.6, "t_end": 0.6, "h": 0.1, "frames": 2},
+    "pbanim.design.check.output_vector": lambda: {"outputs": [(0, 0.5, "position"), (0, 0.5, "orientation")]},
+    "pbanim.design.check.analytic_jacobian": lambda: {"outputs": [(0, 0.5, "position")]},
+    "pbanim.design.check.fd_jacobian": lambda: {"scene": _scene(), "t_end": 0.6, "h": 0.1,
+                                                "outputs": [(0, 0.6, "position")]},
+    "pbanim.design.shooting.sketch_objective": lambda: {"points": _SKETCH, "tr_pos": lambda t: np.zeros(3)},
+    "pbanim.design.shooting.single_shooting": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1,
+                                                       "maxiter": 5, "sketch": _SKETCH},
+    "pbanim.design.multiple.nodes_from_sketch": lambda: {"sketch": _SKETCH, "t_end": 0.6},
+    "pbanim.design.multiple.states_from_sketch": lambda: {"sketch": _SKETCH, "node_times": [0.0, 0.2]},
+    "pbanim.design.multiple.refine_states": lambda: {"sketch": _SKETCH, "node_times": [0.0], "t_end": 0.6,
+                                                     "states": [(np.array([0.0, 0.0, 1.1]), np.zeros(3))],
+                                                     "max_nfev": 3},
+    "pbanim.design.multiple.multiple_shooting": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1,
+                                                         "nodes": 2, "maxiter": 5, "max_slides": 1},
+})
