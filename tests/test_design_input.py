@@ -95,3 +95,21 @@ def test_min_norm_update_checks_its_shapes_and_metric():
         min_norm_update(np.eye(2), np.ones(3))
     with pytest.raises(SingularMetric, match="M must be symmetric"):
         min_norm_update(np.eye(2), np.ones(2), np.array([[1.0, 0.5], [0.0, 1.0]]))
+
+
+def test_shooting_helpers_name_what_they_cannot_compute():
+    # clearance returned NaN for θ = 1e300, states_from_sketch NaN for a node far from the sketch, and
+    # output_vector raised a bare IndexError for a reference list shorter than the outputs
+    from pbanim.design.check import output_vector
+    from pbanim.design.multiple import states_from_sketch
+    from pbanim.design.shooting import clearance
+
+    s = ball()
+    with pytest.raises(NonFiniteResult, match="clearance"):
+        clearance(s, [0.0, 0.0, 1.0], [1e300, 0.0, 0.0])
+    sketch = [(0.1 * k, [0.0, 0.0, 1.0 - 0.05 * k * k]) for k in range(5)]
+    with pytest.raises(NonFiniteResult, match="states_from_sketch"):
+        states_from_sketch(s, sketch, [1e300], 0.2)
+    tr = simulate(s, 0.5, ["x0"], times=[0.25])
+    with pytest.raises(InvalidInput, match="reference must hold one quaternion"):
+        output_vector(tr, [(0, 0.25, "orientation"), (0, 0.5, "orientation")], [[1.0, 0.0, 0.0, 0.0]])
