@@ -35,10 +35,10 @@ import abc
 
 import numpy as np
 
-from .contracts import Anything, Text, contract
+from .contracts import Anything, Spec, Text, contract
 from .errors import BodyProtocolError
 
-__all__ = ["Bodies", "BODY_MEMBERS", "require_bodies"]
+__all__ = ["Bodies", "BODY_MEMBERS", "require_bodies", "BodySystem"]
 
 #: The members of the body protocol (the names :class:`~pbanim.errors.BodyProtocolError` reports).
 BODY_MEMBERS = ("kind", "N", "dof", "generalized_velocity", "inverse_mass_blocks", "apply_inverse_mass",
@@ -93,3 +93,17 @@ def require_bodies(system, who: str) -> Bodies:
     have = set(dir(type(system))) | set(getattr(system, "__dict__", {}))
     missing = [m for m in BODY_MEMBERS if m not in have]
     raise BodyProtocolError(who, type(system).__name__, missing)
+
+
+class BodySystem(Spec):
+    """Contract spec: a system implementing the body protocol, checked by :func:`require_bodies` (so a refusal
+    is the :class:`~pbanim.errors.BodyProtocolError` that lists the missing members)."""
+
+    def describe(self) -> str:
+        return "a system implementing the body protocol (pbanim.bodies.Bodies)"
+
+    def check(self, name, value, env):
+        return require_bodies(value, env.where.split(".")[0])
+
+    def bad(self, env):
+        return [("None", None), ("a string", "x"), ("a number", 1.0)]

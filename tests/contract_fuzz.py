@@ -34,7 +34,9 @@ from hypothesis import strategies as st
 import surface
 from contract_examples import CALLS, RAISES, SELF, SKIP_EDGES, instance_of
 from pbanim.contracts import Anything, Either, Func, Has, Obj, Opt, PathLike, Real, Seq
+from pbanim.bodies import BodySystem
 from pbanim.contracts.specs import Env
+from pbanim.particles import ParticleSystem
 from pbanim.errors import PbanimError
 
 FACTOR = max(1, int(os.environ.get("PBANIM_FUZZ_FACTOR", "1")))
@@ -66,6 +68,11 @@ def example_for(spec, env):
         inst = instance_of(spec.classes())
         if inst is None:
             raise MissingExample(f"no INSTANCES factory for {spec.describe()}")
+        return inst
+    if isinstance(spec, BodySystem):        # the body protocol: the chapter 01 particles implement it
+        inst = instance_of([ParticleSystem])
+        if inst is None:
+            raise MissingExample("no INSTANCES factory for ParticleSystem")
         return inst
     if isinstance(spec, Opt):
         return example_for(spec.spec, env)

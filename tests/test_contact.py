@@ -217,7 +217,7 @@ def test_effect_rejects_bad_input():
         RestingContact(sc.detect, stabilization="projection")
     with pytest.raises(ValueError, match="stiffness must be a finite number >= 0, got -1.0"):
         RestingContact(sc.detect, stiffness=-1.0)
-    with pytest.raises(ValueError, match="bind: system must be a RigidBodies or a ParticleSystem, got <object"):
+    with pytest.raises(ValueError, match="RestingContact needs a system implementing the body protocol .*; object lacks kind, N, dof"):
         RestingContact(sc.detect).bind(object())
     with pytest.raises(ValueError, match="mass_ratio must be positive"):
         box_stack(3, -1.0)

@@ -34,7 +34,7 @@ from ..results import natural_map_residual
 __all__ = ["solve_lcp_small"]
 
 
-@contract(A=Array(("m", "m")), b=Array(("m",)), method=Choice(("lemke", "enumerate")), max_iter=Opt(Int(ge=1)),
+@contract(A=Array(("m", "m"), empty=True), b=Array(("m",), empty=True), method=Choice(("lemke", "enumerate")), max_iter=Opt(Int(ge=1)),
           tol=Real(gt=0, lt=1))
 def solve_lcp_small(A, b, method: str = "lemke", max_iter: int | None = None, tol: float = 1e-12):
     """Solve w = A f + b ≥ 0, f ≥ 0, fᵀw = 0 for a small dense A (collision impulses).

@@ -30,6 +30,7 @@ from .narrow import collide, sphere_plane, sphere_sphere
 from .shapes import Box, Capsule, Contacts, Plane, Sphere
 from .specs import Obstacle
 from ..bodies import require_bodies
+from ..bodies import BodySystem
 from ..contracts import Array, Choice, Either, Flag, Indices, Int, Obj, Opt, Real, Seq, contract
 from ..scene import Effect
 from ..errors import InvalidInput
@@ -118,8 +119,7 @@ class Collisions(Effect):
         self.last: ImpulseResult | None = None
 
     # -- binding ------------------------------------------------------------------------------------
-    @contract(system=Obj("pbanim.bodies:Bodies", what="a system with the body protocol (ParticleSystem, "
-                                                        "RigidBodies)"))
+    @contract(system=BodySystem())
     def bind(self, system) -> None:
         self.system = require_bodies(system, "Collisions")
         self.rigid = system.kind == "rigid"

@@ -30,8 +30,9 @@ from typing import Any, Callable
 import numpy as np
 
 from .assembly import assemble_particles, assemble_rigid
-from .specs import BODIES, check_contacts, state_of
+from .specs import check_contacts, state_of
 from ..bodies import require_bodies
+from ..bodies import BodySystem
 from ..contracts import Array, Choice, Flag, Func, Opt, Real, contract
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
 from ..lcp.specs import SolverOptions
@@ -112,7 +113,7 @@ class RestingContact(Effect):
         self.last_contacts = None
         self.solves = 0
 
-    @contract(system=BODIES)
+    @contract(system=BodySystem())           # a refusal lists the protocol members the system lacks
     def bind(self, system) -> None:
         kind = require_bodies(system, "RestingContact").kind
         if kind == "rigid":
