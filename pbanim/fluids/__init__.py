@@ -19,6 +19,8 @@ module              what it holds
                     Advection, Projection
 ``scene``           :class:`FluidScene`: the pipeline, ``step``, ``simulate`` with its diagnostics
 ``flows``           Taylor–Green, stream functions, the lid-driven cavity (Ghia's table), smoke
+``specs``           what the arguments must be (grid shapes, fields of a grid, velocities, states) and the
+                    certificate of the results (:func:`~pbanim.fluids.specs.finite_fields`)
 ==================  ==========================================================================
 
 ``import pbanim`` does not load this subpackage; scipy.fft and scipy.sparse load on first use.

@@ -91,13 +91,14 @@ def taylor_green(grid: Grid, amplitude: float = 1.0, mode: int = 1) -> list:
 @contract(e0=Real(ge=0), nu=Real(ge=0), k=Real(), t=Array(None, scalar=True, empty=True),
           returns=finite_result)
 def taylor_green_energy(e0: float, nu: float, k: float, t) -> np.ndarray:
-    """E(t) = E(0) e^(−4νk²t), the exact kinetic energy of the decaying vortex (an overflow, e.g. of k² or
-    of the growth backwards in time, is :class:`~pbanim.errors.NonFiniteResult`)."""
+    """E(t) = E(0) e^(−4νk²t), the exact kinetic energy of the decaying vortex: E(0) itself at t = 0 and 0 for
+    t > 0 when 4νk² overflows (its limit); an energy that overflows backwards in time (t < 0) is
+    :class:`~pbanim.errors.NonFiniteResult`."""
+    t = np.asarray(t, dtype=float)
     with np.errstate(over="ignore", invalid="ignore"):
-        rate = 4.0 * nu * k * k
-        if e0 == 0 or rate == 0:           # 0 · e^(...) and E(0) · e^0 without inf · 0
-            return np.full(np.shape(t), e0) if np.ndim(t) else e0
-        return e0 * np.exp(-rate * np.asarray(t, dtype=float))
+        exponent = np.where(t == 0, 0.0, -(4.0 * nu * k * k) * t)     # no ∞ · 0 at t = 0
+        out = np.zeros(t.shape) if e0 == 0 else e0 * np.exp(exponent)
+    return out if out.ndim else float(out)
 
 
 @contract(grid=_GRID, psi=Func(), returns=finite_fields)

@@ -51,6 +51,7 @@ from .specs import MAX_ITER, MAX_SWEEPS, Cells, finite_fields, quiet
 
 __all__ = ["POISSON_METHODS", "CellOperator", "SolveInfo", "relax", "solve_cells", "spectral_eigenvalues", "unit_scale"]
 
+_INF = float("inf")
 POISSON_METHODS = ("gauss_seidel", "jacobi", "cg", "pcg", "multigrid", "mgpcg", "fft", "dct", "spectral", "direct")
 
 
@@ -192,13 +193,13 @@ def _dot(a, b) -> float:
 
 
 def _norm(v) -> float:
-    """‖v‖₂, without overflow of the squares (scaled by max |v| when Σ v² is not finite)."""
-    with np.errstate(over="ignore"):
-        n = _dot(v, v) ** 0.5
-    if np.isfinite(n):
+    """‖v‖₂, without overflow of the squares (scaled by max |v| when Σ v² is not finite). Its callers run
+    under ``np.errstate(over="ignore")`` (:func:`~pbanim.fluids.specs.quiet`, or a step's)."""
+    n = _dot(v, v) ** 0.5
+    if n < _INF:
         return n
     m = float(np.abs(v).max())
-    return m * _dot(v / m, v / m) ** 0.5 if np.isfinite(m) and m > 0 else m
+    return m * _dot(v / m, v / m) ** 0.5 if 0 < m < _INF else m
 
 
 def unit_scale(*arrays) -> float:

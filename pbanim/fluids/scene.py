@@ -43,7 +43,7 @@ from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged
 from ..ode.driver import MAX_STEPS, step_grid
 from .effects import PHASES, FluidEffect
 from .grid import Grid
-from .specs import Cells, Named, Velocity, quiet
+from .specs import Cells, Named, Velocity
 
 __all__ = ["FluidResult", "FluidScene", "FluidState", "check_fields"]
 
@@ -148,14 +148,15 @@ class FluidScene:
         self.nsteps += 1
         return s
 
-    @quiet
     def measure(self) -> dict:
-        """Kinetic energy, largest divergence, the scalars' totals, and the stages' last measurements."""
+        """Kinetic energy, largest divergence, the scalars' totals (inf when they overflow), and the stages'
+        last measurements."""
         g, s = self.grid, self.state
-        div = g.divergence(s.u)
-        out = {"kinetic_energy": g.kinetic_energy(s.u, self.density),
-               "max_divergence": float(np.abs(div[g.fluid]).max())}
-        out.update({f"total_{k}": g.total(v) for k, v in s.scalars.items()})
+        with np.errstate(over="ignore", invalid="ignore"):
+            div = g.divergence(s.u)
+            out = {"kinetic_energy": g.kinetic_energy(s.u, self.density),
+                   "max_divergence": float(np.abs(div[g.fluid]).max())}
+            out.update({f"total_{k}": g.total(v) for k, v in s.scalars.items()})
         for e in self.stages:
             out.update(e.info)
         return out

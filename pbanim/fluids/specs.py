@@ -30,6 +30,8 @@ from __future__ import annotations
 import functools
 import math
 import numbers
+import os
+from sys import _getframe
 
 import numpy as np
 
@@ -39,6 +41,7 @@ from ..errors import NonFiniteResult
 __all__ = ["MAX_CELLS", "MAX_SWEEPS", "MAX_ITER", "GridShape", "Mask", "Cells", "Velocity", "Points", "Named",
            "StateOn", "Slots", "finite_fields", "quiet"]
 
+_PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
 MAX_CELLS = 1 << 22
 MAX_SWEEPS = 10_000
 MAX_ITER = 100_000
@@ -94,10 +97,8 @@ class Mask(Spec):
 
     def check(self, name, value, env):
         shape = tuple(env.resolve(self.size))
-        if value is None or isinstance(value, (str, bytes)):
-            raise env.fail(name, self.describe(env), value)
         try:
-            a = np.asarray(value)
+            a = np.asarray(value)                 # None or a string: shape (), refused below
         except (TypeError, ValueError):
             raise env.fail(name, self.describe(env), value) from None
         if a.shape != shape:
@@ -123,8 +124,7 @@ class Mask(Spec):
 
     def edges(self, env):
         shape = tuple(env.resolve(self.size))
-        one = np.ones(shape, int)
-        one[(0,) * len(shape)] = 0
+        one = (np.arange(math.prod(shape)) > 0).reshape(shape).astype(int)
         return [("no obstacle", np.zeros(shape, bool)), ("one fluid cell", one)]
 
 
@@ -165,15 +165,10 @@ class Cells(Array):
         return f"a float array of shape {shape} ({extra})"
 
 
-_FIELD = {}
-
-
+@functools.lru_cache(maxsize=None)
 def _field(shape) -> Array:
-    """The Array spec of one shape (cached: one per shape met)."""
-    spec = _FIELD.get(shape)
-    if spec is None:
-        spec = _FIELD[shape] = Array(shape)
-    return spec
+    """The Array spec of one shape (one per shape met)."""
+    return Array(shape)
 
 
 class Velocity(Spec):
@@ -309,8 +304,7 @@ class StateOn(Spec):
     in place: a list would be a copy, and the writes lost), finite; returned as the same object."""
 
     def __init__(self, grid: str = "grid") -> None:
-        self.size = _grid_ref(grid)
-        self._u = Velocity(grid)
+        self.size, self._u = _grid_ref(grid), Velocity(grid)
 
     def describe(self, env=None) -> str:
         return ("a FluidState on the grid (u: float64 face arrays, scalars: float64 cell arrays, finite; "
@@ -389,12 +383,15 @@ def finite_fields(value, where: str, arguments=None):
 
 
 def quiet(f):
-    """``f`` under ``np.errstate(over="ignore", invalid="ignore")`` (a fresh one per call: reentrant), for the
-    callables whose certificate names an overflow instead of a RuntimeWarning on the way."""
+    """``f`` (under ``@contract``) run in ``np.errstate(over="ignore", invalid="ignore")`` when the contract's
+    caller is outside the package, so that its certificate names an overflow without a RuntimeWarning on the
+    way; a call from inside (a solve's operator, a step, which set their own errstate) pays nothing."""
 
     @functools.wraps(f)
     def inner(*args, **kwargs):
-        with np.errstate(over="ignore", invalid="ignore"):
+        if _getframe(2).f_code.co_filename.startswith(_PKG):      # frame 1 is the contract's wrapper
+            return f(*args, **kwargs)
+        with np.errstate(over="ignore", invalid="ignore"):         # a fresh one per call: reentrant
             return f(*args, **kwargs)
 
     return inner
