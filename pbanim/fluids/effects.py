@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, Text, contract, finite_result
+from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, Text, contract
 from ..errors import InvalidInput, check_result
 from .advection import ADVECTION, BACKTRACES, advect_scalar, advect_velocity
 from .diffusion import DIFFUSION_METHODS, diffuse_scalar, diffuse_velocity
