@@ -60,7 +60,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .contracts import Array, Choice, Flag, Has, Int, Opt, Real, Seq, contract, finite_result
+from .contracts import Array, Choice, Flag, Has, Int, Opt, Real, Seq, contract, finite_result, unchecked
 from .errors import InvalidInput, SimulationDiverged
 from .ode import METHODS, get_method
 from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
@@ -135,7 +135,14 @@ class Scene:
         self._constraint = [e for e in self.effects if e.phase == "constraint"]
         self._post = [e for e in self.effects if e.phase == "post_step"]
         for e in self._constraint:
-            e.applied = self.applied_forces
+            e.applied = unchecked(self.applied_forces)
+        # the step loop calls the stages' functions without their boundary checks (bound once, here)
+        self._apply = [unchecked(e.apply) for e in self._force]
+        self._constrain = [unchecked(e.constrain) for e in self._constraint]
+        self._post_step = [unchecked(e.post_step) for e in self._post]
+        self._derivative = unchecked(system.derivative)
+        self._forces = unchecked(self.forces)
+        self._rhs = unchecked(self.rhs)
         # lean symplectic-Euler path (see the module docstring): buffers are allocated on first use
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
         self._affine = self._lean and all(callable(getattr(e, "affine", None)) for e in self._force)
@@ -156,22 +163,22 @@ class Scene:
     def applied_forces(self, t: float, y: np.ndarray) -> np.ndarray:
         """Q of the force effects alone at (t, y) (what a constraint effect sees as applied)."""
         Q = self.system.zero_forces()
-        for e in self._force:
-            e.apply(t, y, Q)
+        for apply in self._apply:
+            apply(t, y, Q)
         return Q
 
     @contract(t=_T, y=_Y, returns=finite_result)
     def forces(self, t: float, y: np.ndarray) -> np.ndarray:
         """Total generalized force Q (applied + constraint forces) at (t, y)."""
         Q = self.applied_forces(t, y)
-        for e in self._constraint:
-            Q = e.constrain(t, y, Q)
+        for constrain in self._constrain:
+            Q = constrain(t, y, Q)
         return Q
 
     @contract(t=_T, y=_Y, returns=finite_result)
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         """dy/dt of the scene's continuous dynamics (what every integrator steps)."""
-        return self.system.derivative(y, self.forces(t, y))
+        return self._derivative(y, self._forces(t, y))
 
     # -- diagnostics ----------------------------------------------------------------------------
     @contract(y=_Y, returns=finite_result)
@@ -254,10 +261,10 @@ class Scene:
             y = self._kick_only_step(self.rhs, t, y, h)
         else:
             m = get_method(method)
-            jac = self.jac if (m.implicit and self.has_jacobian) else None
-            y = m.step(self.rhs, t, y, h, split=self.system.split, jac=jac)
-        for e in self._post:
-            y = e.post_step(t + h, y, h)
+            jac = unchecked(self.jac) if (m.implicit and self.has_jacobian) else None
+            y = m.step(self._rhs, t, y, h, split=self.system.split, jac=jac)
+        for post_step in self._post_step:
+            y = post_step(t + h, y, h)
         return y
 
     def _kick_only_step(self, fun, t: float, y: np.ndarray, h: float) -> np.ndarray:
@@ -265,7 +272,7 @@ class Scene:
         s = self.system.split
         y1 = np.array(y, dtype=float, copy=True)
         y1[s:] += h * fun(t, y)[s:]
-        y1[:s] = y[:s] + h * self.system.derivative(y1, self.system.zero_forces())[:s]
+        y1[:s] = y[:s] + h * self._derivative(y1, self.system.zero_forces())[:s]
         return y1
 
     _BLOCK = 8192  # particles per block of the folded affine path (a few 100 kB per array: stays in cache)
@@ -289,8 +296,8 @@ class Scene:
             self._Qbuf = sysm.zero_forces()
         Q = self._Qbuf
         Q.fill(0.0)
-        for e in self._force:
-            e.apply(t, y, Q)
+        for apply in self._apply:
+            apply(t, y, Q)
         return sysm.kick_drift(y, Q, h, out, 0, sysm.N)
 
     def _fold_affine(self, h: float) -> tuple:
@@ -373,17 +380,17 @@ class Scene:
 
     def _advance(self, m, counter: list):
         """The step y₁ = Φ_h(t, y) of method ``m`` followed by the post-step effects, counting evaluations."""
-        post = self._post
+        post = self._post_step
 
         def fun(t, yy):
             counter[0] += 1
-            return self.rhs(t, yy)
+            return self._rhs(t, yy)
 
-        jac_fn = None
+        jac_fn, jac = None, unchecked(self.jac)
         if m.implicit and self.has_jacobian:
             def jac_fn(t, yy):
                 counter[1] += 1
-                return self.jac(t, yy)
+                return jac(t, yy)
         split = self.system.split
         if m.name == "symplectic_euler" and self._lean:
             def step(t, y, h):
@@ -400,7 +407,7 @@ class Scene:
 
         def advance(t, y, h):
             y = step(t, y, h)
-            for e in post:
-                y = e.post_step(t + h, y, h)
+            for post_step in post:
+                y = post_step(t + h, y, h)
             return y
         return advance

@@ -53,8 +53,9 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
-from .specs import BODIES, RIGID, ContactsOn, check_contacts, finite_parts, state_of
+from .specs import RIGID, ContactsOn, check_contacts, finite_parts, state_of
 from ..bodies import require_bodies
+from ..bodies import BodySystem
 from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, Seq, contract
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
 from ..lcp.specs import SolverOptions
@@ -174,7 +175,7 @@ class TimeStepping:
     0.5095
     """
 
-    @contract(system=BODIES, detect=Func(), forces=Seq(Obj("pbanim.scene:Effect")),
+    @contract(system=BodySystem(), detect=Func(), forces=Seq(Obj("pbanim.scene:Effect")),
               friction=Array((None,), ge=0, scalar=True), facets=_FACETS, solver=Choice(LCP_SOLVERS),
               erp=Real(gt=0, le=1), tol=Real(gt=0, lt=1), tangent=Opt(Array((3,))),
               solver_options=Opt(SolverOptions()), accept_unconverged=Flag())

@@ -172,7 +172,9 @@ def _wrap(fn, specs: dict, where: str, returns=None):
             if getframe(1).f_code.co_filename.startswith(_PKG) and not state["always"]:
                 return fn(*args, **kwargs)
             args, kwargs = c.check(args, kwargs)
-            return returns(fn(*args, **kwargs), where, c.bind(args, kwargs))
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):   # the certificate names it
+                out = fn(*args, **kwargs)
+            return returns(out, where, c.bind(args, kwargs))
 
     checked.__contract__ = c
     return checked

@@ -22,7 +22,7 @@ import numpy as np
 from ..contracts import Array, Opt, contract
 from ..geometry import cross
 from .admissible import Inertia
-from .domain import Flags, Vectors, certified, certify, expose, row_norms
+from .domain import Flags, Vectors, certifier, certify, expose, row_norms
 from .inertia import validate_inertia
 from .protocol import _Y, RigidBodyProtocol, _matTvec, _matvec
 from .quat import normalized, quat_to_matrix
@@ -207,8 +207,7 @@ class RigidBodies(RigidBodyProtocol):
         """R (N, 3, 3) of every body."""
         return quat_to_matrix(self.unpack(y)[1])
 
-    @contract(y=_Y)
-    @certified("RigidBodies.inv_inertia_world: R I⁻¹ Rᵀ")
+    @contract(y=_Y, returns=certifier("RigidBodies.inv_inertia_world: R I⁻¹ Rᵀ"))
     def inv_inertia_world(self, y: np.ndarray) -> np.ndarray:
         """I⁻¹_world = R I⁻¹_body Rᵀ, shape (N, 3, 3) (zero for static bodies)."""
         # BEGIN SOLUTION RigidBodies.inv_inertia_world
@@ -216,8 +215,7 @@ class RigidBodies(RigidBodyProtocol):
         return R @ self.inv_I_body @ np.swapaxes(R, 1, 2)
         # END SOLUTION
 
-    @contract(y=_Y)
-    @certified("RigidBodies.velocities: (v, ω)")
+    @contract(y=_Y, returns=certifier("RigidBodies.velocities: (v, ω)"))
     def velocities(self, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(v = P/m, ω = I⁻¹_world L), each (N, 3); ω = R (I⁻¹_body (Rᵀ L)) without forming I⁻¹_world."""
         # BEGIN SOLUTION RigidBodies.velocities
@@ -226,8 +224,7 @@ class RigidBodies(RigidBodyProtocol):
         return self.inv_mass[:, None] * P, _matvec(R, _matvec(self.inv_I_body, _matTvec(R, L)))
         # END SOLUTION
 
-    @contract(y=_Y)
-    @certified("RigidBodies.body_angular_velocity: Rᵀω")
+    @contract(y=_Y, returns=certifier("RigidBodies.body_angular_velocity: Rᵀω"))
     def body_angular_velocity(self, y: np.ndarray) -> np.ndarray:
         """ω in body coordinates, Rᵀω = I⁻¹_body Rᵀ L (the ω of Euler's equations), (N, 3)."""
         _, q, _, L = self.unpack(y)
@@ -238,13 +235,12 @@ class RigidBodies(RigidBodyProtocol):
         """Q of shape (N, 6): [force, torque about the centre of mass], world frame."""
         return np.zeros((self.N, 6))
 
-    @contract(y=_Y, Q=Array(("self.N", 6)))
+    @contract(y=_Y, Q=Array(("self.N", 6)), returns=certifier("RigidBodies.derivative: ẏ"))
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies at once (static bodies: 0)."""
         return self.derivative_and_omega(y, Q)[0]
 
-    @contract(y=_Y, Q=Array(("self.N", 6)))
-    @certified("RigidBodies.derivative: ẏ")
+    @contract(y=_Y, Q=Array(("self.N", 6)), returns=certifier("RigidBodies.derivative: ẏ"))
     def derivative_and_omega(self, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ẏ, ω): the derivative and the world angular velocities it used (one pass)."""
         # BEGIN SOLUTION RigidBodies.derivative_and_omega
@@ -270,8 +266,7 @@ class RigidBodies(RigidBodyProtocol):
         return dy, w
         # END SOLUTION
 
-    @contract(y=_Y, Q=Array(("self.N", 6)))
-    @certified("RigidBodies.derivative_readable: ẏ")
+    @contract(y=_Y, Q=Array(("self.N", 6)), returns=certifier("RigidBodies.derivative_readable: ẏ"))
     def derivative_readable(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """The same ẏ, one body at a time, written as in Baraff's notes (for teaching; tests compare)."""
         from .quat import quat_multiply
@@ -290,15 +285,13 @@ class RigidBodies(RigidBodyProtocol):
         return np.concatenate([dx.ravel(), dq.ravel(), dP.ravel(), dL.ravel()])
 
     # -- diagnostics ----------------------------------------------------------------------------
-    @contract(y=_Y)
-    @certified("RigidBodies: the kinetic energy")
+    @contract(y=_Y, returns=certifier("RigidBodies: the kinetic energy"))
     def translational_kinetic_energy(self, y: np.ndarray) -> float:
         """Σ ½ P·v = Σ |P|²/2m."""
         P = self.unpack(y)[2]
         return float(0.5 * np.sum(self.inv_mass[:, None] * P * P))
 
-    @contract(y=_Y)
-    @certified("RigidBodies: the kinetic energy")
+    @contract(y=_Y, returns=certifier("RigidBodies: the kinetic energy"))
     def rotational_kinetic_energy(self, y: np.ndarray) -> float:
         """Σ ½ L·ω = Σ ½ ωᵀ I_world ω."""
         L = self.unpack(y)[3]
@@ -309,14 +302,12 @@ class RigidBodies(RigidBodyProtocol):
         """T = translational + rotational."""
         return self.translational_kinetic_energy(y) + self.rotational_kinetic_energy(y)
 
-    @contract(y=_Y)
-    @certified("RigidBodies.linear_momentum: Σ P")
+    @contract(y=_Y, returns=certifier("RigidBodies.linear_momentum: Σ P"))
     def linear_momentum(self, y: np.ndarray) -> np.ndarray:
         """Σ P over the bodies, (3,)."""
         return self.unpack(y)[2].sum(axis=0)
 
-    @contract(y=_Y)
-    @certified("RigidBodies.center_of_mass")
+    @contract(y=_Y, returns=certifier("RigidBodies.center_of_mass"))
     def center_of_mass(self, y: np.ndarray) -> np.ndarray:
         """Mass-weighted mean of the dynamic bodies' positions, (3,); with no dynamic body, the mean of the
         static ones (the limit of equal masses m → ∞)."""
@@ -325,8 +316,7 @@ class RigidBodies(RigidBodyProtocol):
         w = m / m.max()                    # weights ≤ 1: no overflow for masses near 10³⁰⁸
         return (w / w.sum()) @ x
 
-    @contract(y=_Y, about=Opt(Array((3,))))
-    @certified("RigidBodies.angular_momentum: Σ (x − o) × P + L")
+    @contract(y=_Y, about=Opt(Array((3,))), returns=certifier("RigidBodies.angular_momentum: Σ (x − o) × P + L"))
     def angular_momentum(self, y: np.ndarray, about=None) -> np.ndarray:
         """Σ (x − o) × P + L about the point o (default the origin), (3,)."""
         x, _, P, L = self.unpack(y)

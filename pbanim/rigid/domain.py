@@ -330,20 +330,16 @@ class Counter(Spec):
         return [("a tuple", (0,)), ("empty", []), ("a string", "x"), ("a float count", [0.5]), ("a number", 1)]
 
 
-def certified(what: str):
-    """Decorator: the method's result (each item of a tuple) passes :func:`certify` against its arguments
-    (numpy's overflow warnings are silenced on the way: the overflow is named instead)."""
-    def deco(f):
-        @functools.wraps(f)
-        def method(*args, **kwargs):
-            with np.errstate(over="ignore", invalid="ignore"):     # an overflow is named below
-                out = f(*args, **kwargs)
-            inputs = args[1:] + tuple(kwargs.values())
-            for o in out if isinstance(out, tuple) else (out,):
-                certify(what, o, *inputs)
-            return out
-        return method
-    return deco
+def certifier(what: str, argument: str | None = None):
+    """A ``returns=`` certificate for :func:`pbanim.contracts.contract` (run on calls from outside the package
+    only: the step loop pays nothing): the result (each item of a tuple), or the argument ``argument`` that
+    the call wrote into, passes :func:`certify` against the arguments."""
+    def certificate(out, where, arguments):
+        inputs = tuple(v for k, v in arguments.items() if k != "self")
+        for o in ((arguments[argument],) if argument else out if isinstance(out, tuple) else (out,)):
+            certify(what, o, *inputs)
+        return out
+    return certificate
 
 
 def expose(descriptor):

@@ -28,7 +28,7 @@ import numpy as np
 
 from .bodies import RigidBodies, _matvec
 from ..contracts import Array, Either, Func, Obj, Opt, Real, contract
-from .domain import BodyIndices, RigidState, certify, row_norms, tame
+from .domain import BodyIndices, RigidState, certifier, certify, row_norms, tame
 from ..geometry import cross as _cross
 from ..scene import Effect
 from ..errors import InvalidInput
@@ -64,12 +64,11 @@ def _require_rigid(effect: Effect, system) -> RigidBodies:
 
 
 def _accumulate(Q: np.ndarray, N: int, idx: np.ndarray, F: np.ndarray, tau: np.ndarray, what: str, y) -> None:
-    """Q[idx] += [F, τ] with repeated indices summed; index N (the world) is dropped. A contribution that
-    overflowed from a finite state is a :class:`~pbanim.errors.NonFiniteResult` naming ``what``."""
+    """Q[idx] += [F, τ] with repeated indices summed; index N (the world) is dropped. (An overflow from a
+    finite state is named by the effect's certificate on outside calls, by the stepping loop inside.)"""
     buf = np.zeros((N + 1, 6))
-    with np.errstate(over="ignore", invalid="ignore"):
-        np.add.at(buf, idx, np.concatenate([F, tau], axis=1))
-    Q += certify(what, buf[:-1], y)
+    np.add.at(buf, idx, np.concatenate([F, tau], axis=1))
+    Q += buf[:-1]
 
 
 class RigidGravity(Effect):
@@ -96,7 +95,7 @@ class RigidGravity(Effect):
         self._mg = np.concatenate([certify("RigidGravity: m g", mg, system._mass_finite, self.g),
                                    np.zeros((system.N, 3))], axis=1)
 
-    @contract(t=_T, y=_Y, Q=_Q)
+    @contract(t=_T, y=_Y, Q=_Q, returns=certifier("the forces Q", "Q"))
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         Q += self._mg
 
@@ -149,7 +148,7 @@ class PointForce(Effect):
             raise InvalidInput(f"PointForce: force(t, y) must return finite forces, got {f.tolist()} at t = {t}")
         return f
 
-    @contract(t=_T, y=_Y, Q=_Q)
+    @contract(t=_T, y=_Y, Q=_Q, returns=certifier("the forces Q", "Q"))
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         # BEGIN SOLUTION PointForce.apply
         rb = self.system
@@ -213,7 +212,7 @@ class RigidSprings(Effect):
         Rp = np.concatenate([rb.quat_to_matrix(q), np.eye(3)[None]])
         return xp[self._ia] + _matvec(Rp[self._ia], self.ra), xp[self._ib] + _matvec(Rp[self._ib], self.rb)
 
-    @contract(t=_T, y=_Y, Q=_Q)
+    @contract(t=_T, y=_Y, Q=_Q, returns=certifier("the forces Q", "Q"))
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         rb = self.system
         with np.errstate(over="ignore", invalid="ignore"):
@@ -258,9 +257,7 @@ class _Drag(Effect):
                                f"(one per body), got shape {c.shape}") from None
 
     def _drag(self, rows: slice, rate: np.ndarray, y, Q) -> None:
-        with np.errstate(over="ignore", invalid="ignore"):
-            dQ = self.c[:, None] * rate
-        Q[:, rows] -= certify(f"{type(self).__name__}: the drag", dQ, y)
+        Q[:, rows] -= self.c[:, None] * rate
 
 
 _COEFFICIENT = Array((None,), ge=0, scalar=True)
@@ -275,7 +272,7 @@ class LinearDrag(_Drag):
     def __init__(self, coefficient) -> None:
         self.c_in = coefficient
 
-    @contract(t=_T, y=_Y, Q=_Q)
+    @contract(t=_T, y=_Y, Q=_Q, returns=certifier("the forces Q", "Q"))
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         v, _ = self.system.velocities(y)
         self._drag(slice(0, 3), v, y, Q)
@@ -290,7 +287,7 @@ class AngularDrag(_Drag):
     def __init__(self, coefficient) -> None:
         self.c_in = coefficient
 
-    @contract(t=_T, y=_Y, Q=_Q)
+    @contract(t=_T, y=_Y, Q=_Q, returns=certifier("the forces Q", "Q"))
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
         _, w = self.system.velocities(y)
         self._drag(slice(3, 6), w, y, Q)

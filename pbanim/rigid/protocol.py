@@ -23,7 +23,7 @@ from ..bodies import Bodies
 from ..contracts import Array, contract
 from ..errors import InvalidInput
 from ..geometry import cross
-from .domain import BodyIndices, RigidState, certified
+from .domain import BodyIndices, RigidState, certifier
 from .quat import quat_to_matrix
 
 __all__ = ["RigidBodyProtocol"]
@@ -76,16 +76,14 @@ class RigidBodyProtocol(Bodies):
             raise InvalidInput(f"body_idx must lie in [-1, {self.N - 1}] (-1 = static world), got {idx}")
         return np.where(idx < 0, self.N, idx)
 
-    @contract(y=_Y, body_idx=_IDX, points_body=_POINTS)
-    @certified("RigidBodies.world_points: x + R r")
+    @contract(y=_Y, body_idx=_IDX, points_body=_POINTS, returns=certifier("RigidBodies.world_points: x + R r"))
     def world_points(self, y: np.ndarray, body_idx, points_body) -> np.ndarray:
         """p = x + R r for body-frame points r (m, 3) of bodies ``body_idx`` (m,) (−1: r is a world point)."""
         i = self._index(body_idx)
         xp, Rp, _, _ = self._padded(y)
         return xp[i] + _matvec(Rp[i], np.asarray(points_body, dtype=float))
 
-    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS)
-    @certified("RigidBodies.point_velocity: v + ω × (p − x)")
+    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS, returns=certifier("RigidBodies.point_velocity: v + ω × (p − x)"))
     def point_velocity(self, y: np.ndarray, body_idx, points_world) -> np.ndarray:
         """ṗ = v + ω × (p − x) of world points (m, 3) moving with bodies ``body_idx`` (m,); 0 for −1."""
         i = self._index(body_idx)
@@ -93,8 +91,7 @@ class RigidBodyProtocol(Bodies):
         p = np.asarray(points_world, dtype=float)
         return vp[i] + cross(wp[i], p - xp[i])
 
-    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS, directions=_POINTS)
-    @certified("RigidBodies.effective_inverse_mass: nᵀ W n")
+    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS, directions=_POINTS, returns=certifier("RigidBodies.effective_inverse_mass: nᵀ W n"))
     def effective_inverse_mass(self, y: np.ndarray, body_idx, points_world, directions) -> np.ndarray:
         """nᵀ W n = 1/m + (r × n)·I⁻¹_world (r × n) per contact (m,) — the impulse response along n."""
         i = self._index(body_idx)
@@ -105,8 +102,7 @@ class RigidBodyProtocol(Bodies):
         u = _matTvec(Rp[i], rn)
         return self.inv_mass_padded[i] + np.einsum("mi,mi->m", u, _matvec(self.inv_I_body_padded[i], u))
 
-    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS, impulses=_POINTS)
-    @certified("RigidBodies.apply_impulses: the new momenta")
+    @contract(y=_Y, body_idx=_IDX, points_world=_POINTS, impulses=_POINTS, returns=certifier("RigidBodies.apply_impulses: the new momenta"))
     def apply_impulses(self, y: np.ndarray, body_idx, points_world, impulses) -> np.ndarray:
         """A new state with P += j and L += (p − x) × j for each impulse j (m, 3) at world point p (m, 3).
 

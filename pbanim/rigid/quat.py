@@ -35,7 +35,7 @@ import numpy as np
 from ..contracts import Array, contract
 from ..geometry import skew  # [v]× lives in pbanim.geometry (shared with collisions); re-exported here
 from ..errors import InvalidInput
-from .domain import Rotation, Vectors, certify, row_norms
+from .domain import Rotation, Vectors, certifier, row_norms
 
 __all__ = ["quat_multiply", "quat_conjugate", "quat_normalize", "quat_to_matrix", "matrix_to_quat",
            "quat_from_axis_angle", "quat_exp", "quat_rotate", "skew"]
@@ -52,7 +52,7 @@ def _batches(where: str, names: tuple, *arrays) -> InvalidInput:
     return InvalidInput(f"{where}: {' and '.join(names)} must be one each, or batches of one length, got {shapes}")
 
 
-@contract(a=_QUATS, b=_QUATS)
+@contract(a=_QUATS, b=_QUATS, returns=certifier("quat_multiply: a ⊗ b"))
 def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a ⊗ b of quaternions of shape (..., 4) (broadcasting).
 
@@ -65,14 +65,12 @@ def quat_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
     try:
-        with np.errstate(over="ignore", invalid="ignore"):
-            out = np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-                            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-                            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-                            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0], axis=-1)
+        return np.stack([a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+                         a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                         a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+                         a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0], axis=-1)
     except ValueError:
         raise _batches("quat_multiply", ("a", "b"), a, b) from None
-    return certify("quat_multiply: a ⊗ b", out, a, b)
 
 
 @contract(q=_QUATS)
@@ -220,7 +218,7 @@ def quat_exp(theta: np.ndarray) -> np.ndarray:
     return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
 
 
-@contract(quat=_NONZERO, v=_VECS)
+@contract(quat=_NONZERO, v=_VECS, returns=certifier("quat_rotate: R(q) v"))
 def quat_rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
     """R(q) v for quaternions (..., 4) and vectors (..., 3) (one each, or batches of one length).
 
@@ -229,8 +227,6 @@ def quat_rotate(quat: np.ndarray, v: np.ndarray) -> np.ndarray:
     """
     v = np.asarray(v, dtype=float)
     try:
-        with np.errstate(over="ignore", invalid="ignore"):
-            out = np.einsum("...ij,...j->...i", quat_to_matrix(quat), v)
+        return np.einsum("...ij,...j->...i", quat_to_matrix(quat), v)
     except ValueError:
         raise _batches("quat_rotate", ("quat", "v"), quat, v) from None
-    return certify("quat_rotate: R(q) v", out, quat, v)

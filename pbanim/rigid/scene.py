@@ -34,7 +34,7 @@ from ..ode import get_method
 from ..ode.driver import MAX_STEPS, check_finite
 from ..results import SimResult
 from .bodies import RigidBodies
-from .domain import Counter, RigidState, Vectors, certify
+from .domain import Counter, RigidState, Vectors, certifier
 from ..geometry import cross as _cross
 from .effects import QuaternionRenormalize
 from .quat import quat_exp, quat_multiply
@@ -56,7 +56,8 @@ _T = Real()
 _H = Real(gt=0)
 
 
-@contract(theta=Vectors(3, batch="first", below=2 * np.pi), omega=Array((3,), batch="first"))
+@contract(theta=Vectors(3, batch="first", below=2 * np.pi), omega=Array((3,), batch="first"),
+          returns=certifier("dexpinv: dexp⁻¹_θ(ω)"))
 def dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """θ̇ = dexp⁻¹_θ(ω) for R = exp([θ]×) R₀ and world angular velocity ω, rows (..., 3) (one each, or
     batches of one length); |θ| < 2π (dexp⁻¹ has poles at |θ| = 2π, 4π, ...).
@@ -65,11 +66,10 @@ def dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     array([1., 2., 3.])
     """
     try:
-        out = _dexpinv(theta, omega)
+        return _dexpinv(theta, omega)
     except ValueError:
         raise InvalidInput(f"dexpinv: theta and omega must be one each, or batches of one length, got theta "
                            f"{np.shape(theta)} and omega {np.shape(omega)}") from None
-    return certify("dexpinv: dexp⁻¹_θ(ω)", out, theta, omega)
 
 
 def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
@@ -80,9 +80,8 @@ def _dexpinv(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
     small = a < 1e-3
     a_s = np.where(small, 1.0, a)
     c = np.where(small, 1.0 / 12.0 + a2 / 720.0, (1.0 - 0.5 * a_s / np.tan(0.5 * a_s)) / np.where(small, 1.0, a2))
-    with np.errstate(over="ignore", invalid="ignore"):
-        tw = _cross(th, w)
-        return w - 0.5 * tw + c * _cross(th, tw)
+    tw = _cross(th, w)
+    return w - 0.5 * tw + c * _cross(th, tw)
 
 
 @contract(system=Obj(RigidBodies), forces=Func(), t=_T, y=RigidState("system"), h=_H, method=_METHOD,
