@@ -20,7 +20,7 @@ import numpy as np
 
 from .assembly import ConstraintSet
 from .kinds import Constraint
-from .solvers import SOLVERS, ConstraintSolution, solve_lambda
+from .solvers import SOLVERS, ConstraintSolution, certified, solve_lambda
 from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, Seq, contract, unchecked
 from ..errors import InvalidInput, NonFiniteResult, SimulationDiverged, SingularConstraintError
 from ..scene import Effect
@@ -110,7 +110,7 @@ def gains_from_erp_cfm(erp: float, cfm: float, h: float, effective_mass: float =
 @contract(constraints=Either(Obj(ConstraintSet), Seq(Obj(Constraint), min_len=1)),
           system=Obj("pbanim.particles.system:ParticleSystem"), y=Array(("system.n_state",)),
           Q=Opt(Array(("system.N", "system.dim"))), solver=Choice(SOLVERS), ks=_GAIN, kd=_GAIN,
-          tol=Real(gt=0), max_iter=Opt(Int(ge=1)))
+          tol=Real(gt=0), max_iter=Opt(Int(ge=1)), returns=certified)
 def solve_multipliers(constraints: Sequence[Constraint] | ConstraintSet, system, y, Q=None, *,
                       solver: str = "auto", ks: float = 0.0, kd: float = 0.0, tol: float = 1e-12,
                       max_iter: int | None = None) -> ConstraintSolution:

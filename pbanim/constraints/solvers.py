@@ -283,10 +283,19 @@ def eliminate_readable(A, r: np.ndarray, order) -> EliminationResult:
     return EliminationResult(check_result("eliminate_readable", lam, "a pivot is too small for this A"), fill)
 
 
+def certified(sol: ConstraintSolution, where: str = "", arguments=None) -> ConstraintSolution:
+    """``sol`` when λ and q̈ are finite (a finite right-hand side can still overflow through a tiny pivot): the
+    certificate of a call from outside the package (inside a run, the stepping loop names a non-finite state)."""
+    if not (_finite(sol.lam) and _finite(sol.qdd)):
+        raise NonFiniteResult(f"λ or q̈ from the {sol.solver!r} solve", "JWJᵀ is too badly conditioned or its "
+                              "entries too large for double precision")
+    return sol
+
+
 @contract(J=Matrix(("m", "n")), W=Array(("n",), gt=0), Q=Array(("n",)), c=Array(("m",), empty=True),
           solver=Choice(SOLVERS), cset=Opt(Obj("pbanim.constraints.assembly:ConstraintSet")),
           asm=Opt(Obj("pbanim.constraints.assembly:Assembly")), A=Opt(Matrix(("m", "m"))), tol=Real(gt=0),
-          max_iter=Opt(Int(ge=1)))
+          max_iter=Opt(Int(ge=1)), returns=certified)
 def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=None, A=None,
                  tol: float = 1e-12, max_iter: int | None = None) -> ConstraintSolution:
     """Solve for λ with a named solver (see the module docstring).
@@ -348,7 +357,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
             z = kkt(rhs)
             qdd, lam = z[: len(Q)], z[len(Q):]
             Q_C = JT @ lam
-            return _certified(ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs)))
+            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
         lam, deficient = None, True
     elif solver == "witkin-cg":
         lam, it, res = _cg(J, JT, W, r, tol, max_iter or 10 * m + 100)
@@ -370,13 +379,5 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
     Q_C = JT @ lam
     qdd = Q + Q_C
     qdd *= W
-    return _certified(ConstraintSolution(lam, Q_C, qdd, solver, it, deficient,
-                                         res if solver == "witkin-cg" else None, (J, W, r)))
-
-
-def _certified(sol: ConstraintSolution) -> ConstraintSolution:
-    """``sol`` when λ and q̈ are finite (a finite right-hand side can still overflow through a tiny pivot)."""
-    if not (_finite(sol.lam) and _finite(sol.qdd)):
-        raise NonFiniteResult(f"λ or q̈ from the {sol.solver!r} solve", "JWJᵀ is too badly conditioned or its "
-                              "entries too large for double precision")
-    return sol
+    return ConstraintSolution(lam, Q_C, qdd, solver, it, deficient, res if solver == "witkin-cg" else None,
+                              (J, W, r))

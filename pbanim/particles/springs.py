@@ -236,7 +236,7 @@ class DampedSprings(Effect):
         x, v = self._unpack(y)
         d = np.take(x, self.a, axis=0)
         d -= np.take(x, self.b, axis=0)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):    # one context for the whole call
             length = np.sqrt(np.einsum("ij,ij->i", d, d))
             inv = 1.0 / length
             c = self.ks * (length - self.rest)
@@ -245,17 +245,15 @@ class DampedSprings(Effect):
                 dv -= np.take(v, self.b, axis=0)
                 c += self.kd * np.einsum("ij,ij->i", dv, d) * inv
             c *= inv
-        if not np.all(np.isfinite(c)):
-            c[length == 0] = 0.0       # a zero-length spring has no direction: no force
-            big = np.isinf(length)
-            if big.any():              # |d|² overflowed: c = k_s (1 − r/l) + k_d (Δv·d̂)/l from the scaled l
-                lb = row_norms(d[big])
-                with np.errstate(over="ignore", invalid="ignore"):
+            if not np.all(np.isfinite(c)):
+                c[length == 0] = 0.0       # a zero-length spring has no direction: no force
+                big = np.isinf(length)
+                if big.any():              # |d|² overflowed: c = k_s (1 − r/l) + k_d (Δv·d̂)/l from the scaled l
+                    lb = row_norms(d[big])
                     cb = self.ks[big] * (1.0 - self.rest[big] / lb)
                     if self._damped:
                         cb += self.kd[big] * (np.einsum("ij,ij->i", dv[big], d[big] / lb[:, None]) / lb)
-                c[big] = cb
-        with np.errstate(over="ignore"):
+                    c[big] = cb
             d *= -c[:, None]
         return d
 
