@@ -337,7 +337,7 @@ f2 = harmonic_oscillator().rhs
     (dict(method="rk4", h=None), "h must be given for the fixed-step method 'rk4'"),
     (dict(rtol=0.0, method="dopri5"), "rtol must be a finite number > 0, got 0.0"),
     (dict(atol=-1.0, method="dopri5"), "atol must be a finite number >= 0, .* got -1.0"),
-    (dict(max_steps=0), "max_steps must be an integer >= 1, got 0"),
+    (dict(max_steps=0), "max_steps must be a positive integer, got 0"),
     (dict(h=1e-6, max_steps=10), "needs 1000000 steps over t_span, more than max_steps = 10"),
     (dict(split=5), "split must be between 0 and n = 2"),
     (dict(t_eval=[0.5, 2.0]), "t_eval must be sorted .* within t_span"),
