@@ -140,14 +140,15 @@ class SimulationDiverged(PbanimError, FloatingPointError):
     step : int
         Index of that step (0-based), or -1 when unknown.
     quantity : str
-        What stopped being finite ("state", "velocity", "lambda", ...).
+        What stopped being finite ("state", "velocity", "lambda", ...), or passed its bound (``what``
+        says which: "is not finite" by default, "exceeds its bound" for a cap such as a largest energy).
     """
 
-    def __init__(self, t: float, step: int, quantity: str, detail: str = "") -> None:
+    def __init__(self, t: float, step: int, quantity: str, detail: str = "", what: str = "is not finite") -> None:
         self.t = float(t)
         self.step = int(step)
         self.quantity = quantity
-        msg = (f"simulation diverged at t = {self.t:.6g} (step {self.step}): {quantity} is not finite"
+        msg = (f"simulation diverged at t = {self.t:.6g} (step {self.step}): {quantity} {what}"
                f"{_tail(detail)}; reduce the step h or use a stabler method")
         super().__init__(msg)
 

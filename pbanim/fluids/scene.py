@@ -197,8 +197,10 @@ class FluidScene:
             if (k + 1) % record_every == 0 or k == sg.n_steps - 1:
                 m = self.measure()
                 if not (m["kinetic_energy"] <= max_energy and np.isfinite(m["kinetic_energy"])):
+                    finite = bool(np.isfinite(m["kinetic_energy"]))
                     raise SimulationDiverged(self.state.t, k, "kinetic energy",
-                                             f"{m['kinetic_energy']:.3e} > max_energy {max_energy:.3e}")
+                                             f"{m['kinetic_energy']:.3e} > max_energy {max_energy:.3e}",
+                                             what="exceeds its bound" if finite else "is not finite")
                 for name, v in m.items():
                     diag.setdefault(name, [np.nan] * len(ts)).append(v)   # a stage's first measurement
                 diag["step_time"].append(dt)

@@ -22,7 +22,7 @@ import numpy as np
 from ..contracts import Array, Opt, contract
 from ..geometry import cross
 from .admissible import Inertia
-from .domain import Flags, Vectors, certifier, certify, expose, row_norms
+from .domain import Flags, Vectors, certifier, certify, row_norms
 from .inertia import validate_inertia
 from .protocol import _Y, RigidBodyProtocol, _matTvec, _matvec
 from .quat import normalized, quat_to_matrix
@@ -160,7 +160,6 @@ class RigidBodies(RigidBodyProtocol):
         """Length of the flat state y = [x, q, P, L]: 13N."""
         return 13 * self.N
 
-    @expose
     @contract(positions=Array(("n", 3)), velocities=Opt(Array(("n", 3))), masses=Array(("n",), gt=0, scalar=True))
     @classmethod
     def point_masses(cls, positions, velocities=None, masses=1.0) -> "RigidBodies":
@@ -194,7 +193,6 @@ class RigidBodies(RigidBodyProtocol):
         return (y[:3 * N].reshape(N, 3), y[3 * N:7 * N].reshape(N, 4), y[7 * N:10 * N].reshape(N, 3),
                 y[10 * N:13 * N].reshape(N, 3))
 
-    @expose
     @contract(quat=Vectors(4, batch="first", nonzero=True))
     @staticmethod
     def quat_to_matrix(quat: np.ndarray) -> np.ndarray:

@@ -17,15 +17,14 @@ spec                         accepts
 
 The numeric helpers of the same checks live here too: :func:`row_norms` (|v| along the last axis without
 overflow for entries near 10³⁰⁰ or underflow near 10⁻³⁰⁰) and :func:`tame` (such rows scaled in place);
-:func:`certify` and the decorator :func:`certified` (a result computed from finite inputs must be finite,
-else :class:`~pbanim.errors.NonFiniteResult`; NaN in, NaN out is left to the stepping loop, which names
-it :class:`~pbanim.errors.SimulationDiverged`); :func:`expose` (a static or class method carries its
-contract where the surface test reads it).
+:func:`certify` and :func:`certifier`, the ``returns=`` certificate of a contract (a result computed from
+finite inputs must be finite, else :class:`~pbanim.errors.NonFiniteResult`; it runs on calls from outside the
+package, and NaN in, NaN out is left to the stepping loop, which names it
+:class:`~pbanim.errors.SimulationDiverged`).
 """
 
 from __future__ import annotations
 
-import functools
 import math
 import numbers
 
@@ -35,7 +34,7 @@ from ..contracts import Array, Spec
 from ..errors import check_result
 
 __all__ = ["Vectors", "Rotation", "RigidState", "BodyIndices", "Flags", "Counter", "row_norms", "certify",
-           "certified", "expose", "tame"]
+           "certifier", "tame"]
 
 _ORTHO_TOL = 1e-6      # |RᵀR − E| accepted in a rotation matrix (single precision data passes)
 _SAFE = (1e-290, 1e290)  # |v|² computed directly between these; scaled by max |vᵢ| outside
@@ -340,10 +339,3 @@ def certifier(what: str, argument: str | None = None):
             certify(what, o, *inputs)
         return out
     return certificate
-
-
-def expose(descriptor):
-    """A staticmethod or classmethod under ``@contract`` made to carry the contract itself, where the surface
-    and the fuzz look for it (``contract`` wraps the function inside the descriptor)."""
-    descriptor.__contract__ = descriptor.__func__.__contract__
-    return descriptor

@@ -17,8 +17,6 @@ make up lives here:
   PbanimError (the assertions of ``pbanim.testing`` raise AssertionError);
 * ``EXEMPT[id] = reason``: a whole callable exempted from contracts (``tests/test_contracts_surface.py``
   prints each with its reason);
-* ``ENFORCED``: a tuple of id prefixes (``"pbanim.constraints."``) whose every callable the surface test
-  holds to the rule (all of pbanim once every unit is done).
 
 Each module of this package defines any of these; they are merged here.
 """
@@ -34,11 +32,9 @@ SELF: dict = {}
 SKIP_EDGES: dict = {}
 EXEMPT: dict = {}
 RAISES: dict = {}
-ENFORCED: tuple = ()
 
 for _info in pkgutil.iter_modules(__path__):
     _mod = importlib.import_module(f"{__name__}.{_info.name}")
-    ENFORCED += tuple(getattr(_mod, "ENFORCED", ()))
     for _name in ("INSTANCES", "CALLS", "SELF", "SKIP_EDGES", "EXEMPT", "RAISES"):
         _part = getattr(_mod, _name, {})
         _clash = set(_part) & set(globals()[_name])

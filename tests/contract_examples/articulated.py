@@ -77,5 +77,3 @@ CALLS = {
                                                             "qd": np.array([0.1, 0.0, 0.5]), "h": 1e-3,
                                                             "tau": np.zeros(3)},
 }
-
-ENFORCED = ("pbanim.articulated.",)

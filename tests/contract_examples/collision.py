@@ -66,5 +66,3 @@ EXEMPT = {
     "pbanim.collision.broad.BroadPhase.__init__": "a result record the broad phase builds; users read its "
                                                   "pairs and cost, never build it",
 }
-
-ENFORCED = ("pbanim.collision.",)

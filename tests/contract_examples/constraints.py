@@ -138,5 +138,3 @@ EXEMPT = {
     "pbanim.constraints.solvers.EliminationResult.__init__": _RECORD + " (eliminate_readable returns it)",
     "pbanim.constraints.check.ConstraintCheck.__init__": _RECORD + " (check_constraint returns it)",
 }
-
-ENFORCED = ("pbanim.constraints.",)

@@ -127,5 +127,3 @@ EXEMPT = {
         "a record the assembly functions build (A, b, rows, inverse-mass blocks of one configuration); "
         "users read its fields and call generalized_force, which is declared",
 }
-
-ENFORCED = ("pbanim.contact.", "pbanim.lcp.")

@@ -125,5 +125,3 @@ EXEMPT = {
     "pbanim.control.qp.QPResult.__init__": "a result record QPController.solve builds; users read it",
     "pbanim.control.qp_balance.BalanceResult.__init__": "a result record simulate_balance builds; users read it",
 }
-
-ENFORCED = ("pbanim.control.",)

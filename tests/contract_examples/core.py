@@ -94,6 +94,3 @@ SKIP_EDGES = {
     "pbanim.scene.Scene.simulate": "t_end = 1e300 with h at its lower bound asks for a run capped only by max_steps "
                                    "(refused up front; the cap's own test is in tests/test_driver.py)",
 }
-
-ENFORCED = ("pbanim.scene.", "pbanim.bodies.", "pbanim.results.", "pbanim.errors.", "pbanim.geometry.",
-            "pbanim.derivatives.", "pbanim.accuracy.", "pbanim.testing.", "pbanim.ode.")

@@ -62,8 +62,6 @@ EXEMPT = {
     "pbanim.design.rest.Rest.__init__": "a record pbanim builds (simulate) and users read",
 }
 
-ENFORCED = ("pbanim.design.",)
-
 
 # -- the functions of pbanim.design's modules outside the package's __all__ (control, check, shooting,
 # multiple): contracts too, fuzzed by hand with these (they are not on the enumerated surface)

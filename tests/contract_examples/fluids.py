@@ -98,5 +98,3 @@ EXEMPT = {
     _F + "effects.FluidEffect.apply": "an abstract hook of the stage protocol: the base raises NotImplementedError; "
                                       "every stage that implements it declares its own contract",
 }
-
-ENFORCED = ("pbanim.fluids.",)

@@ -45,5 +45,3 @@ CALLS = {
     "pbanim.particles.system.ParticleSystem.apply_impulses": lambda ps: {
         "body_idx": np.array([0, -1]), "points_world": np.zeros((2, 3)), "impulses": np.ones((2, 3))},
 }
-
-ENFORCED = ("pbanim.particles.",)

@@ -90,5 +90,3 @@ EXEMPT = {
     _R + "chart.PointKinematics.__init__": "the derivatives point_kinematics builds and users only read",
     _R + "chart.ChartCheck.__init__": "the result record check_chart builds and users only read (errors and ok)",
 }
-
-ENFORCED = ("pbanim.reduced.",)

@@ -47,5 +47,3 @@ CALLS = {
     "pbanim.rigid.effects.PointForce.__init__": lambda: {"force": lambda t, y: np.ones((2, 3))},
     "pbanim.rigid.inertia.validate_inertia": lambda: {"inertia": np.diag([1.0, 2.0, 2.5])},
 }
-
-ENFORCED = ("pbanim.rigid.",)

@@ -172,5 +172,3 @@ EXEMPT = {
     "pbanim.plotting.FigureContext.__init__": "built by run_figure (whose contract checks the options) and handed to "
                                               "the figure function; its methods carry contracts",
 }
-
-ENFORCED = ("pbanim.bench.", "pbanim.compare.", "pbanim.course.", "pbanim.plotting.")
