@@ -286,3 +286,35 @@ def test_call_checked_checks_a_call_made_from_inside_the_package():
     assert contract_of(Body.__dict__["many"]) is not None       # a classmethod carries its contract
     with pytest.raises(InvalidInput, match="many: n must be a positive integer"):
         Body.many(0)
+
+
+@pytest.mark.parametrize("kind", ["particles", "rigid", "constraints"])
+def test_a_run_from_user_code_checks_its_arguments_once_and_no_step_pays(kind, monkeypatch):
+    # the boundary is the call the user makes: simulate checks its arguments once; the functions the step
+    # loop calls (the stages, the integrator, the system) are called from inside the package and check nothing
+    from pbanim.contracts.declare import Contract
+    from pbanim.particles import DampedSprings, Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    if kind == "rigid":
+        from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
+        scene = RigidScene(RigidBodies([1.0], [1.0, 2.0, 3.0], angular_velocities=[[1.0, 2.0, 0.5]]),
+                           [RigidGravity()])
+    elif kind == "constraints":
+        from pbanim.constraints import Constraints, Distance
+        ps = ParticleSystem([[1.0, 0.0], [2.0, 0.0]], masses=1.0)
+        scene = Scene(ps, [Gravity(), Constraints([Distance([[-1, 0], [0, 1]], anchors=[0.0, 0.0])],
+                                                  stabilization="baumgarte", ks=10.0, kd=5.0)])
+    else:
+        ps = ParticleSystem(np.arange(12.0).reshape(4, 3), masses=1.0)
+        scene = Scene(ps, [Gravity(), DampedSprings([[0, 1], [1, 2], [2, 3]], 10.0, 0.1)])
+    count = [0]
+    original = Contract.check
+
+    def counting(self, args, kwargs):
+        count[0] += 1
+        return original(self, args, kwargs)
+
+    monkeypatch.setattr(Contract, "check", counting)
+    scene.simulate(0.05, 1e-3, "rk4", diagnostics=False)        # 50 steps, 200 evaluations of the forces
+    assert count[0] == 1
