@@ -296,7 +296,7 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         else:
             try:
                 f, status, iters = _IMPL[solver](A, b, **kw)
-            except PbanimError:
+            except (PbanimError, NotImplementedError):     # a starter's body left to write: said as such
                 raise
             except (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError) as exc:
                 # a numerical failure inside a route (an SVD that does not converge): a status, judged below
