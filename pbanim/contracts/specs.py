@@ -291,6 +291,7 @@ class Index(Spec):
 _F64 = np.dtype(float)
 _MIN, _MAX, _ISFINITE, _isfinite = np.minimum.reduce, np.maximum.reduce, np.isfinite, math.isfinite
 _ALL = np.logical_and.reduce
+_VDOT = np.vdot                 # one BLAS pass, no warning on overflow
 
 
 def _seeded(label: str) -> np.random.Generator:
@@ -373,7 +374,13 @@ class Array(Spec):
             if not self.empty:
                 raise env.fail(name, self.describe(env), value, "it is empty")
             return a
-        if self._bounded:      # NaN propagates through min and max, ±inf lands in one of them
+        if self._bounded and self.bounds.hi is None and self.finite:   # a lower bound: the least entry, a·a
+            lo = _MIN(a, None)
+            if not _isfinite(_VDOT(a, a)) and not _ALL(_ISFINITE(a), None) or lo != lo:
+                raise env.fail(name, self.describe(env), value, "it has NaN or inf entries")
+            if lo < self._lo or self.bounds.lo_open and lo == self._lo:
+                raise env.fail(name, self.describe(env), value, f"entries range over [{lo:g}, {_MAX(a, None):g}]")
+        elif self._bounded:      # NaN propagates through min and max, ±inf lands in one of them
             lo, hi = _MIN(a, None), _MAX(a, None)
             if self.finite and not (_isfinite(lo) and _isfinite(hi)) or lo != lo or hi != hi:
                 raise env.fail(name, self.describe(env), value, "it has NaN or inf entries" if self.finite else
@@ -381,8 +388,8 @@ class Array(Spec):
             b = self.bounds
             if lo < self._lo or hi > self._hi or b.lo_open and lo == self._lo or b.hi_open and hi == self._hi:
                 raise env.fail(name, self.describe(env), value, f"entries range over [{lo:g}, {hi:g}]")
-        elif self.finite:
-            if not _ALL(_ISFINITE(a), None):
+        elif self.finite:       # a·a is NaN or inf when an entry is (or when it overflows: then entry by entry)
+            if not _isfinite(_VDOT(a, a)) and not _ALL(_ISFINITE(a), None):
                 raise env.fail(name, self.describe(env), value, "it has NaN or inf entries")
         elif not self.nan and np.isnan(a).any():
             raise env.fail(name, self.describe(env), value, "it has NaN entries")
