@@ -142,6 +142,7 @@ class Scene:
         self._post_step = [unchecked(e.post_step) for e in self._post]
         self._derivative = unchecked(system.derivative)
         self._forces = unchecked(self.forces)
+        self._applied = unchecked(self.applied_forces)
         self._rhs = unchecked(self.rhs)
         # lean symplectic-Euler path (see the module docstring): buffers are allocated on first use
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
@@ -170,7 +171,7 @@ class Scene:
     @contract(t=_T, y=_Y, returns=finite_result)
     def forces(self, t: float, y: np.ndarray) -> np.ndarray:
         """Total generalized force Q (applied + constraint forces) at (t, y)."""
-        Q = self.applied_forces(t, y)
+        Q = self._applied(t, y)
         for constrain in self._constrain:
             Q = constrain(t, y, Q)
         return Q

@@ -25,7 +25,7 @@ from .admissible import Inertia
 from .domain import Flags, Vectors, certifier, certify, row_norms
 from .inertia import validate_inertia
 from .protocol import _Y, RigidBodyProtocol, _matTvec, _matvec
-from .quat import normalized, quat_to_matrix
+from .quat import _matrices, normalized, quat_to_matrix
 from ..errors import InvalidInput, as_floats
 
 __all__ = ["RigidBodies"]
@@ -236,7 +236,7 @@ class RigidBodies(RigidBodyProtocol):
     @contract(y=_Y, Q=Array(("self.N", 6)), returns=certifier("RigidBodies.derivative: ẏ"))
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies at once (static bodies: 0)."""
-        return self.derivative_and_omega(y, Q)[0]
+        return RigidBodies.derivative_and_omega.__wrapped__(self, y, Q)[0]      # (no boundary in between)
 
     @contract(y=_Y, Q=Array(("self.N", 6)), returns=certifier("RigidBodies.derivative: ẏ"))
     def derivative_and_omega(self, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -246,7 +246,7 @@ class RigidBodies(RigidBodyProtocol):
         q = y[3 * N:7 * N].reshape(N, 4)
         P = y[7 * N:10 * N].reshape(N, 3)
         L = y[10 * N:13 * N].reshape(N, 3)
-        R = quat_to_matrix(q)
+        R = _matrices(q)                   # (a run's quaternions: unit up to drift)
         w = np.einsum("nij,nj->ni", R, np.einsum("nij,nj->ni", self.inv_I_body, np.einsum("nji,nj->ni", R, L)))
         dy = np.empty_like(y)
         np.multiply(P, self.inv_mass[:, None], out=dy[:3 * N].reshape(N, 3))

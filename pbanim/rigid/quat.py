@@ -126,7 +126,13 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
                                f"among {q.shape[:-1] or 'one'}")
         with np.errstate(invalid="ignore"):
             q = q / np.abs(q).max(axis=-1, keepdims=True)
-        n2 = np.einsum("...i,...i->...", q, q)
+    return _matrices(q)
+
+
+def _matrices(q: np.ndarray) -> np.ndarray:
+    """:func:`quat_to_matrix` for quaternions whose |q|² neither overflows nor underflows (the states of a
+    run: unit up to drift): the formula alone, no range test — what the step loop calls."""
+    n2 = np.einsum("...i,...i->...", q, q)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     s = 2.0 / n2
     xx, yy, zz = s * x * x, s * y * y, s * z * z
