@@ -16,9 +16,81 @@ from typing import Any
 
 import numpy as np
 
-from .contracts import Array, contract
+from .contracts import Anything, Array, Func, contract
 
-__all__ = ["SimResult", "ContactSolution", "natural_map_residual"]
+__all__ = ["SimResult", "ContactSolution", "natural_map_residual", "LazyDiagnostics"]
+
+
+class LazyDiagnostics(dict):
+    """The diagnostics of a run, computed from its recorded states the first time they are read.
+
+    ``LazyDiagnostics(compute)``: ``compute()`` returns the dict of per-recorded-time series (energies, momenta,
+    constraint error …). A run that records its states but nobody reads their energy pays nothing for it; a
+    reader sees an ordinary dict (``res.diagnostics["energy"]``, ``in``, ``keys()``, iteration, ``len``).
+    """
+
+    @contract(compute=Func())
+    def __init__(self, compute) -> None:
+        super().__init__()
+        self._compute = compute
+
+    def _fill(self) -> None:
+        if self._compute is not None:
+            compute, self._compute = self._compute, None
+            super().update(compute())
+
+    @property
+    def computed(self) -> bool:
+        """Whether the series have been computed (read) yet."""
+        return self._compute is None
+
+    def __getitem__(self, key):
+        self._fill()
+        return super().__getitem__(key)
+
+    def __contains__(self, key) -> bool:
+        self._fill()
+        return super().__contains__(key)
+
+    def __iter__(self):
+        self._fill()
+        return super().__iter__()
+
+    def __len__(self) -> int:
+        self._fill()
+        return super().__len__()
+
+    def __repr__(self) -> str:
+        self._fill()
+        return super().__repr__()
+
+    def __eq__(self, other) -> bool:
+        self._fill()
+        return super().__eq__(other)
+
+    __hash__ = None
+
+    @contract(key=Anything("a diagnostic's name (any hashable, as for a dict)"),
+              default=Anything("what a missing name gives, as for a dict"))
+    def get(self, key, default=None):
+        self._fill()
+        return super().get(key, default)
+
+    def keys(self):
+        self._fill()
+        return super().keys()
+
+    def items(self):
+        self._fill()
+        return super().items()
+
+    def values(self):
+        self._fill()
+        return super().values()
+
+    def copy(self) -> dict:
+        self._fill()
+        return dict(self)
 
 
 @dataclass

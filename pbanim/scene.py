@@ -60,15 +60,36 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .contracts import Array, Choice, Flag, Has, Int, Opt, Real, Seq, contract, finite_result, unchecked
+from .contracts import Array, Choice, Either, Flag, Has, Int, Opt, Real, Seq, contract, finite_result, unchecked
 from .errors import InvalidInput, SimulationDiverged
 from .ode import METHODS, get_method
 from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
-from .results import SimResult
+from .results import LazyDiagnostics, SimResult
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
 
 _PHASES = ("force", "constraint", "post_step")
+_DIAGNOSTICS = Either(Flag(), Choice(("lazy",)))
+
+
+def _series(diags: list) -> dict:
+    """Per-recorded-time dicts → one array per key."""
+    return {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
+
+
+def _history(effects):
+    """The diagnostics of the effects that describe the step just taken (read during the run), or None."""
+    stateful = [unchecked(e.diagnostics) for e in effects
+                if getattr(e, "history_diagnostics", False) and callable(getattr(e, "diagnostics", None))]
+    if not stateful:
+        return None
+
+    def during(t, y):
+        d: dict = {}
+        for f in stateful:
+            d.update(f(t, y))
+        return d
+    return during
 _SYSTEM = Has("split", "state", "zero_forces", "derivative",
               what="a mechanical system (split, state(), zero_forces(), derivative(y, Q))")
 _EFFECT = Has("phase", "bind", what="an effect (a pbanim.scene.Effect: phase, bind(system), ...)")
@@ -336,9 +357,9 @@ class Scene:
         return h, blocks
 
     @contract(t_end=_T, h=Real(gt=0), method=_METHOD, t0=_T, y0=Opt(_Y), record_every=Int(ge=1),
-              diagnostics=Flag(), check_every=Int(ge=1), max_steps=Int(ge=1))
+              diagnostics=_DIAGNOSTICS, check_every=Int(ge=1), max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
-                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
+                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool | str = "lazy",
                  check_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed-step simulation from ``t0`` to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`).
 
@@ -352,7 +373,13 @@ class Scene:
         y0 : ndarray, optional
             Start state (default ``system.state()``).
         record_every : int
-            Record the state and diagnostics every this many steps (and at the end).
+            Record the state every this many steps (and at the end).
+        diagnostics : "lazy", True or False
+            ``"lazy"`` (default): energies, momenta and the effects' series are computed from the recorded
+            states the first time ``result.diagnostics`` is read (a run nobody asks about pays nothing);
+            effects whose diagnostics describe the step just taken (``history_diagnostics = True``: contact
+            counts, impacts) are read at the recorded times during the run. ``True``: all of them at the
+            recorded times during the run. ``False``: none.
         check_every : int
             Check for non-finite states every this many steps (raises :class:`SimulationDiverged`).
         max_steps : int
@@ -362,20 +389,25 @@ class Scene:
         m = get_method(method)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         check_finite(y, t0, 0, "initial state")
-        ts, ys, diags = [t0], [y.copy()], [self.diagnostics(t0, y)] if diagnostics else []
+        diagnose = unchecked(self.diagnostics)
+        during = diagnose if diagnostics is True else _history(self.effects) if diagnostics == "lazy" else None
+        ts, ys, diags = [t0], [y.copy()], [during(t0, y)] if during else []
         counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations
         advance = self._advance(m, counter)
 
         def record(t, yy):
             ts.append(t)
             ys.append(yy.copy())
-            if diagnostics:
-                diags.append(self.diagnostics(t, yy))
+            if during:
+                diags.append(during(t, yy))
 
         start = time.perf_counter()
         drive(advance, grid, y, record=record, record_every=record_every, check_every=check_every)
         wall = time.perf_counter() - start
-        diag_arrays = {key: np.array([d[key] for d in diags]) for key in (diags[0] if diags else {})}
+        diag_arrays = _series(diags)
+        if diagnostics == "lazy":
+            T, Y, recorded = np.array(ts), np.array(ys), diag_arrays
+            diag_arrays = LazyDiagnostics(lambda: {**_series([diagnose(t, yy) for t, yy in zip(T, Y)]), **recorded})
         return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
                          method=method, nsteps=grid.n_steps, diagnostics=diag_arrays)
 

@@ -172,3 +172,29 @@ def test_symplectic_euler_evaluates_forces_once_and_matches_the_generic_step():
     generic = RigidScene(rb, [RigidGravity(), springs], quaternions="none").simulate(0.2, 1e-2)
     assert generic.nfev == 2 * generic.nsteps
     np.testing.assert_array_equal(generic.y, res.y)
+
+
+def test_diagnostics_are_computed_when_read_and_equal_those_of_the_run():
+    # issue 28 point 2: by default a run computes no diagnostics at its steps; reading result.diagnostics
+    # computes them from the recorded states, equal to those computed during a run that asked for them
+    from pbanim.results import LazyDiagnostics
+
+    ps = cloud(4)
+    scene = Scene(ps, [Gravity(), DampedSprings([[0, 1], [1, 2], [2, 3]], 30.0, 0.2)])
+    calls = [0]
+    original = scene.diagnostics
+
+    def counting(t, y):
+        calls[0] += 1
+        return original(t, y)
+
+    scene.diagnostics = counting
+    lazy = scene.simulate(0.2, 0.01, "rk4")
+    assert isinstance(lazy.diagnostics, LazyDiagnostics) and not lazy.diagnostics.computed and calls[0] == 0
+    eager = scene.simulate(0.2, 0.01, "rk4", diagnostics=True)
+    assert calls[0] == 21                                   # the recorded times: 20 steps and the start
+    assert set(lazy.diagnostics) == set(eager.diagnostics)  # reading computes them, once
+    assert calls[0] == 42 and lazy.diagnostics.computed
+    for k in eager.diagnostics:
+        np.testing.assert_array_equal(lazy.diagnostics[k], eager.diagnostics[k])
+    assert scene.simulate(0.2, 0.01, "rk4", diagnostics=False).diagnostics == {}

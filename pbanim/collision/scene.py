@@ -330,6 +330,8 @@ class Collisions(Effect):
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         return self.respond(t, y, h)
 
+    history_diagnostics = True          # the last response: read at the recorded times of a run
+
     @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t: float, y: np.ndarray) -> dict[str, Any]:
         """The last response: contacts, total normal impulse, and how many contacts were colliding (faster

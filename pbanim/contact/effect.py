@@ -176,6 +176,8 @@ class RestingContact(Effect):
         sol, prob, _ = out
         return Q + prob.generalized_force(sol.f, self._N)
 
+    history_diagnostics = True          # the last solve's forces: read at the recorded times of a run
+
     @contract(t=_TIME, y=_STATE)
     def diagnostics(self, t: float, y: np.ndarray) -> dict:
         sol, c = self.last, self.last_contacts

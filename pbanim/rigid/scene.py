@@ -29,7 +29,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, Seq, contract
+from ..contracts import Array, Choice, Either, Flag, Func, Int, Obj, Opt, Real, Seq, contract
 from ..ode import get_method
 from ..ode.driver import MAX_STEPS, check_finite
 from ..results import SimResult
@@ -206,9 +206,9 @@ class RigidScene(Scene):
         return y1
 
     @contract(t_end=_T, h=_H, method=_METHOD, t0=_T, y0=Opt(RigidState("self.system")), record_every=Int(ge=1),
-              diagnostics=Flag(), check_every=Int(ge=1), max_steps=Int(ge=1))
+              diagnostics=Either(Flag(), Choice(("lazy",))), check_every=Int(ge=1), max_steps=Int(ge=1))
     def simulate(self, t_end: float, h: float, method: str = "symplectic_euler", *, t0: float = 0.0,
-                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool = True,
+                 y0: np.ndarray | None = None, record_every: int = 1, diagnostics: bool | str = "lazy",
                  check_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed-step simulation (see :meth:`pbanim.scene.Scene.simulate`; same driver, same step rule,
         same arguments).

@@ -19,6 +19,8 @@ def _scene():
 _ROW = lambda: Row("rk4", 0.1, 1e-4, 1e-3, 40)  # noqa: E731
 
 INSTANCES = {
+    __import__("pbanim.results", fromlist=["x"]).LazyDiagnostics:
+        lambda: __import__("pbanim.results", fromlist=["x"]).LazyDiagnostics(lambda: {"energy": np.ones(3)}),
     Scene: _scene,
     Row: _ROW,
     OrderFit: lambda: OrderFit(2.0, np.array([0.1, 0.05]), np.array([1e-2, 2.5e-3]), np.array([True, True]), ()),
@@ -84,6 +86,8 @@ CALLS = {
 }
 for _m in ("applied_forces", "forces", "rhs", "potential_energy", "energy", "diagnostics", "jac", "step"):
     CALLS[f"pbanim.scene.Scene.{_m}"] = _Y
+CALLS["pbanim.results.LazyDiagnostics.__init__"] = lambda: {"compute": lambda: {"energy": np.ones(3)}}
+CALLS["pbanim.results.LazyDiagnostics.get"] = lambda: {"key": "energy"}
 CALLS["pbanim.scene.Scene.simulate"] = lambda: {"t_end": 0.05, "h": 0.01}
 
 # the assertions of pbanim.testing raise AssertionError when the property fails: that is their answer
