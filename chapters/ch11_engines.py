@@ -39,7 +39,7 @@ FLOOR = 1e-16
 
 @lru_cache(maxsize=2)
 def comparison(quick: bool):
-    """One run of every scene in every engine (shared by both figures of a session)."""
+    """One run of every scene in every engine (shared by both figures: one group, run in one process)."""
     return run_compare(quick=quick, keep_curves=True)
 
 
@@ -69,7 +69,7 @@ def _engines(cmp) -> list[str]:
 # Each engine's trajectory over the exact answer, one panel per scene.
 
 # %%
-@figure("ch11", "trajectories", "Each engine's trajectory over the exact answer")
+@figure("ch11", "trajectories", "Each engine's trajectory over the exact answer", group="ch11_comparison")
 def trajectories(ctx):
     cmp = comparison(ctx.quick)
     names = list(cmp.scenes)
@@ -116,7 +116,7 @@ def trajectories(ctx):
 # Error against the closed form vs cost per step, for each engine as the step changes.
 
 # %%
-@figure("ch11", "error_vs_cost", "Error vs cost per engine as the step changes")
+@figure("ch11", "error_vs_cost", "Error vs cost per engine as the step changes", cost=85.0, group="ch11_comparison")
 def error_vs_cost(ctx):
     cmp = comparison(ctx.quick)
     names = list(cmp.scenes)

@@ -1,7 +1,8 @@
 """Command line: ``pbanim figures | bench | compare | list | assignment | grade | notebook``.
 
     pbanim figures [chNN | chNN_name ...] [--quick] [--out DIR]     regenerate lecture figures (chapters or
-           [--format png|svg|pdf] [--dpi N] [--style paper|slides]  single figures; one progress line each)
+           [--format png|svg|pdf] [--dpi N] [--style paper|slides]  single figures; one progress line each,
+           [--jobs N]                                      on N processes, default one per core; slowest named)
     pbanim bench NAME [--quick] [--json FILE]          run a benchmark family; ends with its goal lines
     pbanim compare [SCENE ...] [--engines a,b] [--quick] [--markdown F] [--json F]
                                                        the same scenes in pbanim, PyBullet, MuJoCo vs the exact answer
@@ -100,29 +101,41 @@ def _chapter_files() -> dict[str, Path]:
 
 def cmd_figures(args) -> int:
     from .bench import one_blas_thread
-    from .plotting import run_figure, write_index
+    from .plotting import run_figures, write_index
 
     with one_blas_thread():               # the figures that time solvers get the benchmarks' conditions
-        return _figures(args, run_figure, write_index)
+        return _figures(args, run_figures, write_index)
 
 
-def _figures(args, run_figure, write_index) -> int:
+_WORKER: list = []
+
+
+def _one_blas_thread_for_life() -> None:
+    """A figure worker's initializer: one BLAS thread until the worker exits (every BLAS the figures load,
+    numpy's and scipy's, is loaded first), so two workers on two cores never oversubscribe them."""
+    import scipy.linalg  # noqa: F401  (scipy's BLAS loaded before the limit is applied)
+
+    from .bench import one_blas_thread
+
+    _WORKER.append(one_blas_thread())      # applied now, kept until the worker exits
+
+
+def _figures(args, run_figures, write_index) -> int:
     specs = select_figures(args.chapters or None)
     out = Path(args.out) if args.out else _default_out()
-    files, issues = {}, []
     total = time.perf_counter()
-    for i, (key, spec) in enumerate(specs.items(), 1):
-        start = time.perf_counter()
-        _, written = call_checked(run_figure, spec, out, quick=args.quick, fmt=args.format, dpi=args.dpi, style=args.style,
-                                issues=issues)
-        files[key] = written
-        names = ", ".join(p.name for p in written) or "(no file)"
-        print(f"[{i}/{len(specs)}] {key}: {names} ({time.perf_counter() - start:.1f}s)", flush=True)
+    files, seconds, issues = call_checked(run_figures, specs, out, quick=args.quick, fmt=args.format, dpi=args.dpi,
+                                          style=args.style, jobs=args.jobs, progress=lambda line: print(line, flush=True),
+                                          initializer=_one_blas_thread_for_life)
     for line in issues:
         print(f"warning: {line}")
     if not args.chapters:
         write_index(specs, out, files, checked_by(list(specs)))
-    print(f"{len(specs)} figures in {time.perf_counter() - total:.1f}s -> {out}")
+    wall = time.perf_counter() - total
+    print(f"{len(specs)} figures in {wall:.1f}s ({sum(seconds.values()):.1f}s of figure time) -> {out}")
+    slow = sorted(seconds, key=lambda k: -seconds[k])[:5]
+    if len(specs) > 1:
+        print("slowest: " + ", ".join(f"{k} {seconds[k]:.1f}s" for k in slow))
     return 0
 
 
@@ -201,6 +214,8 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--dpi", type=float, help="resolution of PNGs and GIFs (default 110; GIFs 60, slides 100)")
     f.add_argument("--style", default="paper", choices=["paper", "slides"],
                    help="slides: large fonts and thick lines, also in GIFs")
+    f.add_argument("--jobs", "-j", type=int, metavar="N",
+                   help="worker processes (default: one per core; 1: one after the other in this process)")
     f.set_defaults(func=cmd_figures)
     b = sub.add_parser("bench", help="run a benchmark family", formatter_class=argparse.RawDescriptionHelpFormatter,
                        epilog="benchmark families:\n" + "\n".join(f"  {line}" for line in bench_lines()))

@@ -35,6 +35,7 @@ parentheses or brackets (``"t (s)"``, ``"E [J]"``; dimensionless axes say ``"(1)
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -43,8 +44,8 @@ import numpy as np
 
 from .contracts import Choice, Either, Flag, Func, Int, Obj, Opt, PathLike, Real, Seq, Text, contract
 
-__all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "write_index",
-           "pyplot", "STYLES", "FORMATS", "axes_without_units"]
+__all__ = ["figure", "FIGURES", "FigureSpec", "FigureContext", "figures_of", "run_figure", "run_figures",
+           "write_index", "pyplot", "STYLES", "FORMATS", "axes_without_units"]
 
 DPI = 110
 STYLE = {
@@ -79,13 +80,22 @@ STYLE_NAME = Choice(STYLES)
 DPI_RANGE = Opt(Real(ge=10, le=1200))
 
 
-@contract(chapter=_NAME, name=_NAME, title=Text(), func=Func())
+_COST = Real(ge=0, le=1e6)
+
+
+@contract(chapter=_NAME, name=_NAME, title=Text(), func=Func(), cost=_COST, group=Text())
 @dataclass(frozen=True)
 class FigureSpec:
+    """A registered figure. ``cost``: roughly its seconds in a full run (the costly ones start first when
+    figures run in parallel); ``group``: figures of one group share a computation (a cached run) and run
+    one after the other in one process."""
+
     chapter: str
     name: str
     title: str
     func: Callable[["FigureContext"], dict]
+    cost: float = 1.0
+    group: str = ""
 
     @property
     def key(self) -> str:
@@ -95,12 +105,13 @@ class FigureSpec:
 FIGURES: dict[str, FigureSpec] = {}
 
 
-@contract(chapter=_NAME, name=_NAME, title=Text())
-def figure(chapter: str, name: str, title: str) -> Callable:
-    """Register a figure function ``f(ctx) -> dict`` under ``chapter_name``."""
+@contract(chapter=_NAME, name=_NAME, title=Text(), cost=_COST, group=Text())
+def figure(chapter: str, name: str, title: str, *, cost: float = 1.0, group: str = "") -> Callable:
+    """Register a figure function ``f(ctx) -> dict`` under ``chapter_name`` (``cost`` and ``group``: see
+    :class:`FigureSpec`; they only schedule :func:`run_figures`, never change what a figure computes)."""
 
     def deco(func: Callable) -> Callable:
-        spec = FigureSpec(chapter, name, title, func)
+        spec = FigureSpec(chapter, name, title, func, float(cost), group)
         FIGURES[spec.key] = spec
         func.spec = spec  # type: ignore[attr-defined]
         return func
@@ -212,6 +223,84 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
         raise InvalidInput(f"run_figure: spec must be a figure whose function returns a dict of its data; "
                            f"{spec.key} returned a {type(data).__name__}")
     return data, ctx.files
+
+
+def _run_group(specs: list, out_dir, quick: bool, fmt: str, dpi, style: str) -> list:
+    """Run the figures of one group in this process, in order: [(key, files, seconds, issues)]."""
+    done = []
+    for spec in specs:
+        issues: list[str] = []
+        start = time.perf_counter()
+        try:
+            _, files = run_figure(spec, out_dir, quick, fmt=fmt, dpi=dpi, style=style, issues=issues)
+        except Exception as exc:
+            exc.add_note(f"(while drawing the figure {spec.key})")
+            raise
+        done.append((spec.key, files, time.perf_counter() - start, issues))
+    return done
+
+
+@contract(specs=Obj(dict, what="a dict {key: FigureSpec}"), out_dir=Opt(PathLike()), quick=Flag(), fmt=FORMAT,
+          dpi=DPI_RANGE, style=STYLE_NAME, jobs=Opt(Int(ge=1, le=256)), progress=Opt(Func()),
+          initializer=Opt(Func()))
+def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool = False, *, fmt: str = "png",
+                dpi: float | None = None, style: str = "paper", jobs: int | None = None,
+                progress: Callable[[str], Any] | None = None,
+                initializer: Callable[[], Any] | None = None) -> tuple[dict, dict, list]:
+    """Run several figures on ``jobs`` worker processes (None: one per core; 1: here, in the order given).
+
+    Returns ({key: files}, {key: seconds}, issues), keys in the order of ``specs``. ``progress`` gets one line
+    per figure as it finishes: ``[i/n] key: files (seconds)``. The costliest groups start first (longest
+    processing time first, by :attr:`FigureSpec.cost`); a group (:attr:`FigureSpec.group`) runs in one process.
+    Every figure runs in a fresh seeded context (:func:`run_figure`), so the files are those of a serial run.
+    ``initializer``: called once in each worker before its first figure (a module-level function: workers are
+    fresh interpreters); the command line hands in one that limits BLAS to one thread, as in the benchmarks.
+    A figure that fails stops the run: the figures not yet started are cancelled and its error is raised.
+    """
+    import os
+
+    from .errors import InvalidInput
+
+    for key, spec in specs.items():
+        if not isinstance(spec, FigureSpec):
+            raise InvalidInput(f"run_figures: specs must map keys to FigureSpec objects, got "
+                               f"{type(spec).__name__} for {key!r}")
+    groups: dict[str, list] = {}
+    for key, spec in sorted(specs.items()):
+        groups.setdefault(spec.group or key, []).append(spec)
+    order = sorted(groups.values(), key=lambda g: (-sum(s.cost for s in g), g[0].key))
+    if jobs is None:
+        jobs = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    jobs = min(jobs, len(order))
+    files, seconds, issues = {}, {}, {}
+
+    def finished(results) -> None:
+        for key, written, secs, found in results:
+            files[key], seconds[key], issues[key] = written, secs, found
+            if progress is not None:
+                names = ", ".join(p.name for p in written) or "(no file)"
+                progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s)")
+
+    args = (None if out_dir is None else Path(out_dir), quick, fmt, dpi, style)
+    if jobs <= 1:
+        for group in (groups[k] for k in dict.fromkeys(s.group or k for k, s in specs.items())):
+            finished(_run_group(group, *args))
+    else:
+        import multiprocessing
+        from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+        # spawn: a fresh interpreter per worker (no state inherited from this process, the same on every OS)
+        pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"), initializer=initializer)
+        try:
+            pending = [pool.submit(_run_group, group, *args) for group in order]
+            while pending:
+                done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                pending = [f for f in pending if f not in done]
+                for fut in done:
+                    finished(fut.result())        # a figure's error is raised here
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+    return {k: files[k] for k in specs}, {k: seconds[k] for k in specs}, [m for k in specs for m in issues[k]]
 
 
 @contract(fig=_FIG)

@@ -66,3 +66,43 @@ def test_figures_are_deterministic(tmp_path):
     _, a = run_figure(spec, tmp_path / "a", quick=True)
     _, b = run_figure(spec, tmp_path / "b", quick=True)
     assert [p.read_bytes() for p in a] == [p.read_bytes() for p in b]
+
+
+# cheap figures without wall times in their data (a timing figure's numbers differ from run to run)
+PARALLEL_KEYS = ["ch01_projectile_drag", "ch02_stiff_spring", "ch05_polhode", "ch06_newtons_cradle"]
+
+
+def test_figures_on_two_processes_write_the_serial_files(tmp_path):
+    # pbanim figures runs figures on a process pool: each in a fresh seeded context, so the same bytes as a
+    # serial run in this process, one progress line per figure, and the files reported per key
+    from pbanim.plotting import run_figures
+
+    specs = {k: FIGURES[k] for k in PARALLEL_KEYS}
+    serial, _, _ = run_figures(specs, tmp_path / "serial", quick=True, jobs=1)
+    lines: list[str] = []
+    parallel, seconds, _ = run_figures(specs, tmp_path / "parallel", quick=True, jobs=2, progress=lines.append)
+    assert list(parallel) == list(serial) == PARALLEL_KEYS and set(seconds) == set(PARALLEL_KEYS)
+    for key in PARALLEL_KEYS:
+        assert [p.name for p in parallel[key]] == [p.name for p in serial[key]] and serial[key], key
+        assert [p.read_bytes() for p in parallel[key]] == [p.read_bytes() for p in serial[key]], key
+    assert len(lines) == len(PARALLEL_KEYS) and {line.split()[1].rstrip(":") for line in lines} == set(PARALLEL_KEYS)
+    assert sorted(int(line[1:line.index("/")]) for line in lines) == list(range(1, len(PARALLEL_KEYS) + 1))
+
+
+def test_figures_sharing_a_computation_share_a_group():
+    # the figures that read one cached run are one group (one process runs them, the run is made once)
+    assert FIGURES["ch11_trajectories"].group == FIGURES["ch11_error_vs_cost"].group != ""
+
+
+def _broken_figure(ctx):
+    raise RuntimeError("drawn wrong on purpose")
+
+
+def test_a_figure_failing_in_a_worker_is_raised_and_named(tmp_path):
+    from pbanim.plotting import FigureSpec, run_figures
+
+    specs = {"ch01_projectile_drag": FIGURES["ch01_projectile_drag"],
+             "zz_broken": FigureSpec("zz", "broken", "A broken figure", _broken_figure, cost=100.0)}
+    with pytest.raises(RuntimeError, match="on purpose") as info:
+        run_figures(specs, tmp_path, quick=True, jobs=2)
+    assert "zz_broken" in " ".join(getattr(info.value, "__notes__", []))

@@ -145,6 +145,9 @@ CALLS = {
                                                        "frames": 2},
     "pbanim.plotting.run_figure": lambda: {"spec": _figure_spec(), "out_dir": _folder(), "quick": True, "dpi": 50.0,
                                            "issues": []},
+    # one tiny figure in this process (jobs=1; one group never starts a worker), into a temporary folder
+    "pbanim.plotting.run_figures": lambda: {"specs": {"zz_fuzz": _figure_spec()}, "out_dir": _folder(), "quick": True,
+                                            "dpi": 50.0, "jobs": 1},
     "pbanim.plotting.write_index": lambda: {"specs": {"zz_fuzz": _figure_spec()}, "out_dir": _folder(), "files": {},
                                             "checked_by": None},
 }
