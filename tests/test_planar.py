@@ -184,3 +184,59 @@ def test_bad_contact_input_is_named():
         PlanarGround(0.0, -1.0)
     with pytest.raises(InvalidInput, match="angle"):
         PlanarGround(2.0)
+
+
+# --------------------------------------------------------------------------------------------------
+# The lean contact step (pbanim.articulated.planar_lean) takes the readable step's arithmetic, bit for bit
+# --------------------------------------------------------------------------------------------------
+def _lean_pair(tree, pts, ground=None):
+    from pbanim.articulated.planar_lean import LeanPlanarStep
+
+    readable = PlanarContactStep(PlanarKernel(tree), pts, ground)
+    twin = PlanarContactStep(PlanarKernel(tree), pts, ground)
+    return readable, LeanPlanarStep(twin)
+
+
+def _lean_step(lean, q, qd, h, tau, kd=None):
+    kin = lean.kinematics(q)
+    return lean.step(q, qd, h, tau, kd, kin, lean.com_jacobians(kin[2], kin[3]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 10 ** 6), st.sampled_from([0.0, 0.05, -0.2]), st.sampled_from([1e-3, 4e-3]),
+       st.booleans())
+def test_lean_contact_step_equals_the_readable_step(seed, slope, h, servo_gains):
+    # ORACLES I6 (the kernel's closed forms) and F3 (the contact step): the lean step is the readable one's
+    # arithmetic, operation for operation: equal states, contact sets and modes, bit for bit, over 40 steps
+    # of a biped dropped near the ground (contacts touching, sliding, separating; modes switched)
+    rng = np.random.default_rng(seed)
+    tree = planar_biped()
+    readable, lean = _lean_pair(tree, biped_contact_points(tree), PlanarGround(slope, 0.6))
+    q = rng.normal(scale=0.15, size=9)
+    q[1] = rng.uniform(-0.03, 0.05) + np.tan(slope) * q[0]
+    qd = rng.normal(scale=0.5, size=9)
+    q2, qd2 = q.copy(), qd.copy()
+    kd = rng.uniform(0, 30, size=9) * (np.arange(9) >= 3) if servo_gains else None
+    for _ in range(40):
+        tau = rng.normal(scale=20.0, size=9) * (np.arange(9) >= 3)
+        q, qd = readable.step(q, qd, h, tau, kd)
+        q2, qd2, near, z = _lean_step(lean, q2, qd2, h, tau, kd)
+        assert np.array_equal(q, q2) and np.array_equal(qd, qd2)
+        assert np.array_equal(near, readable.last["near"]) and np.array_equal(readable.modes, lean.modes)
+        if near.size:
+            assert np.array_equal(z, readable.last["impulses"])
+
+
+def test_lean_contact_step_hands_what_it_cannot_take_to_the_readable_step():
+    # a state that overflows the step: the readable step's named error, not a NaN state
+    from pbanim.errors import NonFiniteResult
+
+    tree = planar_biped()
+    readable, lean = _lean_pair(tree, biped_contact_points(tree))
+    q, qd = np.zeros(9), np.zeros(9)
+    qd[3] = 1e200
+    with np.errstate(over="ignore", invalid="ignore"):      # the readable step's overflow, named
+        with pytest.raises(NonFiniteResult, match="planar step"):
+            readable.step(q, qd, 1e-3, np.zeros(9))
+        with pytest.raises(NonFiniteResult, match="planar step"):
+            _lean_step(lean, q, qd, 1e-3, np.zeros(9))

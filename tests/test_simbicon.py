@@ -166,3 +166,45 @@ def test_state_machines_are_refused_or_run(edges):
     for k in range(20):
         m.update(0.1 * (k + 1), {"e"})
     assert m.trace[0] == (0.0, "s0") and all(s in states for _, s in m.trace)
+
+
+def _same_walk(a, b):
+    """Two runs are the same walk: states, centre of mass, machine trace, strikes, push, fall, targets."""
+    assert np.array_equal(a.t, b.t) and np.array_equal(a.q, b.q) and np.array_equal(a.qd, b.qd)
+    assert np.array_equal(a.com, b.com) and a.trace == b.trace and a.strikes == b.strikes
+    assert (a.fell, a.fall_time, a.fall_cause, a.push_time) == (b.fell, b.fall_time, b.fall_cause, b.push_time)
+    assert len(a.targets) == len(b.targets)
+    for x, y in zip(a.targets, b.targets):
+        assert x[:4] == y[:4] and x[4].keys() == y[4].keys()
+        assert all(np.array_equal(x[4][k], y[4][k], equal_nan=True) for k in x[4])
+
+
+@pytest.mark.parametrize("kw", [dict(servo="stable", h=4e-3), dict(servo="explicit", h=2e-3, slope=0.05),
+                                dict(servo="stable", h=4e-3, gait=FAST_WALK, slope=-0.05, friction=0.5),
+                                dict(servo="stable", h=4e-3, feedback=False, t_end=5.0),
+                                dict(servo="stable", h=4e-3, push=Push(150.0, 0.4, 3), t_end=4.0),
+                                dict(servo="explicit", h=8e-3, t_end=1.0)])
+def test_the_lean_walk_is_the_readable_walk_bit_for_bit(kw):
+    # ORACLES F4–F7 hold for the walk the tests run (the lean path, the default); it is the readable step's
+    # arithmetic operation for operation, so the two give the same walk bit for bit: flat and slopes, both
+    # servos, falls (F5), a push that topples it (F6), a step where explicit PD falls (F1)
+    kw = {"t_end": 2.5, "record_every": 3, **kw}
+    _same_walk(simulate_walk(lean=False, **kw), simulate_walk(**kw))
+
+
+def test_a_controller_with_its_own_servos_runs_the_readable_step():
+    # a subclass that overrides torques is run as written (the lean path computes SIMBICON's own servos)
+    from pbanim.articulated.planar import PlanarKernel
+    from pbanim.control import Simbicon
+    from pbanim.control.biped import planar_biped
+
+    calls = []
+
+    class Logged(Simbicon):
+        def torques(self, t, q, qd, events=(), kin=None, h=0.0):
+            calls.append(t)
+            return super().torques(t, q, qd, events, kin, h)
+
+    r = simulate_walk(t_end=0.2, h=4e-3, controller=Logged(PlanarKernel(planar_biped()), WALK, servo="stable"))
+    assert len(calls) == 50
+    _same_walk(r, simulate_walk(WALK, 0.2, 4e-3, servo="stable", record_every=20))

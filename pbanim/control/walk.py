@@ -96,14 +96,19 @@ def fall_cause(kernel, kin, q, ground) -> str:
 
 @contract(gait=Obj(Gait), t_end=Real(gt=0), h=Real(gt=0), slope=Real(ge=-np.pi / 3, le=np.pi / 3), feedback=Flag(),
           push=Opt(Obj(Push)), servo=Choice(("explicit", "stable")), friction=Real(ge=0), record_every=Int(ge=1),
-          max_steps=Int(ge=1), controller=Opt(Obj(Simbicon)))
+          max_steps=Int(ge=1), controller=Opt(Obj(Simbicon)), lean=Flag())
 def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, slope: float = 0.0,
                   feedback: bool = True, push: Push | None = None, servo: str = "explicit",
                   friction: float = 0.9, record_every: int = 20, max_steps: int = MAX_STEPS,
-                  controller: Simbicon | None = None) -> WalkResult:
+                  controller: Simbicon | None = None, lean: bool = True) -> WalkResult:
     """Walk the planar biped with SIMBICON on a ground of slope ``slope`` (rad, |slope| ≤ π/3) from a
     standing start. ``controller``: a :class:`Simbicon` of one's own (it carries its gait, feedback and
-    servos, so those three are then not given)."""
+    servos, so those three are then not given).
+
+    ``lean`` (default): each step runs the lean path of :mod:`.walk_lean` (the same arithmetic without the
+    readable path's per-call overhead: the same states bit for bit, tested); ``lean=False`` runs the readable
+    step below — the controller's :meth:`Simbicon.torques` and :class:`PlanarContactStep` — and is what a
+    controller of one's own (a subclass with other torques) always runs."""
     if controller is not None and (gait is not WALK or feedback is not True or servo != "explicit"):
         raise InvalidInput("simulate_walk: give either controller (which carries its own gait, feedback and "
                            "servo) or gait, feedback and servo, not both")
@@ -113,7 +118,6 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     stepper = PlanarContactStep(kernel, biped_contact_points(tree), ground)
     ctrl = controller or Simbicon(kernel, gait, feedback=feedback, servo=servo)
     ctrl.reset()
-    torques = unchecked(ctrl.torques)
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
     q0 = np.zeros(tree.nq)
     q0[1] = float(ground.height(0.0)) + 1e-4
@@ -126,7 +130,76 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     qd0[0] = 0.4
     ts, qs, qds, coms = [0.0], [q0.copy()], [qd0.copy()], [kernel.centre_of_mass(q0)]
     state = {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
-    names = [lk.name for lk in tree.links]
+    run = (kernel, ground, stepper, ctrl, push, state)
+    check_every = 1
+    if lean and _leanable(ctrl, kernel):
+        from .walk_lean import lean_advance
+
+        advance = lean_advance(*run)
+        check_every = grid.n_steps             # the lean step returns finite states only (else the readable raises)
+    else:
+        advance = _readable_advance(*run)
+
+    def record(t1, y1):
+        ts.append(t1), qs.append(y1[:9].copy()), qds.append(y1[9:].copy())
+        coms.append(kernel.centre_of_mass(y1[:9]))
+
+    start = time.perf_counter()
+    fell, fall_time, cause = False, None, ""
+    try:
+        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every,
+              check_every=check_every)
+    except Fell:
+        fell, (fall_time, cause) = True, state["fall"]
+    wall = time.perf_counter() - start
+    return WalkResult(t=np.array(ts), q=np.array(qs), qd=np.array(qds), trace=list(ctrl.fsm.trace), fell=fell,
+                      fall_time=fall_time, fall_cause=cause, wall_time=wall, h=h, com=np.array(coms),
+                      strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]))
+
+
+def _leanable(ctrl: Simbicon, kernel: PlanarKernel) -> bool:
+    """Whether the lean step computes what ``ctrl`` would: SIMBICON's own servos and balance (a subclass
+    that overrides them runs the readable step) on a biped of the same masses."""
+    cls = type(ctrl)
+    return (cls.torques is Simbicon.torques and cls.balance is Simbicon.balance and cls.sides is Simbicon.sides
+            and ctrl.kernel.n == kernel.n and np.array_equal(ctrl.kernel.mass, kernel.mass))
+
+
+# -- between the steps: what both paths do (the machine's bookkeeping, the push, the strikes, the fall) ------
+def note_transition(state: dict, now: str, t: float) -> None:
+    """The machine entered ``now`` at time t: count it, and time the right step when the left one starts."""
+    state["entries"][now] = state["entries"].get(now, 0) + 1
+    state["enter"][now] = t
+    if now == "L0" and "R0" in state["enter"]:
+        state["step"] = t - state["enter"]["R0"]            # duration of the last right step
+
+
+def push_due(push, state: dict, now: str, t: float) -> bool:
+    """Whether the push lands in this step (its phase of its step reached, not yet applied)."""
+    return (push is not None and state["pushed"] is None and now in ("R0", "R1")
+            and state["entries"].get("R0", 0) == push.count and state["step"] is not None
+            and t - state["enter"]["R0"] >= push.phase * state["step"])
+
+
+def pushed_velocity(kernel: PlanarKernel, kin: dict, q, qd, impulse: float):
+    """q̇ + H⁻¹ J_cᵀ P: the push P (horizontal) on the torso's centre of mass."""
+    links = np.array([[lk.name for lk in kernel.tree.links].index("torso")])
+    Jc = kernel.jacobians(kin, links, kin["c"][links])[0]
+    H, _, _ = kernel.dynamics(q, qd)
+    return qd + np.linalg.solve(H, Jc.T @ np.array([impulse, 0.0]))
+
+
+def note_strikes(state: dict, events: tuple, now: str, t1: float) -> None:
+    """A foot struck the ground at the end of a step in which it swung (the machine in state 1 of the
+    other side's stance)."""
+    for side in ("left", "right"):
+        if f"{side}_strike" in events and now[0] != side[0].upper() and now.endswith("1"):
+            state["strikes"].append((t1, side))
+
+
+def _readable_advance(kernel, ground, stepper, ctrl, push, state):
+    """One step: the controller, the push, the contact step, the events, the fall detector."""
+    torques = unchecked(ctrl.torques)
     foot_points = {"left": [0, 1], "right": [2, 3]}
 
     def advance(t, y, hh):
@@ -136,25 +209,14 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
         kernel.com_jacobians(kin)                                  # cached in kin: shared by controller and step
         tau, kd = torques(t, q, qd, state["events"], kin, hh)
         if ctrl.fsm.state != before:
-            state["entries"][ctrl.fsm.state] = state["entries"].get(ctrl.fsm.state, 0) + 1
-            state["enter"][ctrl.fsm.state] = t
-            if ctrl.fsm.state == "L0" and "R0" in state["enter"]:
-                state["step"] = t - state["enter"]["R0"]            # duration of the last right step
-        if push is not None and state["pushed"] is None and ctrl.fsm.state in ("R0", "R1") \
-                and state["entries"].get("R0", 0) == push.count and state["step"] is not None \
-                and t - state["enter"]["R0"] >= push.phase * state["step"]:
-            links = np.array([names.index("torso")])
-            Jc = kernel.jacobians(kin, links, kin["c"][links])[0]
-            H, _, _ = kernel.dynamics(q, qd)
-            qd = qd + np.linalg.solve(H, Jc.T @ np.array([push.impulse, 0.0]))
+            note_transition(state, ctrl.fsm.state, t)
+        if push_due(push, state, ctrl.fsm.state, t):
+            qd = pushed_velocity(kernel, kin, q, qd, push.impulse)
             state["pushed"] = t
         q1, u1 = stepper.step(q, qd, hh, tau, kd if np.any(kd) else None, kin)
         f = stepper.contact_forces(hh)
         events = tuple(f"{side}_strike" for side, idx in foot_points.items() if np.any(f[idx] > 0))
-        for side in ("left", "right"):
-            if f"{side}_strike" in events and ctrl.fsm.state[0] != side[0].upper() and \
-                    (ctrl.fsm.state.endswith("1")):
-                state["strikes"].append((t + hh, side))
+        note_strikes(state, events, ctrl.fsm.state, t + hh)
         state["events"] = events
         state["kin"] = kin1 = kernel.kinematics(q1)
         cause = fall_cause(kernel, kin1, q1, ground)
@@ -163,20 +225,7 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
             raise Fell(cause)
         return np.concatenate([q1, u1])
 
-    def record(t1, y1):
-        ts.append(t1), qs.append(y1[:9].copy()), qds.append(y1[9:].copy())
-        coms.append(kernel.centre_of_mass(y1[:9]))
-
-    start = time.perf_counter()
-    fell, fall_time, cause = False, None, ""
-    try:
-        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every)
-    except Fell:
-        fell, (fall_time, cause) = True, state["fall"]
-    wall = time.perf_counter() - start
-    return WalkResult(t=np.array(ts), q=np.array(qs), qd=np.array(qds), trace=list(ctrl.fsm.trace), fell=fell,
-                      fall_time=fall_time, fall_cause=cause, wall_time=wall, h=h, com=np.array(coms),
-                      strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]))
+    return advance
 
 
 def stick_figure(kernel: PlanarKernel, q) -> list:
