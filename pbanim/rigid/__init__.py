@@ -58,8 +58,10 @@ Parts: :mod:`pbanim.rigid.bodies` (the system), :mod:`pbanim.rigid.protocol` (it
 impulses, inverse-mass blocks), :mod:`pbanim.rigid.quat` (quaternions), :mod:`pbanim.rigid.inertia` (mass
 properties), :mod:`pbanim.rigid.admissible` (which inertia tensors a body can have),
 :mod:`pbanim.rigid.effects` (forces, torques, renormalization), :mod:`pbanim.rigid.scene` (scene with
-quaternion handling and rigid diagnostics), :mod:`pbanim.rigid.domain` (what each argument must be: the
-specs of the argument contracts the vocabulary of :mod:`pbanim.contracts` lacks).
+quaternion handling and rigid diagnostics), :mod:`pbanim.rigid.lean` (the same step on plain floats for a
+scene of a few bodies under gravity and drag: what such a scene runs, equal to the readable step to
+roundoff), :mod:`pbanim.rigid.domain` (what each argument must be: the specs of the argument contracts the
+vocabulary of :mod:`pbanim.contracts` lacks).
 
 Every public callable declares its arguments (:func:`pbanim.contracts.contract`): a call from outside
 the package with a wrong shape, a NaN, a zero quaternion, a batch of states where one is expected or an
