@@ -55,6 +55,7 @@ import numpy as np
 from .assembly import ContactRows, assemble_rigid, particle_blocks, particle_rows, rigid_rows, rigid_state
 from .specs import RIGID, ContactsOn, check_contacts, finite_parts, state_of
 from ..bodies import require_bodies
+from ..collision.shapes import Contacts
 from ..bodies import BodySystem
 from ..contracts import Array, Choice, Flag, Func, Int, Obj, Opt, Real, Seq, contract
 from ..lcp.solve import LCP_SOLVERS, solve_lcp
@@ -162,6 +163,10 @@ class TimeStepping:
         best iterate when the LCP is not solved to ``tol`` instead of raising
         :class:`~pbanim.errors.InfeasibleContact`. Never silent: the step's residual and an
         ``lcp_unconverged`` flag are recorded in the diagnostics.
+    lean : bool
+        Let :meth:`simulate` take the lean step (:mod:`pbanim.contact.lean`: bound once, equal to the
+        readable :meth:`step` to roundoff) when it applies — rigid bodies, no friction, a narrow phase with
+        raw arrays (:class:`pbanim.contact.scenes.SceneDetect`); False: the readable step always.
 
     Examples
     --------
@@ -178,10 +183,10 @@ class TimeStepping:
     @contract(system=BodySystem(), detect=Func(), forces=Seq(Obj("pbanim.scene:Effect")),
               friction=Array((None,), ge=0, scalar=True), facets=_FACETS, solver=Choice(LCP_SOLVERS),
               erp=Real(gt=0, le=1), tol=Real(gt=0, lt=1), tangent=Opt(Array((3,))),
-              solver_options=Opt(SolverOptions()), accept_unconverged=Flag())
+              solver_options=Opt(SolverOptions()), accept_unconverged=Flag(), lean=Flag())
     def __init__(self, system, detect: Callable, forces: Sequence[Any] = (), *, friction=0.0, facets: int = 4,
                  solver: str = "lemke", erp: float = 0.2, tol: float = 1e-10, tangent=None,
-                 solver_options: dict | None = None, accept_unconverged: bool = False) -> None:
+                 solver_options: dict | None = None, accept_unconverged: bool = False, lean: bool = True) -> None:
         mu = np.asarray(friction, dtype=float)
         if np.any(mu > 0) and solver != "lemke":
             raise InvalidInput(f"TimeStepping: solver must be 'lemke' with friction > 0 (the LCP is not symmetric), "
@@ -200,8 +205,15 @@ class TimeStepping:
         self.mu, self.facets, self.solver, self.erp, self.tol = mu, int(facets), solver, float(erp), float(tol)
         self.tangent, self.solver_options = tangent, dict(solver_options or {})
         self.accept_unconverged = bool(accept_unconverged)
+        self.lean = bool(lean)
         self.last: ContactSolution | None = None
         self.last_info: dict = {}
+
+    def _detect(self, y):
+        """``detect(y)``'s contacts (a narrow phase of :mod:`pbanim.contact.scenes` returns (Contacts, keys):
+        the keys serve :class:`~pbanim.contact.stepping.FrictionStepping`'s warm starts, not this step)."""
+        out = self.detect(y)
+        return out[0] if isinstance(out, tuple) and len(out) == 2 and isinstance(out[0], Contacts) else out
 
     def _applied(self, t: float, y: np.ndarray) -> np.ndarray:
         Q = self.system.zero_forces()
@@ -231,11 +243,11 @@ class TimeStepping:
         s = self.system
         Q = self._applied(t, y)
         u, Wb, rows, nd = self._kinematics(y, Q, h)
-        contacts = self.detect(y)
+        contacts = self._detect(y)
         if contacts is not None:        # what a user's detect returns reaches the assembly unchecked
             check_contacts("TimeStepping", "detect(y)", contacts, s)
         N = s.N
-        self.last_info = {"contacts": contacts}
+        self.last_info = {"contacts": contacts, "m": 0 if contacts is None else len(contacts.a)}
         if contacts is not None and len(contacts.a):
             a = np.where(np.asarray(contacts.a) < 0, N, contacts.a)
             b = np.where(np.asarray(contacts.b) < 0, N, contacts.b)
@@ -287,42 +299,61 @@ class TimeStepping:
         return np.concatenate([(x + h * v).ravel(), q_new.ravel(), P_new.ravel(), L_new.ravel()])
 
     @contract(t_end=Real(gt=0), h=Real(gt=0), y0=Opt(Array((state_of("self.system"),))), record_every=Int(ge=1),
-              max_steps=Int(ge=1))
+              max_steps=Int(ge=1), diagnostics=Flag())
     def simulate(self, t_end: float, h: float, *, y0: np.ndarray | None = None, record_every: int = 1,
-                 max_steps: int = MAX_STEPS) -> SimResult:
-        """Fixed steps from 0 to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`, same step rule);
-        diagnostics: contact count, residual, max penetration, impulses."""
+                 max_steps: int = MAX_STEPS, diagnostics: bool = True) -> SimResult:
+        """Fixed steps from 0 to ``t_end`` through the one driver (:mod:`pbanim.ode.driver`, same step rule).
+
+        Diagnostics (``diagnostics=True``): what describes a step — contact count, residual, total normal
+        impulse, solver time, unconverged flag — read at the recorded times; the deepest penetration of each
+        recorded state computed from the recorded states when ``result.diagnostics`` is first read
+        (:class:`pbanim.results.LazyDiagnostics`). ``diagnostics=False``: the states alone. The step is the
+        lean one (:mod:`pbanim.contact.lean`) when it applies and ``lean`` was not turned off."""
+        from ..contracts import unchecked
+        from ..results import LazyDiagnostics
+        from .lean import LeanFrictionless, lean_applies
+
         grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
         check_finite(y, 0.0, 0, "initial state")
         ts, ys = [0.0], [y.copy()]
-        keys = ("contact_count", "contact_residual", "max_penetration", "normal_impulse_total", "lcp_time",
-                "lcp_unconverged")
-        c0 = self.detect(y)
+        c0 = self._detect(y)           # a user's detect is checked once, on the initial state, before any step
         if c0 is not None:
             check_contacts("TimeStepping", "detect(y)", c0, self.system)
-        diag: dict[str, list] = {k: [0.0] for k in keys}
-        diag["max_penetration"][0] = float(np.max(c0.depth, initial=0.0)) if c0 is not None else 0.0
+        keys = ("contact_count", "contact_residual", "normal_impulse_total", "lcp_time", "lcp_unconverged")
+        diag: dict[str, list] | None = {k: [0.0] for k in keys} if diagnostics else None
 
         def record(t1, y1):
             ts.append(t1)
             ys.append(y1.copy())
-            c = self.detect(y1)
-            if c is not None:
-                check_contacts("TimeStepping", "detect(y)", c, self.system)
-            sol = self.last
-            diag["contact_count"].append(0 if sol is None else len(self.last_info["contacts"].a))
+            if diag is None:
+                return
+            sol, info = self.last, self.last_info
+            diag["contact_count"].append(0 if sol is None else info["m"])
             diag["contact_residual"].append(0.0 if sol is None else sol.residual)
-            diag["max_penetration"].append(max(0.0, float(np.max(c.depth, initial=0.0))) if c is not None else 0.0)
-            diag["normal_impulse_total"].append(0.0 if sol is None else float(np.sum(self.last_info["normal_impulse"])))
+            diag["normal_impulse_total"].append(0.0 if sol is None else float(np.sum(info["normal_impulse"])))
             diag["lcp_time"].append(0.0 if sol is None else sol.time)
             diag["lcp_unconverged"].append(0.0 if sol is None else float(not sol.success))
 
+        step = unchecked(LeanFrictionless(self).step if (self.lean and lean_applies(self)) else self.step)
         start = time.perf_counter()
-        drive(self.step, grid, y, record=record, record_every=record_every)
+        drive(step, grid, y, record=record, record_every=record_every)
         wall = time.perf_counter() - start
-        return SimResult(t=np.array(ts), y=np.array(ys).T, status=0, wall_time=wall, method="velocity-level",
-                         nsteps=grid.n_steps, diagnostics={k: np.array(v, dtype=float) for k, v in diag.items()})
+        Y = np.array(ys).T
+
+        def series():
+            out = {k: np.array(v, dtype=float) for k, v in diag.items()}
+            pen = []
+            for k in range(Y.shape[1]):
+                c = self._detect(Y[:, k])
+                if c is not None:
+                    check_contacts("TimeStepping", "detect(y)", c, self.system)
+                pen.append(max(0.0, float(np.max(c.depth, initial=0.0))) if c is not None else 0.0)
+            out["max_penetration"] = np.array(pen)
+            return out
+
+        return SimResult(t=np.array(ts), y=Y, status=0, wall_time=wall, method="velocity-level",
+                         nsteps=grid.n_steps, diagnostics=LazyDiagnostics(series) if diagnostics else {})
 
 
 @contract(bodies=RIGID, y=Array((state_of("bodies"),)), contacts=ContactsOn("bodies"), Q=Array(("bodies.N", 6)),
