@@ -40,7 +40,7 @@ FLOOR = 1e-16
 @lru_cache(maxsize=2)
 def comparison(quick: bool):
     """One run of every scene in every engine (shared by both figures: one group, run in one process)."""
-    return run_compare(quick=quick, keep_curves=True)
+    return run_compare(quick=quick, keep_curves=True, own_steps=False)   # the sweeps only (the figures' points)
 
 
 def _layout(fig, title: str) -> None:

@@ -324,8 +324,15 @@ def test_cli_compare_writes_markdown_and_json(tmp_path, capsys):
     assert main(["compare", "free_fall", "--engines", "pbanim", "--quick", "--markdown", str(md), "--json", str(js)]) == 0
     data = json.loads(js.read_text())
     rows = data["scenes"]["free_fall"]["rows"]
-    assert [r["status"] for r in rows] == ["ok", "ok"] and max(r["error"] for r in rows) < 1e-12
-    assert "| free_fall |" in md.read_text() and "ok" in capsys.readouterr().out
+    # the quick sweep (10 ms, 5 ms), then the peers' own steps beside it (1/240 s, 2 ms): ORACLES K1, RK4 exact
+    assert [r["h"] for r in rows] == [1e-2, 5e-3, 1 / 240, 2e-3]
+    assert [r["sweep"] for r in rows] == [True, True, False, False]
+    assert [r["status"] for r in rows] == ["ok"] * 4 and max(r["error"] for r in rows) < 1e-12
+    for r in rows:                                  # cost per simulated second = cost per step / h
+        assert r["s_per_sim_s"] == pytest.approx(1e-6 * r["us_per_step"] / r["h"], rel=1e-12)
+    text = md.read_text()
+    assert "| free_fall |" in text and "ok" in capsys.readouterr().out
+    assert "ms/sim s" in text and "At the peers' own steps" in text and "0.004167 (own)" in text
     assert main(["compare", "free_fal"]) == 2
     assert "did you mean 'free_fall'" in capsys.readouterr().err
 
@@ -381,7 +388,7 @@ def test_comparison_names_and_orders_are_never_silent():
     with pytest.raises(InvalidInput, match=r"order: engine must be one of the engines .*got 'mujoco'"):
         cmp.order("free_fall", "mujoco")
     assert cmp.order("free_fall", "pbanim") is None          # RK4 is exact on free fall (ORACLES K1)
-    assert "p " not in cmp.to_markdown().split("## free_fall")[0].split("| free_fall |")[1]
+    assert "· p " not in cmp.to_markdown().split("## free_fall")[0].split("| free_fall |")[1]
 
 
 def test_joints_and_tops_that_mean_nothing_are_refused():
@@ -398,3 +405,34 @@ def test_joints_and_tops_that_mean_nothing_are_refused():
 def test_a_run_of_too_many_steps_is_refused_before_it_starts():
     with pytest.raises(InvalidInput, match=r"steps: h = 1e-09 s needs 5e\+08 steps for scene 'free_fall'"):
         run_compare(["free_fall"], ["pbanim"], quick=True, steps=[1e-9])
+
+
+# -- issue 28: the cost of the same motion -----------------------------------------------------------------
+def test_cost_per_simulated_second_is_cost_per_step_over_h():
+    # a row's wall seconds per simulated second is its µs per step / h (the same motion at another step costs
+    # steps × per-step cost); the rows at the peers' own steps stay out of the sweep's order and finest step
+    cmp = run_compare(["free_fall"], ["pbanim"], quick=True)
+    sweep, own = cmp.rows_of("free_fall", "pbanim", True), cmp.rows_of("free_fall", "pbanim", False)
+    assert [r.h for r in sweep] == [1e-2, 5e-3] and [r.h for r in own] == [1 / 240, 2e-3]
+    for r in sweep + own:
+        assert r.steps == int(np.ceil(0.5 / r.h - 1e-9)) and r.wall > 0
+        assert r.s_per_sim_s == pytest.approx(r.us_per_step * 1e-6 / r.h, rel=1e-12)
+        assert r.s_per_sim_s == pytest.approx(r.wall / (r.steps * r.h), rel=1e-12)
+    (line,) = cmp.summary()
+    assert line["h"] == 5e-3 and line["s_per_sim_s"] == sweep[1].s_per_sim_s
+    assert set(line["own"]) == {"pybullet", "mujoco"}
+    assert line["own"]["pybullet"]["h"] == 1 / 240 and line["own"]["mujoco"]["s_per_sim_s"] == own[1].s_per_sim_s
+    # ORACLES K1: RK4 is exact on free fall at the peers' steps too
+    assert max(o["error"] for o in line["own"].values()) < 1e-12
+    # the markdown's cell: 1e3 × s per simulated s (ms), to the 2 digits it prints
+    table = harness.Comparison(cmp.rows, cmp.scenes, True, {}, "d").to_markdown()
+    assert f"{1e3 * own[1].s_per_sim_s:.2g} ms/sim s" in table.split("At the peers' own steps")[1]
+
+
+def test_own_steps_can_be_left_out_and_explicit_steps_run_alone():
+    assert [r.h for r in run_compare(["free_fall"], ["pbanim"], quick=True, own_steps=False).rows] == [1e-2, 5e-3]
+    cmp = run_compare(["free_fall"], ["pbanim"], quick=True, steps=[0.05])
+    assert [(r.h, r.sweep) for r in cmp.rows] == [(0.05, True)] and cmp.summary()[0]["own"] == {}
+    assert "At the peers' own steps" not in cmp.to_markdown()
+    # a step already in the sweep (2 ms in the full sweep) is not run twice: it counts as the sweep's row
+    assert harness.OWN_STEPS["mujoco"] in SCENES["free_fall"]().spec.steps

@@ -4,7 +4,13 @@ For each scene s, engine e and step h the harness runs the engine's translation 
 engine starts where the scene says (positions to 1e-6 m: a wrong translation fails here, not silently
 later), scores the trace against the closed form and records the wall time of the stepping alone:
 
-    row(s, e, h) = (error_s(trace), other metrics, wall time, µs per step, status)
+    row(s, e, h) = (error_s(trace), other metrics, wall time, µs per step, s per simulated s, status)
+
+The cost of the same motion is the cost per *simulated second*, (wall time / steps) / h: an engine that is
+cheap per step but needs small steps pays for them there. Beside each scene's sweep the harness runs every
+engine at the peers' own default steps (:data:`OWN_STEPS`: PyBullet's 1/240 s, MuJoCo's 2 ms), so each
+engine is also seen at the step a user of a peer would take; those rows say ``sweep = False`` and stay out
+of the fitted order and of the finest-step summary.
 
 A row never raises. Its ``status`` says what happened:
 
@@ -43,10 +49,12 @@ from .spec import Trace, Unsupported
 from ..contracts import Array, Choice, Flag, Func, Obj, Opt, Seq, Spec, Text, contract
 from ..errors import InvalidInput, SimulationDiverged
 
-__all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions"]
+__all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions", "OWN_STEPS"]
 
 START_TOL = 1e-6          # m: an engine must start at the scene's positions
 MAX_RUN_STEPS = 10**6     # steps of one (scene, engine, h) run: refused before anything runs beyond it
+# each peer's default time step: PyBullet's setTimeStep (1/240 s), MuJoCo's mjOption.timestep (0.002 s)
+OWN_STEPS = {"pybullet": 1.0 / 240.0, "mujoco": 0.002}
 
 
 @contract(module=Opt(Text(nonempty=True)))
@@ -191,21 +199,28 @@ class Row:
     wall: float = math.nan
     steps: int = 0
     settings: str = ""
+    sweep: bool = True          # False: a row at a peer's own step (OWN_STEPS), outside the scene's sweep
 
     @property
     def us_per_step(self) -> float:
         return 1e6 * self.wall / self.steps if self.steps else math.nan
 
+    @property
+    def s_per_sim_s(self) -> float:
+        """Wall seconds per simulated second: the cost per step over h (below 1: faster than real time)."""
+        return self.wall / self.steps / self.h if self.steps else math.nan
+
     def to_json(self) -> dict:
         d = asdict(self)
         d["us_per_step"] = self.us_per_step
+        d["s_per_sim_s"] = self.s_per_sim_s
         return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
 
 
-def _run_one(sc, engine: str, h: float, quick: bool, curves: dict | None) -> Row:
+def _run_one(sc, engine: str, h: float, quick: bool, curves: dict | None, sweep: bool = True) -> Row:
     name, _, option = engine.partition(":")
     eng = ENGINES[name]
-    row = Row(sc.spec.name, engine, h, "ok")
+    row = Row(sc.spec.name, engine, h, "ok", sweep=sweep)
     if not have(eng.module):
         row.status, row.reason = "not installed", f"{eng.module} not installed (pip install 'pbanim[peers]')"
         return row
@@ -235,7 +250,7 @@ def _run_one(sc, engine: str, h: float, quick: bool, curves: dict | None) -> Row
     row.metrics = {k: float(v) for k, v in m.items()}
     if not math.isfinite(row.error):
         row.status, row.reason = "diverged", "the error is not finite"
-    if curves is not None:
+    if curves is not None and sweep:
         curves[(sc.spec.name, engine, h)] = (tr.t, np.asarray(sc.observable(tr), float))
     return row
 
@@ -260,10 +275,12 @@ class Comparison:
         """The engines of the rows, in their order."""
         return list(dict.fromkeys(r.engine for r in self.rows))
 
-    @contract(scene=_SCENE, engine=Opt(_ENGINE))
-    def rows_of(self, scene: str, engine: str | None = None) -> list:
-        """The rows of one scene (and one engine)."""
-        return [r for r in self.rows if r.scene == scene and (engine is None or r.engine == engine)]
+    @contract(scene=_SCENE, engine=Opt(_ENGINE), sweep=Opt(Flag()))
+    def rows_of(self, scene: str, engine: str | None = None, sweep: bool | None = None) -> list:
+        """The rows of one scene (and one engine; ``sweep``: True the sweep's rows only, False the rows at the
+        peers' own steps only, None both)."""
+        return [r for r in self.rows if r.scene == scene and (engine is None or r.engine == engine)
+                and (sweep is None or r.sweep == sweep)]
 
     @contract(scene=_SCENE, engine=_ENGINE)
     def order(self, scene: str, engine: str) -> float | None:
@@ -271,7 +288,7 @@ class Comparison:
         points or errors at roundoff (an exact engine has no order to fit)."""
         from ..testing import order_fit
 
-        rows = [r for r in self.rows_of(scene, engine) if r.status == "ok" and r.error > 0]
+        rows = [r for r in self.rows_of(scene, engine, True) if r.status == "ok" and r.error > 0]
         if len({r.h for r in rows}) < 2:
             return None
         try:
@@ -280,15 +297,24 @@ class Comparison:
             return None
 
     def summary(self) -> list[dict]:
-        """One line per (scene, engine): the finest step's error and cost, and the observed order."""
+        """One line per (scene, engine): the finest step's error, cost per step and per simulated second, the
+        observed order, and ``own``: {peer: {h, error, s_per_sim_s, status}} at each peer's own step (the
+        rows at h = :data:`OWN_STEPS`, in or beside the sweep; empty when none ran)."""
         out = []
         for name, sc in self.scenes.items():
             for engine in dict.fromkeys(r.engine for r in self.rows_of(name)):
                 rows = self.rows_of(name, engine)
-                fine = min(rows, key=lambda r: r.h)
+                fine = min(self.rows_of(name, engine, True) or rows, key=lambda r: r.h)
+                own = {}
+                for peer, h in OWN_STEPS.items():
+                    at = [r for r in rows if math.isclose(r.h, h, rel_tol=1e-9)]
+                    if at:
+                        own[peer] = {"h": at[0].h, "error": at[0].error, "s_per_sim_s": at[0].s_per_sim_s,
+                                     "status": at[0].status}
                 out.append({"scene": name, "engine": engine, "h": fine.h, "error": fine.error,
                             "error_name": sc.error_name, "us_per_step": fine.us_per_step,
-                            "order": self.order(name, engine), "status": fine.status, "reason": fine.reason})
+                            "s_per_sim_s": fine.s_per_sim_s, "order": self.order(name, engine),
+                            "status": fine.status, "reason": fine.reason, "own": own})
         return out
 
     def to_markdown(self) -> str:
@@ -301,13 +327,15 @@ class Comparison:
 
 
 @contract(scenes=Opt(SCENE_NAMES), engines=Opt(ENGINE_NAMES), quick=Flag(), steps=Opt(STEPS), keep_curves=Flag(),
-          progress=Opt(Func()))
+          progress=Opt(Func()), own_steps=Flag())
 def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, keep_curves: bool = False,
-                progress: Callable[[str], None] | None = None) -> Comparison:
+                progress: Callable[[str], None] | None = None, own_steps: bool = True) -> Comparison:
     """Run ``scenes`` (names of :data:`~pbanim.compare.scenes.SCENES`, default all) in ``engines``
     (default all of :data:`ENGINES`) at each scene's steps (``quick``: its short sweep and duration, or
-    ``steps`` for every scene). Never raises for an engine's failure; see the module docstring. A run of
-    more than :data:`MAX_RUN_STEPS` steps is refused before anything runs."""
+    ``steps`` for every scene). ``own_steps`` (when ``steps`` is not given): every engine also runs at the
+    peers' own steps (:data:`OWN_STEPS`) that the sweep lacks, in rows with ``sweep = False``. Never raises
+    for an engine's failure; see the module docstring. A run of more than :data:`MAX_RUN_STEPS` steps is
+    refused before anything runs."""
     from .scenes import SCENES
 
     names = list(SCENES) if scenes is None else list(scenes)
@@ -325,12 +353,14 @@ def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, k
             raise InvalidInput(f"steps: h = {min(sweep):g} s needs {span / min(sweep):.3g} steps for scene {n!r} "
                                f"({span:g} s), more than {MAX_RUN_STEPS}; choose a larger step")
     rows, curves = [], {} if keep_curves else None
+    extra = {n: [h for h in OWN_STEPS.values() if own_steps and steps is None and h <= built[n].spec.time(quick)
+                 and not any(math.isclose(h, s, rel_tol=1e-9) for s in sweep)] for n, sweep in sweeps.items()}
     for n, sc in built.items():
-        for h in sweeps[n]:
+        for h, in_sweep in [(h, True) for h in sweeps[n]] + [(h, False) for h in extra[n]]:
             for e in engs:
-                row = _run_one(sc, e, float(h), quick, curves)
+                row = _run_one(sc, e, float(h), quick, curves, in_sweep)
                 rows.append(row)
                 if progress is not None:
-                    progress(f"{n:14s} {e:16s} h = {h:<8g} {row.status}"
+                    progress(f"{n:14s} {e:16s} h = {h:<8.4g} {row.status}"
                              + (f"  error {row.error:.3g}" if row.status == "ok" else f"  ({row.reason})"))
     return Comparison(rows, built, quick, versions(), time.strftime("%Y-%m-%d"), curves or {})
