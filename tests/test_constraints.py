@@ -583,3 +583,48 @@ def test_constraint_set_methods_refuse_an_assembly_of_another_set():
         cs.bands(asm)                                               # was a bare IndexError
     with pytest.raises(InvalidInput, match=r"permuted_matrix: asm must be .*this set's structure is 'chain'"):
         cs.permuted_matrix(cs.assemble(*ps.unpack(ps.state())))    # was a bare AttributeError
+
+
+# -- issue 28: the dense Witkin solve of a small set (the lean path of Constraints) -------------------------
+@pytest.mark.parametrize("build, n, dim", [(random_chain, 1, 2), (random_chain, 4, 2), (random_chain, 5, 3),
+                                           (random_tree, 6, 2), (random_tree, 4, 3), (bead_on_circle, None, 2)])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_dense_solve_equals_the_readable_solve(build, n, dim, seed):
+    # ORACLES B5, A16: on a small set the effect solves Witkin's system on dense arrays bound once
+    # (pbanim.constraints.dense); its Q_C and λ equal the readable solve's (sparse assembly, solve_lambda)
+    # to 64 ε relative (measured ≤ 4 ε); several kinds at once (random trees: a fixed point and rods)
+    rng = np.random.default_rng(seed)
+    mod = bead_on_circle(radius=1.3, mass=2.0, theta0=0.4 + seed) if n is None else build(n, rng, dim=dim)
+    ps = mod.system
+    y = ps.state()
+    Q = _gravity_Q(mod) + rng.normal(size=(ps.N, ps.dim))
+    lean, readable = (Constraints(mod.constraints, stabilization="baumgarte", ks=9.0, kd=6.0) for _ in range(2))
+    for e in (lean, readable):
+        e.bind(ps)
+    readable.lean_path = False
+    assert lean._dense is not None
+    QC_lean, QC_readable = lean.constrain(0.0, y, Q), readable.constrain(0.0, y, Q)
+    scale = np.abs(QC_readable).max()
+    assert np.abs(QC_lean - QC_readable).max() <= 64 * np.finfo(float).eps * scale
+    a, b = lean.last, readable.last                    # the dense solve's record is built when read
+    assert a.solver == "witkin-dense" and not a.rank_deficient
+    assert np.abs(a.lam - b.lam).max() <= 64 * np.finfo(float).eps * np.abs(b.lam).max()
+    assert np.abs(a.qdd - b.qdd).max() <= 64 * np.finfo(float).eps * np.abs(b.qdd).max()
+    assert a.residual <= 1e-12
+
+
+@pytest.mark.parametrize("build", [redundant_rod, redundant_xy])
+def test_dense_solve_leaves_dependent_rows_to_the_readable_path(build):
+    # ORACLES B4: a vanishing pivot (dependent rows) returns None from the dense solve; the effect then
+    # gives the readable minimum-norm answer, flagged rank deficient
+    from pbanim.constraints.dense import DenseWitkin
+
+    mod = build()
+    ps = mod.system
+    eff = Constraints(mod.constraints)
+    eff.bind(ps)
+    x, v = ps.unpack(ps.state())
+    Q = _gravity_Q(mod)
+    assert DenseWitkin(eff.cset).solve(x, v, Q.reshape(-1), 0.0, 0.0) is None
+    eff.constrain(0.0, ps.state(), Q)
+    assert eff.last.rank_deficient

@@ -113,6 +113,32 @@ def test_lean_and_hooked_paths_agree():
     np.testing.assert_array_equal(Y[1:], np.array(out))
 
 
+
+@pytest.mark.parametrize("record_every, check_every", [(1, 1), (3, None), (4, 2), (10, 7)])
+def test_lean_loop_records_every_rth_state_into_one_array(record_every, check_every):
+    # drive_lean(record_every=r) stores y0, every r-th state and the last (the times grid.times()[::r] and
+    # t_end), the same states drive records: bit for bit, the same steps in the same order
+    grid = step_grid(0.0, 1.0, 0.07)                     # 15 steps, the last one shortened
+    step = lambda t, y, h: y + h * np.array([y[1], -y[0]])  # noqa: E731
+    Y = drive_lean(step, grid, np.array([1.0, 0.0]), record_every=record_every, check_every=check_every)
+    out = [np.array([1.0, 0.0])]
+    drive(step, grid, np.array([1.0, 0.0]), record=lambda t, y: out.append(y), record_every=record_every)
+    assert Y.shape == (-(-grid.n_steps // record_every) + 1, 2)
+    np.testing.assert_array_equal(Y, np.array(out))
+
+
+def test_lean_loop_with_a_check_period_names_the_step_it_caught():
+    # check_every = c: the state is checked after every c-th step and after the last, as drive checks it
+    grid = step_grid(0.0, 20.0, 1.0)
+    step = lambda t, y, h: y + (np.nan if t == 7.0 else h)  # noqa: E731
+    with pytest.raises(SimulationDiverged) as every:
+        drive_lean(step, grid, np.ones(3), record_every=2, check_every=1)
+    assert (every.value.step, every.value.t) == (7, 7.0)
+    with pytest.raises(SimulationDiverged) as late:
+        drive_lean(step, grid, np.ones(3), record_every=4, check_every=5)
+    assert late.value.step == 9
+
+
 # --- every chapter takes the same steps ----------------------------------------------------------------
 SPANS = [(0.3, 0.1), (0.25, 0.1), (0.07, 0.02)]
 

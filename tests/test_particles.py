@@ -157,6 +157,26 @@ def test_vectorized_springs_match_loop(seed, dim):
     assert np.abs(Q_vec.sum(axis=0)).max() < 1e-13 * (np.abs(Q_vec).max() + 1)
 
 
+
+@given(seed=st.integers(0, 10**6), dim=st.sampled_from([2, 3]))
+def test_dense_incidence_springs_equal_the_gather_scatter_path(seed, dim):
+    # ORACLES A7, A16: a few springs (S·N ≤ DENSE_MAX) gather d = B x, ḋ = B v and scatter Q += Bᵀ f with the
+    # dense signed incidence matrix; the same forces as np.take and bincount (the path of larger networks):
+    # d exact, each Q_i the same terms summed in another order (measured ≤ 1 ulp; bound 8 ulp of max |Q|)
+    ps, springs = random_network(seed, N=7, dim=dim)
+    Scene(ps, [springs])
+    assert springs._B is not None
+    y = ps.state()
+    Q_dense = ps.zero_forces()
+    springs.apply(0.0, y, Q_dense)
+    f_dense = springs.spring_forces(y)
+    springs._B = springs._Bt = None
+    Q_sparse = ps.zero_forces()
+    springs.apply(0.0, y, Q_sparse)
+    np.testing.assert_array_equal(f_dense, springs.spring_forces(y))
+    assert np.abs(Q_dense - Q_sparse).max() <= 8 * np.finfo(float).eps * np.abs(Q_sparse).max()
+
+
 def test_effects_add_into_strided_force_views():
     # the protocol says "add into Q in place": a non-contiguous Q view must receive the same forces
     ps, springs = random_network(11, N=6, dim=3)

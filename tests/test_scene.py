@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from pbanim.ode import get_method
-from pbanim.particles import DampedSprings, Drag, Gravity, ParticleSystem, UserForce
+from pbanim.particles import AnchorSprings, DampedSprings, Drag, Gravity, ParticleSystem, UserForce
 from pbanim.particles.springs import DampedSprings as _Springs
 from pbanim.results import SimResult
 from pbanim.scene import Scene
@@ -198,3 +198,88 @@ def test_diagnostics_are_computed_when_read_and_equal_those_of_the_run():
     for k in eager.diagnostics:
         np.testing.assert_array_equal(lazy.diagnostics[k], eager.diagnostics[k])
     assert scene.simulate(0.2, 0.01, "rk4", diagnostics=False).diagnostics == {}
+
+
+# --- issue 28: the plans compute the readable step (ORACLES A16) ------------------------------------------
+def _linear_scene():
+    # three particles under gravity, drag and two anchor springs: every force linear, 12 state components
+    rng = np.random.default_rng(1)
+    ps = ParticleSystem(rng.normal(size=(3, 2)), rng.normal(size=(3, 2)), masses=[1.0, 2.0, 0.5])
+    return Scene(ps, [Gravity([0.0, -9.81]), Drag(0.3), AnchorSprings([0, 2], [[0.0, 0.0], [1.0, 1.0]], 20.0, 0.4)])
+
+
+def _springs_scene():
+    # four particles, five damped springs and gravity: not linear, the bound-f plan
+    rng = np.random.default_rng(2)
+    ps = ParticleSystem(rng.normal(size=(4, 2)), rng.normal(size=(4, 2)), masses=[1.0, 2.0, 0.5, 1.5])
+    return Scene(ps, [Gravity([0.0, -9.81]), DampedSprings([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2]], 50.0, 0.5)])
+
+
+def _chain_scene():
+    # three particles on three rods from the origin, Baumgarte feedback: the dense Witkin solve
+    from pbanim.constraints import Constraints, Distance
+
+    u = np.array([np.sin(1.0), -np.cos(1.0)])
+    pairs = np.array([[0, -1], [1, 0], [2, 1]])
+    eff = Constraints([Distance(pairs, anchors=[0.0, 0.0])], stabilization="baumgarte", ks=100.0, kd=20.0)
+    ps = ParticleSystem(0.5 * np.arange(1, 4)[:, None] * u, np.zeros((3, 2)), [1.0, 1.5, 2.0])
+    return Scene(ps, [Gravity([0.0, -9.81]), eff])
+
+
+def _final(make, method, lean, n=1000, h=1e-3, **kw):
+    scene = make()
+    scene.lean_path = lean
+    for e in scene.effects:
+        if hasattr(e, "lean_path"):
+            e.lean_path = lean
+    res = scene.simulate(n * h, h, method, diagnostics=False, **kw)
+    return res
+
+
+@pytest.mark.parametrize("make, method, plan", [
+    (_linear_scene, "euler", "linear"), (_linear_scene, "midpoint", "linear"), (_linear_scene, "rk4", "linear"),
+    (_linear_scene, "symplectic_euler", "linear"), (_linear_scene, "verlet", "linear"),
+    (_linear_scene, "dopri5", "linear"),
+    (_springs_scene, "rk4", "f"), (_springs_scene, "symplectic_euler", "f"), (_springs_scene, "midpoint", "f"),
+    (_chain_scene, "rk4", "f"), (_chain_scene, "symplectic_euler", "f")])
+def test_every_plan_equals_the_readable_step_to_roundoff(make, method, plan):
+    # ORACLES A16: 1000 steps of the plan a run picks (linear map y₁ = S y + s; f bound once; the dense
+    # Witkin solve) end within 2 ulp × n of the largest component of the readable run's final state
+    # (scene.lean_path = False, effect.lean_path = False). Measured: linear map ≤ 0.15 ulp × n (RK4), bound f
+    # 0 (bit for bit), dense constraints ≤ 0.007 ulp × n. The plan is the one announced: the linear map
+    # evaluates f only to build S and s (nfev = the method's stages, once), the others at every stage.
+    n = 1000
+    lean, readable = _final(make, method, True, n), _final(make, method, False, n)
+    per = get_method(method).step.nfev
+    assert readable.nfev in (n * per, n * (per - 1))    # symplectic Euler: one evaluation when drift-free
+    assert lean.nfev == (per if plan == "linear" else readable.nfev)
+    ref = readable.y[:, -1]
+    assert np.abs(lean.y[:, -1] - ref).max() <= 2 * n * np.finfo(float).eps * np.abs(ref).max()
+    assert np.abs(lean.y - readable.y).max() > 0 or plan == "f"        # the linear map is another sum
+
+
+@pytest.mark.parametrize("make", [_linear_scene, _springs_scene, _chain_scene])
+def test_step_takes_the_plan_of_simulate(make):
+    # Scene.step binds the same plan once per method: n calls of step give simulate's states, bit for bit
+    scene = make()
+    y, h = scene.system.state(), 1e-3
+    res = scene.simulate(20 * h, h, "rk4", diagnostics=False)
+    for k in range(20):
+        y = scene.step(k * h, y, h, "rk4")
+    np.testing.assert_array_equal(y, res.y[:, -1])
+
+
+@pytest.mark.parametrize("diagnostics", [False, "lazy", True])
+def test_simulate_honours_record_every_into_one_array(diagnostics):
+    # the recorded times are t0 + k h for k = 0, r, 2r, … and t_end; the states are those of a run recording
+    # every step, at those times, bit for bit (the same steps); diagnostics only at the recorded times
+    scene = _springs_scene()
+    every = scene.simulate(0.1, 3e-3, "rk4", diagnostics=False)                 # 34 steps, the last shortened
+    sparse = scene.simulate(0.1, 3e-3, "rk4", record_every=5, diagnostics=diagnostics)
+    assert every.nsteps == sparse.nsteps == 34
+    keep = list(range(0, 34, 5)) + [34]
+    np.testing.assert_array_equal(sparse.t, every.t[keep])
+    np.testing.assert_array_equal(sparse.y, every.y[:, keep])
+    assert sparse.y.flags.c_contiguous or sparse.y.T.flags.c_contiguous
+    if diagnostics:
+        assert len(sparse.diagnostics["energy"]) == len(keep)

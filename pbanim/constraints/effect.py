@@ -19,6 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from .assembly import ConstraintSet
+from .dense import DenseWitkin, dense_fits
 from .kinds import Constraint
 from .solvers import SOLVERS, ConstraintSolution, certified, solve_lambda
 from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, Seq, contract, unchecked
@@ -200,7 +201,19 @@ class Constraints(Effect):
         self.tol, self.max_iter = tol, max_iter
         self.projection_tol, self.projection_max_iter = float(projection_tol), int(projection_max_iter)
         self.max_violation = max_violation
-        self.last: ConstraintSolution | None = None
+        self._last: ConstraintSolution | None = None
+        self.lean_path = True           # a small set solves on dense arrays (pbanim.constraints.dense)
+        self._dense: DenseWitkin | None = None
+
+    @property
+    def last(self) -> ConstraintSolution | None:
+        """The solve of the last evaluation (after a dense solve, built when read)."""
+        if self._last is None and self._dense is not None and self._dense.last is not None:
+            _, _, lam, QC, r = self._dense.last
+            Q = self._dense_Q
+            self._last = ConstraintSolution(lam, QC, (Q + QC) * self.cset.Wq, "witkin-dense", 0, False, None,
+                                            (self._dense.J.copy(), self.cset.Wq, r))
+        return self._last
 
     def stages(self) -> list[Effect]:
         """The stages this effect adds to a scene: itself, plus the projection when asked."""
@@ -211,6 +224,7 @@ class Constraints(Effect):
         self.system = system
         self.cset = ConstraintSet(self.constraints, system.N, system.dim, system.W, system.x0)
         self._unpack = unchecked(system.unpack)     # the step loop's own calls pay no argument check
+        self._dense = DenseWitkin(self.cset) if dense_fits(self.cset, self.solver) else None
 
     def _solve(self, x, v, Qf, ks, kd, t=0.0) -> tuple[ConstraintSolution, object]:
         cset = self.cset
@@ -247,8 +261,14 @@ class Constraints(Effect):
     @contract(t=_TIME, y=_STATE, Q=Array(("self.system.N", "self.system.dim")))
     def constrain(self, t, y, Q):
         x, v = self._unpack(y)
+        if self._dense is not None and self.lean_path:
+            Qf = Q.reshape(-1)
+            out = self._dense.solve(x, v, Qf, self.ks, self.kd)
+            if out is not None and (self.max_violation is None or np.abs(out[0]).max() <= self.max_violation):
+                self._last, self._dense_Q = None, Qf
+                return Q + out[3].reshape(Q.shape)
         sol, _ = self._solved(x, v, np.array(Q, float).ravel(), t)
-        self.last = sol
+        self._last = sol
         return Q + sol.Q_C.reshape(Q.shape)
 
     @contract(t=_TIME, y=_STATE)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..particles.springs import row_dot
+
 
 def _gather(x: np.ndarray, idx: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     """x[idx] with rows where idx == -1 taken from ``fixed`` (world points); readable, not hot."""
@@ -19,17 +21,7 @@ def _gather(x: np.ndarray, idx: np.ndarray, fixed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (m, dim) arrays, column by column: much faster than sum(axis=1) or einsum
-    for dim ≤ 3, and no BLAS call (whose threads stall on a busy machine). One contiguous product, then
-    the column sums (a quarter faster than multiplying the strided columns one by one)."""
-    p = a * b
-    if p.shape[1] == 1:
-        return p[:, 0]
-    out = p[:, 0] + p[:, 1]
-    for k in range(2, p.shape[1]):
-        out += p[:, k]
-    return out
+_dot = row_dot      # the row-wise dot products live with the particle rows (pbanim.particles.springs)
 
 
 def _span(idx: np.ndarray) -> slice | None:

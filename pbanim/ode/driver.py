@@ -7,7 +7,8 @@ A fixed-step run from t₀ to t_end with step h is the loop of the lecture,
 and every chapter runs it the same way: :func:`pbanim.solve` with a fixed-step method, the particle and
 rigid-body scenes (:meth:`pbanim.scene.Scene.simulate`), the collision time-of-impact loop, contact time
 stepping and the reduced-coordinate runs all build a :class:`StepGrid` and call :func:`drive` (or
-:func:`drive_lean`, its hook-free form that stores straight into one preallocated array).
+:func:`drive_lean`, its hook-free form that stores the recorded states straight into one preallocated array:
+what :meth:`pbanim.scene.Scene.simulate` runs when no diagnostics are read during the run).
 
 The step rule (one rule, every chapter)
 ---------------------------------------
@@ -184,27 +185,50 @@ def drive(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: StepG
 
 
 def drive_lean(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: StepGrid,
-               y0: np.ndarray, quantity: str = "state y") -> np.ndarray:
-    """:func:`drive` without hooks, storing every state: returns Y of shape (N + 1,) + y0.shape.
+               y0: np.ndarray, quantity: str = "state y", *, record_every: int = 1,
+               check_every: int | None = None) -> np.ndarray:
+    """:func:`drive` without hooks, storing the recorded states into one preallocated array.
 
-    The loop does the step and the store and nothing else; finiteness is checked once per block of
-    stored states, and a non-finite block is searched for the first bad step (same error as :func:`drive`).
+    Returns Y of shape (R + 1,) + y0.shape: y0, then the state after every ``record_every``-th step and after
+    the last (R = ⌈N / record_every⌉, at the times ``grid.times()[::record_every]`` and t_end). The loop does
+    the step, the check and the store and nothing else. ``check_every=None`` (every state recorded):
+    finiteness is checked once per block of stored states and a non-finite block is searched for the first
+    bad step, which is named as :func:`drive` names it (the steps after it in the block have run on a
+    non-finite state: for steps that cannot raise on one). An integer: the state is checked (one dot
+    product) every ``check_every`` steps and after the last, as :func:`drive` checks it. ``advance`` returns
+    a new state, which the driver copies when it keeps it.
     """
     n, t0, hs = grid.n_steps, grid.t0, grid.h
-    Y = np.empty((n + 1,) + np.shape(y0), dtype=np.result_type(y0, float))
+    r = int(record_every)
+    R = -(-n // r)
+    Y = np.empty((R + 1,) + np.shape(y0), dtype=np.result_type(y0, float))
     Y[0] = y = y0
-    k0 = 0
     with np.errstate(over="ignore", invalid="ignore"):
-        for k in range(n - 1):
-            y = advance(t0 + k * hs, y, hs)
-            Y[k + 1] = y
-            if k - k0 == _BLOCK:
-                if not np.isfinite(Y[k0 + 1:k + 2]).all():
-                    _raise_first_bad(Y, k0, k + 1, grid, quantity)
-                k0 = k + 1
-        Y[n] = advance(grid.time(n - 1), y, grid.h_last)
-        if not np.isfinite(Y[k0 + 1:]).all():
-            _raise_first_bad(Y, k0, n, grid, quantity)
+        if r == 1 and check_every is None:
+            k0 = 0
+            for k in range(n - 1):
+                y = advance(t0 + k * hs, y, hs)
+                Y[k + 1] = y
+                if k - k0 == _BLOCK:
+                    if not np.isfinite(Y[k0 + 1:k + 2]).all():
+                        _raise_first_bad(Y, k0, k + 1, grid, quantity)
+                    k0 = k + 1
+            Y[n] = advance(grid.time(n - 1), y, grid.h_last)
+            if not np.isfinite(Y[k0 + 1:]).all():
+                _raise_first_bad(Y, k0, n, grid, quantity)
+            return Y
+        c, last, k = int(check_every or 1), n - 1, 0
+        for i in range(1, R + 1):
+            stop = min(i * r, n)
+            while k < stop:
+                t = t0 + k * hs
+                y = advance(t, y, hs if k != last else grid.h_last)
+                k += 1
+                if k % c == 0 or k == n:
+                    flat = y if y.ndim == 1 else y.reshape(-1)
+                    if not math.isfinite(flat @ flat):
+                        check_finite(y, t, k - 1, quantity)
+            Y[i] = y
     return Y
 
 

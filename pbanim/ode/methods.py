@@ -195,8 +195,12 @@ class Method:
     nystrom: bool = False     # only for f(t, [q, v]) = [v, g(t, q)] (Runge–Kutta–Nyström: pbanim.ode.nystrom)
 
     def __post_init__(self) -> None:
-        # the registry runs the step without its boundary check: a run checks its arguments once
-        object.__setattr__(self, "step", unchecked(self.step))
+        # the registry runs the step without its boundary check: a run checks its arguments once; the
+        # evaluations per step (``nfev``, set on the checked function) stay readable on the unchecked one
+        raw = unchecked(self.step)
+        if getattr(raw, "nfev", None) is None and getattr(self.step, "nfev", None) is not None:
+            raw.nfev = self.step.nfev
+        object.__setattr__(self, "step", raw)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in [

@@ -55,6 +55,8 @@ _Y = Array(("self.system.n_state",))
 _Q = Buffer(("self.system.N", "self.system.dim"))
 _T = Real()
 _PER_SPRING = Array(("S",), ge=0, scalar=True, empty=True)
+#: Up to this many springs × particles, gathers and scatter are products with the dense incidence matrix.
+DENSE_MAX = 4096
 
 
 def _symbol(name: str):
@@ -76,6 +78,19 @@ def row_norms(d: np.ndarray) -> np.ndarray:
         u = d[big] / s[:, None]
         length[big] = s * np.sqrt(np.einsum("ij,ij->i", u, u))
     return length
+
+
+def row_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of (m, dim) arrays, column by column: much faster than sum(axis=1) or einsum
+    for dim ≤ 3, and no BLAS call (whose threads stall on a busy machine). One contiguous product, then
+    the column sums (a quarter faster than multiplying the strided columns one by one)."""
+    p = a * b
+    if p.shape[1] == 1:
+        return p[:, 0]
+    out = p[:, 0] + p[:, 1]
+    for k in range(2, p.shape[1]):
+        out += p[:, k]
+    return out
 
 
 def bilinear(f, a: np.ndarray, b: np.ndarray):
@@ -208,6 +223,13 @@ class DampedSprings(Effect):
         rows = np.stack([ra, rb, ra, rb])[:, :, :, None] + 0 * k        # (4, S, dim, dim)
         cols = np.stack([ra, rb, rb, ra])[:, :, None, :] + 0 * k[:, None]
         self._jrows, self._jcols = rows.ravel(), cols.ravel()
+        # a few springs (S·N ≤ DENSE_MAX): the gathers x_a − x_b and the scatter Σ ±f are products with the dense
+        # signed incidence matrix B (S × N), two calls instead of six (the same sums: an exact x_a − x_b, and
+        # each Q_i summed over its springs in another order, equal to roundoff)
+        self._B = self._Bt = None
+        if 0 < S * N <= DENSE_MAX:
+            self._B = self.incidence().toarray()
+            self._Bt = np.ascontiguousarray(self._B.T)
 
     # -- geometry ----------------------------------------------------------------------------------
     def _geometry(self, y: np.ndarray):
@@ -234,18 +256,25 @@ class DampedSprings(Effect):
         taken from the scaled length (the force is then ±inf at worst, never NaN).
         """
         x, v = self._unpack(y)
-        d = np.take(x, self.a, axis=0)
-        d -= np.take(x, self.b, axis=0)
+        B = self._B
+        if B is not None:
+            d = B @ x
+        else:
+            d = np.take(x, self.a, axis=0)
+            d -= np.take(x, self.b, axis=0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):    # one context for the whole call
-            length = np.sqrt(np.einsum("ij,ij->i", d, d))
+            length = np.sqrt(row_dot(d, d))
             inv = 1.0 / length
             c = self.ks * (length - self.rest)
             if self._damped:
-                dv = np.take(v, self.a, axis=0)
-                dv -= np.take(v, self.b, axis=0)
-                c += self.kd * np.einsum("ij,ij->i", dv, d) * inv
+                if B is not None:
+                    dv = B @ v
+                else:
+                    dv = np.take(v, self.a, axis=0)
+                    dv -= np.take(v, self.b, axis=0)
+                c += self.kd * row_dot(dv, d) * inv
             c *= inv
-            if not np.all(np.isfinite(c)):
+            if not math.isfinite(np.add.reduce(c)):    # a zero length, an overflow (or a sum past the range)
                 c[length == 0] = 0.0       # a zero-length spring has no direction: no force
                 big = np.isinf(length)
                 if big.any():              # |d|² overflowed: c = k_s (1 − r/l) + k_d (Δv·d̂)/l from the scaled l
@@ -259,6 +288,9 @@ class DampedSprings(Effect):
 
     @contract(t=_T, y=_Y, Q=_Q)
     def apply(self, t: float, y: np.ndarray, Q: np.ndarray) -> None:
+        if self._Bt is not None:
+            Q += self._Bt @ self._forces(y)
+            return
         f = self._forces(y).ravel()
         n = self._n
         dQ = np.bincount(self._ia, f, minlength=n)

@@ -295,6 +295,7 @@ class Gravity(Effect):
 
     name = "gravity"
     phase = "force"
+    linear = True       # Q = c + K_x x + K_v v, constant: a small scene steps by its linear map
 
     @contract(g=Opt(point()))
     def __init__(self, g: Any = None) -> None:
@@ -356,6 +357,7 @@ class Drag(Effect):
 
     name = "drag"
     phase = "force"
+    linear = True       # Q = c + K_x x + K_v v, constant: a small scene steps by its linear map
 
     @contract(damping=Array((None,), ge=0, scalar=True))
     def __init__(self, damping: Any = 0.1) -> None:

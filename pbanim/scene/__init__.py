@@ -35,20 +35,25 @@ The effect protocol (subclass :class:`Effect`)
                                   when every force effect has one, :meth:`Scene.jac` assembles the state
                                   Jacobian and implicit methods use it instead of finite differences
 
-Optional fast paths (pure speed; results equal the generic path to roundoff)
-----------------------------------------------------------------------------
-A system with ``kick_drift(y, Q, h, out, lo, hi)`` (particles) lets :meth:`Scene.step` run symplectic Euler
-with one force evaluation into preallocated buffers (no constraint effects). If moreover every force
-effect is *affine and per-particle* — it has ``affine() -> (c, d)`` meaning Qᵢ = cᵢ + dᵢ vᵢ with constant
-c (broadcastable to (N, dim)) and d (scalar or (N,)), like gravity and drag — the scene folds them once
-per step size into v₁ = α v₀ + β (α = 1 + h W d, β = h W c) and sweeps the particles in cache-sized
-blocks, so a step costs about one read and one write of the state. Set ``scene.fold_affine = False`` to
-run the force phase effect by effect instead.
+Plans: the same step, less interpreter (issue 28)
+------------------------------------------------
+What a step computes is fixed by the pipeline; how much Python surrounds it is chosen once per run, when
+the run starts (:mod:`pbanim.scene.plans`): a scene whose forces are all linear (``linear = True``:
+gravity, drag, anchor springs) and whose state is small steps by y₁ = S y + s with S the method's
+stability matrix; symplectic Euler on particles without constraints kicks and drifts into preallocated
+buffers with affine forces folded (``scene.fold_affine``); any other scene runs the method's step on f bound
+as one closure. Every plan equals the readable step to roundoff; ``scene.lean_path = False`` runs the
+readable one. Optional effect attributes they read: ``linear`` (Q = c + K_x x + K_v v with constant c, K_x,
+K_v, which ``jacobian`` returns), ``affine() -> (c, d)`` (Qᵢ = cᵢ + dᵢ vᵢ per particle).
 
 Symplectic Euler's drift q₁ = q₀ + h q̇(q₀, v₁) takes q̇ from ``system.derivative(y₁, zero_forces())``
 (position rates never depend on Q): one force/constraint evaluation per step, bit for bit the generic
 two-evaluation step for stateless effects (a warm start comes from the kick's solve); an effect that
 must see the discarded second evaluation sets ``drift_free = False`` (the generic step then runs).
+
+Diagnostics (issue 28, point 2): a run records states; energies, momenta and the effects' series are
+computed from them when ``result.diagnostics`` is first read (``diagnostics="lazy"``, the default), or at the
+recorded times during the run when asked (``diagnostics=True``); what each costs: ``pbanim bench particles``.
 """
 
 from __future__ import annotations
@@ -60,11 +65,12 @@ import numpy as np
 
 import scipy.sparse as sp
 
-from .contracts import Array, Choice, Either, Flag, Has, Int, Opt, Real, Seq, contract, finite_result, unchecked
-from .errors import InvalidInput, SimulationDiverged
-from .ode import METHODS, get_method
-from .ode.driver import MAX_STEPS, check_finite, drive, fixed_steps, step_grid
-from .results import LazyDiagnostics, SimResult
+from ..contracts import Array, Choice, Either, Flag, Has, Int, Opt, Real, Seq, contract, finite_result, unchecked
+from ..errors import InvalidInput, SimulationDiverged
+from ..ode import METHODS, get_method
+from ..ode.driver import MAX_STEPS, check_finite, drive, drive_lean, fixed_steps, step_grid
+from ..results import LazyDiagnostics, SimResult
+from .plans import KickDrift, advance, linear_scene
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
 
@@ -165,14 +171,16 @@ class Scene:
         self._forces = unchecked(self.forces)
         self._applied = unchecked(self.applied_forces)
         self._rhs = unchecked(self.rhs)
-        # lean symplectic-Euler path (see the module docstring): buffers are allocated on first use
+        # the plans (pbanim.scene.plans): what each admits is read once, here; a run binds its plan
         self._lean = hasattr(system, "kick_drift") and hasattr(system, "dim") and not self._constraint
         self._affine = self._lean and all(callable(getattr(e, "affine", None)) for e in self._force)
         # symplectic Euler with one force evaluation per step (see the module docstring)
-        self._kick_only = not self._lean and all(getattr(e, "drift_free", True) for e in self.effects)
+        self._drift_free = all(getattr(e, "drift_free", True) for e in self.effects)
+        self._linear = linear_scene(self)
+        self._kick = KickDrift(self) if self._lean else None
         self.fold_affine = True
-        self._Qbuf: np.ndarray | None = None
-        self._fold: tuple | None = None
+        self.lean_path = True           # False: every run and step takes the readable path
+        self._stepper_cache: dict = {}
 
     @property
     def pipeline(self) -> tuple[str, ...]:
@@ -272,89 +280,18 @@ class Scene:
     def step(self, t: float, y: np.ndarray, h: float, method: str = "symplectic_euler") -> np.ndarray:
         """One step of the pipeline: integrate the continuous part, then the post-step stages.
 
-        Returns a new state (``y`` is not modified). Symplectic Euler on a particle system without
-        constraint effects takes the lean path (one force evaluation, preallocated buffers, affine
-        forces folded; see the module docstring); implicit methods get :meth:`jac` when
-        :attr:`has_jacobian`.
+        Returns a new state (``y`` is not modified). The step is the one :meth:`simulate` takes, its plan
+        built at the first call with a method and kept (see :mod:`pbanim.scene.plans`: build a new scene, or
+        run :meth:`simulate`, which binds its plan per run, after changing an effect's parameters); implicit
+        methods get :meth:`jac` when :attr:`has_jacobian`.
         """
-        if method == "symplectic_euler" and self._lean:
-            y = self._lean_step(t, y, h)
-        elif method == "symplectic_euler" and self._kick_only:
-            y = self._kick_only_step(self.rhs, t, y, h)
-        else:
-            m = get_method(method)
-            jac = unchecked(self.jac) if (m.implicit and self.has_jacobian) else None
-            y = m.step(self._rhs, t, y, h, split=self.system.split, jac=jac)
-        for post_step in self._post_step:
-            y = post_step(t + h, y, h)
-        return y
-
-    def _kick_only_step(self, fun, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        """Symplectic Euler, forces evaluated once: kick with fun(t, y), drift with the force-free rates."""
-        s = self.system.split
-        y1 = np.array(y, dtype=float, copy=True)
-        y1[s:] += h * fun(t, y)[s:]
-        y1[:s] = y[:s] + h * self._derivative(y1, self.system.zero_forces())[:s]
-        return y1
+        key = (method, self.lean_path)
+        advance = self._stepper_cache.get(key)
+        if advance is None:
+            advance = self._stepper_cache[key] = self._advance(get_method(method), [0, 0])
+        return advance(t, y, h)
 
     _BLOCK = 8192  # particles per block of the folded affine path (a few 100 kB per array: stays in cache)
-
-    def _lean_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        """Symplectic Euler with one force evaluation into preallocated buffers (see module docstring)."""
-        out = np.empty_like(y)
-        if self._affine and self.fold_affine:
-            fold = self._fold
-            if fold is None or fold[0] != h:
-                fold = self._fold = self._fold_affine(h)
-            for sx, sv, alpha, beta, tmp in fold[1]:
-                v1 = out[sv]
-                np.multiply(y[sv], alpha, out=v1)
-                np.add(v1, beta, out=v1)
-                np.multiply(v1, h, out=tmp)
-                np.add(y[sx], tmp, out=out[sx])
-            return out
-        sysm = self.system
-        if self._Qbuf is None or self._Qbuf.shape != (sysm.N, sysm.dim):
-            self._Qbuf = sysm.zero_forces()
-        Q = self._Qbuf
-        Q.fill(0.0)
-        for apply in self._apply:
-            apply(t, y, Q)
-        return sysm.kick_drift(y, Q, h, out, 0, sysm.N)
-
-    def _fold_affine(self, h: float) -> tuple:
-        """Fold affine per-particle forces Q = c + d v into v₁ = α v₀ + β (α = 1 + h W d, β = h W c).
-
-        Returns (h, blocks) with, per block of particles, the slices of x and v in y and the α, β and
-        scratch operands, all flat and contiguous (a broadcast (n, 1) or (1, dim) operand makes numpy
-        loop over rows of length dim, several times slower). Folded once per step size: rebuild the
-        scene after changing an effect's parameters.
-        """
-        sysm = self.system
-        N, dim, s = sysm.N, sysm.dim, sysm.split
-        c = np.zeros((1, dim))
-        d = np.zeros(1)
-        for e in self._force:
-            ce, de = e.affine()
-            if ce is not None:
-                c = c + np.asarray(ce, float)
-            if de is not None:
-                d = d + np.asarray(de, float)
-        W = sysm.W
-        alpha = 1.0 + h * W * d                                   # (N,) (or (1,) with no drag)
-        beta = h * (W[:, None] * c)                               # (N, dim) (or (1, dim))
-        B = min(N, self._BLOCK)
-        # a uniform α is a scalar; a uniform β (gravity alone: W m g = g up to an ulp) is tiled over one block
-        alpha = float(alpha[0]) if np.all(alpha == alpha[0]) else np.repeat(alpha, dim)
-        uniform = bool(np.allclose(beta, beta[0], rtol=1e-15, atol=0.0))
-        beta = np.tile(beta[0], B) if uniform else np.ascontiguousarray(np.broadcast_to(beta, (N, dim))).ravel()
-        tmp = np.empty(B * dim)
-        blocks = []
-        for lo in range(0, N, B):
-            i, j = lo * dim, min(N, lo + B) * dim
-            blocks.append((slice(i, j), slice(s + i, s + j), alpha if isinstance(alpha, float) else alpha[i:j],
-                           beta[: j - i] if uniform else beta[i:j], tmp[: j - i]))
-        return h, blocks
 
     @contract(t_end=_T, h=Real(gt=0), method=_METHOD, t0=_T, y0=Opt(_Y), record_every=Int(ge=1),
               diagnostics=_DIAGNOSTICS, check_every=Int(ge=1), max_steps=Int(ge=1))
@@ -391,56 +328,37 @@ class Scene:
         check_finite(y, t0, 0, "initial state")
         diagnose = unchecked(self.diagnostics)
         during = diagnose if diagnostics is True else _history(self.effects) if diagnostics == "lazy" else None
-        ts, ys, diags = [t0], [y.copy()], [during(t0, y)] if during else []
         counter = [0, 0]  # right-hand-side (force) evaluations, Jacobian evaluations
         advance = self._advance(m, counter)
+        n, r = grid.n_steps, record_every
+        ts = np.append(grid.t0 + grid.h * np.arange(0, n, r), grid.t_end)     # the times grid.times() gives
+        start = time.perf_counter()
+        if during is None:      # nothing to read during the run: the states go straight into one array
+            # a plan that cannot raise on a non-finite state is checked once per block (the first bad step named)
+            check = None if r == 1 and getattr(advance, "nan_safe", False) else check_every
+            Y = drive_lean(advance, grid, y, "state", record_every=r, check_every=check)
+            diags: list = []
+        else:
+            Y = np.empty((len(ts), len(y)))
+            Y[0] = y
+            diags = [during(t0, y)]
+            row = [0]
 
-        def record(t, yy):
-            ts.append(t)
-            ys.append(yy.copy())
-            if during:
+            def record(t, yy):
+                row[0] += 1
+                Y[row[0]] = yy
                 diags.append(during(t, yy))
 
-        start = time.perf_counter()
-        drive(advance, grid, y, record=record, record_every=record_every, check_every=check_every)
+            drive(advance, grid, y, record=record, record_every=r, check_every=check_every)
         wall = time.perf_counter() - start
         diag_arrays = _series(diags)
         if diagnostics == "lazy":
-            T, Y, recorded = np.array(ts), np.array(ys), diag_arrays
-            diag_arrays = LazyDiagnostics(lambda: {**_series([diagnose(t, yy) for t, yy in zip(T, Y)]), **recorded})
-        return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
+            recorded = diag_arrays
+            diag_arrays = LazyDiagnostics(lambda: {**_series([diagnose(t, yy) for t, yy in zip(ts, Y)]), **recorded})
+        return SimResult(t=ts, y=Y.T, nfev=counter[0], njev=counter[1], status=0, wall_time=wall,
                          method=method, nsteps=grid.n_steps, diagnostics=diag_arrays)
 
     def _advance(self, m, counter: list):
-        """The step y₁ = Φ_h(t, y) of method ``m`` followed by the post-step effects, counting evaluations."""
-        post = self._post_step
-
-        def fun(t, yy):
-            counter[0] += 1
-            return self._rhs(t, yy)
-
-        jac_fn, jac = None, unchecked(self.jac)
-        if m.implicit and self.has_jacobian:
-            def jac_fn(t, yy):
-                counter[1] += 1
-                return jac(t, yy)
-        split = self.system.split
-        if m.name == "symplectic_euler" and self._lean:
-            def step(t, y, h):
-                counter[0] += 1
-                return self._lean_step(t, y, h)
-        elif m.name == "symplectic_euler" and self._kick_only:
-            def step(t, y, h):
-                return self._kick_only_step(fun, t, y, h)
-        else:
-            def step(t, y, h):
-                return m.step(fun, t, y, h, split=split, jac=jac_fn)
-        if not post:
-            return step
-
-        def advance(t, y, h):
-            y = step(t, y, h)
-            for post_step in post:
-                y = post_step(t + h, y, h)
-            return y
-        return advance
+        """The step y₁ = Φ_h(t, y) of method ``m`` followed by the post-step effects, its plan chosen and bound
+        here (:func:`pbanim.scene.plans.advance`); counts f in ``counter[0]``, the Jacobian in ``counter[1]``."""
+        return advance(self, m, counter, Scene)
