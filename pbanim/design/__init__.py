@@ -49,7 +49,9 @@ where it applies), :mod:`pbanim.design.rest` (resting contact, touches, the cert
 :mod:`pbanim.design.specs` (what the arguments must be), :mod:`pbanim.design.check` (finite
 differences with Richardson extrapolation), :mod:`pbanim.design.control` (goals, the min-norm update, edits,
 dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unknowns),
-:mod:`pbanim.design.multiple` (multiple shooting on a sliding time grid started from the sketch).
+:mod:`pbanim.design.multiple` (multiple shooting on a sliding time grid started from the sketch),
+:mod:`pbanim.design.stepped`, :mod:`pbanim.design.stepped_sim`, :mod:`pbanim.design.stepped_run` (S(t, u) and
+∂S/∂u stepped through resting and sliding contact with friction, issue 30).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, Z. Popović, A. Witkin, "Interactive manipulation of rigid
 body simulations", SIGGRAPH 2000; J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of
@@ -68,8 +70,11 @@ from .exact import exact_applies, first_impact, flight_map
 from .rest import Rest
 from .trajectory import Trajectory
 from .simulate import quat_log, simulate
+from .stepped import ContactScene, StaticBox
+from .stepped_run import ContactTrajectory, Switch, replay_chapter7, simulate_contact
 
 __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajectory", "TooManyImpacts",
            "RestingContactError", "PenetrationError", "GrazingImpactWarning", "left_jacobian", "xi", "FlightModel",
            "flight_rhs", "flight_tangent", "augmented_step", "Impact", "apply_impact", "Trajectory", "Rest",
-           "simulate", "quat_log", "flight_map", "first_impact", "exact_applies"]
+           "simulate", "quat_log", "flight_map", "first_impact", "exact_applies", "ContactScene", "StaticBox",
+           "ContactTrajectory", "Switch", "simulate_contact", "replay_chapter7"]

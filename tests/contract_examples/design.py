@@ -5,6 +5,14 @@ import numpy as np
 from pbanim.collision import Plane, Sphere
 from pbanim.design import DesignBody, DesignScene, FlightModel, Trajectory, simulate
 from pbanim.design.impact import Features
+from pbanim.design.stepped import ContactScene
+from pbanim.design.stepped_run import ContactTrajectory, simulate_contact
+
+
+def _contact_scene():
+    """A ball on the floor, pushed sideways (the stepped contact model of issue 30)."""
+    return ContactScene(DesignBody(Sphere(0.1), position=[0.0, 0.0, 0.1], velocity=[0.5, 0.0, 0.0]),
+                        [Plane([0.0, 0.0, 1.0])], friction=0.3)
 
 
 def _body():
@@ -38,6 +46,8 @@ INSTANCES = {
     FlightModel: _model,
     Features: lambda: Features(_scene()),
     Trajectory: _trajectory,
+    ContactScene: lambda: _contact_scene(),
+    ContactTrajectory: lambda: simulate_contact(_contact_scene(), 0.2, ["v0"], times=[0.1], h=0.05),
 }
 
 _AT = {"t": 0.5}
@@ -54,12 +64,24 @@ CALLS = {
                                                  "normals": np.array([[0.0, 0.0, 1.0]]), "tol": 1e-9},
     **{f"pbanim.design.trajectory.Trajectory.{m}": (lambda: dict(_AT)) for m in
        ("position", "orientation", "d_position", "d_orientation", "velocities", "d_velocities")},
+    **{f"pbanim.design.stepped_run.ContactTrajectory.{m}": (lambda: {"t": 0.1}) for m in
+       ("position", "orientation", "d_position", "d_orientation", "velocities", "d_velocities")},
+    **{f"pbanim.design.stepped.ContactScene.{m}": (lambda: {"names": ["v0", "friction"]}) for m in
+       ("check_names", "slices", "vector")},
+    **{f"pbanim.design.stepped.ContactScene.{m}": (lambda: {"names": ["v0"], "u": np.array([0.5, 0.0, 0.0])})
+       for m in ("values", "initial")},
+    "pbanim.design.stepped.StaticBox.__init__": lambda: {"half_extents": [0.5, 0.5, 0.1], "center": [0.0, 0.0, 0.5],
+                                                         "orientation": [1.0, 0.0, 0.0, 0.0]},
+    "pbanim.design.stepped_run.simulate_contact": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
+    "pbanim.design.stepped_run.replay_chapter7": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
 }
 
 EXEMPT = {
     "pbanim.design.impact.Impact.__init__": "a record pbanim builds (simulate, apply_impact) and users read",
     "pbanim.design.trajectory.Trajectory.__init__": "a record pbanim builds (simulate) and users read",
     "pbanim.design.rest.Rest.__init__": "a record pbanim builds (simulate) and users read",
+    "pbanim.design.stepped_run.ContactTrajectory.__init__": "a record pbanim builds (simulate_contact) and users read",
+    "pbanim.design.stepped_run.Switch.__init__": "a record pbanim builds (simulate_contact) and users read",
 }
 
 
