@@ -181,7 +181,7 @@ def simulate_contact(scene, t_end: float, names=None, u=None, *, times=(), h: fl
     y, T, mu, dmu = scene.initial(names, u)
     T = T if sensitivities else None
     p = dmu.size
-    ts, ys, modes, carry = [t0], [y.copy()], [], {"state": None, "res": 0.0, "ok": True}
+    ts, ys, modes, carry = [t0], [y.copy()], [], {"state": None, "res": 0.0, "ok": True, "loose": 0}
     best = [np.full(p, np.inf), np.full(p, np.inf), [None] * p]
     outputs = {}
     if round(t0, 12) in {round(float(v), 12) for v in out_t}:
@@ -191,6 +191,7 @@ def simulate_contact(scene, t_end: float, names=None, u=None, *, times=(), h: fl
         yy, TT = Y[:13], (Y[13:].reshape(p, 12) if sensitivities else None)
         y1, T1, info = contact_step(scene, yy, TT, mu, dmu, hk, carry["state"], tol)
         carry["state"], carry["res"] = info.state, max(carry["res"], info.residual)
+        carry["loose"] += not info.solved
         modes.append(info.modes)
         if TT is not None:
             carry["ok"] = carry["ok"] and info.consistent
@@ -231,8 +232,12 @@ def _finish(scene, names, u, ts, ys, outputs, modes, best, carry, p, penetration
             at = True
             notes.append(f"∂S/∂u is one-sided in {label[i]}: a contact switch ({kind}, feature {c}, step at "
                          f"t = {t:.6g}) sits at {label[i]} = {u[i] + best[1][i]:.12g} (distance {best[0][i]:.2e})")
+    if carry["loose"]:
+        notes.append(f"{carry['loose']} step(s) solved their contact problem only to residual {carry['res']:.1e} "
+                     "(no active set certified to tol: a degenerate contact): ∂S/∂u there is approximate")
     if not carry["ok"]:
-        notes.append("an active-set system was inconsistent (a degenerate contact configuration): ∂S/∂u not unique")
+        notes.append("an active-set system was inconsistent or a step's solve was loose (a degenerate contact "
+                     "configuration): ∂S/∂u not exact")
     mode_arr = np.array(modes, dtype=np.int8).reshape(len(modes), -1)
     return ContactTrajectory(np.array(ts), Y, outputs, names, u, mode_arr, switches, at, carry["ok"], clear, True,
                              carry["res"], scene.mass, scene.inertia.copy(), notes)
