@@ -283,3 +283,15 @@ def test_simulate_honours_record_every_into_one_array(diagnostics):
     assert sparse.y.flags.c_contiguous or sparse.y.T.flags.c_contiguous
     if diagnostics:
         assert len(sparse.diagnostics["energy"]) == len(keep)
+
+
+def test_floor_rows_of_chapters_01_to_03_are_equal_work():
+    # pbanim bench floors: each row's hand-written loop computes what pbanim's run computes (the same
+    # method on the same equations from the same start): final states within the row's tolerance
+    from pbanim.bench import _floor_constraints, _floor_particles
+
+    for make in _floor_particles.FLOORS + _floor_constraints.FLOORS:
+        fl = make()
+        a, b = np.asarray(fl.pbanim(), float), np.asarray(fl.hand(), float)
+        assert a.shape == b.shape
+        assert np.abs(a - b).max() / max(1.0, np.abs(b).max()) <= fl.tol, fl.scene

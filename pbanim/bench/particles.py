@@ -12,15 +12,23 @@ Measured in one run, so both sides of every ratio share the machine's load:
    (:meth:`DampedSprings.apply`, scatter by ``np.bincount``) against the same spring forces scattered by
    the scipy.sparse incidence product Q = Bᵀ f, and ``np.add.at`` for reference.
 
-3. For reference (no goal): one implicit Euler step of a stiff hanging net with the analytic sparse
+3. What diagnostics cost when asked (issue 28, point 2): four particles, five damped springs and gravity,
+   RK4, 1000 steps, per step: states only (``diagnostics=False``), the default (``"lazy"``: nothing computed
+   during the run) not read and read after the run, and ``diagnostics=True`` (energies and momenta at every
+   recorded time during the run), recording every step and every 10th; in alternating rounds.
+
+4. For reference (no goal): one implicit Euler step of a stiff hanging net with the analytic sparse
    Jacobian (:meth:`pbanim.scene.Scene.jac`) against the finite-difference Jacobian the solver builds
    without it.
 
 Goals (issue 2, point 4): step ≤ 1.2× the numpy step at every N; ≤ 2.5× the copy at N = 10⁶;
-springs ≤ 1.5× the sparse scatter.
+springs ≤ 1.5× the sparse scatter; (issue 28) a run whose diagnostics are not read ≤ 1.1× a run that
+records states only.
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -141,6 +149,38 @@ def spring_table(S: int, N: int, repeats: int, rng: np.random.Generator):
             ["np.add.at", t_a, t_a / t_s, 0.0], ["spring forces f only (no scatter)", t_f, t_f / t_s, 0.0]], t_p / t_s
 
 
+
+def diagnostics_table(steps: int, rounds: int):
+    """Rows (variant, record_every, µs per step, / states only) and the lazy-not-read ratio (see item 3)."""
+    from ._floor_particles import KD, KS, SQ_M, SQ_PAIRS, SQ_V, SQ_X, G
+    from ..particles import DampedSprings, Gravity, ParticleSystem
+    from ..scene import Scene
+
+    scene = Scene(ParticleSystem(SQ_X, SQ_V, SQ_M), [Gravity(G), DampedSprings(SQ_PAIRS, KS, KD)])
+    h = 1e-3
+    variants = {"states only (diagnostics=False)": lambda r: scene.simulate(steps * h, h, "rk4", record_every=r,
+                                                                           diagnostics=False),
+                "lazy (default), not read": lambda r: scene.simulate(steps * h, h, "rk4", record_every=r),
+                "lazy (default), read after the run": lambda r: dict(
+                    scene.simulate(steps * h, h, "rk4", record_every=r).diagnostics),
+                "diagnostics=True (during the run)": lambda r: scene.simulate(steps * h, h, "rk4", record_every=r,
+                                                                             diagnostics=True)}
+    rows, lazy_ratio = [], float("nan")
+    for r in (1, 10):
+        times: dict = {k: [] for k in variants}
+        for _ in range(rounds):
+            for k, fn in variants.items():
+                start = time.perf_counter()
+                fn(r)
+                times[k].append((time.perf_counter() - start) / steps * 1e6)
+        base = np.array(times["states only (diagnostics=False)"])
+        for k, v in times.items():
+            ratio = float(np.median(np.array(v) / base))
+            rows.append([k, r, float(np.median(v)), ratio])
+            if r == 1 and k == "lazy (default), not read":
+                lazy_ratio = ratio
+    return rows, lazy_ratio
+
 def implicit_table(n: int, repeats: int):
     """One implicit Euler step of an n × n stiff hanging net: analytic sparse Jacobian vs finite differences."""
     from ..models.particles import hanging_net
@@ -174,6 +214,10 @@ def run(quick: bool = False) -> Report:
     srows, ratio = spring_table(S, Ns, repeats, rng)
     rep.tables.append(Table(f"damped springs: force accumulation, S = {S} springs, N = {Ns}, median seconds",
                             ["variant", "time", "/ sparse", "max |ΔQ|"], srows))
+    drows, lazy_ratio = diagnostics_table(200 if quick else 1000, 3 if quick else 7)
+    rep.tables.append(Table("what diagnostics cost: 4 particles, 5 damped springs, gravity, RK4 (µs per step, "
+                            "medians of alternating rounds; ratio per round to states only)",
+                            ["variant", "record_every", "µs / step", "/ states only"], drows))
     n = 6 if quick else 12
     rep.tables.append(Table(f"one implicit Euler step, {n}×{n} stiff hanging net (k_s = 1e4, h = 0.01), median seconds",
                             ["Jacobian", "time", "/ analytic", "max |Δy|"], implicit_table(n, 3 if quick else 5)))
@@ -186,6 +230,8 @@ def run(quick: bool = False) -> Report:
                           + ("" if big[0] == 10**6 else " (quick mode; the goal is at N = 1e6)")))
     rep.goals.append(Goal("particles-springs-vs-sparse", ratio, 1.5, "<=", "x",
                           f"DampedSprings.apply / sparse incidence scatter at S = {S}"))
+    rep.goals.append(Goal("particles-lazy-diagnostics-unread", lazy_ratio, 1.1, "<=", "x",
+                          "a run with diagnostics='lazy' (the default) never read / diagnostics=False, record_every=1"))
     rep.notes.append("ratios < 1 are faster than the baseline; all timings share one run")
     rep.notes.append("scene.step folds the affine per-particle forces (gravity, drag) into v1 = alpha v0 + beta "
                      "per step size and sweeps cache-sized blocks (Scene.fold_affine; see pbanim.scene); 'unfolded' is the "

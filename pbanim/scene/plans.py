@@ -209,6 +209,7 @@ class KickDrift:
 
     def __init__(self, scene) -> None:
         self.scene, self.system = scene, scene.system
+        self._kick_drift = unchecked(scene.system.kick_drift)    # the step's own call pays no wrapper
         self._Q: np.ndarray | None = None
         self._fold: tuple | None = None
 
@@ -226,14 +227,13 @@ class KickDrift:
                 np.multiply(v1, h, out=tmp)
                 np.add(y[sx], tmp, out=out[sx])
             return out
-        sysm = self.system
-        if self._Q is None or self._Q.shape != (sysm.N, sysm.dim):
-            self._Q = sysm.zero_forces()
         Q = self._Q
+        if Q is None:
+            Q = self._Q = self.system.zero_forces()
         Q.fill(0.0)
         for apply in scene._apply:
             apply(t, y, Q)
-        return sysm.kick_drift(y, Q, h, out, 0, sysm.N)
+        return self._kick_drift(y, Q, h, out, 0, len(Q))
 
     def fold(self, h: float) -> tuple:
         """Fold affine per-particle forces Q = c + d v into v₁ = α v₀ + β (α = 1 + h W d, β = h W c).
