@@ -40,7 +40,7 @@ from ..compare.harness import have
 from ..compare.peer_mujoco import mjcf_numbers
 from ..errors import InvalidInput
 
-__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run"]
+__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run", "settle_scene", "scene_numbers"]
 
 G = 9.81
 
@@ -217,9 +217,23 @@ def settle_run(engine: str, scene: str, quick: bool, h: float, iterations: int) 
     """One peer run of the dropped stack or the sphere pile: cost per step and per simulated second (the
     stepping call alone), drift of the top box (stack) or of the highest centre (pile) and the deepest
     contact over the last third of the run (the engine's own contact distances)."""
+    return settle_scene(engine, scene, _new_scene(scene, quick), h, iterations)
+
+
+def scene_numbers(sc, t_end: float) -> dict:
+    """What a peer needs of a scene of :mod:`pbanim.contact.scenes` (its start, geometry, friction) and the
+    run's duration: the dictionary :func:`settle_scene` reads."""
+    return {"x0": np.array(sc.system.unpack(sc.system.state())[0], float), "N": sc.system.N, "t_end": float(t_end),
+            "mu": sc.friction, "half": sc.info.get("half_extents"), "radius": sc.info.get("radius"),
+            "L": sc.info.get("box_half")}
+
+
+def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int) -> dict:
+    """:func:`settle_run` on a scene given by :func:`scene_numbers` ("stack": boxes on the ground, "pile":
+    spheres in the open box |x|, |y| ≤ L): cost of the stepping call alone per step and per simulated second;
+    over the last third of the run the drift (top box / highest centre) and the deepest contact."""
     if engine not in ("pybullet", "mujoco"):
         raise InvalidInput(f"engine must be 'pybullet' or 'mujoco', got {engine!r}")
-    S = _new_scene(scene, quick)
     steps = _steps(S["t_end"], h)
     k0 = (2 * steps) // 3
     heights, pens, elapsed = [], [], 0.0

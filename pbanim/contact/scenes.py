@@ -45,10 +45,12 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..collision.broad import grid_pairs
 from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 
-__all__ = ["ContactScene3D", "SceneDetect", "dropped_stack", "sphere_pile", "box_plane_contacts", "box_box_contacts",
+__all__ = ["ContactScene3D", "SceneDetect", "dropped_stack", "sphere_pile", "brick_wall", "box_plane_contacts",
+           "box_box_contacts",
            "box_box_contacts_loop", "sphere_contacts"]
 
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -226,9 +228,14 @@ def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction
                           {"half_extents": half, "top": n - 1, "gap": gap, "offset": offset})
 
 
-def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, friction: float = 0.5, seed: int = 0,
-                g: float = 9.81, margin: float | None = None) -> ContactScene3D:
+def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float | None = 0.3, friction: float = 0.5, seed: int = 0,
+                g: float = 9.81, margin: float | None = None, broad: str = "grid") -> ContactScene3D:
     """n rigid spheres poured into the open box |x|, |y| ≤ L, z ≥ 0 (see the module docstring).
+
+    ``box_half`` None: L grows with n so that the lattice holds about four layers (the large scenes of
+    ``pbanim bench contact_large``: the pile's depth, hence its contact forces, the same at every n).
+    ``broad``: the sphere pairs the narrow phase tests — "grid" (:func:`pbanim.collision.broad.grid_pairs`,
+    O(n) at bounded density) or "all_pairs" (the n(n − 1)/2 pairs); the same contacts in the same order.
 
     >>> sc = sphere_pile(4)
     >>> c, keys = sc.detect(sc.system.state()); bool(np.all(c.depth < 0))   # none touching (some near a wall)
@@ -240,6 +247,10 @@ def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, fricti
 
     n = check_count("n", n, 1, 5000)
     r = check_number("radius", radius, low=0.0, low_open=True)
+    if broad not in ("grid", "all_pairs"):
+        raise InvalidInput(f"broad must be 'grid' or 'all_pairs', got {broad!r}")
+    if box_half is None:                              # about four layers of the 2.2 r lattice
+        box_half = 1.1 * r * max(2, int(np.ceil(np.sqrt(n / 4.0))))
     L = check_number("box_half", box_half, low=2 * r, low_open=True)
     friction = check_number("friction", friction, low=0.0)
     margin = 0.1 * r if margin is None else check_number("margin", margin, low=0.0)
@@ -252,13 +263,14 @@ def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, fricti
     bodies = RigidBodies(np.ones(n), np.stack([sphere_inertia(1.0, r)] * n), positions=pos)
     walls_n = np.array([[0, 0, 1.0], [1.0, 0, 0], [-1.0, 0, 0], [0, 1.0, 0], [0, -1.0, 0]])
     walls_d = np.array([0.0, -L, -L, -L, -L])
-    pairs = np.stack(np.triu_indices(n, 1), axis=1)
+    every = np.stack(np.triu_indices(n, 1), axis=1) if broad == "all_pairs" else None
     K = n + 1
 
     def arrays(y, R=None):                              # spheres: no rotation needed
         x = y[:3 * n].reshape(n, 3)
         sep_w = x @ walls_n.T - walls_d - r
         bi, wi = np.nonzero(sep_w <= margin)
+        pairs = every if every is not None else grid_pairs(x, np.full(n, r), margin).pairs
         a, b, p, nn, s = sphere_contacts(x, r, pairs, margin)
         A = np.concatenate([bi, a])
         B = np.concatenate([np.full(bi.size, -1, np.intp), b])
@@ -269,3 +281,64 @@ def sphere_pile(n: int = 50, radius: float = 0.05, box_half: float = 0.3, fricti
     detect = SceneDetect(bodies, arrays, rotations=False)
     return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
                           {"radius": r, "box_half": L})
+
+
+def brick_wall(n: int = 50, per_row: int = 10, half_extents=(0.2, 0.1, 0.1), gap: float = 1e-3, spacing: float = 5e-3,
+               friction: float = 0.5, g: float = 9.81, margin: float = 2e-3, lateral_tol: float = 1e-2) -> ContactScene3D:
+    """n boxes (1 kg) laid in running bond: course k holds ``per_row`` − k bricks shifted by k half pitches (each
+    brick spans two below it; each course one brick shorter, a wall stepped in at both ends), bricks ``spacing``
+    apart along the course, courses dropped from ``gap`` above each other; the last course may be partial.
+
+    Pairs come from the broad phase on the bricks' bounding spheres (:func:`pbanim.collision.broad.grid_pairs`)
+    at every step, the upper brick first, then the vertex–face test of :func:`box_box_contacts`: where a brick
+    overlaps half of the one below, each has two corners over the other's face and the tie keeps the upper
+    brick's, at its ends (the lower bricks' corners would hold it on a 5 mm base at its middle, where it tips);
+    the ground by :func:`box_plane_contacts`.
+
+    >>> sc = brick_wall(12, per_row=5)
+    >>> c, keys = sc.detect(sc.system.state()); c.a.size               # 5 × 4 on the ground, 4 per brick above
+    48
+    """
+    from ..rigid.bodies import RigidBodies
+    from ..rigid.effects import RigidGravity
+    from ..rigid.inertia import box_inertia
+
+    n = check_count("n", n, 1, 5000)
+    per_row = check_count("per_row", per_row, 2, 1000)
+    if n > per_row * (per_row + 1) // 2:
+        raise InvalidInput(f"n must be at most per_row (per_row + 1) / 2 = {per_row * (per_row + 1) // 2} bricks "
+                           f"(courses of per_row, per_row − 1, … 1), got {n}")
+    half = np.asarray(half_extents, dtype=float)
+    if half.shape != (3,) or not np.all(np.isfinite(half) & (half > 0)):
+        raise InvalidInput(f"half_extents must be 3 positive numbers, got {half_extents!r}")
+    gap, spacing = check_number("gap", gap, low=0.0), check_number("spacing", spacing, low=0.0)
+    friction = check_number("friction", friction, low=0.0)
+    if spacing <= margin:
+        raise InvalidInput(f"spacing must exceed the contact margin {margin} m (bricks of a course never touch)")
+    pitch = 2 * half[0] + spacing
+    pos = []
+    for k in range(per_row):
+        for i in range(per_row - k):
+            if len(pos) < n:
+                pos.append([(i + 0.5 * k - 0.5 * (per_row - 1)) * pitch, 0.0, half[2] * (2 * k + 1) + (k + 1) * gap])
+    pos = np.array(pos)
+    bodies = RigidBodies(np.ones(n), np.stack([box_inertia(1.0, 2 * half)] * n), positions=pos)
+    up = np.array([0.0, 0.0, 1.0])
+    bound = np.full(n, float(np.linalg.norm(half)))
+    K = n + 1
+
+    def arrays(y, R):
+        x = y[:3 * n].reshape(n, 3)
+        g_a, g_p, g_s, g_f = box_plane_contacts(x, R, half, up, 0.0, margin)
+        pairs = grid_pairs(x, bound, margin).pairs
+        pairs = np.where((x[pairs[:, 0], 2] < x[pairs[:, 1], 2])[:, None], pairs[:, ::-1], pairs)   # upper first
+        a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
+        A = np.concatenate([g_a, a])
+        B = np.concatenate([np.full(g_a.size, -1, np.intp), b])
+        keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
+        normal = np.concatenate([np.broadcast_to(up, (g_a.size, 3)), nn])
+        return A, B, np.concatenate([g_p, p]), normal, np.concatenate([g_s, s]), keys
+
+    detect = SceneDetect(bodies, arrays)
+    return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
+                          {"half_extents": half, "top": n - 1, "gap": gap, "per_row": per_row})

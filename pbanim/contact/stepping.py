@@ -54,12 +54,17 @@ from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
 from ..lcp.colored import colors_by_bodies, pgs_box_friction_colored
+from ..lcp.rows import pgs_box_friction_rows
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 
-__all__ = ["FrictionStepping", "STEPPING_SOLVERS"]
+__all__ = ["FrictionStepping", "STEPPING_SOLVERS", "ASSEMBLIES", "ROWS_FROM"]
 
 STEPPING_SOLVERS = ("active_set", "pgs")
+ASSEMBLIES = ("auto", "dense", "rows")
+#: from this many contacts ``assembly="auto"`` sweeps on velocities: a dense A of 3m × 3m costs O(m²) to build
+#: and to store (m = 3000 contacts: 650 MB) where the rows cost O(m)
+ROWS_FROM = 100
 
 
 class FrictionStepping(TimeStepping):
@@ -77,11 +82,15 @@ class FrictionStepping(TimeStepping):
     tol : float — residual accepted from the active-set solve (relative to max(1, ‖b‖∞))
     warm_start : bool — start from the previous step's state and impulses (False: from scratch, for
         measuring what persistence buys)
+    assembly : "auto" (default), "dense" or "rows" — for ``solver="pgs"``: build A = J W Jᵀ and sweep it
+        (:func:`pbanim.lcp.colored.pgs_box_friction_colored`), or sweep on the bodies' velocities without A
+        (:func:`pbanim.lcp.rows.pgs_box_friction_rows`: O(m) memory and work per sweep, equal to roundoff);
+        "auto" takes the rows from :data:`ROWS_FROM` contacts on
     """
 
     def __init__(self, system, detect, forces=(), *, friction: float = 0.5, solver: str = "active_set",
                  iterations: int = 50, max_iter: int = 20, erp: float = 0.2, tol: float = 1e-9,
-                 warm_start: bool = True) -> None:
+                 warm_start: bool = True, assembly: str = "auto") -> None:
         super().__init__(system, detect, forces, friction=0.0, solver="lemke", erp=erp, tol=tol)
         if not self.rigid:
             raise InvalidInput("FrictionStepping steps rigid bodies (RigidBodies), got particles")
@@ -92,6 +101,9 @@ class FrictionStepping(TimeStepping):
         self.iterations = check_count("iterations", iterations, 1, 100_000)
         self.max_iter = check_count("max_iter", max_iter, 1, 10_000)
         self.warm = bool(warm_start)
+        if assembly not in ASSEMBLIES:
+            raise InvalidInput(f"assembly must be one of {ASSEMBLIES}, got {assembly!r}")
+        self.assembly = assembly
         self._remember(np.zeros(0, np.int64), np.zeros((0, 3), dtype=int), np.zeros(0))   # previous step: sorted keys,
         # their state rows (on/off, stick/slide) and impulses
         self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "skipped": 0, "persisted": 0,
@@ -124,10 +136,35 @@ class FrictionStepping(TimeStepping):
     def _pgs(self, A, b, keys, z0):
         """Colored PGS from the persisted impulses; the coloring (from the contacts' bodies) is kept while the
         contacts (keys) persist."""
+        return pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
+                                        warm_start=z0 if self.warm else None, colors=self._colors_of(keys),
+                                        validate=False)
+
+    def _colors_of(self, keys):
+        """The contacts' coloring (from their bodies), kept while the contacts (keys) persist."""
         if self._colors is None or not np.array_equal(self._colors[0], keys):
             self._colors = (keys.copy(), colors_by_bodies(*self._bodies, static=[self.system.N]))
-        return pgs_box_friction_colored(A, b, self.mu, max_iter=self.iterations, tol=self.tol,
-                                        warm_start=z0 if self.warm else None, colors=self._colors[1], validate=False)
+        return self._colors[1]
+
+    def _solve_rows(self, rows, Wb, u, bias, keys):
+        """PGS on the bodies' velocities (``assembly`` "rows"): (z, residual, u⁺) without A."""
+        r = rows
+        _, z0 = self._warm(keys, r.matvec(u) + bias)
+        z, res, sweeps, u_new = pgs_box_friction_rows(r.a, r.b, r.Ga, r.Gb, Wb, u, bias, self.mu, self._colors_of(keys),
+                                                      max_iter=self.iterations, tol=self.tol,
+                                                      warm_start=z0 if self.warm else None)
+        self.stats["rounds"] += sweeps
+        self._remember(keys, self._state_of(z, keys.size), z)
+        return z, res, u_new
+
+    def _state_of(self, z, m):
+        """On/off and stick/slide rows of impulses z (what the next step's active-set guess starts from)."""
+        f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
+        lim = (self.mu * f)[:, None] * (1 - 1e-9)
+        state = np.zeros((m, 3), dtype=int)
+        state[:, 0] = f > 0
+        state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
+        return state
 
     def _solve(self, A, b, keys):
         m = keys.size
@@ -158,11 +195,7 @@ class FrictionStepping(TimeStepping):
             self.stats["rounds"] += sweeps
             state = None
         if state is None:
-            f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-            lim = (self.mu * f)[:, None] * (1 - 1e-9)
-            state = np.zeros((m, 3), dtype=int)
-            state[:, 0] = f > 0
-            state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
+            state = self._state_of(z, m)
         self._remember(keys, state, z)
         return z, res
 
@@ -208,14 +241,17 @@ class FrictionStepping(TimeStepping):
             t1, t2 = tangent_basis(normal)
             D = np.stack([normal, t1, t2], axis=1).reshape(-1, 3)
             rows = rowfn(np.repeat(a, 3), np.repeat(b, 3), np.repeat(point, 3, axis=0), D)
-            A = rows.gram(rows, Wb, block=3)
-            A = 0.5 * (A + A.T)
             bias = np.zeros(3 * m)
             bias[0::3] = np.where(sep > 0, sep, self.erp * sep) / h
-            bb = rows.matvec(u) + bias
             self._bodies = (a, b)
-            z, res = self._solve(A, bb, keys)
-            u = u + np.einsum("nij,nj->ni", Wb, rows.rmatvec(z))
+            if self.solver == "pgs" and (self.assembly == "rows" or (self.assembly == "auto" and m >= ROWS_FROM)):
+                z, res, u = self._solve_rows(rows, Wb, u, bias, keys)
+            else:
+                A = rows.gram(rows, Wb, block=3)
+                A = 0.5 * (A + A.T)
+                bb = rows.matvec(u) + bias
+                z, res = self._solve(A, bb, keys)
+                u = u + np.einsum("nij,nj->ni", Wb, rows.rmatvec(z))
             self.last_info.update(residual=res, normal_impulse=z[0::3])
         else:
             self._remember(keys, np.zeros((0, 3), dtype=int), np.zeros(0))

@@ -1,0 +1,112 @@
+"""Issue 28 point 4: the large-scene machinery equals the readable one on small scenes — colored Gauss–Seidel on
+the bodies' velocities (no Delassus matrix) against the colored sweep on A (ORACLES D16), the grid broad phase
+against all pairs in the narrow phase (D13), the rows route of the time stepper against the dense one (D14)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pbanim.contact.scenes import brick_wall, sphere_pile
+from pbanim.contact.stepping import FrictionStepping
+from pbanim.errors import InvalidInput
+from pbanim.lcp import delassus
+from pbanim.lcp.box import _box_residual
+from pbanim.lcp.colored import colors_by_bodies, pgs_box_friction_colored
+from pbanim.lcp.rows import delassus_diagonal, pgs_box_friction_rows
+
+
+def _rows_problem(seed, bodies, contacts):
+    """Random contact rows (3 per contact) between bodies and the world (index ``bodies``, zero W block)."""
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, bodies, size=contacts)
+    b = rng.integers(0, bodies + 1, size=contacts)
+    b = np.where(b == a, bodies, b)
+    Ga, Gb = rng.normal(size=(3 * contacts, 6)), rng.normal(size=(3 * contacts, 6))
+    Wb = np.zeros((bodies + 1, 6, 6))
+    for k in range(bodies):
+        B = rng.normal(size=(6, 6))
+        Wb[k] = B @ B.T / 6 + 0.2 * np.eye(6)
+    u = np.vstack([rng.normal(size=(bodies, 6)), np.zeros((1, 6))])
+    bias = np.zeros(3 * contacts)
+    bias[0::3] = rng.normal(size=contacts)
+    return np.repeat(a, 3), np.repeat(b, 3), Ga, Gb, Wb, u, bias, rng.uniform(0.1, 1.0, size=contacts), (a, b)
+
+
+# ORACLES D16: colored Gauss–Seidel is Gauss–Seidel in color order — on velocities as on A
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 14),
+       sweeps=st.integers(1, 6), warm=st.booleans())
+def test_rows_sweep_equals_colored_sweep_on_A(seed, bodies, contacts, sweeps, warm):
+    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _rows_problem(seed, bodies, contacts)
+    A = delassus(ra, rb, Ga, Gb, Wb)
+    A = 0.5 * (A + A.T)
+    bb = np.einsum("ij,ij->i", Ga, u[ra]) - np.einsum("ij,ij->i", Gb, u[rb]) + bias
+    colors = colors_by_bodies(a, b, static=[bodies])
+    z0 = np.abs(np.random.default_rng(seed + 1).normal(size=3 * contacts)) if warm else None
+    z, res, k, u1 = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=sweeps, tol=1e-300,
+                                          warm_start=z0)
+    zc, resc, kc = pgs_box_friction_colored(A, bb, mu, max_iter=sweeps, tol=1e-300, warm_start=z0, colors=colors)
+    scale = max(1.0, float(np.abs(zc).max()))
+    # measured ≤ 3e-15 relative; bound 1e-11 (an ill-conditioned draw amplifies the roundoff of the two orders)
+    assert np.abs(z - zc).max() <= 1e-11 * scale and k == kc <= sweeps
+    # u = ũ + W Jᵀ z, and the residual is the box-friction residual of w = J u + β = A z + b
+    imp = np.zeros_like(u)
+    np.add.at(imp, ra, Ga * z[:, None])
+    np.add.at(imp, rb, -Gb * z[:, None])
+    assert np.allclose(u1, u + np.einsum("nij,nj->ni", Wb, imp), atol=1e-10 * scale)
+    assert res == pytest.approx(_box_residual(z, A @ z + bb, mu), abs=1e-9 * scale)
+
+
+def test_delassus_diagonal_is_the_diagonal_of_A():
+    ra, rb, Ga, Gb, Wb, *_ = _rows_problem(3, 5, 9)
+    A = delassus(ra, rb, Ga, Gb, Wb)
+    np.testing.assert_allclose(delassus_diagonal(ra, rb, Ga, Gb, Wb), np.diag(A), rtol=1e-13)
+
+
+def test_rows_sweep_validates():
+    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _rows_problem(0, 3, 4)
+    with pytest.raises(InvalidInput, match="colors"):
+        pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, [np.array([0, 7])])
+    with pytest.raises(InvalidInput, match="3 rows"):
+        pgs_box_friction_rows(ra[:4], rb[:4], Ga[:4], Gb[:4], Wb, u, bias[:4], mu, [np.array([0])])
+
+
+# ORACLES D13: the narrow phase's contacts do not depend on how the pairs were found (grid vs all pairs)
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grid_broad_phase_gives_the_all_pairs_contacts(seed):
+    grid, every = sphere_pile(40, box_half=0.2, seed=seed), sphere_pile(40, box_half=0.2, seed=seed, broad="all_pairs")
+    rng = np.random.default_rng(seed)
+    y = grid.system.state()
+    y[:120] = np.column_stack([rng.uniform(-0.2, 0.2, (40, 2)), rng.uniform(0.0, 0.4, 40)]).ravel()  # a dense jumble
+    out_g, out_a = grid.detect.arrays(y, None), every.detect.arrays(y, None)
+    assert out_g[0].size > 40                               # sphere–sphere contacts present
+    for g, a in zip(out_g, out_a):
+        assert np.array_equal(g, a)
+
+
+# ORACLES D14: the rows route (no A) steps what the dense route steps, on a pile and on a wall
+@pytest.mark.parametrize("make, t_end", [(lambda: sphere_pile(30, box_half=None), 0.5),
+                                         (lambda: brick_wall(12, per_row=5), 0.3)])
+def test_rows_route_equals_dense_route(make, t_end):
+    out = {}
+    for assembly in ("dense", "rows"):
+        sc = make()
+        ts = FrictionStepping(sc.system, sc.detect, sc.forces, friction=sc.friction, solver="pgs", iterations=20,
+                              assembly=assembly)
+        out[assembly] = (ts.simulate(t_end, 1 / 120), ts.stats)
+    (yd, sd), (yr, sr) = ((out[k][0].y, out[k][1]) for k in ("dense", "rows"))
+    assert sd["rounds"] == sr["rounds"] and sd["contacts"] == sr["contacts"] > 0
+    # measured: 9e-14 (pile, 60 steps), 3e-14 (wall); bound 1e-10 (a pile is chaotic: roundoff grows)
+    assert np.abs(yd - yr).max() <= 1e-10
+
+
+def test_wall_stands():
+    """A 12-brick running-bond wall dropped from 1 mm lands and stays: every brick near its course height."""
+    sc = brick_wall(12, per_row=5)
+    ts = FrictionStepping(sc.system, sc.detect, sc.forces, friction=sc.friction, solver="pgs", iterations=30)
+    res = ts.simulate(0.5, 1 / 120)
+    z0, z1 = res.y[2:36:3, 0], res.y[2:36:3, -1]
+    assert np.abs(z1 - z0).max() < 5e-3 and np.abs(res.y[0:36:3, -1] - res.y[0:36:3, 0]).max() < 5e-3
+    with pytest.raises(InvalidInput, match="at most"):
+        brick_wall(16, per_row=5)
