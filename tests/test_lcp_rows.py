@@ -110,3 +110,27 @@ def test_wall_stands():
     assert np.abs(z1 - z0).max() < 5e-3 and np.abs(res.y[0:36:3, -1] - res.y[0:36:3, 0]).max() < 5e-3
     with pytest.raises(InvalidInput, match="at most"):
         brick_wall(16, per_row=5)
+
+
+# ORACLES D16: a coloring extended around the persisting contacts' colors stays decoupled and within 2Δ − 1
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), bodies=st.integers(2, 10), contacts=st.integers(1, 40))
+def test_extended_coloring_is_decoupled(seed, bodies, contacts):
+    from pbanim.lcp.colored import color_groups, extend_colors
+
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, bodies, size=contacts)
+    b = rng.integers(0, bodies + 1, size=contacts)
+    b = np.where(b == a, bodies, b)
+    full = np.empty(contacts, dtype=np.intp)
+    for c, K in enumerate(colors_by_bodies(a, b, static=[bodies])):
+        full[K] = c
+    keep = np.where(rng.random(contacts) < 0.6, full, -1)
+    color = extend_colors(a, b, keep, static=[bodies])
+    assert np.array_equal(color[keep >= 0], keep[keep >= 0])
+    for K in color_groups(color):
+        ends = np.concatenate([a[K], b[K]])
+        ends = ends[ends != bodies]
+        assert ends.size == np.unique(ends).size                  # no moving body twice in a color
+    degree = np.bincount(np.concatenate([a, b[b != bodies]]), minlength=bodies)
+    assert color.max() + 1 <= 2 * degree.max() - 1

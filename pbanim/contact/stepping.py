@@ -53,7 +53,7 @@ from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
-from ..lcp.colored import colors_by_bodies, pgs_box_friction_colored
+from ..lcp.colored import color_groups, extend_colors, pgs_box_friction_colored
 from ..lcp.rows import pgs_box_friction_rows
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
@@ -109,7 +109,7 @@ class FrictionStepping(TimeStepping):
         self.stats = {"steps": 0, "contact_steps": 0, "rounds": 0, "fallbacks": 0, "skipped": 0, "persisted": 0,
                       "contacts": 0}
         self._failures, self._skip = 0, 0     # consecutive active-set failures; steps left that skip it
-        self._colors = None                   # (keys, contact colors) of the last PGS solve
+        self._colors = None                   # (keys, color groups, sorted (keys, colors, a, b)) of the last PGS solve
 
     def _warm(self, keys, b):
         """The previous step's state rows and impulses for the contacts found again (keys matched by one
@@ -141,9 +141,23 @@ class FrictionStepping(TimeStepping):
                                         validate=False)
 
     def _colors_of(self, keys):
-        """The contacts' coloring (from their bodies), kept while the contacts (keys) persist."""
-        if self._colors is None or not np.array_equal(self._colors[0], keys):
-            self._colors = (keys.copy(), colors_by_bodies(*self._bodies, static=[self.system.N]))
+        """The contacts' coloring (from their bodies): a persisting contact (same key, same bodies) keeps its
+        color, the new ones are colored around them (:func:`pbanim.lcp.colored.extend_colors`)."""
+        if self._colors is not None and np.array_equal(self._colors[0], keys):
+            return self._colors[1]
+        a, b = self._bodies
+        color = np.full(keys.size, -1, np.intp)
+        if self._colors is not None and self._colors[2][0].size and keys.size:
+            pk, pcol, pa, pb = self._colors[2]          # the last step's contacts, sorted by key
+            pos = np.minimum(np.searchsorted(pk, keys), pk.size - 1)
+            hit = (pk[pos] == keys) & (pa[pos] == a) & (pb[pos] == b)
+            first = np.zeros(keys.size, dtype=bool)
+            first[np.unique(keys, return_index=True)[1]] = True      # a repeated key: its first contact only
+            hit &= first
+            color[hit] = pcol[pos[hit]]
+        color = extend_colors(a, b, color, static=[self.system.N])
+        order = np.argsort(keys, kind="stable")
+        self._colors = (keys.copy(), color_groups(color), (keys[order], color[order], a[order], b[order]))
         return self._colors[1]
 
     def _solve_rows(self, rows, Wb, u, bias, keys):

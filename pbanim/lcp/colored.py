@@ -40,7 +40,7 @@ import numpy as np
 
 from ..errors import InvalidInput
 
-__all__ = ["contact_colors", "colors_by_bodies", "pgs_box_friction_colored"]
+__all__ = ["contact_colors", "colors_by_bodies", "extend_colors", "pgs_box_friction_colored"]
 
 
 def contact_colors(A: np.ndarray) -> list[np.ndarray]:
@@ -91,6 +91,46 @@ def colors_by_bodies(a, b, static=()) -> list[np.ndarray]:
         for k in (p, q):
             if k not in fixed:
                 used[k] = used.get(k, 0) | (1 << c)
+    n = int(color.max(initial=-1)) + 1
+    order = np.argsort(color, kind="stable")
+    return np.split(order, np.cumsum(np.bincount(color, minlength=n))[:-1]) if n else []
+
+
+def extend_colors(a, b, color, static=()) -> np.ndarray:
+    """Colors for the contacts whose ``color`` is −1, keeping the others' (contacts persisting from the last
+    step): the greedy rule of :func:`colors_by_bodies` run over the new contacts alone, each taking the lowest
+    color none of its bodies' contacts holds. The kept colors must already be decoupled (as the last step's
+    were); the answer is then decoupled too. One Python iteration per *new* contact: a settled pile keeps
+    almost all of its coloring from step to step.
+
+    >>> extend_colors([0, 0, 1], [2, 1, 2], [0, -1, -1], static=[2]).tolist()
+    [0, 1, 0]
+    """
+    a = np.asarray(a, dtype=np.intp).ravel()
+    b = np.asarray(b, dtype=np.intp).ravel()
+    color = np.array(color, dtype=np.intp).ravel()
+    if not (a.shape == b.shape == color.shape):
+        raise InvalidInput(f"a, b and color must have the same length, got {a.size}, {b.size}, {color.size}")
+    fixed = {int(k) for k in np.ravel(static)}
+    kept = np.flatnonzero(color >= 0)
+    used: dict = {}
+    for p, c in zip(np.concatenate([a[kept], b[kept]]).tolist(), np.concatenate([color[kept]] * 2).tolist()):
+        if p not in fixed:
+            used[p] = used.get(p, 0) | (1 << c)
+    for i in np.flatnonzero(color < 0).tolist():
+        p, q = int(a[i]), int(b[i])
+        mask = (0 if p in fixed else used.get(p, 0)) | (0 if q in fixed else used.get(q, 0))
+        c = (~mask & (mask + 1)).bit_length() - 1
+        color[i] = c
+        for k in (p, q):
+            if k not in fixed:
+                used[k] = used.get(k, 0) | (1 << c)
+    return color
+
+
+def color_groups(color) -> list[np.ndarray]:
+    """The contacts of each color, in color order (contacts in index order within a color)."""
+    color = np.asarray(color, dtype=np.intp)
     n = int(color.max(initial=-1)) + 1
     order = np.argsort(color, kind="stable")
     return np.split(order, np.cumsum(np.bincount(color, minlength=n))[:-1]) if n else []
