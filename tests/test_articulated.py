@@ -116,6 +116,59 @@ def test_energy_is_conserved_at_the_method_order(floating):
     assert np.all(slopes > 3.7), slopes
 
 
+def _readable_run(sysm, *args, **kw):
+    """The run on the readable step (rhs through aba_fast and the driver's array assembly)."""
+    sysm._lean_rhs = lambda: None
+    try:
+        return sysm.simulate(*args, **kw)
+    finally:
+        del sysm._lean_rhs
+
+
+@pytest.mark.parametrize("seed, method, torque", [(3, "rk4", False), (5, "symplectic_euler", True),
+                                                  (8, "midpoint", True)])
+def test_the_lean_step_is_the_readable_step_bit_for_bit(seed, method, torque):
+    # ORACLES I5: the lean path (ẏ on floats through the ABA sweep, bound once per run) is aba_fast's and
+    # rhs's arithmetic operation for operation: the same states bit for bit, with damping, prismatic and
+    # fixed joints and a torque callable
+    tree = random_tree(5, seed)
+    tree.damping[:] = [0.3] * tree.n
+    q, qd, _ = random_state(tree, seed + 1)
+    tau = (lambda t, q, qd: np.sin(t) - 0.5 * qd) if torque else None
+    lean = ArticulatedSystem(tree, q, qd, tau).simulate(0.3, 2e-3, method, record_every=7)
+    readable = _readable_run(ArticulatedSystem(tree, q, qd, tau), 0.3, 2e-3, method, record_every=7)
+    assert np.array_equal(lean.y, readable.y) and np.array_equal(lean.t, readable.t)
+    assert lean.nfev == readable.nfev
+
+
+def test_the_lean_step_hands_a_state_it_cannot_take_to_the_readable_step():
+    # a q̈ that overflows: the readable step's named error, not a NaN state
+    from pbanim.errors import NonFiniteResult
+
+    sysm = ArticulatedSystem(pendulum_chain(3), [0.1, 0.2, 0.3], [1e152, -1e152, 1e152])
+    with np.errstate(over="ignore", invalid="ignore"):
+        with pytest.raises(NonFiniteResult, match="aba_fast") as lean:
+            sysm.simulate(0.01, 1e-3, "rk4")
+        with pytest.raises(NonFiniteResult) as readable:
+            _readable_run(sysm, 0.01, 1e-3, "rk4")
+    assert str(lean.value) == str(readable.value)
+
+
+def test_energy_is_computed_when_read_from_the_recorded_states():
+    # ORACLES I3: the energy series read lazily (from the recorded states at once, energy_batch) equals the
+    # one computed at the recorded times during the run to roundoff; a run nobody asks pays nothing; False: none
+    for tree in (pendulum_chain(4), random_tree(4, 11, True, kinds=("revolute",))):
+        q, qd, _ = random_state(tree, 2)
+        sysm = ArticulatedSystem(tree, q, 0.5 * qd)
+        lazy = sysm.simulate(0.2, 1e-3, "rk4", record_every=20)
+        assert not lazy.diagnostics.computed
+        during = sysm.simulate(0.2, 1e-3, "rk4", record_every=20, diagnostics=True)
+        E, E0 = lazy.diagnostics["energy"], during.diagnostics["energy"]
+        assert lazy.diagnostics.computed and E.shape == E0.shape == lazy.t.shape
+        assert np.allclose(E, E0, rtol=0, atol=1e-12 * (1 + np.abs(E0).max()))
+        assert dict(sysm.simulate(0.2, 1e-3, "rk4", diagnostics=False).diagnostics) == {}
+
+
 # --- URDF -------------------------------------------------------------------------------------------
 def _permutation(py, u):
     """Index maps from the loaded tree's q, q̇ (breadth-first) into the Python builder's (depth-first)."""

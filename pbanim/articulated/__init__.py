@@ -36,7 +36,7 @@ simulation of rigid body systems*, PhD thesis 1996 (ch. 4, the articulated-body 
 
 from __future__ import annotations
 
-from .batched import aba_batch, crba_batch, rnea_batch
+from .batched import aba_batch, crba_batch, energy_batch, rnea_batch
 from .fast import aba_fast
 from .dynamics import (SingularJointInertia, aba, bias_forces, check_articulated_inertia, crba, kinetic_energy,
                        link_transforms, potential_energy, rnea)
@@ -52,5 +52,5 @@ __all__ = ["PlanarKernel", "NotPlanarError", "PlanarContactStep", "PlanarGround"
            "ArticulatedTree", "ArticulatedSystem", "RigidJoints", "RigidJoint", "JOINTS", "load_urdf", "rpy_matrix",
            "Joint", "Link", "JOINT_TYPES", "ROTATING", "ONE_DOF", "rnea", "crba", "aba", "bias_forces",
            "kinetic_energy", "potential_energy", "link_transforms", "check_articulated_inertia",
-           "SingularJointInertia", "rnea_batch", "crba_batch", "aba_batch", "aba_fast",
+           "SingularJointInertia", "rnea_batch", "crba_batch", "aba_batch", "aba_fast", "energy_batch",
            "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation"]

@@ -31,7 +31,7 @@ _VB = Array(("tree.nv",), batch="first", empty=True)
 _FB = Opt(Array(("tree.n", 6), batch="first"))
 _HUGE = "of a tree and states with huge entries"
 
-__all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch"]
+__all__ = ["rnea_batch", "crba_batch", "aba_batch", "link_transforms_batch", "energy_batch"]
 
 
 def _crm(v, w):
@@ -131,3 +131,25 @@ def aba_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> np.ndarray:
     :mod:`~pbanim.articulated.fastplan`), whose sweeps need no 6 × 6 transforms; the link-coordinate
     recursion to read is :func:`~pbanim.articulated.dynamics.aba`. ``q`` of shape (nq,) is one state."""
     return aba_fast(tree, q, qd, tau, f_ext)
+
+
+@contract(tree=_TREE, q=_QB, qd=_VB)
+def energy_batch(tree: ArticulatedTree, q, qd) -> np.ndarray:
+    """E = ½ q̇ᵀ H(q) q̇ − Σᵢ mᵢ g·x_cᵢ for K states at once: q (K, nq), q̇ (K, nv) → (K,) (one state: a
+    scalar array). Kinetic energy by :func:`crba_batch`; the centres of mass from the link-from-world
+    transforms ⁱX_0 = ⁱX_λ ᵏX_0 = [[E, 0], [−E r×, E]] of every link, as
+    :func:`~pbanim.articulated.dynamics.potential_energy` takes them one state at a time."""
+    single, q, (qd,) = batch_of(q, qd=qd)
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = 0.5 * np.einsum("ki,kij,kj->k", qd, _crba_batch(tree, q), qd)
+        Xup = link_transforms_batch(tree, q)
+        X0 = [None] * tree.n
+        for i, lk in enumerate(tree.links):
+            lam = tree.parent[i]
+            X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]
+            Et = np.swapaxes(X0[i][:, :3, :3], 1, 2)                 # link → world
+            M = -Et @ X0[i][:, 3:, :3]                               # r× of the link's origin r
+            x = np.stack([M[:, 2, 1], M[:, 0, 2], M[:, 1, 0]], axis=1) + Et @ lk.com
+            E = E - lk.mass * (x @ tree.gravity)
+    check_result("energy_batch", E, _HUGE)
+    return E[0] if single else E

@@ -8,26 +8,35 @@ and q̇ = (ω, v) in the link's own axes, so
 
 and the quaternion is renormalized after every step (as :class:`pbanim.rigid.RigidScene` does). Runs go
 through the one fixed-step driver (:mod:`pbanim.ode.driver`) with any method of :data:`pbanim.METHODS`.
+A tree without floating joints steps on a lean path: ẏ on Python floats straight through the ABA sweep of
+:mod:`.fastkernel` (the plan, the revolute joints and the torque bound once per run), the same arithmetic as
+:meth:`ArticulatedSystem.rhs` bit for bit (tested); a state it cannot take (a q̈ that is not finite) goes to
+:meth:`~ArticulatedSystem.rhs`, which raises its named error.
 Joint position limits are not held here (a smooth right-hand side cannot stop a joint; the contact stepper
 :class:`~pbanim.articulated.contact.ArticulatedContact` holds them as stops): a run reports how far past them
 it went. Energy E = ½ q̇ᵀH q̇ + V(q) is conserved without damping or torques: the tests measure its drift as a
-slope in h (ORACLES I3).
+slope in h (ORACLES I3). The energy series is computed when it is read, from the recorded states at once
+(:func:`~pbanim.articulated.batched.energy_batch`; ``diagnostics="lazy"``, the default), at the recorded
+times during the run (``diagnostics=True``), or not at all (``False``).
 """
 
 from __future__ import annotations
 
 import time
+from math import cos, isfinite, sin
 from typing import Callable
 
 import numpy as np
 
-from ..contracts import Array, Choice, Func, Int, Opt, Real, contract, finite_result
+from ..contracts import Array, Choice, Either, Flag, Func, Int, Opt, Real, contract, finite_result, unchecked
 from ..errors import InvalidInput
 from ..ode import METHODS, get_method
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
-from ..results import SimResult
-from .batched import aba_batch
-from .fast import aba_fast
+from ..results import LazyDiagnostics, SimResult
+from .batched import aba_batch, energy_batch
+from .fast import _pivot_float, aba_fast
+from .fastkernel import sweep
+from .fastplan import REVOLUTE, plan_for
 from .dynamics import kinetic_energy, potential_energy
 from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
@@ -123,36 +132,91 @@ class ArticulatedSystem:
             y[qs:qs + 4] /= np.linalg.norm(y[qs:qs + 4])
         return y
 
+    def _lean_rhs(self) -> Callable | None:
+        """ẏ(t, y) on Python floats for a tree without floating joints, bound once (None for a tree with one):
+        :func:`~pbanim.articulated.fast.aba_fast`'s one-state path and :meth:`rhs`'s assembly, operation for
+        operation, without the calls between them. A q̈ that is not finite goes to :meth:`rhs`, which raises."""
+        if self._floating:
+            return None
+        P, nq, nv = plan_for(self.tree), self.nq, self.nv
+        damping = P.damping.tolist() if P.damping.any() else None
+        revolute = [lp.qi if lp.kind == REVOLUTE else -1 for lp in P.links]
+        fx, zero = [None] * P.n, [0.0] * nv
+        torque, readable = (self._tau if self.torque is not None else None), unchecked(self.rhs)
+
+        def rhs(t, y):
+            self.nfev += 1
+            yl = y.tolist()
+            q, qd = yl[:nq], yl[nq:]
+            tau = zero if torque is None else torque(t, y[:nq], y[nq:]).tolist()
+            if damping is not None:
+                tau = [x - b * v for x, b, v in zip(tau, damping, qd)]
+            trig = [(cos(q[k]), sin(q[k])) if k >= 0 else None for k in revolute]
+            qdd = sweep(P, q, qd, tau, trig, fx, _pivot_float)
+            if not all(map(isfinite, qdd)):
+                self.nfev -= 1
+                return readable(t, y)
+            return np.array(qd + qdd)
+
+        return rhs
+
     @contract(t_end=Real(gt=0), h=Real(gt=0), method=Choice(lambda: METHODS), record_every=Int(ge=1),
-              max_steps=Int(ge=1))
+              max_steps=Int(ge=1), diagnostics=Either(Flag(), Choice(("lazy",))))
     def simulate(self, t_end: float, h: float, method: str = "rk4", *, record_every: int = 1,
-                 max_steps: int = MAX_STEPS) -> SimResult:
-        """Fixed steps through the one driver; ``diagnostics["energy"]`` at every recorded state, and when
+                 max_steps: int = MAX_STEPS, diagnostics: bool | str = "lazy") -> SimResult:
+        """Fixed steps through the one driver. ``diagnostics["energy"]`` at every recorded state, and when
         a joint has position limits ``diagnostics["limit_excursion"]``: how far (rad or m) the recorded state
         is past them, 0 inside. This smooth integration does not hold the limits (the contact stepper
-        :class:`~pbanim.articulated.contact.ArticulatedContact` does): the diagnostic says when that matters."""
+        :class:`~pbanim.articulated.contact.ArticulatedContact` does): the diagnostic says when that matters.
+
+        ``diagnostics``: "lazy" (default) computes both from the recorded states the first time
+        ``result.diagnostics`` is read (a run nobody asks about pays nothing); True computes the energy at
+        the recorded times during the run (what the readable loop did); False records none."""
         grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
         m = get_method(method)
         y = self.state()
         check_finite(y, 0.0, 0, "initial state")
-        lim = self.tree.limited()
-        qi, lo, hi = (np.array([r[k] for r in lim]) for k in (0, 2, 3))
-        ts, ys, es = [0.0], [y.copy()], [self.energy(y)]
+        during = diagnostics is True
+        energy = unchecked(self.energy)
+        ts, ys, es = [0.0], [y.copy()], ([energy(y)] if during else None)
+        lean = self._lean_rhs()
+        if lean is not None:
+            step = m.step
 
-        def advance(t, yy, hk):
-            return self._renormalize(m.step(self.rhs, t, yy, hk, split=self.nq))
+            def advance(t, yy, hk):
+                return step(lean, t, yy, hk, split=self.nq)
+        else:
+            def advance(t, yy, hk):
+                return self._renormalize(m.step(self.rhs, t, yy, hk, split=self.nq))
 
         def record(t1, y1):
             ts.append(t1)
             ys.append(y1.copy())
-            es.append(self.energy(y1))
+            if during:
+                es.append(energy(y1))
 
         start = time.perf_counter()
         drive(advance, grid, y, record=record, record_every=record_every)
+        wall = time.perf_counter() - start
         Y = np.array(ys).T
-        diag = {"energy": np.array(es)}
+        if diagnostics is False:
+            diag = {}
+        elif during:
+            diag = self._diagnostics(Y, np.array(es))
+        else:
+            diag = LazyDiagnostics(lambda: self._diagnostics(Y))
+        return SimResult(t=np.array(ts), y=Y, nfev=self.nfev, wall_time=wall, method=method, nsteps=grid.n_steps,
+                         diagnostics=diag)
+
+    def _diagnostics(self, Y: np.ndarray, energies: np.ndarray | None = None) -> dict:
+        """The energy (from the recorded states Y (nq + nv, R) at once unless given) and the limit excursion."""
+        if energies is None:
+            with np.errstate(over="ignore", invalid="ignore"):
+                energies = unchecked(energy_batch)(self.tree, Y[:self.nq].T, Y[self.nq:].T)
+        diag = {"energy": np.asarray(energies, dtype=float)}
+        lim = self.tree.limited()
         if lim:
+            qi, lo, hi = (np.array([r[k] for r in lim]) for k in (0, 2, 3))
             q = Y[qi.astype(int)]
             diag["limit_excursion"] = np.maximum(np.maximum(lo[:, None] - q, q - hi[:, None]), 0.0).max(axis=0)
-        return SimResult(t=np.array(ts), y=Y, nfev=self.nfev, wall_time=time.perf_counter() - start,
-                         method=method, nsteps=grid.n_steps, diagnostics=diag)
+        return diag

@@ -1,0 +1,96 @@
+"""Sparse assembly on a fixed pattern: K, D and the Newton matrices of a cloth without building a matrix per step.
+
+Every element of a condition kind couples its nv particles, so K = ∂f/∂x and D = ∂f/∂v have one 3 × 3 block
+per pair of particles that share an element, and that set of pairs never changes. The pattern is computed
+once (the union over kinds, plus the diagonal, in CSR order); each kind keeps the position in the CSR data of
+every entry of its element blocks, so one step's assembly is a single ``np.bincount`` per kind,
+
+    K.data = Σ_kinds bincount(map_kind, K_e.ravel()),     A.data = M.diag − h D.data − h² K.data,
+
+and a matrix is wrapped around the data (``csr_matrix((data, indices, indptr))``: no sorting, no duplicate
+summation). Building the same K from (row, col, value) triplets each step costs ~20× more at n = 64
+(scipy sorts ~10⁶ triplets).
+
+For the first-order ODE of the free particles (pinned ones removed; y = [x_F, v_F], n_F coordinates each) the
+Jacobian is J = [[0, I], [W K_FF, W D_FF]] (W = M⁻¹): :class:`FreeJacobian` precomputes its CSR pattern and
+the gather that fills it from K.data and D.data, so ``jac(t, y)`` for pbanim's and scipy's stiff solvers is
+one ``take`` and two scalings.
+
+Notation: n = 3N coordinates; q = 3 nv per element; ``maps[c]`` (E_c·q²,) data positions of kind c.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+__all__ = ["Pattern", "FreeJacobian"]
+
+
+class Pattern:
+    """The CSR pattern (n × n) of the union of element blocks and the diagonal, and each kind's data map."""
+
+    def __init__(self, n: int, dof_lists) -> None:
+        self.n = n
+        keys = [np.arange(n, dtype=np.int64) * (n + 1)]
+        per = []
+        for dofs in dof_lists:
+            d = dofs.astype(np.int64)
+            k = (d[:, :, None] * n + d[:, None, :]).ravel()
+            per.append(k)
+            keys.append(k)
+        uniq = np.unique(np.concatenate(keys))
+        rows = uniq // n
+        self.indices = (uniq - rows * n).astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]).astype(np.int32)
+        self.rows = rows.astype(np.int32)
+        self.nnz = len(uniq)
+        self.maps = [np.searchsorted(uniq, k).astype(np.intp) for k in per]
+        self.diag = np.searchsorted(uniq, keys[0]).astype(np.intp)
+
+    def data(self, blocks) -> np.ndarray:
+        """CSR data of Σ_kinds of the element blocks ``blocks[c]`` (E_c, q, q) (None: nothing from that kind)."""
+        out = np.zeros(self.nnz)
+        for m, b in zip(self.maps, blocks):
+            if b is not None:
+                out += np.bincount(m, b.ravel(), minlength=self.nnz)
+        return out
+
+    def matrix(self, data) -> sp.csr_matrix:
+        """The n × n CSR matrix with this pattern and ``data``."""
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+class FreeJacobian:
+    """J = [[0, I], [W K_FF, W D_FF]] (2 n_F × 2 n_F) of the free coordinates, filled from K.data and D.data."""
+
+    def __init__(self, pattern: Pattern, free: np.ndarray, winv: np.ndarray) -> None:
+        keep = free[pattern.rows] & free[pattern.indices]
+        self.sub = np.flatnonzero(keep)                           # positions in K.data, row-major
+        fidx = np.cumsum(free) - 1
+        nf = int(free.sum())
+        self.nf = nf
+        r = fidx[pattern.rows[self.sub]]
+        c = fidx[pattern.indices[self.sub]].astype(np.int32)
+        count = np.bincount(r, minlength=nf)
+        start = np.concatenate([[0], np.cumsum(count)])[:-1]    # first sub entry of each free row
+        offset = np.arange(len(self.sub)) - start[r]
+        base = nf + 2 * start[r]                                 # J row nf + r starts after the identity rows
+        nnz = nf + 2 * len(self.sub)
+        indices = np.empty(nnz, np.int32)
+        indices[:nf] = nf + np.arange(nf)
+        kpos, dpos = base + offset, base + count[r] + offset
+        indices[kpos], indices[dpos] = c, c + nf
+        self.kpos, self.dpos = kpos, dpos
+        self.indices = indices
+        self.indptr = np.concatenate([np.arange(nf + 1), nf + 2 * np.cumsum(count)]).astype(np.int32)
+        self.w = winv[free][r]                                  # W of each entry's row
+        self.shape = (2 * nf, 2 * nf)
+
+    def matrix(self, kdata, ddata) -> sp.csr_matrix:
+        """J from the full K.data and D.data (D None: undamped)."""
+        data = np.empty(len(self.indices))
+        data[:self.nf] = 1.0
+        data[self.kpos] = self.w * kdata[self.sub]
+        data[self.dpos] = 0.0 if ddata is None else self.w * ddata[self.sub]
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
