@@ -34,7 +34,7 @@ LAYERS: dict[str, int] = {
     # 3: the systems
     "particles": 3, "rigid": 3, "fluids": 3,
     # 4: Lagrange multipliers, reduced coordinates and the Lagrangian, collision detection and impulses
-    "constraints": 4, "reduced": 4, "lagrangian": 4, "collision": 4,
+    "constraints": 4, "reduced": 4, "lagrangian": 4, "collision": 4, "cloth": 4,
     # 5: resting contact and friction, articulated bodies
     "contact": 5, "articulated": 5,
     # 6: characters and controllers, motion design

@@ -98,7 +98,7 @@ def test_the_fuzz_files_share_the_whole_surface():
     import importlib
 
     shares = [importlib.import_module(f"test_contracts_fuzz_{n}").ENTRIES for n in ("core", "bodies", "characters",
-                                                                                  "tools")]
+                                                                                  "tools", "cloth")]
     fuzzed = [e.id for share in shares for e in share]
     assert len(fuzzed) == len(set(fuzzed))
     declared = {e.id for e in surface.entries() if e.contract is not None and surface.parameters(e)}
