@@ -918,3 +918,142 @@ def test_impact_slower_than_the_threshold_is_reported_as_resting():
     # contact above) was reported again at t = 0 before
     again = simulate_collisions(scene, 0.75, 0.125, toi="event")
     assert again.diagnostics["contacts"][0] == 0 and again.t_events[0].tolist() == [0.5]
+
+
+# ------------------------------------------------------------------------------------------------
+# the lean time-of-impact step of one particle among planes (pbanim.collision.lean; ORACLES D1, D10)
+# ------------------------------------------------------------------------------------------------
+def _ball_in(planes, x0, v0, g=(0.0, -9.81), eps=0.8, radius=0.0, **kw):
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    col = Collisions(obstacles=planes, radius=radius, restitution=eps, gravity=float(np.linalg.norm(g)), **kw)
+    return Scene(ParticleSystem([x0], [v0]), [Gravity(list(g)), col]), col
+
+
+def _lean_and_readable(make, T, h, **kw):
+    from pbanim.collision import lean as lean_mod
+
+    taken = [0, 0]
+    step = lean_mod.LeanBall.step
+
+    def counted(self, *a):
+        out = step(self, *a)
+        taken[out is None] += 1
+        return out
+
+    lean_mod.LeanBall.step = counted
+    try:
+        scene, col = make()
+        a = simulate_collisions(scene, T, h, "rk4", toi="event", **kw)
+        log_a = list(col.log)
+    finally:
+        lean_mod.LeanBall.step = step
+    scene, col = make()
+    b = simulate_collisions(scene, T, h, "rk4", toi="event", lean=False, **kw)
+    return a, b, taken, log_a, col.log
+
+
+def _assert_same_run(a, b, tol):
+    # each located impact carries the root finder's xtol, 1e-14·max(1, t): allowed per impact, accumulated
+    tol *= max(1.0, a.t[-1]) * (1 + len(b.t_events[0]))
+    np.testing.assert_array_equal(a.t, b.t)
+    assert np.abs(a.y - b.y).max() <= tol
+    assert len(a.t_events[0]) == len(b.t_events[0])
+    assert np.abs(a.t_events[0] - b.t_events[0]).max(initial=0.0) <= tol
+    assert np.abs(a.y_events[0] - b.y_events[0]).max(initial=0.0) <= tol
+    assert set(a.diagnostics) == set(b.diagnostics)
+    for key in b.diagnostics:
+        assert np.abs(np.asarray(a.diagnostics[key], float) - np.asarray(b.diagnostics[key], float)).max() <= tol, key
+
+
+@pytest.mark.parametrize("eps, h, every", [(0.8, 0.01, 1), (0.5, 0.013, 1), (0.95, 0.05, 4), (0.3, 0.002, 7)])
+def test_lean_bouncing_ball_equals_the_readable_run(eps, h, every):
+    # ORACLES D1 and D10 on both paths, past the Zeno time: the flights and impacts on the lean path, the
+    # resting ball handed to the readable step; states, events and diagnostics to the root finder's roundoff
+    bb = bouncing_ball(h0=1.0, restitution=eps)
+    def make():
+        scene = bb.scene()
+        return scene, scene.effects[-1]
+
+    a, b, taken, log_a, log_b = _lean_and_readable(make, 1.2 * bb.zeno_time, h, record_every=every)
+    _assert_same_run(a, b, 4e-14)
+    assert taken[0] > 0.3 * a.nsteps and taken[1] > 0          # the flights lean; resting steps readable
+    assert [d["t"] for d in log_a] == pytest.approx([d["t"] for d in log_b], abs=1e-11)
+    assert [d["regime"] for d in log_a] == [d["regime"] for d in log_b]
+    post = a.y_events[0][:5]
+    apex = post[:, 1] + post[:, 3] ** 2 / (2 * bb.g)
+    assert len(post) >= 3 and np.abs(apex - bb.apex_heights(np.arange(1, len(post) + 1))).max() < 1e-13
+
+
+@pytest.mark.parametrize("case", ["box", "tilted floor, radius", "ceiling", "3-D"])
+def test_lean_ball_among_several_planes_equals_the_readable_run(case):
+    walls = [Plane([0, 1]), Plane([1, 0], offset=-1.0), Plane([-1, 0], offset=-1.0), Plane([0, -1], offset=-2.0)]
+    make = {"box": lambda: _ball_in(walls, [0.2, 1.0], [3.0, 2.0], eps=0.9),
+            "tilted floor, radius": lambda: _ball_in([Plane([0.3, 1.0], offset=-0.2)], [0.0, 1.0], [1.0, 0.0],
+                                                     eps=0.7, radius=0.1),
+            "ceiling": lambda: _ball_in([Plane([0, -1], offset=-1.5)], [0.0, 0.0], [0.5, 8.0], eps=0.6),
+            "3-D": lambda: _ball_in([Plane([0.1, 0.2, 1.0]), Plane([-1.0, 0, 0], offset=-0.5)], [0.0, 0.0, 1.0],
+                                    [1.0, 0.5, 0.0], g=(0.0, 0.0, -9.81), eps=0.75, radius=0.05)}[case]
+    a, b, taken, _, _ = _lean_and_readable(make, 2.0, 0.01)
+    _assert_same_run(a, b, 4e-14)
+    assert len(a.t_events[0]) >= 1 and taken[0] > 0.5 * a.nsteps
+
+
+@pytest.mark.parametrize("change", ["two particles", "friction", "simultaneous", "euler", "restitution 1",
+                                    "sphere obstacle"])
+def test_runs_the_lean_step_does_not_cover_take_the_readable_one(change):
+    from pbanim.collision.lean import lean_ball
+    from pbanim.ode import get_method
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    kw = {"friction": {"friction": 0.3}, "simultaneous": {"mode": "simultaneous"},
+          "restitution 1": {"restitution": 1.0}}.get(change, {"restitution": 0.5})
+    kw.setdefault("restitution", 0.5)
+    obstacles = [Plane([0, 1])] + ([(Sphere(0.5), [3.0, 0.0])] if change == "sphere obstacle" else [])
+    col = Collisions(obstacles=obstacles, **kw)
+    x0 = [[0.0, 1.0], [2.0, 1.0]] if change == "two particles" else [[0.0, 1.0]]
+    scene = Scene(ParticleSystem(x0), [Gravity(), col])
+    method = get_method("euler" if change == "euler" else "rk4")
+    assert lean_ball(scene, col, method, 1e-12, 100) is None
+    ok = Collisions(obstacles=[Plane([0, 1])], restitution=0.5)
+    assert lean_ball(Scene(ParticleSystem([[0.0, 1.0]]), [Gravity(), ok]), ok, get_method("rk4"), 1e-12, 100)
+
+
+@pytest.mark.parametrize("case", ["ball in a box", "points and a sphere obstacle", "rigid sphere", "two spheres"])
+def test_an_empty_contact_set_is_told_by_the_gaps_and_changes_nothing(case):
+    # the quick test of respond (obstacle gaps from arrays bound once) only skips what contacts() finds
+    # empty: the run is bit for bit the one that builds every contact set (ORACLES D1: the ball still bounces)
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
+    from pbanim.scene import Scene
+
+    walls = [Plane([0, 1]), Plane([1, 0], offset=-1.0), Plane([-1, 0], offset=-1.0)]
+
+    def make():
+        if case == "ball in a box":
+            col = Collisions(obstacles=walls, radius=0.1, restitution=0.8)
+            return Scene(ParticleSystem([[0.0, 1.0]], [[3.0, 0.0]]), [Gravity(), col]), col
+        if case == "points and a sphere obstacle":
+            col = Collisions(obstacles=[Plane([0, 1]), (Sphere(0.3), [0.5, 0.2])], restitution=0.5)
+            return Scene(ParticleSystem([[0.0, 1.0], [0.5, 1.2], [1.0, 0.5]], [[0.5, 0], [0, 0], [-1, 0]]),
+                         [Gravity(), col]), col
+        if case == "rigid sphere":
+            col = Collisions(Sphere(0.2), obstacles=[Plane()], restitution=0.6)
+            rb = RigidBodies(1.0, [0.016] * 3, positions=[[0, 0, 1.0]], velocities=[[1.0, 0, 0]],
+                             angular_velocities=[[0, 2.0, 0]])
+            return RigidScene(rb, [RigidGravity(), col]), col
+        col = Collisions(obstacles=[Plane([0, 1])], radius=0.1, restitution=0.7)
+        return Scene(ParticleSystem([[0.0, 1.0], [0.15, 1.5]]), [Gravity(), col]), col
+
+    scene, col = make()
+    assert (col._quick is None) == (case == "two spheres")
+    quick = scene.simulate(1.5, 0.005, "symplectic_euler", diagnostics=True)
+    scene, col = make()
+    col._quick = None
+    full = scene.simulate(1.5, 0.005, "symplectic_euler", diagnostics=True)
+    np.testing.assert_array_equal(quick.y, full.y)
+    for key in full.diagnostics:
+        np.testing.assert_array_equal(quick.diagnostics[key], full.diagnostics[key])
+    assert full.diagnostics["contacts"].sum() > 0

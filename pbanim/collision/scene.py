@@ -159,6 +159,34 @@ class Collisions(Effect):
                         raise InvalidInput(f"obstacle sphere centre {c.tolist()} is off the plane z = 0 of a 2-D "
                                            "particle scene; give a 2-D centre")
             self.inv_mass = system.W
+        self._quick = self._bind_quick(N)
+
+    def _bind_quick(self, N: int):
+        """What tells an empty contact set, read once: the obstacles as arrays, when bodies cannot meet each
+        other (one body, or point particles) and every body is a sphere or a point; else None."""
+        if self.rigid and not all(isinstance(s, Sphere) for s in self.shapes):
+            return None
+        if N > 1 and np.any(self.radius > 0):
+            return None
+        dim = 3 if self.rigid else self.dim
+        normals = np.array([np.append(p.normal, [0.0] * 3)[:dim] for p in self.planes]).reshape(-1, dim)
+        centres = np.array([c[:dim] for _, c in self.spheres]).reshape(-1, dim)
+        return (np.ascontiguousarray(normals.T), np.array([p.offset for p in self.planes]), centres,
+                np.array([sh.radius for sh, _ in self.spheres]))
+
+    def _apart(self, y, margin: float) -> bool:
+        """Whether :meth:`contacts` would find none (a gap n·x − d − r or |x − c| − r − R above ``margin``
+        everywhere): one product per kind of obstacle, no contact records."""
+        NT, off, C, R = self._quick
+        x = self.system.unpack(y)[0]
+        r = self.radius[:, None]
+        if len(off) and not (x @ NT - off - r).min() > margin:
+            return False
+        if len(C):
+            d = x[:, None, :] - C[None]
+            if not (np.sqrt((d * d).sum(axis=2)) - r - R).min() > margin:
+                return False
+        return True
 
     # -- state access ---------------------------------------------------------------------------
     def _poses(self, y):
@@ -271,7 +299,12 @@ class Collisions(Effect):
         """Impulses for the contacts at y (and projection of the penetration); returns the new state.
 
         ``plastic=True`` uses ε = 0 for every contact (the resting contacts left after event location).
+        A scene whose bodies cannot meet each other first tests its gaps to the obstacles (arrays bound
+        once): nothing near, nothing built.
         """
+        if self._quick is not None and self._apart(y, margin):
+            self.last = None
+            return y
         c = self.contacts(y, margin)
         if c.m == 0:
             self.last = None

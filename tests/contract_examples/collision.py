@@ -34,6 +34,14 @@ def _ball_scene():
     return Scene(ps, [Gravity(), Collisions(obstacles=[Plane([0.0, 1.0])], restitution=0.5)])
 
 
+def _lean_ball():
+    scene = _ball_scene()
+    from pbanim.ode import get_method
+
+    return {"scene": scene, "col": scene.effects[-1], "method": get_method("rk4"), "gap_tol": 1e-12,
+            "max_events": 100}
+
+
 INSTANCES = {
     Plane: lambda: Plane([0.0, 0.0, 1.0]),
     Sphere: lambda: Sphere(0.5),
@@ -57,6 +65,7 @@ CALLS = {
     "pbanim.collision.narrow.collide": lambda: {"shape_a": Sphere(0.5), "xa": [0.0, 0.0, 0.4], "Ra": None,
                                                 "shape_b": Plane(), "xb": None, "Rb": None, "a": 0, "b": -1},
     "pbanim.collision.toi.simulate_collisions": lambda: {"scene": _ball_scene(), "t_end": 0.3, "h": 0.05},
+    "pbanim.collision.lean.lean_ball": _lean_ball,
     "pbanim.collision.scene.Collisions.bind": lambda: {"system": ParticleSystem([[0.0, 0.05], [0.5, 0.1]])},
 }
 

@@ -1,0 +1,110 @@
+"""Floor rows of chapter 06: the bouncing ball with its impacts located (``pbanim bench floors``).
+
+pbanim runs the ball of ORACLES D1 (a point mass dropped from h₀ = 1 m onto the plane y = 0 in 2-D,
+ε = 0.8, g = 9.81) as chapter 06 does: ``simulate_collisions(bb.scene(), T, h, "rk4", toi="event")``, to
+just after the 4th impact. The hand loop is the same law written for this one ball, as a student would:
+
+    one RK4 step of ẋ = v, v̇ = (0, −g) on floats;  if it ends below the plane (y₁ < 0), the impact time τ
+    inside the step is the root of the gap y(t + τ) = y + v_y τ − ½gτ² (RK4 is exact on the parabola, so
+    this is the root the event location finds), the state there is the parabola's, the normal velocity
+    is reflected, v_y ← −ε v_y (faster than the restitution threshold 3gh: every impact of this run), and
+    the rest of the step, h − τ, is one more RK4 step.
+
+Both return the final state (x, v); they agree to the root finder's roundoff. pbanim takes the float step of
+:mod:`pbanim.collision.lean` for this run (before it: the general machinery, signed distances of every
+feature and their rates, a call of the event solver per step, contact detection after each step and the
+scene's diagnostics at every recorded state, about 1600x the hand loop). CPython bounds the row: what a
+driven run pays per step whatever the physics (the state as an array in and out of the step, its
+finiteness check, its row in the recorded states; no hooks) is measured in the run and printed as the
+floor, beside a hand step of four floats.
+"""
+
+from __future__ import annotations
+
+from math import sqrt
+
+import numpy as np
+
+from .floors import Floor
+
+__all__ = ["FLOORS", "bouncing_ball_event"]
+
+H0, EPS, G, H = 1.0, 0.8, 9.81, 0.01
+
+
+def _rk4(x, y, vx, vy, h):
+    """One RK4 step of ẋ = v, v̇ = (0, −g) from (x, y, vx, vy): four stages written out."""
+    k1x, k1y, k1u, k1v = vx, vy, 0.0, -G
+    k2x, k2y, k2u, k2v = vx + 0.5 * h * k1u, vy + 0.5 * h * k1v, 0.0, -G
+    k3x, k3y, k3u, k3v = vx + 0.5 * h * k2u, vy + 0.5 * h * k2v, 0.0, -G
+    k4x, k4y, k4u, k4v = vx + h * k3u, vy + h * k3v, 0.0, -G
+    h6 = h / 6
+    return (x + h6 * (k1x + 2 * k2x + 2 * k3x + k4x), y + h6 * (k1y + 2 * k2y + 2 * k3y + k4y),
+            vx + h6 * (k1u + 2 * k2u + 2 * k3u + k4u), vy + h6 * (k1v + 2 * k2v + 2 * k3v + k4v))
+
+
+def _hand(steps: int, h_last: float) -> np.ndarray:
+    x, y, vx, vy = 0.0, H0, 0.0, 0.0
+    for k in range(steps):
+        h = H if k < steps - 1 else h_last
+        x1, y1, vx1, vy1 = _rk4(x, y, vx, vy, h)
+        if y1 < 0.0:                                 # the impact inside the step: y + vy τ − ½gτ² = 0
+            tau = (vy + sqrt(vy * vy + 2.0 * G * y)) / G
+            x, y, vx, vy = x + vx * tau, 0.0, vx, vy - G * tau
+            vy = -EPS * vy
+            x1, y1, vx1, vy1 = _rk4(x, y, vx, vy, h - tau)
+        x, y, vx, vy = x1, y1, vx1, vy1
+    return np.array([x, y, vx, vy])
+
+
+def bouncing_ball_event() -> Floor:
+    """The ball of ORACLES D1 to just after its 4th impact, h = 10 ms (RK4, impacts located)."""
+    from ..collision.toi import simulate_collisions
+    from ..models.collision import bouncing_ball
+    from ..ode.driver import step_grid
+
+    bb = bouncing_ball(H0, EPS, G)
+    T = 1.02 * float(bb.impact_times(4))
+    grid = step_grid(0.0, T, H)
+
+    scene = bb.scene()
+
+    def t_end():                 # a quick run (fewer steps) stops earlier: the same steps on both sides
+        return T if fl.steps >= grid.n_steps else fl.steps * H
+
+    def pbanim():
+        return simulate_collisions(scene, t_end(), H, "rk4", toi="event").y[:, -1]
+
+    def hand():
+        run = step_grid(0.0, t_end(), H)
+        return _hand(run.n_steps, run.h_last)
+
+    fl = Floor("collisions", "bouncing ball on a plane, impacts located (2-D, ε = 0.8)", "rk4+event",
+               grid.n_steps, pbanim, hand)
+    fl.notes.append(f"collisions: CPython floor of a driven step (array in and out, finiteness check, recorded "
+                    f"row; drive_lean with an empty step): {_driver_floor_us(grid):.1f} µs per step")
+    return fl
+
+
+def _driver_floor_us(grid) -> float:
+    """µs per step that :func:`pbanim.ode.driver.drive_lean` pays around a step that does nothing but turn the
+    state into floats and back (median of 5 runs of the row's grid)."""
+    import time
+
+    from ..ode.driver import drive_lean
+
+    y0 = np.array([0.0, H0, 0.0, 0.0])
+    array = np.array
+
+    def advance(t, y, h):
+        return array(y.tolist())
+
+    times = []
+    for _ in range(5):
+        start = time.perf_counter()
+        drive_lean(advance, grid, y0, "state", check_every=1)
+        times.append((time.perf_counter() - start) / grid.n_steps * 1e6)
+    return float(np.median(times))
+
+
+FLOORS = [bouncing_ball_event]
