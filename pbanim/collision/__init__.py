@@ -40,7 +40,9 @@ Parts: :mod:`pbanim.collision.shapes` (shapes, ``Contacts``), :mod:`pbanim.colli
 :mod:`pbanim.collision.impulse` (with :mod:`pbanim.collision.simultaneous`: the simultaneous law in
 rounds, and the certificate every impulse answer passes: no contact left approaching, no energy gained),
 :mod:`pbanim.collision.scene` (the ``Collisions`` post-step effect), :mod:`pbanim.collision.toi` (the driver
-``simulate_collisions``, event location vs fixed-step detection), :mod:`pbanim.collision.specs` (what the
+``simulate_collisions``, event location vs fixed-step detection), :mod:`pbanim.collision.lean` (its step
+on floats for one particle among planes, equal to the readable one to the root finder's roundoff),
+:mod:`pbanim.collision.specs` (what the
 arguments must be: body indices, unit normals, rotations, PSD matrices — the contracts' extra vocabulary).
 
 References: Witkin & Baraff, *Physically Based Modeling* SIGGRAPH course notes (Baraff: Rigid body
