@@ -38,7 +38,8 @@ FIT_FLOOR = {8: 1e-13, 12: 1e-13}
 # Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6; order 12: t = 8): slopes = orders.
 
 # %%
-@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6; order 12: t = 8): slopes = orders")
+@figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6; order 12: t = 8): slopes = orders",
+        cost=30.0)
 def convergence(ctx):
     kp = kepler(0.3)
     n_h = 3 if ctx.quick else 6
@@ -176,7 +177,8 @@ def kepler_orbits(ctx):
 # Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted).
 
 # %%
-@figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)")
+@figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)",
+        cost=82.0)
 def work_precision(ctx):
     from pbanim.bench.ode import PROBLEMS, sweep_problem
 

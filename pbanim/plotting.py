@@ -226,17 +226,17 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
 
 
 def _run_group(specs: list, out_dir, quick: bool, fmt: str, dpi, style: str) -> list:
-    """Run the figures of one group in this process, in order: [(key, files, seconds, issues)]."""
+    """Run the figures of one group in this process, in order: [(key, files, seconds, issues, cpu seconds)]."""
     done = []
     for spec in specs:
         issues: list[str] = []
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         try:
             _, files = run_figure(spec, out_dir, quick, fmt=fmt, dpi=dpi, style=style, issues=issues)
         except Exception as exc:
             exc.add_note(f"(while drawing the figure {spec.key})")
             raise
-        done.append((spec.key, files, time.perf_counter() - start, issues))
+        done.append((spec.key, files, time.perf_counter() - start, issues, time.process_time() - cpu))
     return done
 
 
@@ -250,7 +250,8 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
     """Run several figures on ``jobs`` worker processes (None: one per core; 1: here, in the order given).
 
     Returns ({key: files}, {key: seconds}, issues), keys in the order of ``specs``. ``progress`` gets one line
-    per figure as it finishes: ``[i/n] key: files (seconds)``. The costliest groups start first (longest
+    per figure as it finishes: ``[i/n] key: files (wall seconds; cpu: this process's CPU seconds, which a
+    loaded machine inflates far less than the wall time)``. The costliest groups start first (longest
     processing time first, by :attr:`FigureSpec.cost`); a group (:attr:`FigureSpec.group`) runs in one process.
     Every figure runs in a fresh seeded context (:func:`run_figure`), so the files are those of a serial run.
     ``initializer``: called once in each worker before its first figure (a module-level function: workers are
@@ -275,11 +276,11 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
     files, seconds, issues = {}, {}, {}
 
     def finished(results) -> None:
-        for key, written, secs, found in results:
+        for key, written, secs, found, cpu in results:
             files[key], seconds[key], issues[key] = written, secs, found
             if progress is not None:
                 names = ", ".join(p.name for p in written) or "(no file)"
-                progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s)")
+                progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s; cpu {cpu:.1f}s)")
 
     args = (None if out_dir is None else Path(out_dir), quick, fmt, dpi, style)
     if jobs <= 1:

@@ -106,3 +106,20 @@ def test_a_figure_failing_in_a_worker_is_raised_and_named(tmp_path):
     with pytest.raises(RuntimeError, match="on purpose") as info:
         run_figures(specs, tmp_path, quick=True, jobs=2)
     assert "zz_broken" in " ".join(getattr(info.value, "__notes__", []))
+
+
+def test_derivations_forked_after_the_imports_equal_a_fresh_interpreter():
+    # ch04_derivation_time (full) forks one process per job from a server that has only imported: the same
+    # derived equations as a new interpreter per job (ü of pbanim and Kane agree to roundoff, as in
+    # in ORACLES A1's derivation check of tests/test_reduced.py), finite times, and a job past its cap is
+    # reported capped (NaN), never waited for
+    from chapters.ch04_reduced import derive_forked
+    from pbanim.bench.reduced import derive_in_subprocess
+
+    forked = derive_forked([("pbanim", 2, 1), ("kane", 2, 1)], 60.0)
+    fresh = derive_in_subprocess("pbanim", 2, 1, 60.0)
+    assert all(np.isfinite(r["total"]) and r["total"] > 0 and not r["capped"] for r in forked)
+    np.testing.assert_array_equal(forked[0]["rhs_value"], fresh["rhs_value"])
+    np.testing.assert_allclose(forked[0]["rhs_value"], forked[1]["rhs_value"], atol=1e-12)
+    (capped,) = derive_forked([("kane", 20, 0)], 0.5)
+    assert capped["capped"] and np.isnan(capped["total"])
