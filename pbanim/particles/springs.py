@@ -81,15 +81,16 @@ def row_norms(d: np.ndarray) -> np.ndarray:
 
 
 def row_dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise dot products of (m, dim) arrays, column by column: much faster than sum(axis=1) or einsum
-    for dim ≤ 3, and no BLAS call (whose threads stall on a busy machine). One contiguous product, then
-    the column sums (a quarter faster than multiplying the strided columns one by one)."""
+    """Row-wise dot products of (..., m, dim) arrays (broadcast), column by column: much faster than
+    sum(axis=-1) or einsum for dim ≤ 3, and no BLAS call (whose threads stall on a busy machine). One
+    contiguous product, then the column sums (a quarter faster than multiplying the strided columns one
+    by one)."""
     p = a * b
-    if p.shape[1] == 1:
-        return p[:, 0]
-    out = p[:, 0] + p[:, 1]
-    for k in range(2, p.shape[1]):
-        out += p[:, k]
+    if p.shape[-1] == 1:
+        return p[..., 0]
+    out = p[..., 0] + p[..., 1]
+    for k in range(2, p.shape[-1]):
+        out += p[..., k]
     return out
 
 
@@ -227,9 +228,10 @@ class DampedSprings(Effect):
         # signed incidence matrix B (S × N), two calls instead of six (the same sums: an exact x_a − x_b, and
         # each Q_i summed over its springs in another order, equal to roundoff)
         self._B = self._Bt = None
-        if 0 < S * N <= DENSE_MAX:
+        if 0 < S * N <= DENSE_MAX and getattr(system, "split", None) == N * dim == np.size(system.state()) // 2:
             self._B = self.incidence().toarray()
             self._Bt = np.ascontiguousarray(self._B.T)
+            self._xv = (2, N, dim)       # y = [x, v] as one (2, N, dim) array: d and ḋ in one product
 
     # -- geometry ----------------------------------------------------------------------------------
     def _geometry(self, y: np.ndarray):
@@ -255,24 +257,25 @@ class DampedSprings(Effect):
         point, whatever its rest length) has no direction and exerts no force; where l² overflows, c is
         taken from the scaled length (the force is then ±inf at worst, never NaN).
         """
-        x, v = self._unpack(y)
         B = self._B
-        if B is not None:
-            d = B @ x
-        else:
-            d = np.take(x, self.a, axis=0)
-            d -= np.take(x, self.b, axis=0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):    # one context for the whole call
-            length = np.sqrt(row_dot(d, d))
+            if B is not None:
+                D = B @ y.reshape(self._xv)        # (2, S, dim): d = x_a − x_b and ḋ = v_a − v_b, exact
+                d, dv = D[0], D[1]
+                dots = row_dot(D, d)               # |d|² and ḋ·d, one product
+                length = np.sqrt(dots[0])
+            else:
+                x, v = self._unpack(y)
+                d = np.take(x, self.a, axis=0)
+                d -= np.take(x, self.b, axis=0)
+                length = np.sqrt(row_dot(d, d))
             inv = 1.0 / length
             c = self.ks * (length - self.rest)
             if self._damped:
-                if B is not None:
-                    dv = B @ v
-                else:
+                if B is None:
                     dv = np.take(v, self.a, axis=0)
                     dv -= np.take(v, self.b, axis=0)
-                c += self.kd * row_dot(dv, d) * inv
+                c += self.kd * (row_dot(dv, d) if B is None else dots[1]) * inv
             c *= inv
             if not math.isfinite(np.add.reduce(c)):    # a zero length, an overflow (or a sum past the range)
                 c[length == 0] = 0.0       # a zero-length spring has no direction: no force
