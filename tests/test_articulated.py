@@ -300,3 +300,14 @@ def test_bench_articulated_smoke():
     agree = [r[7] for r in rows if np.isfinite(r[7])]
     assert all(r[4] > 0 and r[5] > 0 for r in rows)
     assert all(a < 1e-10 for a in agree)
+
+
+def test_floor_row_of_the_chain_is_equal_work():
+    # pbanim bench floors, row "joints": the hand-written ABA + RK4 loop computes what ArticulatedSystem's
+    # run computes (ORACLES I5: the same q̈ by another writing of the ABA), to roundoff over 2000 steps
+    from pbanim.bench._floor_articulated import chain_rk4
+
+    fl = chain_rk4()
+    a, b = fl.pbanim(), fl.hand()
+    assert a.shape == b.shape == (6,) and np.abs(a - b).max() <= fl.tol * max(1.0, np.abs(b).max())
+    assert "joints:" in fl.notes[0]

@@ -129,6 +129,8 @@ def test_control_benchmark_smoke_run_prints_its_goals():
     assert "goal control-simbicon-realtime:" in text and "goal control-qp-step-proxsuite:" in text
     walk = [t for t in rep.tables if t.title.startswith("SIMBICON walk")][0].rows
     assert [r[-1] for r in walk if r[1] == 1.0] == ["walked", "walked"]      # both servos walk at 1 ms
+    lean = [t for t in rep.tables if t.title.startswith("the walk's lean step")][0].rows
+    assert [r[0] for r in lean] == ["explicit PD", "stable PD"] and all(r[4] > 0 for r in lean)
 
 
 from hypothesis import given, settings, strategies as st  # noqa: E402
@@ -208,3 +210,14 @@ def test_a_controller_with_its_own_servos_runs_the_readable_step():
     r = simulate_walk(t_end=0.2, h=4e-3, controller=Logged(PlanarKernel(planar_biped()), WALK, servo="stable"))
     assert len(calls) == 50
     _same_walk(r, simulate_walk(WALK, 0.2, 4e-3, servo="stable", record_every=20))
+
+
+def test_floor_row_of_the_biped_is_equal_work():
+    # pbanim bench floors, row "biped": the hand-written SIMBICON + planar contact step computes the walk that
+    # simulate_walk computes (ORACLES F4: it walks; I6: the same closed forms), to roundoff over 500 steps
+    from pbanim.bench._floor_biped import simbicon_biped
+
+    fl = simbicon_biped()
+    a, b = fl.pbanim(), fl.hand()
+    assert a.shape == b.shape == (18,) and np.abs(a - b).max() <= fl.tol * max(1.0, np.abs(b).max())
+    assert a[0] > 0.0 and abs(a[2]) < 1.0                 # forward, the torso up: a step of the walk
