@@ -295,3 +295,19 @@ def test_floor_rows_of_chapters_01_to_03_are_equal_work():
         a, b = np.asarray(fl.pbanim(), float), np.asarray(fl.hand(), float)
         assert a.shape == b.shape
         assert np.abs(a - b).max() / max(1.0, np.abs(b).max()) <= fl.tol, fl.scene
+
+
+def test_a_scene_that_overrides_its_rhs_keeps_it():
+    # a subclass with its own rhs (or forces, applied_forces, jac) is stepped on that rhs, never on the linear
+    # map built from the effects' Jacobians: here rhs is doubled, and the run follows the doubled f
+    class Doubled(Scene):
+        def rhs(self, t, y):
+            return 2.0 * super().rhs(t, y)
+
+    scene = Doubled(_linear_scene().system, _linear_scene().effects)
+    res = scene.simulate(0.05, 1e-3, "rk4", diagnostics=False)
+    assert res.nfev == 4 * 50
+    y = scene.system.state()
+    for k in range(50):
+        y = get_method("rk4").step(scene.rhs, k * 1e-3, y, 1e-3)
+    np.testing.assert_array_equal(res.y[:, -1], y)

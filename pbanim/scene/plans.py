@@ -69,11 +69,16 @@ def linear_scene(scene) -> bool:
             and all(getattr(e, "linear", False) for e in scene._force))
 
 
+def _overrides(scene, base, names) -> bool:
+    """Whether the scene's class replaces one of ``base``'s methods ``names`` (its own f, Q or Jacobian)."""
+    cls = type(scene)
+    return any(getattr(cls, name) is not getattr(base, name) for name in names)
+
+
 def bound_rhs(scene, base):
     """f(t, y) of the scene as one closure (``base``: the class whose ``rhs`` it replaces; a subclass that
     overrides ``rhs``, ``forces`` or ``applied_forces`` gets its own ``rhs``, unchecked)."""
-    cls = type(scene)
-    if any(getattr(cls, name) is not getattr(base, name) for name in ("rhs", "forces", "applied_forces")):
+    if _overrides(scene, base, ("rhs", "forces", "applied_forces")):
         return unchecked(scene.rhs)
     derivative, constrains = scene._derivative, tuple(scene._constrain)
     # constant forces (``affine() -> (c, None)``: gravity) summed once into Q₀, the start of every evaluation
@@ -110,7 +115,8 @@ def advance(scene, m, counter: list, base):
     then the post-step stages; f counted in ``counter[0]``, the Jacobian in ``counter[1]``. ``scene.lean_path =
     False``: the readable step (the method's step on the scene's unchecked ``rhs``)."""
     lean = scene.lean_path
-    if lean and scene._linear and not m.implicit and not m.nystrom:
+    if (lean and scene._linear and not m.implicit and not m.nystrom
+            and not _overrides(scene, base, ("rhs", "forces", "applied_forces", "jac"))):
         return LinearMap(scene, m, bound_rhs(scene, base), counter).advance()
     post, split = scene._post_step, scene.system.split
     rhs = bound_rhs(scene, base) if lean else scene._rhs
