@@ -9,6 +9,12 @@ from pbanim.design.stepped import ContactScene
 from pbanim.design.stepped_run import ContactTrajectory, simulate_contact
 
 
+def _contact_goal():
+    from pbanim.design.control import position_goal
+
+    return position_goal(0, 0.2, [0.2, 0.0, 0.1])
+
+
 def _contact_scene():
     """A ball on the floor, pushed sideways (the stepped contact model of issue 30)."""
     return ContactScene(DesignBody(Sphere(0.1), position=[0.0, 0.0, 0.1], velocity=[0.5, 0.0, 0.0]),
@@ -72,6 +78,11 @@ CALLS = {
        for m in ("values", "initial")},
     "pbanim.design.stepped.StaticBox.__init__": lambda: {"half_extents": [0.5, 0.5, 0.1], "center": [0.0, 0.0, 0.5],
                                                          "orientation": [1.0, 0.0, 0.0, 0.0]},
+    "pbanim.design.stepped_design.design_contact": lambda: {
+        "scene": _contact_scene(), "t_end": 0.2, "names": ["v0"], "h": 0.05, "max_iter": 2,
+        "goals": [_contact_goal()]},
+    "pbanim.design.stepped_design.down_face": lambda: {
+        "tr": simulate_contact(_contact_scene(), 0.2, ["v0"], h=0.05), "t": 0.2},
     "pbanim.design.stepped_run.simulate_contact": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
     "pbanim.design.stepped_run.replay_chapter7": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
 }
@@ -82,6 +93,7 @@ EXEMPT = {
     "pbanim.design.rest.Rest.__init__": "a record pbanim builds (simulate) and users read",
     "pbanim.design.stepped_run.ContactTrajectory.__init__": "a record pbanim builds (simulate_contact) and users read",
     "pbanim.design.stepped_run.Switch.__init__": "a record pbanim builds (simulate_contact) and users read",
+    "pbanim.design.stepped_design.ContactDesign.__init__": "a record pbanim builds (design_contact) and users read",
 }
 
 
