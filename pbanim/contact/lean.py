@@ -6,7 +6,7 @@
 narrow phase hands out raw arrays (:class:`pbanim.contact.scenes.SceneDetect`: ``detect.arrays(y, R)``,
 geometry valid by construction) and no friction, :class:`LeanFrictionless` takes the same step with
 everything that does not change from step to step paid once, when the stepper is built: the effects'
-``apply`` bound unchecked, the solver options checked, the static masks and body inertias gathered. Per step,
+``apply``, the rotations and the solver bound unchecked, the static masks and body inertias gathered. Per step,
 with the rotations R of y computed once:
 
     ũ = (W(P + hQ_v), I⁻¹(L + hQ_ω)),   I⁻¹ = R I_b⁻¹ Rᵀ,
@@ -34,9 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..contracts import Array, Obj, Real, contract, unchecked
-from ..lcp.solve import _solve, delassus
-from ..lcp.specs import check_options
-from ..rigid.quat import _matrices
+from ..lcp.solve import delassus, solve_lcp
 
 __all__ = ["LeanFrictionless", "lean_applies"]
 
@@ -100,7 +98,9 @@ class LeanFrictionless:
         self.ts, self.N = ts, s.N
         self.applies = [unchecked(e.apply) for e in ts.forces]
         self.arrays = ts.detect.arrays
-        self.opts = check_options("TimeStepping", ts.solver, dict(ts.solver_options))
+        self.opts = dict(ts.solver_options)
+        self.solve = unchecked(solve_lcp)
+        self.rotations = unchecked(s.rotations)
         N = s.N
         self.dense = N <= DENSE_BODIES
         self.inv_mass = np.append(s.inv_mass, 0.0)                       # padded: the world's row is zero
@@ -124,7 +124,7 @@ class LeanFrictionless:
         q = y[3 * N:7 * N].reshape(N, 4)
         P = y[7 * N:10 * N].reshape(N, 3)
         L = y[10 * N:].reshape(N, 3)
-        R = _matrices(q)
+        R = self.rotations(y)
         Rt = np.swapaxes(R, 1, 2)
         Q = self.zero.copy()
         for apply in self.applies:
@@ -166,7 +166,8 @@ class LeanFrictionless:
                 bb = np.einsum("ij,ij->i", Ga, u[a]) - np.einsum("ij,ij->i", Gb, u[b]) + bias
             last = ts.last
             ws = last.f if (last is not None and last.f.size == m) else None
-            sol = _solve(A, bb, ts.solver, ts.tol, not ts.accept_unconverged, None, ws, self.opts)
+            sol = self.solve(A, bb, ts.solver, tol=ts.tol, raise_on_failure=not ts.accept_unconverged, warm_start=ws,
+                             validate=False, **self.opts)
             ts.last = sol
             f = sol.f
             if self.dense:

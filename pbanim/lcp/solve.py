@@ -269,14 +269,6 @@ def solve_lcp(A, b, solver: str = "qp", *, tol: float = 1e-10, raise_on_failure:
         if validate and np.linalg.eigvalsh(A).min() < -1e-10 * max(1.0, float(np.max(np.abs(A)))):
             raise InvalidInput(f"solve_lcp: A must be positive semidefinite for solver={solver!r} (the QP is then "
                                "convex); use solver='lemke' for an indefinite LCP")
-    return _solve(A, b, solver, tol, raise_on_failure, fallback, warm_start, opts)
-
-
-def _solve(A: np.ndarray, b: np.ndarray, solver: str, tol: float, raise_on_failure: bool, fallback: str | None,
-           warm_start, opts: dict) -> ContactSolution:
-    """The solve and its certificate, for arguments already checked: :func:`solve_lcp` after its checks, and
-    a time stepper that assembled A = J W Jᵀ and b itself and checked its options once at construction."""
-    m = b.size
     start = time.perf_counter()
     f, status, iters, extra = None, "", 0, {}
     if warm_start is not None:
