@@ -9,6 +9,10 @@
 2. Work-precision for the torque-free asymmetric body (ORACLES C1): error of body ω(t_end) against the
    Jacobi elliptic closed form vs wall time, for each integrator with and without renormalization and with
    the exponential map (RKMK).
+3. What diagnostics cost (issue 28, point 2): one body under gravity, RK4, 1000 steps, µs per step with
+   ``diagnostics=False``, ``"lazy"`` (the default) unread, ``"lazy"`` read once after the run (energies,
+   momenta, ||q| − 1| from the recorded states) and ``True`` (computed at every recorded step), in
+   alternating rounds; each column over the run without diagnostics.
 """
 
 from __future__ import annotations
@@ -156,6 +160,29 @@ def work_precision(quick: bool, t_end: float | None = None, repeats: int = 1) ->
     return sweep(run, variants, params, lambda w: float(np.abs(w - exact).max()), repeats=repeats)
 
 
+def _diagnostics_cost(steps: int, rounds: int, h: float = 1e-3) -> list:
+    """Rows (mode, µs per step, ratio to diagnostics=False) for one body under gravity, RK4 (see point 3)."""
+    import time
+
+    from ..rigid import RigidBodies, RigidGravity, RigidScene
+
+    rb = RigidBodies(2.0, [1.0, 2.0, 3.0], positions=[[0.0, 0.0, 1.0]], orientations=[[0.3, 0.5, -0.2, 0.8]],
+                     velocities=[[1.0, 0.0, 2.0]], angular_velocities=[[1.0, 0.1, 2.0]])
+    scene = RigidScene(rb, [RigidGravity(G)])
+    modes = {"False": lambda: scene.simulate(steps * h, h, "rk4", diagnostics=False),
+             "lazy, unread": lambda: scene.simulate(steps * h, h, "rk4"),
+             "lazy, read": lambda: scene.simulate(steps * h, h, "rk4").diagnostics["energy"],
+             "True": lambda: scene.simulate(steps * h, h, "rk4", diagnostics=True)}
+    times: dict = {name: [] for name in modes}
+    for _ in range(rounds):
+        for name, fn in modes.items():
+            start = time.perf_counter()
+            fn()
+            times[name].append((time.perf_counter() - start) / steps * 1e6)
+    base = np.array(times["False"])
+    return [[name, float(np.median(t)), float(np.median(np.array(t) / base))] for name, t in times.items()]
+
+
 def run(quick: bool = False) -> Report:
     """Run the rigid-body benchmarks and return the report (``quick``: small sizes, the test suite's smoke run)."""
     rep = Report("rigid")
@@ -168,6 +195,9 @@ def run(quick: bool = False) -> Report:
     rep.tables.append(Table("torque-free body (ORACLES C1): error of ω(t_end) vs wall time",
                             ["method", "quaternions", "h", "error", "wall time [s]", "nfev"],
                             [[r.variant[0], r.variant[1], r.param, r.error, r.wall_time, r.nfev] for r in wp]))
+    cost = _diagnostics_cost(200 if quick else 1000, 3 if quick else 7)
+    rep.tables.append(Table("what diagnostics cost: one body under gravity, RK4 (µs per step, medians of "
+                            "alternating rounds)", ["diagnostics", "µs per step", "× diagnostics=False"], cost))
     big = rows[-1]
     rep.goals.append(Goal("rigid-rk4-vs-handwritten", big[4], 1.3, "<=", "x",
                           f"pbanim RK4 step time / hand-written vectorized step, N = {big[0]}"))
