@@ -7,6 +7,7 @@ it can referee: for scene s, engine e and step h,
 
     error(s, e, h) = ‖observable_e(h) − observable_exact‖  (each scene's own measure, in its own unit)
     cost(s, e, h)  = wall time of the engine's stepping alone (µs per step)
+    cost per simulated second = cost(s, e, h) / h   (the same motion: small steps pay here)
     p(s, e)        = d log error / d log h over the sweep (the observed order)
 
 ==============  ===============================  ================================================
@@ -16,6 +17,7 @@ s               ``SCENES[name]()`` → ``Scene``   a scene described once (``Sce
 e               ``ENGINES[name]``                pbanim, pybullet, mujoco (``mujoco:RK4``: option)
 h               ``Row.h``                        the step (s)
 error, cost     ``Row.error``, ``Row.us_per_step``
+cost / h        ``Row.s_per_sim_s``              wall s per simulated s (also at the peers' own steps)
 p               ``Comparison.order(s, e)``       fitted slope (:func:`pbanim.testing.order_fit`)
 ==============  ===============================  ================================================
 
@@ -36,11 +38,11 @@ S. Giovanni, K. Yin, "LocoTest", Motion in Games 2011; E. Todorov, T. Erez, Y. T
 2012; E. Coumans, "Bullet physics", SIGGRAPH 2015 course.
 """
 
-from .harness import ENGINES, Comparison, Engine, Row, check_names, have, run_compare, versions
+from .harness import ENGINES, OWN_STEPS, Comparison, Engine, Row, check_names, have, run_compare, versions
 from .report import as_json, markdown, write
 from .scenes import SCENES, Scene, scene, top_precession
 from .spec import Body, Joint, SceneSpec, Trace, Unsupported, energy, energy_readable, joint_drift
 
-__all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions",
+__all__ = ["ENGINES", "OWN_STEPS", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions",
            "SCENES", "Scene", "scene", "top_precession", "Body", "Joint", "SceneSpec", "Trace", "Unsupported",
            "energy", "energy_readable", "joint_drift", "markdown", "as_json", "write"]
