@@ -4,7 +4,8 @@ The deck's differential control, δu = argmin δuᵀMδu subject to (∂S/∂u) 
 :func:`pbanim.design.control.min_norm_update`), run on the stepped S(t, u) of
 :mod:`pbanim.design.stepped_run`, whose ∂S/∂u goes through the complementarity system of every step. S is
 piecewise smooth in u (a kink wherever a step's contact changes its mode), so each Gauss–Newton step is
-accepted only when the goal residual ‖δq‖ falls (halved up to ``backtracks`` times otherwise):
+accepted only when the goal residual ‖δq‖ falls (halved up to ``backtracks`` times otherwise; then the
+steepest-descent step Jᵀδq at its Cauchy length is tried the same way):
 
     u ← u + α δu,   α ∈ {1, ½, ¼, …},   ‖δq(u + αδu)‖ < ‖δq(u)‖.
 
@@ -151,23 +152,29 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
             continue
         p = u.size
         J = np.vstack([tr.d_position(g.time)[comp, :p] for g in goals])
-        du = upd(J, r, M).du
-        alpha, ok = 1.0, False
-        for _ in range(backtracks + 1):
-            try:
-                trial = run(u + alpha * du)
-            except PbanimError as exc:        # a start inside an obstacle, an unsolved contact problem
-                notes.append(f"update {it}: α = {alpha:g} refused ({exc}); halved")
+        gd = J.T @ r                                   # steepest descent, at its Cauchy length, when the
+        Jg = J @ gd                                    # Gauss–Newton step meets a kink it cannot get past
+        cauchy = gd * (gd @ gd) / (Jg @ Jg) if Jg @ Jg > 0 else gd
+        ok = False
+        for kind, du in (("Gauss–Newton", upd(J, r, M).du), ("steepest descent", cauchy)):
+            alpha = 1.0
+            for _ in range(backtracks + 1):
+                try:
+                    trial = run(u + alpha * du)
+                except PbanimError as exc:    # a start inside an obstacle, an unsolved contact problem
+                    notes.append(f"update {it}: {kind} α = {alpha:g} refused ({exc}); halved")
+                    alpha *= 0.5
+                    continue
+                rt = _residual(trial, goals, comp)
+                if np.linalg.norm(rt) < history[-1]:
+                    u, tr, r, ok = u + alpha * du, trial, rt, True
+                    break
                 alpha *= 0.5
-                continue
-            rt = _residual(trial, goals, comp)
-            if np.linalg.norm(rt) < history[-1]:
-                u, tr, r, ok = u + alpha * du, trial, rt, True
+            if ok:
                 break
-            alpha *= 0.5
         if not ok:
-            notes.append(f"update {it}: no step fraction down to {alpha * 2:g} lowered the residual "
-                         f"{history[-1]:.3e} (a kink of S or a local minimum)")
+            notes.append(f"update {it}: no fraction of the Gauss–Newton or the steepest-descent step lowered "
+                         f"the residual {history[-1]:.3e} (a kink of S or a local minimum)")
             break
         history.append(float(np.linalg.norm(r)))
         if face is not None and history[-1] > tol:
