@@ -311,3 +311,20 @@ def test_a_scene_that_overrides_its_rhs_keeps_it():
     for k in range(50):
         y = get_method("rk4").step(scene.rhs, k * 1e-3, y, 1e-3)
     np.testing.assert_array_equal(res.y[:, -1], y)
+
+
+@pytest.mark.parametrize("method", ["rk4", "symplectic_euler"])
+def test_a_diverging_plan_names_the_step_the_readable_run_names(method):
+    # springs far too stiff for h blow up: the plan that checks its stored states once per block (its forces
+    # cannot raise on a non-finite state) names the same first bad step as the readable run checking each step
+    from pbanim.errors import SimulationDiverged
+
+    def run(lean):
+        scene = _springs_scene()
+        scene.effects[1].ks = scene.effects[1].ks * 1e7
+        scene.lean_path = lean
+        with pytest.raises(SimulationDiverged) as exc:
+            scene.simulate(5.0, 1e-2, method, diagnostics=False)
+        return exc.value.step, exc.value.t
+
+    assert run(True) == run(False)

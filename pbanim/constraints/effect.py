@@ -265,7 +265,7 @@ class Constraints(Effect):
             Qf = Q.reshape(-1)
             out = self._dense.solve(x, v, Qf, self.ks, self.kd)
             if out is not None and (self.max_violation is None or np.abs(out[0]).max() <= self.max_violation):
-                self._last, self._dense_Q = None, Qf
+                self._last, self._dense_Q = None, Qf.copy()     # last's q̈ = W (Q + Q_C), whatever Q becomes
                 return Q + out[3].reshape(Q.shape)
         sol, _ = self._solved(x, v, np.array(Q, float).ravel(), t)
         self._last = sol

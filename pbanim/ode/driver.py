@@ -192,11 +192,11 @@ def drive_lean(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: 
     Returns Y of shape (R + 1,) + y0.shape: y0, then the state after every ``record_every``-th step and after
     the last (R = ⌈N / record_every⌉, at the times ``grid.times()[::record_every]`` and t_end). The loop does
     the step, the check and the store and nothing else. ``check_every=None`` (every state recorded):
-    finiteness is checked once per block of stored states and a non-finite block is searched for the first
-    bad step, which is named as :func:`drive` names it (the steps after it in the block have run on a
-    non-finite state: for steps that cannot raise on one). An integer: the state is checked (one dot
-    product) every ``check_every`` steps and after the last, as :func:`drive` checks it. ``advance`` returns
-    a new state, which the driver copies when it keeps it.
+    finiteness (:func:`check_finite`'s: |y|² finite) is checked once per block of stored states and a bad
+    block is searched for the first bad step, which is named as :func:`drive` names it (the steps after it
+    in the block have run on a non-finite state: for steps that cannot raise on one). An integer: the state
+    is checked (one dot product) every ``check_every`` steps and after the last, as :func:`drive` checks
+    it. ``advance`` returns a new state, which the driver copies when it keeps it.
     """
     n, t0, hs = grid.n_steps, grid.t0, grid.h
     r = int(record_every)
@@ -210,11 +210,11 @@ def drive_lean(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: 
                 y = advance(t0 + k * hs, y, hs)
                 Y[k + 1] = y
                 if k - k0 == _BLOCK:
-                    if not np.isfinite(Y[k0 + 1:k + 2]).all():
+                    if not _finite_rows(Y[k0 + 1:k + 2]).all():
                         _raise_first_bad(Y, k0, k + 1, grid, quantity)
                     k0 = k + 1
             Y[n] = advance(grid.time(n - 1), y, grid.h_last)
-            if not np.isfinite(Y[k0 + 1:]).all():
+            if not _finite_rows(Y[k0 + 1:]).all():
                 _raise_first_bad(Y, k0, n, grid, quantity)
             return Y
         c, last, k = int(check_every or 1), n - 1, 0
@@ -232,8 +232,14 @@ def drive_lean(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: 
     return Y
 
 
+def _finite_rows(seg: np.ndarray) -> np.ndarray:
+    """Per stored state, whether it passes :func:`check_finite` (|y|² finite: no NaN, no Inf, no overflow)."""
+    seg = seg.reshape(len(seg), -1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return np.isfinite(np.einsum("ij,ij->i", seg, seg))
+
+
 def _raise_first_bad(Y, k0, k1, grid, quantity):
-    seg = Y[k0 + 1:k1 + 1].reshape(k1 - k0, -1)
-    i = int(np.flatnonzero(~np.isfinite(seg).all(axis=1))[0])
+    i = int(np.flatnonzero(~_finite_rows(Y[k0 + 1:k1 + 1]))[0])
     k = k0 + i  # the step that went from Y[k] (finite) to Y[k + 1] (not)
     check_finite(Y[k + 1], grid.time(k), k, quantity)

@@ -59,6 +59,7 @@ class AnchorSprings(Effect):
 
     phase = "force"
     linear = True       # Q = c + K_x x + K_v v, constant: a small scene steps by its linear map
+    nan_safe = True     # a NaN state gives NaN forces, never an exception (a run checks its states in blocks)
 
     @contract(indices=IndexArray(("A",), distinct="all", empty=True), points=Opt(point("A")),
               stiffness=Real(gt=0), damping=Real(ge=0), name=Text(nonempty=True))

@@ -187,6 +187,7 @@ class DampedSprings(Effect):
     """
 
     phase = "force"
+    nan_safe = True     # a NaN state gives NaN forces, never an exception (a run checks its states in blocks)
 
     @contract(pairs=IndexArray(("S", 2), distinct="rows", empty=True), stiffness=_PER_SPRING, damping=_PER_SPRING,
               rest_length=Opt(_PER_SPRING), name=Text(nonempty=True))

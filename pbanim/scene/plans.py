@@ -69,6 +69,13 @@ def linear_scene(scene) -> bool:
             and all(getattr(e, "linear", False) for e in scene._force))
 
 
+def _nan_safe(scene) -> bool:
+    """Whether a step of the scene cannot raise on a non-finite state (forces only, each affine or declaring
+    ``nan_safe``): the run then checks its stored states once per block and names the first bad step."""
+    return not scene._constraint and not scene._post and all(
+        getattr(e, "nan_safe", False) or callable(getattr(e, "affine", None)) for e in scene._force)
+
+
 def _overrides(scene, base, names) -> bool:
     """Whether the scene's class replaces one of ``base``'s methods ``names`` (its own f, Q or Jacobian)."""
     cls = type(scene)
@@ -137,7 +144,7 @@ def advance(scene, m, counter: list, base):
         def step(t, y, h):
             counter[0] += 1
             return kick(t, y, h)
-        step.nan_safe = all(callable(getattr(e, "affine", None)) for e in scene._force)
+        step.nan_safe = _nan_safe(scene)
     elif m.name == "symplectic_euler" and scene._drift_free:
         derivative, zero = scene._derivative, scene.system.zero_forces
 
@@ -155,6 +162,7 @@ def advance(scene, m, counter: list, base):
         def step(t, y, h):
             counter[0] += per
             return method_step(rhs, t, y, h, split)
+        step.nan_safe = _nan_safe(scene)
     else:
         def step(t, y, h):
             return m.step(fun, t, y, h, split=split, jac=jac_fn)
