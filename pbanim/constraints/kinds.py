@@ -114,7 +114,7 @@ class Distance(Constraint):
             rows, sa, sb = self._spans
             np.subtract(x[sb], x[sa], out=d[rows])
             np.subtract(v[sb], v[sa], out=w[rows])
-        else:
+        elif len(self._frows) < len(d):      # every row with a fixed end (a pendulum) is written below alone
             np.subtract(_take(x, self._ib), _take(x, self._ia), out=d)
             np.subtract(_take(v, self._ib), _take(v, self._ia), out=w)
         if len(self._frows):
