@@ -210,12 +210,13 @@ def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction
     up = np.array([0.0, 0.0, 1.0])
     pairs = np.stack([k[1:], k[:-1]], axis=1)          # neighbours in the stack (a broad phase by construction)
     K = n + 1
+    ups, world = np.tile(up, (8, 1)), np.full(8, -1, np.intp)  # one box: at most its 8 corners on the ground
 
     def arrays(y, R):
         x = y[:3 * n].reshape(n, 3)
         g_a, g_p, g_s, g_f = box_plane_contacts(x[:1], R[:1], half, up, 0.0, margin)
         if n == 1:                                     # one box: the ground alone
-            return g_a, np.full(g_a.size, -1, np.intp), g_p, np.broadcast_to(up, (g_a.size, 3)), g_s, (g_a * K) * 8 + g_f
+            return g_a, world[:g_a.size], g_p, ups[:g_a.size], g_s, (g_a * K) * 8 + g_f
         a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
         A = np.concatenate([g_a, a])
         B = np.concatenate([np.full(g_a.size, -1, np.intp), b])

@@ -52,9 +52,9 @@ def _check(A, b) -> tuple[np.ndarray, np.ndarray]:
     m = b.size
     if A.shape != (m, m):
         raise InvalidInput(f"A must have shape ({m}, {m}) to match b, got {A.shape}")
-    if not (np.isfinite(A).all() and np.isfinite(b).all()):
+    big = max(float(np.abs(A).max(initial=0.0)), float(np.abs(b).max(initial=0.0)))    # NaN or inf if any is
+    if not np.isfinite(big):
         raise InvalidInput("A and b must be finite (got NaN or Inf); check the contact assembly")
-    big = max(float(np.abs(A).max(initial=0.0)), float(np.abs(b).max(initial=0.0)))
     if big > _LIMIT:     # products A f and the residual threshold would overflow: no certificate possible
         raise InvalidInput(f"A and b must have entries below {_LIMIT:.0e} in magnitude (rescale the units), "
                            f"got max |entry| = {big:.3e}")
