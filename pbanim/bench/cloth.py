@@ -1,0 +1,281 @@
+"""``pbanim bench cloth``: stiff systems at scale — a pinned spring sheet of N × N particles (issue 29).
+
+The sheet (:func:`sheet`): structural, shear and bend springs (k = 10³, 10², 0.1 N/m), 0.2 kg on 1 m²,
+pinned at the two top corners, Rayleigh damping β = 10⁻³ s, falling from flat rest under gravity for
+T = 0.05 s. Its stiffest mode has ω ≈ 140 N rad/s, so h = 1/60 s is h ω ≈ 40 at N = 16.
+
+* **Work-precision** per N: the final positions of the free particles against a converged reference
+  (scipy Radau, rtol 10⁻⁸, the sparse Jacobian), max-norm error in m (the sheet is 1 m), versus wall time,
+  for pbanim's large steps (Baraff & Witkin), Newton (implicit Euler), XPBD with substeps, pbanim's RODAS4
+  and Radau IIA (sparse Jacobian), and scipy's ``solve_ivp`` BDF and Radau (sparse Jacobian) and ``odeint``
+  (LSODA, banded: the state interleaved particle by particle, bandwidth given). Every run has a wall-time
+  budget; a run past it prints "over budget" (a result: that method does not reach the row at that N here).
+* **Large steps at h = 1/60 s** on N = 64: wall time per simulated second, with the CG iterations.
+* **Cost per step vs N** (large steps at h = 1/60 s, XPBD 1 × 10 sweeps): the fitted slope of log t against
+  log N² (and, for large steps, of the cost per CG iteration: Jacobi-preconditioned CG needs ∝ N iterations
+  on a grid, so its step cannot be linear in N²).
+* **Largest stable step** per method and stiffness (:func:`largest_stable_step`): the largest h of the grid
+  0.1 · 2⁻ʲ s whose run over 0.2 s stays finite with speeds below 20 m/s.
+
+The figures of chapter 12 call :func:`work_precision`, :func:`step_costs` and :func:`largest_stable_step`.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from . import Goal, Report, Table, median_time
+from ..cloth import Cloth, Sheet
+from ..cloth.large_steps import _large_step, _newton_step
+from ..cloth.xpbd import _xpbd_step
+from ..contracts import Choice, Flag, Int, Real, Seq, contract, unchecked
+
+__all__ = ["run", "sheet", "work_precision", "step_costs", "largest_stable_step", "METHODS", "T_END"]
+
+T_END = 0.05
+METHODS = ("large steps", "Newton", "XPBD", "pbanim RODAS4", "pbanim Radau", "scipy BDF", "scipy Radau",
+           "scipy odeint")
+PBANIM = METHODS[:5]
+ERRORS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+
+
+class OverBudget(Exception):
+    """A run passed its wall-time budget."""
+
+
+@contract(n=Int(ge=2, le=256), stretch=Real(gt=0, le=1e9))
+def sheet(n: int, stretch: float = 1e3) -> Cloth:
+    """The benchmark's sheet of n × n particles (module docstring); shear and bend scale with ``stretch``."""
+    return Cloth(Sheet(n, pins="corners"), model="springs", stretch=stretch, shear=0.1 * stretch,
+                 bend=1e-4 * stretch, damping=1e-3)
+
+
+def _budgeted(f, budget):
+    start = time.perf_counter()
+
+    def g(*a):
+        if time.perf_counter() - start > budget:
+            raise OverBudget
+        return f(*a)
+    return g
+
+
+def _steps(cloth, step, h, t_end, budget):
+    """Fixed steps of a full-state stepper ``step(y, h)``: the final free positions (or OverBudget)."""
+    k = max(1, int(round(t_end / h)))
+    y, start = cloth.state(), time.perf_counter()
+    for _ in range(k):
+        y = step(y, t_end / k)
+        if time.perf_counter() - start > budget:
+            raise OverBudget
+    return y[:cloth.n][cloth.free]
+
+
+def _interleave(nf):
+    """Permutation taking [x_F, v_F] to particle order (x_i, v_i) (J is banded in that order)."""
+    p = np.arange(nf // 3)
+    perm = np.stack([3 * p, 3 * p + 1, 3 * p + 2, nf + 3 * p, nf + 3 * p + 1, nf + 3 * p + 2], axis=1).ravel()
+    return perm
+
+
+def _run(cloth, method, setting, t_end, budget):
+    """One run: final free positions. ``setting`` is h (steppers), substeps (XPBD) or rtol (ODE solvers)."""
+    import scipy.integrate as si
+    from ..ode import solve
+    n = cloth.nf
+    y0 = cloth.free_state(cloth.state())
+    rhs, jac = unchecked(cloth.rhs), unchecked(cloth.jac)
+    if method == "large steps":
+        return _steps(cloth, lambda y, h: _large_step(cloth, y, h, 1e-8, 20000)[0], setting, t_end, budget)
+    if method == "Newton":
+        return _steps(cloth, lambda y, h: _newton_step(cloth, y, h, 1e-9, 30, 1e-10, 20000)[0], setting, t_end,
+                      budget)
+    if method == "XPBD":
+        return _steps(cloth, lambda y, h: _xpbd_step(cloth, y, h, setting, 1), 1.0 / 60.0, t_end, budget)
+    f = _budgeted(rhs, budget)
+    atol = setting * 1e-2
+    if method.startswith("pbanim"):
+        r = solve(f, (0.0, t_end), y0, method="rodas4" if "RODAS" in method else "radau5", rtol=setting,
+                  atol=atol, jac=jac)
+        return r.y[:n, -1]
+    if method in ("scipy BDF", "scipy Radau"):
+        r = si.solve_ivp(f, (0.0, t_end), y0, method=method[6:], rtol=setting, atol=atol, jac=jac)
+        return r.y[:n, -1]
+    perm = _interleave(n)
+    inv = np.argsort(perm)
+    J0 = jac(0.0, y0)[perm][:, perm].tocoo()
+    band = int(np.abs(J0.row - J0.col).max())           # bend springs couple a particle to ±2n grid neighbours
+
+    def fp(z, t):
+        return f(t, z[inv])[perm]
+
+    def jp(z, t):
+        J = jac(t, z[inv])[perm][:, perm].tocoo()
+        out = np.zeros((2 * band + 1, len(z)))
+        out[band + J.row - J.col, J.col] = J.data        # odeint's banded layout (ml = mu = band)
+        return out
+    start = time.perf_counter()
+    z, info = si.odeint(fp, y0[perm], [0.0, t_end], Dfun=jp, ml=band, mu=band, rtol=setting, atol=atol,
+                        mxstep=100000, full_output=True, printmessg=False)
+    if time.perf_counter() - start > budget or info["message"] != "Integration successful.":
+        raise OverBudget
+    return z[-1][inv][:n]
+
+
+def _settings(method, quick):
+    if method == "large steps":
+        return [T_END / k for k in ((3, 12, 48) if quick else (3, 6, 12, 24, 48, 96))]
+    if method == "Newton":
+        return [T_END / k for k in ((3, 24) if quick else (3, 12, 48))]
+    if method == "XPBD":
+        return (4, 32) if quick else (4, 16, 64, 256)
+    return (1e-3, 1e-5) if quick else (1e-3, 1e-4, 1e-5, 1e-6)
+
+
+@contract(n=Int(ge=2, le=256), budget=Real(gt=0, le=3600), quick=Flag())
+def work_precision(n: int, budget: float = 20.0, quick: bool = False) -> dict:
+    """{method: [(setting, error m, wall s) or (setting, None, "over budget")]} at N = n, plus "reference"
+    (its wall time, or "over budget")."""
+    cloth = sheet(n)
+    out: dict = {}
+    start = time.perf_counter()
+    try:
+        import scipy.integrate as si
+        y0 = cloth.free_state(cloth.state())
+        r = si.solve_ivp(_budgeted(unchecked(cloth.rhs), 6 * budget), (0.0, T_END), y0, method="Radau",
+                         rtol=1e-8, atol=1e-10, jac=unchecked(cloth.jac))
+        ref = r.y[:cloth.nf, -1]
+        out["reference"] = time.perf_counter() - start
+    except OverBudget:
+        out["reference"] = "over budget"
+        return out
+    for m in METHODS:
+        rows = []
+        for s in _settings(m, quick):
+            t0 = time.perf_counter()
+            try:
+                x = _run(cloth, m, s, T_END, budget)
+                rows.append((s, float(np.abs(x - ref).max()), time.perf_counter() - t0))
+            except OverBudget:
+                rows.append((s, None, "over budget"))
+                break                                    # tighter settings cost more
+        out[m] = rows
+    return out
+
+
+def _time_to(rows, e):
+    ts = [t for _, err, t in rows if err is not None and err <= e]
+    return min(ts) if ts else None
+
+
+@contract(sizes=Seq(Int(ge=2, le=256), min_len=1, max_len=8), repeats=Int(ge=1, le=20))
+def step_costs(sizes=(16, 32, 64), repeats: int = 2) -> dict:
+    """{N: (large step s, its CG iterations, XPBD 1 × 10 s)} at h = 1/60 s, medians of ``repeats`` steps from
+    the state one step into the fall (the first step's iterations counted)."""
+    out = {}
+    for n in sizes:
+        cloth = sheet(n)
+        y, sol, _ = _large_step(cloth, cloth.state(), 1.0 / 60.0, 1e-4, 20000)
+        its = _large_step(cloth, y, 1.0 / 60.0, 1e-4, 20000)[1].iterations
+        t_ls = median_time(lambda: _large_step(cloth, y, 1.0 / 60.0, 1e-4, 20000), repeats=repeats)
+        _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10)                       # colouring once
+        t_x = median_time(lambda: _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10), repeats=repeats)
+        out[n] = (t_ls, its, t_x)
+    return out
+
+
+def _stable(cloth, step, h, t_end=0.2):
+    y = cloth.state()
+    with np.errstate(all="ignore"):
+        for _ in range(max(1, int(round(t_end / h)))):
+            y = step(y, h)
+            if not np.isfinite(y).all() or np.abs(y[cloth.n:]).max() > 20.0:
+                return False
+    return True
+
+
+@contract(method=Choice(("large steps", "XPBD", "symplectic Euler")), stretch=Real(gt=0, le=1e9),
+          n=Int(ge=2, le=64))
+def largest_stable_step(method: str, stretch: float = 1e3, n: int = 8) -> float:
+    """The largest h = 0.1 · 2⁻ʲ (j = 0 … 14) at which ``method`` runs the sheet for 0.2 s without blowing up."""
+    cloth = sheet(n, stretch)
+    f = unchecked(cloth.rhs)
+
+    def symplectic(y, h):
+        yf = cloth.free_state(y)
+        a = f(0.0, yf)[cloth.nf:]
+        yf[cloth.nf:] += h * a
+        yf[:cloth.nf] += h * yf[cloth.nf:]
+        return cloth.full_state(yf)
+    step = {"large steps": lambda y, h: _large_step(cloth, y, h, 1e-6, 20000)[0],
+            "XPBD": lambda y, h: _xpbd_step(cloth, y, h, 1, 10), "symplectic Euler": symplectic}[method]
+    for j in range(15):
+        h = 0.1 * 2.0 ** -j
+        if _stable(cloth, step, h):
+            return h
+    return 0.0
+
+
+def run(quick: bool = False) -> Report:
+    rep = Report("cloth")
+    sizes = (16,) if quick else (16, 32)
+    budget = 4.0 if quick else 20.0
+    ratios = []
+    for n in sizes:
+        wp = work_precision(n, budget, quick)
+        ref = wp["reference"]
+        ref = ref if isinstance(ref, str) else f"{ref:.1f} s"
+        tab = Table(f"work-precision at N = {n} ({3 * n * n} unknowns), T = {T_END} s; reference scipy Radau "
+                    f"rtol 1e-8: {ref}",
+                    ["method", "setting", "error (m)", "wall (s)"])
+        if isinstance(wp["reference"], str):
+            rep.tables.append(tab)
+            continue
+        for m in METHODS:
+            for s, err, t in wp[m]:
+                tab.rows.append([m, f"{s:.3g}", "—" if err is None else err, t if isinstance(t, str) else t])
+        rep.tables.append(tab)
+        for e in ERRORS:
+            pb = [x for x in (_time_to(wp[m], e) for m in PBANIM) if x is not None]
+            sc = [x for x in (_time_to(wp[m], e) for m in METHODS[5:]) if x is not None]
+            if pb and sc:
+                ratios.append((min(pb) / min(sc), n, e))
+    if ratios:
+        worst = max(ratios)
+        rep.notes.append("pbanim best / scipy best at equal error: " + ", ".join(
+            f"N={n} e={e:g}: {r:.2f}" for r, n, e in ratios))
+        rep.goals.append(Goal("pbanim_vs_scipy_at_equal_error", worst[0], 0.5, "<=", "x",
+                              f"worst over errors 1e-2..1e-6 reached by both sides (N = {worst[1]}, e = {worst[2]:g})"))
+    else:
+        rep.goals.append(Goal("pbanim_vs_scipy_at_equal_error", float("nan"), 0.5, "<=", "x",
+                              skipped="no error level reached by both sides within the budget"))
+    cost_sizes = (8, 16, 32) if quick else (16, 32, 64, 128)
+    costs = step_costs(cost_sizes, repeats=1 if quick else 2)
+    ct = Table("cost per step at h = 1/60 s", ["N", "unknowns", "large step (s)", "CG iterations",
+                                               "s per CG iteration", "XPBD 1×10 (s)"])
+    for n, (t_ls, its, t_x) in costs.items():
+        ct.rows.append([n, 3 * n * n, t_ls, its, t_ls / max(its, 1), t_x])
+    rep.tables.append(ct)
+    logn2 = np.log([n * n for n in cost_sizes])
+    s_ls = float(np.polyfit(logn2, np.log([costs[n][0] for n in cost_sizes]), 1)[0])
+    s_it = float(np.polyfit(logn2, np.log([costs[n][0] / max(costs[n][1], 1) for n in cost_sizes]), 1)[0])
+    s_x = float(np.polyfit(logn2, np.log([costs[n][2] for n in cost_sizes]), 1)[0])
+    rep.notes.append(f"fitted slope vs N²: large step {s_ls:.2f} (per CG iteration {s_it:.2f}), XPBD {s_x:.2f}")
+    rep.goals.append(Goal("large_step_cost_slope_vs_N2", s_ls, 1.1, "<=", "", "Jacobi PCG iterations grow ∝ N"))
+    rep.goals.append(Goal("xpbd_cost_slope_vs_N2", s_x, 1.1, "<=", ""))
+    if 64 in costs:
+        rep.goals.append(Goal("large_steps_N64_wall_per_simulated_s", costs[64][0] * 60.0, 1.0, "<=", " s",
+                              f"h = 1/60 s, {costs[64][1]} CG iterations a step"))
+    else:
+        rep.goals.append(Goal("large_steps_N64_wall_per_simulated_s", float("nan"), 1.0, "<=", " s",
+                              skipped="--quick: N = 64 runs in the full benchmark"))
+    stiff = (1e3,) if quick else (1e2, 1e3, 1e4)
+    st = Table("largest stable step (s) on an 8 × 8 sheet, 0.2 s", ["method"] + [f"k = {k:g}" for k in stiff])
+    for m in ("symplectic Euler", "XPBD", "large steps"):
+        st.rows.append([m] + [largest_stable_step(m, k) for k in stiff])
+    rep.tables.append(st)
+    rep.notes.append("runs past their budget print 'over budget' (budget per run "
+                     f"{budget:g} s, the reference 6× that): a result, not a gap")
+    return rep
