@@ -52,7 +52,8 @@ dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unkn
 :mod:`pbanim.design.multiple` (multiple shooting on a sliding time grid started from the sketch),
 :mod:`pbanim.design.stepped`, :mod:`pbanim.design.stepped_sim`, :mod:`pbanim.design.stepped_run` (S(t, u) and
 ∂S/∂u stepped through resting and sliding contact with friction, issue 30), :mod:`pbanim.design.stepped_design`
-(designs that need contact: slide and stop, roll into a cup, a die on a chosen face).
+(designs that need contact: slide and stop, roll into a cup, a die on a chosen face),
+:mod:`pbanim.design.stepped_sketch` (the feasible motion nearest an infeasible sketch, and its report).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, Z. Popović, A. Witkin, "Interactive manipulation of rigid
 body simulations", SIGGRAPH 2000; J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of
@@ -74,9 +75,11 @@ from .simulate import quat_log, simulate
 from .stepped import ContactScene, StaticBox
 from .stepped_run import ContactTrajectory, Switch, replay_chapter7, simulate_contact
 from .stepped_design import ContactDesign, design_contact
+from .stepped_sketch import SketchFit, fit_sketch
 
 __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajectory", "TooManyImpacts",
            "RestingContactError", "PenetrationError", "GrazingImpactWarning", "left_jacobian", "xi", "FlightModel",
            "flight_rhs", "flight_tangent", "augmented_step", "Impact", "apply_impact", "Trajectory", "Rest",
            "simulate", "quat_log", "flight_map", "first_impact", "exact_applies", "ContactScene", "StaticBox",
-           "ContactTrajectory", "Switch", "simulate_contact", "replay_chapter7", "ContactDesign", "design_contact"]
+           "ContactTrajectory", "Switch", "simulate_contact", "replay_chapter7", "ContactDesign", "design_contact",
+           "SketchFit", "fit_sketch"]

@@ -83,6 +83,12 @@ CALLS = {
         "goals": [_contact_goal()]},
     "pbanim.design.stepped_design.down_face": lambda: {
         "tr": simulate_contact(_contact_scene(), 0.2, ["v0"], h=0.05), "t": 0.2},
+    "pbanim.design.stepped_sketch.fit_sketch": lambda: {
+        "scene": _contact_scene(), "times": [0.1, 0.2, 0.3], "names": ["v0"], "h": 0.05, "max_iter": 2,
+        "points": [[0.05, 0.0, 0.1], [0.1, 0.0, 0.1], [0.15, 0.0, 0.1]]},
+    "pbanim.design.stepped_sketch.sketch_checks": lambda: {
+        "scene": _contact_scene(), "times": [0.1, 0.2, 0.3],
+        "points": [[0.05, 0.0, 0.1], [0.1, 0.0, 0.1], [0.15, 0.0, 0.1]]},
     "pbanim.design.stepped_run.simulate_contact": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
     "pbanim.design.stepped_run.replay_chapter7": lambda: {"scene": _contact_scene(), "t_end": 0.2, "h": 0.05},
 }
@@ -94,6 +100,7 @@ EXEMPT = {
     "pbanim.design.stepped_run.ContactTrajectory.__init__": "a record pbanim builds (simulate_contact) and users read",
     "pbanim.design.stepped_run.Switch.__init__": "a record pbanim builds (simulate_contact) and users read",
     "pbanim.design.stepped_design.ContactDesign.__init__": "a record pbanim builds (design_contact) and users read",
+    "pbanim.design.stepped_sketch.SketchFit.__init__": "a record pbanim builds (fit_sketch) and users read",
 }
 
 
