@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..collision.shapes import Contacts
 from ..contracts import Array, Obj, Real, contract, unchecked
 from ..lcp.solve import delassus, solve_lcp
 
@@ -180,8 +181,10 @@ class LeanFrictionless:
                 imp = full[:N]
                 du = np.einsum("nij,nj->ni", Wb[:N], imp)
             u[:N] += du
-            ts.last_info.update(normal_impulse=f, impulse=imp, friction_impulse=None,
-                                contacts=(ca, cb, point, normal, sep))
+            contacts = object.__new__(Contacts)          # the step's record, fields as Contacts stores them
+            contacts.a, contacts.b, contacts.point, contacts.normal, contacts.depth = ca, cb, point, normal, -sep
+            contacts.radius = contacts.radius_b = np.zeros(m)
+            ts.last_info.update(normal_impulse=f, impulse=imp, friction_impulse=None, contacts=contacts)
         else:
             ts.last = None
             ts.last_info["contacts"] = None
