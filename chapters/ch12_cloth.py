@@ -1,0 +1,162 @@
+# %% [markdown]
+# # Chapter 12 — cloth: stiff systems at scale, by large steps, small steps and stiff solvers.
+#
+# This file is a module (imported by `pbanim figures`) and a notebook in jupytext's percent format:
+# open it in Jupyter (with jupytext) or VS Code, or write an `.ipynb` with `pbanim notebook ch12 DIR`.
+# Running it draws every figure of the chapter in quick mode into `figures/`.
+
+# %%
+"""Chapter 12 — cloth: stiff systems at scale, by large steps, small steps and stiff solvers.
+
+Figures:
+
+* ``drape``: a sheet pinned at two corners falls onto a sphere above the ground, by Baraff & Witkin's
+  large steps at h = 1/60 s (stretch, shear and bend conditions; the constraint filter holds the pins and
+  the contacts): an animation and a strip of frames (ORACLES J3).
+* ``work_precision``: final-position error against wall time for large steps, Newton, XPBD with substeps,
+  pbanim's RODAS4 and Radau IIA and scipy's BDF, Radau and odeint, on the benchmark's stiff spring sheet
+  (``pbanim bench cloth``; ORACLES J4 for XPBD's approach to implicit Euler).
+* ``stable_step``: the largest stable step of symplectic Euler, XPBD and large steps against the stretch
+  stiffness: the explicit step shrinks like k^(−1/2), the two others do not (the point of large steps).
+* ``step_cost``: wall time per step at h = 1/60 s against N² for large steps (with their CG iterations) and
+  XPBD.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pbanim.bench.cloth import METHODS, largest_stable_step, step_costs, work_precision
+from pbanim.cloth import Cloth, Ground, Sheet, Sphere, large_step
+from pbanim.plotting import figure
+
+
+# %% [markdown]
+# ## Figure `ch12_drape`
+#
+# A 1 m sheet of Baraff–Witkin triangles, pinned at its two top corners, falls onto a sphere. Each step
+# solves (M − hD − h²K) Δv = h(f₀ + hKv₀) by conjugate gradients in the filtered subspace: pinned
+# particles have S = 0, particles touching the sphere or the ground S = I − nnᵀ. The pins do not move (bit
+# for bit) and no particle ends inside the sphere by more than a step's approach.
+
+# %%
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)")
+def drape(ctx):
+    n, frames, every = (10, 40, 2) if ctx.quick else (24, 120, 3)
+    sphere = Sphere([0.0, 0.0, -0.45], 0.3)
+    cloth = Cloth(Sheet(n, pins="corners"), model="bw", stretch=500.0, shear=50.0, bend=1e-3, damping=0.02,
+                  colliders=[sphere, Ground(-0.9)])
+    y, h = cloth.state(), 1.0 / 60.0
+    xs, energy, iters = [cloth.sheet.x0.copy()], [cloth.energy(y)], []
+    for k in range(frames * every):
+        y, sol = large_step(cloth, y, h)
+        iters.append(sol.iterations)
+        if (k + 1) % every == 0:
+            xs.append(y[:cloth.n].reshape(-1, 3).copy())
+            energy.append(cloth.energy(y))
+    xs = np.array(xs)
+    tri = cloth.sheet.triangles
+    fig, ax = ctx.subplots(figsize=(4.4, 4.0), subplot_kw={"projection": "3d"})
+
+    def draw(i):
+        ax.clear()
+        ax.plot_trisurf(xs[i][:, 0], xs[i][:, 1], xs[i][:, 2], triangles=tri, color="tab:blue", alpha=0.8,
+                        linewidth=0.2, edgecolor="k")
+        ax.set_xlim(-0.6, 0.6), ax.set_ylim(-0.6, 0.6), ax.set_zlim(-0.9, 0.1)
+        ax.set_xlabel("x (m)"), ax.set_ylabel("y (m)"), ax.set_zlabel("z (m)")
+        ax.set_title(f"t = {i * every * h:.2f} s")
+        return ()
+
+    ctx.save_gif(fig, draw, len(xs), fps=10)
+    picks = np.unique(np.linspace(0, len(xs) - 1, 4).astype(int))
+    fig2, axs = ctx.subplots(1, len(picks), figsize=(3.0 * len(picks), 3.0), subplot_kw={"projection": "3d"})
+    for ax2, i in zip(axs, picks):
+        ax2.plot_trisurf(xs[i][:, 0], xs[i][:, 1], xs[i][:, 2], triangles=tri, color="tab:blue", alpha=0.8,
+                         linewidth=0.2, edgecolor="k")
+        ax2.set_xlim(-0.6, 0.6), ax2.set_ylim(-0.6, 0.6), ax2.set_zlim(-0.9, 0.1)
+        ax2.set_xlabel("x (m)"), ax2.set_ylabel("y (m)"), ax2.set_zlabel("z (m)")
+        ax2.set_title(f"t = {i * every * h:.2f} s")
+    ctx.save(fig2)
+    pins = cloth.pinned
+    return {"times": np.arange(len(xs)) * every * h, "energy": np.array(energy),
+            "cg_iterations": np.array(iters),
+            "pin_motion": float(np.abs(xs[:, pins] - cloth.sheet.x0[pins]).max()),
+            "min_sphere_distance": float(min(sphere.signed_distance(x)[0].min() for x in xs)),
+            "min_height": float(xs[:, :, 2].min())}
+
+
+# %% [markdown]
+# ## Figure `ch12_work_precision`
+#
+# Error of the final free positions against a scipy Radau reference (rtol 10⁻⁸), against wall time. Large
+# steps and XPBD are first order (implicit Euler and its position-based cousin); the stiff ODE solvers
+# reach small errors, at a cost per step set by a sparse factorization. Runs past their budget are left off.
+
+# %%
+@figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers")
+def work_precision_figure(ctx):
+    n, budget = (8, 1.5) if ctx.quick else (16, 20.0)
+    wp = work_precision(n, budget, ctx.quick)
+    fig, ax = ctx.subplots(figsize=(5.2, 3.8))
+    out = {"n": n}
+    for m in METHODS:
+        pts = [(t, e) for _, e, t in wp.get(m, []) if e is not None]
+        if pts:
+            t, e = np.array(pts).T
+            ax.loglog(t, np.maximum(e, 1e-16), "o-" if m.startswith(("large", "Newton", "XPBD", "pbanim")) else "s--",
+                      label=m)
+            out[m] = {"time": t, "error": e}
+    ax.set_xlabel("wall time (s)"), ax.set_ylabel("max position error (m)")
+    ax.set_title(f"N = {n} ({3 * n * n} unknowns)")
+    ax.legend(fontsize=6)
+    ctx.save(fig)
+    return out
+
+
+# %% [markdown]
+# ## Figure `ch12_stable_step`
+#
+# Symplectic Euler is stable below h ≈ 2/ω_max, ω_max ∝ √k: ten times stiffer, about three times
+# smaller step. Large steps (implicit Euler, linearized) and XPBD do not care.
+
+# %%
+@figure("ch12", "stable_step", "Largest stable step vs stiffness per method")
+def stable_step(ctx):
+    ks = (1e2, 1e3, 1e4) if ctx.quick else (1e1, 1e2, 1e3, 1e4, 1e5)
+    n = 6 if ctx.quick else 8
+    out = {"k": np.array(ks)}
+    fig, ax = ctx.subplots(figsize=(4.6, 3.4))
+    for m in ("symplectic Euler", "XPBD", "large steps"):
+        hs = np.array([largest_stable_step(m, k, n) for k in ks])
+        out[m] = hs
+        ax.loglog(ks, hs, "o-", label=m)
+    ax.set_xlabel("stretch stiffness k (N/m)"), ax.set_ylabel("largest stable h (s)")
+    ax.legend(fontsize=7)
+    ctx.save(fig)
+    return out
+
+
+# %% [markdown]
+# ## Figure `ch12_step_cost`
+#
+# The cost of one step at h = 1/60 s against the number of particles. XPBD's sweeps are linear in N²
+# (plus a fixed Python cost per colour); the large step's CG needs more iterations on a finer sheet
+# (Jacobi preconditioning: ∝ N), so its cost grows faster than N² while each iteration is linear.
+
+# %%
+@figure("ch12", "step_cost", "Cost per step vs N² (large steps, XPBD)")
+def step_cost(ctx):
+    sizes = (8, 16, 24) if ctx.quick else (16, 32, 64)
+    costs = step_costs(sizes, repeats=1 if ctx.quick else 3)
+    n2 = np.array(sizes, dtype=float) ** 2
+    ls = np.array([costs[n][0] for n in sizes])
+    its = np.array([costs[n][1] for n in sizes], dtype=float)
+    xp = np.array([costs[n][2] for n in sizes])
+    fig, ax = ctx.subplots(figsize=(4.6, 3.4))
+    ax.loglog(n2, ls, "o-", label="large step")
+    ax.loglog(n2, ls / its, "o:", label="large step per CG iteration")
+    ax.loglog(n2, xp, "s-", label="XPBD 1 × 10 sweeps")
+    ax.set_xlabel("particles N² (count)"), ax.set_ylabel("wall time per step (s)")
+    ax.legend(fontsize=7)
+    ctx.save(fig)
+    return {"n2": n2, "large_step": ls, "cg_iterations": its, "xpbd": xp}
