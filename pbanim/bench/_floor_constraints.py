@@ -12,6 +12,18 @@ numpy, on dense arrays:
 with the four stages of RK4 on (q, q̇) written out. Same method, same equations, same start, same number of
 steps; the bench checks that the final states agree to roundoff. pbanim's solve also takes the one
 refinement step of the readable solvers (the hand loop does not): a little more work on its side.
+
+========  ==========================  ===========================================
+symbol    code                        meaning
+========  ==========================  ===========================================
+q, q̇      ``q``, ``qd``               positions and velocities, flat (n = N·dim)
+W         ``W``                       inverse masses per coordinate
+C, Ċ      ``C``, ``Cdot``             ½(|d|² − L²) per rod and its rate d·ḋ
+k_s, k_d  ``KS``, ``KD``              Baumgarte gains: ω², 2ω (critical damping)
+========  ==========================  ===========================================
+
+Rows: a pendulum (one rod to the origin), a chain of 3 rods and one of 6 (m rows: the dense solve's
+m × m Cholesky grows with the chain, the hand loop's ``np.linalg.solve`` with it).
 """
 
 from __future__ import annotations
@@ -20,7 +32,7 @@ import numpy as np
 
 from .floors import Floor
 
-__all__ = ["FLOORS", "pendulum", "chain"]
+__all__ = ["FLOORS", "chain", "chain6", "pendulum"]
 
 H, STEPS, OMEGA, G = 1e-3, 1000, 10.0, np.array([0.0, -9.81])
 KS, KD = OMEGA ** 2, 2.0 * OMEGA            # critically damped Baumgarte feedback (ζ = 1)
@@ -90,4 +102,9 @@ def chain() -> Floor:
     return _row(3, "chain: 3 rods, Baumgarte (2-D)")
 
 
-FLOORS = [pendulum, chain]
+def chain6() -> Floor:
+    """Six particles on six rods hanging from the origin, Baumgarte, RK4."""
+    return _row(6, "chain: 6 rods, Baumgarte (2-D)")
+
+
+FLOORS = [pendulum, chain, chain6]
