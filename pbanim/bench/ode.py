@@ -314,6 +314,17 @@ def floor_ratios(key, worst, t_np=None):
     return f"{PROBLEMS[key][0]}: " + "; ".join(parts) + tail
 
 
+def _floor_verdict(r, target, lib):
+    """The tail of a goal line: whether any pure-Python integrator can meet it, by the floor ratio ``r``."""
+    if not np.isfinite(r):
+        return ""
+    if r > target:
+        return (f"; NOT MEETABLE in pure Python: the floor (pbanim's fewest calls of f × one call) is already "
+                f"{r:.2f}× {lib}'s whole run (> {target:g}), before any integrator work — a CPython bound, not a "
+                "defect of the method")
+    return f"; meetable in principle (floor/{lib} = {r:.2f} ≤ {target:g})"
+
+
 def _overhead(quick):
     osc = harmonic_oscillator(1.0)
     f = osc.rhs
@@ -384,9 +395,11 @@ def run(quick: bool = False, problems=None) -> Report:
                              + ", ".join(f"{L:.0e}" for L in unreached))
         rep.goals += [
             Goal(f"ode-{key}-vs-solve_ivp", worst["ivp"], 0.5, "<=", "x",
-                 "worst level of 1e-3..1e-10: pbanim best / solve_ivp best, equal error"),
+                 "worst level of 1e-3..1e-10: pbanim best / solve_ivp best, equal error"
+                 + _floor_verdict(worst["floor_ivp"], 0.5, "solve_ivp")),
             Goal(f"ode-{key}-vs-odeint", worst["odeint"], 1.0, "<=", "x",
-                 "worst level of 1e-3..1e-10: pbanim best / odeint, equal error"),
+                 "worst level of 1e-3..1e-10: pbanim best / odeint, equal error"
+                 + _floor_verdict(worst["floor_odeint"], 1.0, "odeint")),
         ]
     t_over, r_over = _overhead(quick)
     t_batch, r_batch = _batch(quick)

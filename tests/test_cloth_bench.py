@@ -1,0 +1,41 @@
+"""The helpers of ``pbanim bench cloth`` and the goal lines of ``pbanim bench ode``'s stiff rows (issue 29).
+
+No timing is asserted here (speed goals live in the benchmarks): these tests check what the benchmark
+computes — the runs' errors against the reference shrink, the banded odeint path equals solve_ivp, the
+stability search finds the explicit limit — and that a goal bounded by CPython's per-call floor says so.
+"""
+
+import numpy as np
+
+from pbanim.bench.cloth import _run, largest_stable_step, sheet
+from pbanim.bench.ode import _floor_verdict
+
+
+def test_banded_odeint_and_sparse_solvers_agree_on_the_sheet():
+    # the interleaved banded Jacobian handed to odeint is the sparse one: all three solvers agree to tolerance
+    cloth = sheet(4)
+    a = _run(cloth, "scipy odeint", 1e-8, 0.02, 60.0)
+    b = _run(cloth, "scipy Radau", 1e-8, 0.02, 60.0)
+    c = _run(cloth, "scipy BDF", 1e-8, 0.02, 60.0)
+    assert np.abs(a - b).max() < 1e-6 and np.abs(c - b).max() < 1e-6       # measured ~1e-9 m
+
+
+def test_large_steps_error_falls_with_h():
+    # ORACLES J3: implicit Euler, first order: a 4× smaller step, about 4× smaller error
+    cloth = sheet(4)
+    ref = _run(cloth, "scipy Radau", 1e-9, 0.02, 60.0)
+    e1, e2 = (np.abs(_run(cloth, "large steps", h, 0.02, 60.0) - ref).max() for h in (0.02 / 2, 0.02 / 8))
+    assert 2.5 < e1 / e2 < 6.0, (e1, e2)
+
+
+def test_explicit_step_shrinks_with_stiffness_large_steps_do_not():
+    h1, h2 = (largest_stable_step("symplectic Euler", k, 4) for k in (1e2, 1e4))
+    assert h2 < h1 / 4                                                      # ∝ k^(−1/2): 10× here
+    assert largest_stable_step("large steps", 1e4, 4) == 0.1
+
+
+def test_ode_goal_lines_say_when_the_floor_makes_a_goal_unmeetable():
+    assert "NOT MEETABLE in pure Python" in _floor_verdict(2.3, 0.5, "solve_ivp")
+    assert "2.30×" in _floor_verdict(2.3, 0.5, "solve_ivp")
+    assert "meetable in principle" in _floor_verdict(0.2, 0.5, "solve_ivp")
+    assert _floor_verdict(float("nan"), 1.0, "odeint") == ""
