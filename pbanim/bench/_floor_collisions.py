@@ -1,4 +1,4 @@
-"""Floor rows of chapter 06: the bouncing ball with its impacts located (``pbanim bench floors``).
+"""Floor rows of chapter 06: the bouncing ball with its impacts located, Newton's cradle (``pbanim bench floors``).
 
 pbanim runs the ball of ORACLES D1 (a point mass dropped from h₀ = 1 m onto the plane y = 0 in 2-D,
 ε = 0.8, g = 9.81) as chapter 06 does: ``simulate_collisions(bb.scene(), T, h, "rk4", toi="event")``, to
@@ -17,6 +17,12 @@ scene's diagnostics at every recorded state, about 1600x the hand loop). CPython
 driven run pays per step whatever the physics (the state as an array in and out of the step, its
 finiteness check, its row in the recorded states; no hooks) is measured in the run and printed as the
 floor, beside a hand step of four floats.
+
+Newton's cradle (ORACLES D2): three balls in a row, the last two touching, the first arriving at 1 m/s,
+ε = 1, run by ``Scene.simulate`` with the ``Collisions`` post-step effect (fixed-step detection, Baraff's
+sequential impulses, the projection), symplectic Euler; the hand loop is that law for balls on a line (see
+:func:`_cradle_hand`). The touching pair is a contact at every step, so pbanim's general response runs at
+every step (broad phase, contact records, the certified impulse solve): no lean path covers it yet.
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ import numpy as np
 
 from .floors import Floor
 
-__all__ = ["FLOORS", "bouncing_ball_event"]
+__all__ = ["FLOORS", "bouncing_ball_event", "newtons_cradle"]
 
 H0, EPS, G, H = 1.0, 0.8, 9.81, 0.01
 
@@ -107,4 +113,67 @@ def _driver_floor_us(grid) -> float:
     return float(np.median(times))
 
 
-FLOORS = [bouncing_ball_event]
+# Newton's cradle (ORACLES D2): three balls of radius 1/2 in a row on the x axis, the second and third
+# touching, the first arriving at 1 m/s; ε = 1, no gravity, symplectic Euler, 300 steps of 1 ms
+CR_X, CR_V, CR_R, CR_H, CR_STEPS = (0.0, 1.05, 2.05), (1.0, 0.0, 0.0), 0.5, 1e-3, 300
+
+
+def _cradle_hand(steps: int) -> np.ndarray:
+    """The cradle as a student writes the chapter's law for balls on a line: drift x += h v; the contacts
+    (i < j with d = x_j − x_i ≤ 2r, normal +x, depth 2r − d); Baraff's sequential loop over the contacts
+    approaching (v_j − v_i < 0), j = −(1 + ε)(v_j − v_i)/(W_i + W_j), until none approaches; then each ball
+    moved along its deepest contact's normal by its share of the depth (equal masses: half)."""
+    x, v = list(CR_X), list(CR_V)
+    n, two_r = len(x), 2 * CR_R
+    for _ in range(steps):
+        x = [xi + vi * CR_H for xi, vi in zip(x, v)]
+        contacts = [(i, j, two_r - (x[j] - x[i])) for i in range(n) for j in range(i + 1, n)
+                    if x[j] - x[i] <= two_r]
+        if not contacts:
+            continue
+        u = list(v)
+        while True:
+            hit = False
+            for i, j, _ in contacts:
+                vn = u[j] - u[i]
+                if vn < 0.0:
+                    J = -2.0 * vn / 2.0                 # ε = 1, W_i = W_j = 1
+                    u[j] += J
+                    u[i] -= J
+                    hit = True
+            if not hit:
+                break
+        v = u
+        move = [0.0] * n                                # each ball: its deepest contact's share, with a sign
+        for i, j, depth in contacts:
+            if depth > 0.0:
+                if depth / 2 >= abs(move[j]):
+                    move[j] = depth / 2
+                if depth / 2 >= abs(move[i]):
+                    move[i] = -depth / 2
+        x = [xi + mi for xi, mi in zip(x, move)]
+    return np.array(x + v)
+
+
+def newtons_cradle() -> Floor:
+    """Three balls, the first arriving at 1 m/s (ORACLES D2: the sequential law leaves (0, 0, v₀))."""
+    from ..collision.scene import Collisions
+    from ..particles import ParticleSystem
+    from ..scene import Scene
+
+    scene = Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]),
+                  [Collisions(radius=CR_R, restitution=1.0, gravity=0.0)])
+
+    def pbanim():
+        y = scene.simulate(fl.steps * CR_H, CR_H, "symplectic_euler", diagnostics=False).y[:, -1]
+        return np.concatenate([y[0:6:2], y[6:12:2]])          # the x components (y stays 0)
+
+    def hand():
+        return _cradle_hand(fl.steps)
+
+    fl = Floor("collisions", "Newton's cradle, 3 balls on a line (2-D, ε = 1)", "symplectic_euler", CR_STEPS,
+               pbanim, hand)
+    return fl
+
+
+FLOORS = [bouncing_ball_event, newtons_cradle]
