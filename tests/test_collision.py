@@ -1094,3 +1094,14 @@ def test_a_few_bodies_test_every_pair_and_find_the_contacts_of_the_grid(case):
     assert grid.diagnostics["contacts"].sum() > 0
     if case == "cradle":
         assert few.y[6:12:2, -1].tolist() == [0.0, 0.0, 1.0]
+
+
+def test_floor_rows_of_chapter_06_are_equal_work():
+    # pbanim bench floors: each hand loop (the bouncing ball's impacts located, the cradle's sequential law)
+    # computes what pbanim's run computes from the same start: final states within the row's tolerance
+    from pbanim.bench import _floor_collisions
+
+    for make in _floor_collisions.FLOORS:
+        fl = make()
+        a, b = np.asarray(fl.pbanim(), float), np.asarray(fl.hand(), float)
+        assert a.shape == b.shape and np.abs(a - b).max() / max(1.0, np.abs(b).max()) <= fl.tol, fl.scene

@@ -151,3 +151,13 @@ def test_a_diverging_lean_run_is_named_at_the_step_the_readable_run_names():
             scene.simulate(1.0, 0.1, "euler", diagnostics=False)
         errors.append((info.value.t, info.value.step))
     assert errors[0] == errors[1]
+
+
+def test_floor_row_of_chapter_05_is_equal_work():
+    # pbanim bench floors: the hand loop (RK4 on floats, q renormalized) computes what the scene's run computes
+    from pbanim.bench import _floor_rigid
+
+    for make in _floor_rigid.FLOORS:
+        fl = make()
+        a, b = np.asarray(fl.pbanim(), float), np.asarray(fl.hand(), float)
+        assert a.shape == b.shape and np.abs(a - b).max() / max(1.0, np.abs(b).max()) <= fl.tol, fl.scene
