@@ -96,14 +96,18 @@ def _residual(tr, goals, comp) -> np.ndarray:
 @contract(scene=Obj(ContactScene), t_end=Real(gt=0), names=Obj(list, tuple), goals=Seq(Obj(Goal)),
           u=Opt(Array((None,))), rest=Flag(), face=Opt(Int(ge=0, le=5)), M=Opt(Array((None, None))),
           h=Real(gt=0), tol=Real(gt=0), rest_tol=Real(gt=0), max_iter=Int(ge=1), backtracks=Int(ge=0),
-          components=Seq(Int(ge=0, le=2)))
+          components=Seq(Int(ge=0, le=2)), kicks=Int(ge=0), kick=Real(ge=0), seed=Int(ge=0))
 def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = False, face=None, M=None,
                    h: float = 0.01, tol: float = 1e-6, rest_tol: float = 1e-6, max_iter: int = 20,
-                   backtracks: int = 8, components=(0, 1, 2)) -> ContactDesign:
+                   backtracks: int = 8, components=(0, 1, 2), kicks: int = 0, kick: float = 0.1,
+                   seed: int = 0) -> ContactDesign:
     """Find u (blocks ``names``) so that the stepped motion meets ``goals`` (position goals of body 0 at
     times in (0, t_end]), comes to rest at t_end (``rest``) and lies on ``face`` (a cube: its initial
     orientation ``theta0`` is then part of the answer, appended to names); ``components`` the coordinates of
-    each goal that count (e.g. (0, 1): where a ball passes over a cup, at whatever height). Never raises for a goal it
+    each goal that count (e.g. (0, 1): where a ball passes over a cup, at whatever height); ``kicks``: when
+    no step lowers the residual (the goal lies across a jump of S, e.g. a die that tips over one more edge or
+    not), restart up to ``kicks`` times from the best u moved by ``kick``·max(|u|, 0.1)·N(0, 1) (seeded), the
+    best answer kept — the discrete layer over which piece of S the answer lies on. Never raises for a goal it
     cannot meet: ``success`` False with the residual reached and notes.
 
     >>> from pbanim.collision import Box, Plane
@@ -141,6 +145,7 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
     r = _residual(tr, goals, comp)
     history, notes, it = [float(np.linalg.norm(r))], [], 0
     relabelled = False
+    rng, best = np.random.default_rng(seed), (np.inf, 0, u, tr, r, theta)
     for it in range(1, max_iter + 1):
         if history[-1] <= tol:
             if face is None or relabelled:
@@ -175,10 +180,29 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
         if not ok:
             notes.append(f"update {it}: no fraction of the Gauss–Newton or the steepest-descent step lowered "
                          f"the residual {history[-1]:.3e} (a kink of S or a local minimum)")
-            break
+            best = min(best, (history[-1], it, u, tr, r, theta), key=lambda b: b[0])
+            moved = False
+            while kicks > 0 and not moved:
+                kicks -= 1
+                trial_u = best[2] + kick * np.maximum(np.abs(best[2]), 0.1) * rng.standard_normal(best[2].size)
+                try:
+                    tr, u, theta = run(trial_u), trial_u, best[5]
+                    moved = True
+                except PbanimError as exc:
+                    notes.append(f"update {it}: a kick was refused ({exc})")
+            if not moved:
+                break
+            r = _residual(tr, goals, comp)
+            notes.append(f"update {it}: kicked to a new start (residual {np.linalg.norm(r):.3e})")
+            history.append(float(np.linalg.norm(r)))
+            relabelled = False
+            continue
         history.append(float(np.linalg.norm(r)))
         if face is not None and history[-1] > tol:
             relabelled = False
+    if best[0] < history[-1]:                       # a kick led nowhere better: the best answer found
+        _, _, u, tr, r, theta = best
+        history.append(best[0])
     return _finish(scene, tr, names, u, theta, face, goals, rest, tol, rest_tol, history, notes, it, t_end)
 
 
