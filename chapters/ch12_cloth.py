@@ -40,9 +40,9 @@ from pbanim.plotting import figure
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)")
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=3.0)
 def drape(ctx):
-    n, frames, every = (10, 40, 2) if ctx.quick else (24, 120, 3)
+    n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
     cloth = Cloth(Sheet(n, pins="corners"), model="bw", stretch=500.0, shear=50.0, bend=1e-3, damping=0.02,
                   colliders=[sphere, Ground(-0.9)])
@@ -56,26 +56,29 @@ def drape(ctx):
             energy.append(cloth.energy(y))
     xs = np.array(xs)
     tri = cloth.sheet.triangles
+    u, w = np.meshgrid(np.linspace(0, 2 * np.pi, 16), np.linspace(0, np.pi, 9))
+    ball = [sphere.center[i] + sphere.radius * c for i, c in
+            enumerate((np.cos(u) * np.sin(w), np.sin(u) * np.sin(w), np.cos(w)))]
+
+    def panel(a, i):
+        a.plot_wireframe(*ball, color="0.5", linewidth=0.4)
+        a.plot_trisurf(xs[i][:, 0], xs[i][:, 1], xs[i][:, 2], triangles=tri, color="tab:blue", alpha=0.8,
+                       linewidth=0.2, edgecolor="k")
+        a.set_xlim(-0.6, 0.6), a.set_ylim(-0.6, 0.6), a.set_zlim(-0.9, 0.1)
+        a.set_xlabel("x (m)"), a.set_ylabel("y (m)"), a.set_zlabel("z (m)")
+        a.set_title(f"t = {i * every * h:.2f} s")
     fig, ax = ctx.subplots(figsize=(4.4, 4.0), subplot_kw={"projection": "3d"})
 
     def draw(i):
         ax.clear()
-        ax.plot_trisurf(xs[i][:, 0], xs[i][:, 1], xs[i][:, 2], triangles=tri, color="tab:blue", alpha=0.8,
-                        linewidth=0.2, edgecolor="k")
-        ax.set_xlim(-0.6, 0.6), ax.set_ylim(-0.6, 0.6), ax.set_zlim(-0.9, 0.1)
-        ax.set_xlabel("x (m)"), ax.set_ylabel("y (m)"), ax.set_zlabel("z (m)")
-        ax.set_title(f"t = {i * every * h:.2f} s")
+        panel(ax, i)
         return ()
 
     ctx.save_gif(fig, draw, len(xs), fps=10)
     picks = np.unique(np.linspace(0, len(xs) - 1, 4).astype(int))
     fig2, axs = ctx.subplots(1, len(picks), figsize=(3.0 * len(picks), 3.0), subplot_kw={"projection": "3d"})
     for ax2, i in zip(axs, picks):
-        ax2.plot_trisurf(xs[i][:, 0], xs[i][:, 1], xs[i][:, 2], triangles=tri, color="tab:blue", alpha=0.8,
-                         linewidth=0.2, edgecolor="k")
-        ax2.set_xlim(-0.6, 0.6), ax2.set_ylim(-0.6, 0.6), ax2.set_zlim(-0.9, 0.1)
-        ax2.set_xlabel("x (m)"), ax2.set_ylabel("y (m)"), ax2.set_zlabel("z (m)")
-        ax2.set_title(f"t = {i * every * h:.2f} s")
+        panel(ax2, i)
     ctx.save(fig2)
     pins = cloth.pinned
     return {"times": np.arange(len(xs)) * every * h, "energy": np.array(energy),
@@ -93,7 +96,8 @@ def drape(ctx):
 # reach small errors, at a cost per step set by a sparse factorization. Runs past their budget are left off.
 
 # %%
-@figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers")
+@figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers",
+        cost=2.0)
 def work_precision_figure(ctx):
     n, budget = (8, 1.5) if ctx.quick else (16, 20.0)
     wp = work_precision(n, budget, ctx.quick)
