@@ -257,4 +257,7 @@ class LeanRigid:
                 return readable(t, y, h)
             counter[0] += nfev
             return y1
+        # float arithmetic raises on no non-finite state (an overflow is inf, 0/0 goes to the readable step):
+        # the driver may check the stored states once per block (the first bad step named as at each step)
+        advance.nan_safe = True
         return advance

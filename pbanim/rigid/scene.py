@@ -241,6 +241,7 @@ class RigidScene(Scene):
                 raise SimulationDiverged(t, taken[0], exc.what, "it overflowed from a finite state") from None
             taken[0] += 1
             return y1
+        advance.nan_safe = getattr(step, "nan_safe", False)
         return advance
 
     def _advance_step(self, m, counter: list):
