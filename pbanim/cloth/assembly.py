@@ -17,6 +17,9 @@ the gather that fills it from K.data and D.data, so ``jac(t, y)`` for pbanim's a
 one ``take`` and two scalings.
 
 Notation: n = 3N coordinates; q = 3 nv per element; ``maps[c]`` (E_c·q²,) data positions of kind c.
+
+Limiting cases: a kind with no elements adds nothing (its map is empty); the diagonal is always in the
+pattern, so M − hD − h²K has a place for every mass even where no element reaches (an isolated particle).
 """
 
 from __future__ import annotations
@@ -28,7 +31,10 @@ __all__ = ["Pattern", "FreeJacobian"]
 
 
 class Pattern:
-    """The CSR pattern (n × n) of the union of element blocks and the diagonal, and each kind's data map."""
+    """The CSR pattern (n × n) of the union of element blocks and the diagonal, and each kind's data map.
+
+    Built once per cloth: the keys r·n + c of every block entry, made unique and sorted (CSR order); each
+    kind's entries are found in them by ``searchsorted``."""
 
     def __init__(self, n: int, dof_lists) -> None:
         self.n = n

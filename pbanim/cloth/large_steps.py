@@ -230,7 +230,7 @@ def large_step(cloth, y, h: float, tol: float = 1e-4, max_iter: int = 2000):
     """One Baraff–Witkin large step of the cloth from the full state y: (y₁, :class:`PCGResult`).
 
     Raises SimulationDiverged when y₁ is not finite; a CG solve that stopped at ``max_iter`` is returned with
-    ``converged`` False (the runner :func:`pbanim.cloth.simulate` counts them).
+    ``converged`` False (the caller decides: the benchmark and chapter 12 count or report them).
     """
     y1, sol, _ = _large_step(cloth, y, h, tol, max_iter)
     if not np.isfinite(y1).all():

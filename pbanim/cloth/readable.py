@@ -15,6 +15,10 @@ give one force to roundoff (ORACLES J1).
   ∂θ/∂x₂ = −|E| N₁/|N₁|², ∂θ/∂x₃ = −|E| N₂/|N₂|², and the edge's two gradients from the projections of the
   opposite vertices on E (in :func:`bend_gradient`); the four sum to zero.
 
+Notation: ``C`` the condition values (m,), ``G`` = ∂C/∂x per vertex (m, nv, 3), ``k``, ``kd`` the stiffness
+and damping of the element's components, Ċ = Σ_i G_i·v_i. Limiting cases: at the rest shape every C = 0
+and the loop returns gravity alone; a rigid translation or rotation of (x, v) leaves C and Ċ unchanged.
+
 References: D. Baraff, A. Witkin, "Large steps in cloth simulation", SIGGRAPH 1998, §4; R. Bridson,
 S. Marino, R. Fedkiw, "Simulation of clothing with folds and wrinkles", SCA 2003.
 """
