@@ -132,3 +132,17 @@ def test_pybullet_stack_measures_the_same_stack():
     assert 0 <= out["drift"] < 0.01 and 0 <= out["penetration"] < 0.01 and out["jitter"] < 1.0
     with pytest.raises(ValueError, match="positive"):
         contact_peers.pybullet_stack(3, 0.02, -1e-3)
+
+
+def test_contact_large_smoke():
+    """``pbanim bench contact_large --quick`` runs and prints its goal lines (the slope, the pile and the wall
+    against the peers, or "not measured" without them)."""
+    from pbanim.bench import contact_large, format_report
+
+    rep = contact_large.run(quick=True)
+    ids = [g.id for g in rep.goals]
+    assert ids == ["contact-large-slope", "contact-large-60-spheres-vs-peers", "contact-large-wall-20-vs-peers"]
+    text = format_report(rep)
+    assert all(f"goal {i}:" in text for i in ids)
+    grow = rep.tables[0]
+    assert [r[0] for r in grow.rows] == list(contact_large.QUICK_COUNTS) and all(r[2] > 0 for r in grow.rows)
