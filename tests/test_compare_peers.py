@@ -80,5 +80,11 @@ def test_harness_rows_with_the_peer_installed(engine):
     # ORACLES K9, K1: an installed peer gives ok rows, first order on free fall (slope 1 ± 0.01, measured 1.000)
     pytest.importorskip(engine)
     cmp = run_compare(["free_fall"], [engine], quick=True)
-    assert [r.status for r in cmp.rows] == ["ok", "ok"] and all(r.settings for r in cmp.rows)
+    # the quick sweep (10 ms, 5 ms), then the peers' own steps (1/240 s, 2 ms), outside the fitted order
+    assert [(r.h, r.sweep) for r in cmp.rows] == [(1e-2, True), (5e-3, True), (1 / 240, False), (2e-3, False)]
+    assert [r.status for r in cmp.rows] == ["ok"] * 4 and all(r.settings for r in cmp.rows)
     assert abs(cmp.order("free_fall", engine) - 1.0) < 0.01
+    # K1 at the own steps: max |x − x_exact| = ½ g h T at T = 0.5 s; the cost per simulated s is per step / h
+    for r in cmp.rows:
+        assert r.error == pytest.approx(0.5 * 9.81 * r.h * 0.5, rel=1e-9)
+        assert r.s_per_sim_s == pytest.approx(1e-6 * r.us_per_step / r.h, rel=1e-12)
