@@ -5,7 +5,8 @@ pinned at the two top corners, Rayleigh damping β = 10⁻³ s, falling from fla
 T = 0.05 s. Its stiffest mode has ω ≈ 140 N rad/s, so h = 1/60 s is h ω ≈ 40 at N = 16.
 
 * **Work-precision** per N: the final positions of the free particles against a converged reference
-  (scipy Radau, rtol 10⁻⁸, the sparse Jacobian), max-norm error in m (the sheet is 1 m), versus wall time,
+  (scipy Radau, rtol 10⁻⁷, the sparse Jacobian;
+  at N = 16 rtol 10⁻⁶ is within 3·10⁻¹¹ m of rtol 10⁻⁸), max-norm error in m (the sheet is 1 m), versus wall time,
   for pbanim's large steps (Baraff & Witkin), Newton (implicit Euler), XPBD with substeps, pbanim's RODAS4
   and Radau IIA (sparse Jacobian), and scipy's ``solve_ivp`` BDF and Radau (sparse Jacobian) and ``odeint``
   (LSODA, banded: the state interleaved particle by particle, bandwidth given). Every run has a wall-time
@@ -39,6 +40,7 @@ METHODS = ("large steps", "Newton", "XPBD", "pbanim RODAS4", "pbanim Radau", "sc
            "scipy odeint")
 PBANIM = METHODS[:5]
 ERRORS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
+REF_RTOL = 1e-7          # at N = 16 scipy Radau at rtol 1e-6 is within 3e-11 m of rtol 1e-8 (measured)
 
 
 class OverBudget(Exception):
@@ -124,7 +126,10 @@ def _run(cloth, method, setting, t_end, budget):
     return z[-1][inv][:n]
 
 
-def _settings(method, quick):
+def _settings(method, quick, n=16):
+    if n > 16 and not quick:                             # larger sheets: three settings per method
+        return {"large steps": [T_END / k for k in (3, 12, 48)], "Newton": [T_END / k for k in (3, 12)],
+                "XPBD": (4, 32)}.get(method, (1e-3, 1e-4, 1e-5))
     if method == "large steps":
         return [T_END / k for k in ((3, 12, 48) if quick else (3, 6, 12, 24, 48, 96))]
     if method == "Newton":
@@ -145,7 +150,7 @@ def work_precision(n: int, budget: float = 20.0, quick: bool = False) -> dict:
         import scipy.integrate as si
         y0 = cloth.free_state(cloth.state())
         r = si.solve_ivp(_budgeted(unchecked(cloth.rhs), 6 * budget), (0.0, T_END), y0, method="Radau",
-                         rtol=1e-8, atol=1e-10, jac=unchecked(cloth.jac))
+                         rtol=REF_RTOL, atol=REF_RTOL * 1e-2, jac=unchecked(cloth.jac))
         ref = r.y[:cloth.nf, -1]
         out["reference"] = time.perf_counter() - start
     except OverBudget:
@@ -153,7 +158,7 @@ def work_precision(n: int, budget: float = 20.0, quick: bool = False) -> dict:
         return out
     for m in METHODS:
         rows = []
-        for s in _settings(m, quick):
+        for s in _settings(m, quick, n):
             t0 = time.perf_counter()
             try:
                 x = _run(cloth, m, s, T_END, budget)
@@ -165,9 +170,23 @@ def work_precision(n: int, budget: float = 20.0, quick: bool = False) -> dict:
     return out
 
 
-def _time_to(rows, e):
-    ts = [t for _, err, t in rows if err is not None and err <= e]
-    return min(ts) if ts else None
+def _best(wp, methods, e):
+    """(time, method, setting) of the fastest run of ``methods`` with error ≤ e (None when none reached it)."""
+    runs = [(t, m, s) for m in methods for s, err, t in wp.get(m, []) if err is not None and err <= e]
+    return min(runs) if runs else None
+
+
+def _alternating(cloth, a, b, rounds, budget):
+    """Median time ratio a/b of two runs (method, setting), timed in alternating rounds, and its quartiles."""
+    ratios = []
+    for _ in range(rounds):
+        ts = []
+        for m, s in (a, b):
+            t0 = time.perf_counter()
+            _run(cloth, m, s, T_END, budget)
+            ts.append(time.perf_counter() - t0)
+        ratios.append(ts[0] / ts[1])
+    return float(np.median(ratios)), float(np.percentile(ratios, 25)), float(np.percentile(ratios, 75))
 
 
 @contract(sizes=Seq(Int(ge=2, le=256), min_len=1, max_len=8), repeats=Int(ge=1, le=20))
@@ -228,7 +247,7 @@ def run(quick: bool = False) -> Report:
         ref = wp["reference"]
         ref = ref if isinstance(ref, str) else f"{ref:.1f} s"
         tab = Table(f"work-precision at N = {n} ({3 * n * n} unknowns), T = {T_END} s; reference scipy Radau "
-                    f"rtol 1e-8: {ref}",
+                    f"rtol {REF_RTOL:g}: {ref}",
                     ["method", "setting", "error (m)", "wall (s)"])
         if isinstance(wp["reference"], str):
             rep.tables.append(tab)
@@ -237,15 +256,19 @@ def run(quick: bool = False) -> Report:
             for s, err, t in wp[m]:
                 tab.rows.append([m, f"{s:.3g}", "—" if err is None else err, t if isinstance(t, str) else t])
         rep.tables.append(tab)
+        pairs: dict = {}
         for e in ERRORS:
-            pb = [x for x in (_time_to(wp[m], e) for m in PBANIM) if x is not None]
-            sc = [x for x in (_time_to(wp[m], e) for m in METHODS[5:]) if x is not None]
+            pb, sc = _best(wp, PBANIM, e), _best(wp, METHODS[5:], e)
             if pb and sc:
-                ratios.append((min(pb) / min(sc), n, e))
+                key = (pb[1:], sc[1:])
+                if key not in pairs:                      # the same two runs serve several levels
+                    pairs[key] = _alternating(sheet(n), pb[1:], sc[1:], 2 if quick else 3, 3 * budget)
+                med, q1, q3 = pairs[key]
+                ratios.append((med, n, e, f"{pb[1]} {pb[2]:.3g} / {sc[1]} {sc[2]:.3g}: {med:.2f} ({q1:.2f}–{q3:.2f})"))
     if ratios:
         worst = max(ratios)
-        rep.notes.append("pbanim best / scipy best at equal error: " + ", ".join(
-            f"N={n} e={e:g}: {r:.2f}" for r, n, e in ratios))
+        rep.notes.append("pbanim best / scipy best at equal error, median of alternating rounds (quartiles): "
+                         + "; ".join(f"N={n} e={e:g}: {txt}" for _, n, e, txt in ratios))
         rep.goals.append(Goal("pbanim_vs_scipy_at_equal_error", worst[0], 0.5, "<=", "x",
                               f"worst over errors 1e-2..1e-6 reached by both sides (N = {worst[1]}, e = {worst[2]:g})"))
     else:
@@ -263,8 +286,11 @@ def run(quick: bool = False) -> Report:
     s_it = float(np.polyfit(logn2, np.log([costs[n][0] / max(costs[n][1], 1) for n in cost_sizes]), 1)[0])
     s_x = float(np.polyfit(logn2, np.log([costs[n][2] for n in cost_sizes]), 1)[0])
     rep.notes.append(f"fitted slope vs N²: large step {s_ls:.2f} (per CG iteration {s_it:.2f}), XPBD {s_x:.2f}")
-    rep.goals.append(Goal("large_step_cost_slope_vs_N2", s_ls, 1.1, "<=", "", "Jacobi PCG iterations grow ∝ N"))
-    rep.goals.append(Goal("xpbd_cost_slope_vs_N2", s_x, 1.1, "<=", ""))
+    span = f"N = {cost_sizes[0]}…{cost_sizes[-1]}" + (" (quick: fixed Python costs dominate, read the full run)"
+                                                       if quick else "")
+    rep.goals.append(Goal("large_step_cost_slope_vs_N2", s_ls, 1.1, "<=", "",
+                          f"{span}; Jacobi PCG iterations grow ∝ N, per iteration {s_it:.2f}"))
+    rep.goals.append(Goal("xpbd_cost_slope_vs_N2", s_x, 1.1, "<=", "", span))
     if 64 in costs:
         rep.goals.append(Goal("large_steps_N64_wall_per_simulated_s", costs[64][0] * 60.0, 1.0, "<=", " s",
                               f"h = 1/60 s, {costs[64][1]} CG iterations a step"))
