@@ -11,8 +11,11 @@ Rows (medians of repeats, measured in the same run):
   flight, the residual each update leaves and how far the two updates differ (the same problem, the
   same accuracy: RK4 is exact on the parabolas a sphere flies).
 
+* the drag update rate (issue 30, point 5's measure): a ball with five bounces and a tumbling box.
+
 Goals: analytic ≥ 5× faster than the plain centred difference *and* more accurate than it
-(``design-analytic-vs-fd``); one update of a three-bounce trajectory ≤ 30 ms (``design-update-ms``).
+(``design-analytic-vs-fd``); one update of a three-bounce trajectory ≤ 30 ms (``design-update-ms``); ≥ 30 drag updates a second for
+the five-bounce ball and the tumbling box (``design-drag-rate-ball``, ``design-drag-rate-box``).
 """
 
 from __future__ import annotations
@@ -96,4 +99,30 @@ def run(quick: bool = False) -> Report:
     rep.goals.append(Goal("design-update-ms", 1e3 * times["exact"] if same else float("nan"), 30.0, "<=", " ms",
                           note=f"{n_imp}-bounce trajectory, exact flight; RK4 path {1e3 * times['rk4']:.1f} ms, "
                                f"same update to {rows[0][4]:.1e}"))
+    _drag_rate(rep, quick)
     return rep
+
+
+def _drag_rate(rep, quick):
+    """Issue 30, point 5 (the update half of it): the rate of interactive drag updates (one simulation with
+    sensitivities + one min-norm update, what a drag event costs) for a ball with five bounces (exact
+    flight) and a tumbling box (RK4, four impacts); goal ≥ 30 updates a second each."""
+    from ..design import simulate
+    from ..design.control import goal_system, min_norm_update, position_goal
+
+    cases = [("ball, 5 bounces (exact flight)", ball_scene(), 2.7, [0.5, 1.2, 0.6], 0.02),
+             ("tumbling box, RK4", box_scene(), 1.0, [0.3, 0.3, 0.4], 0.005)]
+    rows = []
+    for label, sc, T, target, h in cases:
+        goal = [position_goal(0, T, target)]
+        n_imp = len(simulate(sc, T, ["x0", "v0"], h=h, sensitivities=False, warn=False).impacts)
+
+        def update():
+            r, A, _ = goal_system(sc, ["x0", "v0"], None, goal, T, h=h)
+            return min_norm_update(A, r).du
+        t = median_time(update, 3 if quick else 9)
+        rows.append([label, n_imp, 1e3 * t, 1.0 / t])
+        rep.goals.append(Goal(f"design-drag-rate-{'ball' if 'ball' in label else 'box'}", 1.0 / t, 30.0, ">=", "/s",
+                              note=f"{label}, {n_imp} impacts, one update {1e3 * t:.1f} ms"))
+    rep.tables.append(Table("drag updates (simulation with ∂S/∂u + min-norm update)",
+                            ["scene", "impacts", "time (ms)", "updates / s"], rows))
