@@ -5,8 +5,8 @@ written here by hand, from the lecture's equations, as a student would write it 
 equations, same start, same number of steps; both return the final state y = [x, v] and the bench checks
 that they agree to roundoff (equal work).
 
-* one particle on a spring, symplectic Euler (2-D): v₁ = v + h(−k x)/m, x₁ = x + h v₁ (pbanim's plan for this
-  linear scene is the linear map y₁ = S y + s: the label says so);
+* one particle on a spring, symplectic Euler (2-D): v₁ = v + h(−k x)/m, x₁ = x + h v₁ (pbanim kicks and
+  drifts into its buffers: a structure-preserving method keeps its own arithmetic, never the linear map);
 * two particles on one damped spring, symplectic Euler (2-D): not linear (pbanim binds f once and kicks and
   drifts with one force evaluation), f = −[k_s(l − r) + k_d l̇] d̂ written out;
 * four particles, five damped springs (a square and one diagonal) and gravity, RK4 (2-D): the springs'
@@ -45,11 +45,10 @@ def one_particle_spring() -> Floor:
             x = x + H * v
         return np.concatenate([x, v])
 
-    return Floor("particles", "one particle on a spring (2-D); pbanim: linear map y1 = S y + s", "symplectic_euler",
-                 N_STEPS, pbanim, hand,
-                 notes=["one particle on a spring: every force is linear, so pbanim steps by the linear map "
-                        "y1 = S y + s of its plan (pbanim.scene.plans), S built once; the hand loop runs the "
-                        "method's kick and drift on f; the rows below are not linear"])
+    return Floor("particles", "one particle on a spring (2-D)", "symplectic_euler", N_STEPS, pbanim, hand,
+                 notes=["one particle on a spring: pbanim's kick-drift plan (pbanim.scene.plans) on its buffers, "
+                        "one force evaluation per step; symplectic Euler never takes the linear map y1 = S y + s "
+                        "(its invariant H~ holds for the method's own arithmetic, ORACLES A1)"])
 
 
 # two particles joined by one damped spring (not linear: the bound-f plan, one force evaluation per step)

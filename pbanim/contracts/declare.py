@@ -229,6 +229,23 @@ def unchecked(f):
     return raw if owner is None else raw.__get__(owner)
 
 
+def package_code(obj, *names: str) -> bool:
+    """Whether the methods ``names`` of ``obj``'s class are the package's own code (written in a module under
+    ``pbanim/``, the same line the boundary check draws). A lean step that replaces a method by an equivalent
+    form precomputed from another (a force's ``apply`` by its ``affine()`` or ``jacobian``, a multiplier solve
+    by its dense twin) trusts only the package's: a course assignment's copy of a module or a user's subclass
+    runs the code it wrote."""
+    cls = type(obj)
+    for name in names:
+        f = getattr(cls, name, None)
+        if f is None:                   # nothing to trust or distrust
+            continue
+        code = getattr(inspect.unwrap(f), "__code__", None)
+        if code is None or not code.co_filename.startswith(_PKG):
+            return False
+    return True
+
+
 def call_checked(fn, *args, **kwargs):
     """``fn(*args, **kwargs)`` checked as a call from user code, wherever it is made (the command line is a
     module of the package, yet what it passes comes from the user); ``fn`` without a contract is just

@@ -11,7 +11,9 @@ method's step and the system's functions bound there. Each plan computes the rea
 plan            when                                                         one step
 ==============  ===========================================================  ===============================
 linear map      every force effect linear (``linear = True``), no constraint  y₁ = S y + s (S, s once per h)
-                or post-step stage, an explicit method, n ≤ LINEAR_MAX
+                or post-step stage, an explicit Runge–Kutta method (not
+                symplectic Euler or Verlet), n ≤ LINEAR_MAX, the package's
+                own effects and system
 kick–drift      symplectic Euler, a system with ``kick_drift`` (particles),   one force evaluation into
                 no constraint effect                                          buffers; affine forces folded
 bound f         any other                                                    the method's step on f, bound
@@ -22,7 +24,7 @@ The linear map
 An effect that declares ``linear = True`` promises Q(t, x, v) = c + K_x x + K_v v with constant c, K_x, K_v
 (gravity, drag, anchor springs) and a ``jacobian`` giving K_x, K_v. When every force effect is linear the
 scene is ẏ = A y + b with A = ∂f/∂y (:meth:`~pbanim.scene.Scene.jac`) and b = f(0), and the step of an
-explicit Runge–Kutta method, of symplectic Euler or of Verlet is affine in y:
+explicit Runge–Kutta method is affine in y:
 
     y₁ = Φ_h(y) = S y + s,     S = R(hA) (RK4: I + hA + (hA)²/2 + (hA)³/6 + (hA)⁴/24),     s = Φ_h(0).
 
@@ -31,6 +33,13 @@ ORACLES A1–A2 — obtained by stepping ẏ = A y from the n columns of the ide
 method itself), and s by one step of the scene's own f from y = 0. A step then costs one n × n product and
 one sum, whatever the method: RK4 costs what Euler costs. Small states only (n ≤ :data:`LINEAR_MAX`: the
 product is O(n²)); the per-particle kick–drift below keeps large linear scenes O(n).
+
+Two limits. Symplectic Euler and Verlet are affine too, but keep their own kick and drift: what they are taught
+for (ORACLES A1: H̃ = E − ½ h k x·v kept to roundoff at every step) holds for their own arithmetic, and a
+fixed S carries its roundoff into every step. And the map is built from the effects' Jacobians, not from
+their ``apply``: only the package's own effects and system are trusted to agree
+(:func:`pbanim.contracts.package_code`); a user's subclass, or a course assignment's copy of a module, runs the
+``apply`` it wrote (the same holds for the affine fold and for gravity summed once below).
 
 The kick–drift
 --------------
@@ -55,7 +64,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..contracts import unchecked
+from ..contracts import package_code, unchecked
 
 __all__ = ["LINEAR_MAX", "LinearMap", "KickDrift", "advance", "bound_rhs", "linear_scene"]
 
@@ -66,7 +75,8 @@ LINEAR_MAX = 64
 def linear_scene(scene) -> bool:
     """Whether a scene's forces are all declared linear, with nothing but forces (see the module docstring)."""
     return (not scene._constraint and not scene._post and scene.n_state <= LINEAR_MAX and scene.has_jacobian
-            and all(getattr(e, "linear", False) for e in scene._force))
+            and all(getattr(e, "linear", False) and package_code(e, "apply", "jacobian", "affine") for e in scene._force)
+            and package_code(scene.system, "derivative"))
 
 
 def _nan_safe(scene) -> bool:
@@ -92,7 +102,8 @@ def bound_rhs(scene, base):
     Q0 = scene.system.zero_forces()
     applies = []
     for e, apply in zip(scene._force, scene._apply):
-        c, d = e.affine() if callable(getattr(e, "affine", None)) else (None, 0)
+        own = callable(getattr(e, "affine", None)) and package_code(e, "apply", "affine")
+        c, d = e.affine() if own else (None, 0)
         if d is None and c is not None and np.broadcast(Q0, c).shape == Q0.shape:
             Q0 += c
         else:
@@ -122,7 +133,9 @@ def advance(scene, m, counter: list, base):
     then the post-step stages; f counted in ``counter[0]``, the Jacobian in ``counter[1]``. ``scene.lean_path =
     False``: the readable step (the method's step on the scene's unchecked ``rhs``)."""
     lean = scene.lean_path
-    if (lean and scene._linear and not m.implicit and not m.nystrom
+    # the structure-preserving methods (symplectic Euler, Verlet) run their own kick and drift: their invariants
+    # (ORACLES A1: H̃ kept to roundoff) hold step by step only for the method's own arithmetic, not for S y + s
+    if (lean and scene._linear and not m.implicit and not m.nystrom and m.name not in ("symplectic_euler", "verlet")
             and not _overrides(scene, base, ("rhs", "forces", "applied_forces", "jac"))):
         return LinearMap(scene, m, bound_rhs(scene, base), counter).advance()
     post, split = scene._post_step, scene.system.split
