@@ -178,6 +178,18 @@ def sphere_contacts(x, r: float, pairs, margin: float):
     return i[keep], j[keep], x[j[keep]] + r * n, n, dist[keep] - 2 * r
 
 
+def _ground_and_pairs(ground, boxes, up, K):
+    """The ground's contacts (body −1, normal ``up``) followed by the box–box ones, as the scenes' arrays
+    (A, B, points, normals, separations, keys): a contact's key is (A·K + B + 1)·8 + its feature."""
+    g_a, g_p, g_s, g_f = ground
+    a, b, p, nn, s, f = boxes
+    A = np.concatenate([g_a, a])
+    B = np.concatenate([np.full(g_a.size, -1, np.intp), b])
+    keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
+    normal = np.concatenate([np.broadcast_to(up, (g_a.size, 3)), nn])
+    return A, B, np.concatenate([g_p, p]), normal, np.concatenate([g_s, s]), keys
+
+
 def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction: float = 0.5, seed: int = 0,
                   half_extents=(0.5, 0.5, 0.25), g: float = 9.81, margin: float = 2e-3,
                   lateral_tol: float = 1e-2) -> ContactScene3D:
@@ -217,12 +229,8 @@ def dropped_stack(n: int = 10, gap: float = 1e-3, offset: float = 3e-3, friction
         g_a, g_p, g_s, g_f = box_plane_contacts(x[:1], R[:1], half, up, 0.0, margin)
         if n == 1:                                     # one box: the ground alone
             return g_a, world[:g_a.size], g_p, ups[:g_a.size], g_s, (g_a * K) * 8 + g_f
-        a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
-        A = np.concatenate([g_a, a])
-        B = np.concatenate([np.full(g_a.size, -1, np.intp), b])
-        keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
-        normal = np.concatenate([np.broadcast_to(up, (g_a.size, 3)), nn])
-        return A, B, np.concatenate([g_p, p]), normal, np.concatenate([g_s, s]), keys
+        return _ground_and_pairs((g_a, g_p, g_s, g_f), box_box_contacts(x, R, half, pairs, margin, lateral_tol),
+                                 up, K)
 
     detect = SceneDetect(bodies, arrays)
     return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
@@ -333,12 +341,8 @@ def brick_wall(n: int = 50, per_row: int = 10, half_extents=(0.2, 0.1, 0.1), gap
         g_a, g_p, g_s, g_f = box_plane_contacts(x, R, half, up, 0.0, margin)
         pairs = grid_pairs(x, bound, margin).pairs
         pairs = np.where((x[pairs[:, 0], 2] < x[pairs[:, 1], 2])[:, None], pairs[:, ::-1], pairs)   # upper first
-        a, b, p, nn, s, f = box_box_contacts(x, R, half, pairs, margin, lateral_tol)
-        A = np.concatenate([g_a, a])
-        B = np.concatenate([np.full(g_a.size, -1, np.intp), b])
-        keys = (A * K + (B + 1)) * 8 + np.concatenate([g_f, f])
-        normal = np.concatenate([np.broadcast_to(up, (g_a.size, 3)), nn])
-        return A, B, np.concatenate([g_p, p]), normal, np.concatenate([g_s, s]), keys
+        return _ground_and_pairs((g_a, g_p, g_s, g_f), box_box_contacts(x, R, half, pairs, margin, lateral_tol),
+                                 up, K)
 
     detect = SceneDetect(bodies, arrays)
     return ContactScene3D(bodies, detect, [RigidGravity((0.0, 0.0, -g))], friction,
