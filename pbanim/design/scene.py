@@ -163,6 +163,16 @@ def _moments(name: str, value) -> np.ndarray:
 _NAME = re.compile(r"^(x|theta|v|omega|mass|inertia|normal)(\d+)$|^restitution$")
 
 
+def _parameter_slices(scene, names) -> dict:
+    """{name: slice of u} for the parameter blocks ``names`` of a design scene (``scene.check_names``, ``scene.size``),
+    laid end to end in the order given: what :meth:`DesignScene.slices` and the stepped scene's answer."""
+    out, k0 = {}, 0
+    for k in scene.check_names(names):
+        out[k] = slice(k0, k0 + scene.size(k))
+        k0 += scene.size(k)
+    return out
+
+
 class DesignScene:
     """Bodies, static planes, gravity and one restitution ε: the model behind S(t, u).
 
@@ -256,11 +266,7 @@ class DesignScene:
     @contract(names=ParameterNames())
     def slices(self, names) -> dict:
         """{name: slice of u}."""
-        out, k0 = {}, 0
-        for k in self.check_names(names):
-            out[k] = slice(k0, k0 + self.size(k))
-            k0 += self.size(k)
-        return out
+        return _parameter_slices(self, names)
 
     @contract(names=ParameterNames(), u=Array((u_size("self"),)))
     def with_values(self, names, u) -> "DesignScene":

@@ -63,7 +63,7 @@ from ..contracts import Array, Choice, Obj, Opt, Real, Seq, contract
 from ..errors import InvalidInput
 from ..geometry import cross, skew, tangent_basis
 from ..rigid import quat_exp, quat_multiply, quat_normalize, quat_to_matrix
-from .scene import DesignBody, UnknownParameter, left_jacobian
+from .scene import DesignBody, UnknownParameter, left_jacobian, _parameter_slices
 from .specs import Quaternion
 
 __all__ = ["StaticBox", "ContactScene", "Frames", "frames", "CONTACT_NAMES"]
@@ -148,11 +148,7 @@ class ContactScene:
     @contract(names=_NAMES)
     def slices(self, names) -> dict:
         """{name: slice of u}."""
-        out, k0 = {}, 0
-        for k in self.check_names(names):
-            out[k] = slice(k0, k0 + self.size(k))
-            k0 += self.size(k)
-        return out
+        return _parameter_slices(self, names)
 
     @contract(names=_NAMES)
     def vector(self, names) -> np.ndarray:
