@@ -21,7 +21,6 @@ Limiting cases: the reference scores 100; the unmodified starter scores 0 with "
 
 from __future__ import annotations
 
-import ast
 import inspect
 import json
 from dataclasses import asdict, dataclass, field
@@ -29,7 +28,7 @@ from pathlib import Path
 
 from ..contracts import Choice, Opt, PathLike, Real, Seq, Text, contract
 from ..errors import InvalidInput
-from .markers import find_regions
+from .markers import region_owners
 from .registry import ASSIGNMENT, Assignment, get_assignment
 from .sandbox import StudentImportError, load_student, run_forked, run_inline, run_isolated
 
@@ -117,22 +116,7 @@ def _student_file(a: Assignment, path) -> Path:
 
 def signature_problems(a: Assignment, mod) -> list[str]:
     """One line per marked function of the reference whose signature the student changed or removed."""
-    ref = Path(a.reference_path()).read_text(encoding="utf-8")
-    regions = find_regions(ref, a.filename)
-    owners: set[str] = set()
-    tree = ast.parse(ref)
-    spans = {}
-    for node in ast.walk(tree):
-        for child in ast.iter_child_nodes(node):
-            if isinstance(child, (ast.FunctionDef, ast.ClassDef)):
-                child.parent_name = getattr(node, "qual", "")  # type: ignore[attr-defined]
-                child.qual = (child.parent_name + "." if child.parent_name else "") + child.name  # type: ignore
-                if isinstance(child, ast.FunctionDef):
-                    spans[child.qual] = (child.lineno, child.end_lineno, child)
-    for r in regions:
-        best = [q for q, (lo, hi, _) in spans.items() if lo < r.begin <= hi]   # END may follow the last line
-        if best:
-            owners.add(max(best, key=lambda q: spans[q][0]))
+    owners = region_owners(Path(a.reference_path()).read_text(encoding="utf-8"), a.filename)
     problems = []
     for q in sorted(owners):
         obj = mod
@@ -141,7 +125,7 @@ def signature_problems(a: Assignment, mod) -> list[str]:
         if obj is None:
             problems.append(f"{q} is missing from the file")
             continue
-        args = spans[q][2].args
+        args = owners[q].args
         names = [p.arg for p in args.posonlyargs + args.args] + ([args.vararg.arg] if args.vararg else []) + \
             [p.arg for p in args.kwonlyargs] + ([args.kwarg.arg] if args.kwarg else [])
         try:

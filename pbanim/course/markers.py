@@ -39,7 +39,7 @@ from dataclasses import dataclass
 from ..errors import InvalidInput
 
 __all__ = ["Region", "MarkerError", "BEGIN", "END", "find_regions", "starter_source", "absolute_imports",
-           "solution_source"]
+           "solution_source", "region_owners"]
 
 BEGIN = "# BEGIN SOLUTION"
 END = "# END SOLUTION"
@@ -158,3 +158,30 @@ def solution_source(source: str, package: str, filename: str = "<source>") -> st
     """The reference as a stand-alone file (imports absolute, markers kept): what scores 100%."""
     find_regions(source, filename)
     return absolute_imports(source, package)
+
+
+def region_owners(source: str, filename: str = "<source>") -> dict:
+    """{qualified name: its ``ast.FunctionDef``} of the innermost functions holding a marked region.
+
+    >>> src = "class A:\n    def f(self):\n        # BEGIN SOLUTION A.f\n        return 1\n        # END SOLUTION\n"
+    >>> list(region_owners(src))
+    ['A.f']
+    """
+    regions = find_regions(source, filename)
+    spans: dict = {}
+
+    def walk(node, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.ClassDef)):
+                qual = prefix + child.name
+                if isinstance(child, ast.FunctionDef):
+                    spans[qual] = child
+                walk(child, qual + ".")
+    walk(ast.parse(source), "")
+    owners = {}
+    for r in regions:
+        best = [q for q, n in spans.items() if n.lineno < r.begin <= n.end_lineno]   # END may follow the last line
+        if best:
+            q = max(best, key=lambda q: spans[q].lineno)
+            owners[q] = spans[q]
+    return dict(sorted(owners.items()))

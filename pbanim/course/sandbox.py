@@ -109,6 +109,9 @@ def run_inline(assignment: Assignment, check_id: str, path: str | Path) -> dict:
     except StudentImportError as exc:
         return {"status": "import_error", "message": _short(str(exc))}
     try:
+        from .edition import substitute_student
+
+        substitute_student(assignment, mod)      # a student edition: pbanim's code runs on the student's
         return _classify(chk, mod, path)
     except Exception as exc:  # noqa: BLE001 - a student's exception is a report line, not a traceback
         hint = " (wrong signature?)" if isinstance(exc, TypeError) and "argument" in str(exc) else ""
