@@ -15,6 +15,8 @@ question               algorithm                                   cost     code
 τ for a given q̈        RNEA, recursive Newton–Euler                O(n)     :func:`rnea`
 H(q)                   CRBA, composite rigid bodies                O(n d)   :func:`crba` (d = tree depth)
 q̈ for a given τ        ABA, articulated bodies                     O(n)     :func:`aba`
+∂τ/∂(q, q̇), ∂q̈/∂(q,   derivatives of RNEA and ABA (Carpentier &    O(n nv)  :func:`rnea_derivatives`,
+q̇, τ)                  Mansard 2018)                                         :func:`aba_derivatives`
 =====================  ==========================================  =======  =================================
 
 In maximal coordinates, :class:`RigidJoints` (ball, hinge, slider, weld) holds rigid bodies of a
@@ -38,6 +40,8 @@ from __future__ import annotations
 
 from .batched import aba_batch, crba_batch, energy_batch, rnea_batch
 from .fast import aba_fast
+from .derivatives import aba_derivatives, rnea_derivatives, tangent_step
+from .derivatives_batch import aba_derivatives_batch, rnea_derivatives_batch
 from .dynamics import (SingularJointInertia, aba, bias_forces, check_articulated_inertia, crba, kinetic_energy,
                        link_transforms, potential_energy, rnea)
 from .joints import JOINTS, RigidJoint, RigidJoints
@@ -53,4 +57,5 @@ __all__ = ["PlanarKernel", "NotPlanarError", "PlanarContactStep", "PlanarGround"
            "Joint", "Link", "JOINT_TYPES", "ROTATING", "ONE_DOF", "rnea", "crba", "aba", "bias_forces",
            "kinetic_energy", "potential_energy", "link_transforms", "check_articulated_inertia",
            "SingularJointInertia", "rnea_batch", "crba_batch", "aba_batch", "aba_fast", "energy_batch",
-           "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation"]
+           "plucker", "plucker_inverse", "crm", "crf", "spatial_inertia", "rotation", "rnea_derivatives",
+           "aba_derivatives", "rnea_derivatives_batch", "aba_derivatives_batch", "tangent_step"]
