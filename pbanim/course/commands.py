@@ -4,6 +4,9 @@
     pbanim assignment make NAME DIR [--force]            the starter folder (module, public tests, README)
     pbanim grade NAME PATH [--json F] [--markdown F]     per-check table; JSON and markdown reports
                      [--time-limit S] [--memory-mb M]    limits of each check's process
+    pbanim grade … --format gradescope                   Gradescope's results.json instead (at --json)
+    pbanim course student-edition OUT/ [--assignments A …]   a wheel without the solutions (pbanim.course.edition)
+    pbanim course autograder NAME OUT.zip [--force]      Gradescope's autograder zip (pbanim.course.gradescope)
     pbanim notebook chNN DIR                             a chapter as a Jupyter notebook (chapters found
                                                          by the command line and handed in)
 
@@ -59,10 +62,37 @@ def _cmd_grade(args) -> int:
     rep = call_checked(grade, args.name, args.path, time_limit=args.time_limit, memory_mb=args.memory_mb)
     print(rep.table())
     folder = Path(args.path) if Path(args.path).is_dir() else Path(args.path).parent
+    if args.format == "gradescope":
+        import json
+
+        from .gradescope import gradescope_results
+
+        out = Path(args.json or folder / "results.json")
+        out.write_text(json.dumps(gradescope_results(rep), indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        print(f"Gradescope results: {out}")
+        return 0
     json_path = args.json or folder / "report.json"
     md_path = args.markdown or folder / "report.md"
     rep.write(json_path, md_path)
     print(f"reports: {json_path}, {md_path}")
+    return 0
+
+
+def _cmd_course(args) -> int:
+    if args.action == "student-edition":
+        if len(args.args) != 1:
+            raise InvalidInput("usage: pbanim course student-edition OUT/ [--assignments NAMES]")
+        from .edition import build_edition
+
+        wheel = call_checked(build_edition, args.args[0], args.assignments)
+        print(f"wrote {wheel}\nstudents install it with: pip install {wheel.name}")
+        return 0
+    if len(args.args) != 2:
+        raise InvalidInput("usage: pbanim course autograder NAME OUT.zip [--force]")
+    from .gradescope import write_autograder
+
+    out = call_checked(write_autograder, args.args[0], args.args[1], overwrite=args.force)
+    print(f"wrote {out}: upload it as the assignment's autograder (Gradescope: Configure Autograder, zip file)")
     return 0
 
 
@@ -87,7 +117,18 @@ def add_course_commands(sub, chapter_files) -> None:
     g.add_argument("--markdown", help="markdown report (default: report.md beside the module)")
     g.add_argument("--time-limit", type=float, default=20.0, help="seconds per check (CPU and wall clock)")
     g.add_argument("--memory-mb", type=float, default=1024.0, help="memory per check, MB")
+    g.add_argument("--format", choices=["pbanim", "gradescope"], default="pbanim",
+                   help="pbanim: report.json and report.md; gradescope: the platform's results.json (at --json)")
     g.set_defaults(func=_cmd_grade)
+
+    c = sub.add_parser("course", help="a student edition of pbanim, or an assignment's Gradescope autograder",
+                       description="pbanim course student-edition OUT/ [--assignments NAMES] | "
+                                   "pbanim course autograder NAME OUT.zip [--force]")
+    c.add_argument("action", choices=["student-edition", "autograder"])
+    c.add_argument("args", nargs="*", help="student-edition: OUT/; autograder: NAME OUT.zip")
+    c.add_argument("--assignments", nargs="+", help="student-edition: the assignments to remove (default all)")
+    c.add_argument("--force", action="store_true", help="autograder: overwrite OUT.zip")
+    c.set_defaults(func=_cmd_course)
 
     n = sub.add_parser("notebook", help="write a chapter as a Jupyter notebook (.ipynb)")
     n.add_argument("chapter", help="chapter, e.g. ch01")

@@ -163,7 +163,7 @@ def solution_source(source: str, package: str, filename: str = "<source>") -> st
 def region_owners(source: str, filename: str = "<source>") -> dict:
     """{qualified name: its ``ast.FunctionDef``} of the innermost functions holding a marked region.
 
-    >>> src = "class A:\n    def f(self):\n        # BEGIN SOLUTION A.f\n        return 1\n        # END SOLUTION\n"
+    >>> src = "class A:\\n    def f(self):\\n        # BEGIN SOLUTION A.f\\n        return 1\\n        # END SOLUTION\\n"
     >>> list(region_owners(src))
     ['A.f']
     """
