@@ -205,6 +205,11 @@ class ParticleSystem(Bodies):
         return out
         # END SOLUTION
 
+    def _float_plan(self, scene):
+        """The float symplectic Euler of a small scene (:mod:`pbanim.particles.lean`; :func:`~pbanim.scene.plans.float_plan`)."""
+        from .lean import float_plan
+        return float_plan(scene)
+
     # -- diagnostics -------------------------------------------------------------------------------
     @contract(y=_Y)
     def kinetic_energy(self, y: np.ndarray) -> float:

@@ -71,7 +71,7 @@ from ..errors import InvalidInput, SimulationDiverged
 from ..ode import METHODS, get_method
 from ..ode.driver import MAX_STEPS, check_finite, drive, drive_lean, fixed_steps, step_grid
 from ..results import LazyDiagnostics, SimResult
-from .plans import KickDrift, advance, linear_scene
+from .plans import KickDrift, advance, float_plan, linear_scene
 
 __all__ = ["Effect", "Scene", "check_finite", "fixed_steps"]
 
@@ -182,6 +182,7 @@ class Scene:
         self._drift_free = all(getattr(e, "drift_free", True) for e in self.effects)
         self._linear = linear_scene(self)
         self._kick = KickDrift(self) if self._lean else None
+        self._floats = float_plan(self) if self._lean else None    # a small particle scene: floats
         self.fold_affine = True
         self.lean_path = True           # False: every run and step takes the readable path
         self._stepper_cache: dict = {}

@@ -14,6 +14,9 @@ linear map      every force effect linear (``linear = True``), no constraint  y�
                 or post-step stage, an explicit Runge–Kutta method (not
                 symplectic Euler or Verlet), n ≤ LINEAR_MAX, the package's
                 own effects and system
+floats          symplectic Euler, a small particle scene of the package's     the readable kick and drift on
+                own gravity, drag, anchor and damped springs                  Python floats, bit for bit
+                (:mod:`pbanim.particles.lean`)
 kick–drift      symplectic Euler, a system with ``kick_drift`` (particles),   one force evaluation into
                 no constraint effect                                          buffers; affine forces folded
 bound f         any other                                                    the method's step on f, bound
@@ -41,6 +44,14 @@ their ``apply``: only the package's own effects and system are trusted to agree
 (:func:`pbanim.contracts.package_code`); a user's subclass, or a course assignment's copy of a module, runs the
 ``apply`` it wrote (the same holds for the affine fold and for gravity summed once below).
 
+The floats
+----------
+A system may offer ``_float_plan(scene)`` (:func:`float_plan` reads it once, when the scene is built): the
+particle system's (:mod:`pbanim.particles.lean`) runs symplectic Euler on a small scene as the readable step
+computes it — the same roundings in the same order, on Python floats bound once per run — where every numpy
+call would cost a microsecond for a few nanoseconds of arithmetic. A scene whose class overrides ``rhs``,
+``forces`` or ``applied_forces`` keeps its own (as for the kick–drift).
+
 The kick–drift
 --------------
 A system with ``kick_drift(y, Q, h, out, lo, hi)`` (particles) runs symplectic Euler with one force
@@ -66,7 +77,7 @@ import scipy.sparse as sp
 
 from ..contracts import package_code, unchecked
 
-__all__ = ["LINEAR_MAX", "LinearMap", "KickDrift", "advance", "bound_rhs", "linear_scene"]
+__all__ = ["LINEAR_MAX", "LinearMap", "KickDrift", "advance", "bound_rhs", "float_plan", "linear_scene"]
 
 #: At most this many state components take the linear-map plan (an n × n product per step).
 LINEAR_MAX = 64
@@ -77,6 +88,13 @@ def linear_scene(scene) -> bool:
     return (not scene._constraint and not scene._post and scene.n_state <= LINEAR_MAX and scene.has_jacobian
             and all(getattr(e, "linear", False) and package_code(e, "apply", "jacobian", "affine") for e in scene._force)
             and package_code(scene.system, "derivative"))
+
+
+def float_plan(scene):
+    """The system's float plan for symplectic Euler (``system._float_plan(scene)``: a small particle scene,
+    :mod:`pbanim.particles.lean`), or None; read once, when the scene is built."""
+    make = getattr(scene.system, "_float_plan", None)
+    return make(scene) if callable(make) and package_code(scene.system, "_float_plan") else None
 
 
 def _nan_safe(scene) -> bool:
@@ -151,7 +169,13 @@ def advance(scene, m, counter: list, base):
         def jac_fn(t, yy):
             counter[1] += 1
             return jac(t, yy)
-    if m.name == "symplectic_euler" and scene._lean and lean:
+    if (m.name == "symplectic_euler" and lean and scene._floats is not None
+            and not _overrides(scene, base, ("rhs", "forces", "applied_forces"))):
+        # a small particle scene: the readable kick and drift on floats (pbanim.particles.lean); a spring of zero
+        # or overflowing length hands its step to the readable one
+        return scene._floats.advance(counter, _kick_then_drift(scene, scene._rhs, counter))
+    if m.name == "symplectic_euler" and scene._lean and lean and not _overrides(scene, base, ("rhs", "forces",
+                                                                                             "applied_forces")):
         kick = scene._kick.step
 
         def step(t, y, h):
@@ -159,16 +183,7 @@ def advance(scene, m, counter: list, base):
             return kick(t, y, h)
         step.nan_safe = _nan_safe(scene)
     elif m.name == "symplectic_euler" and scene._drift_free:
-        derivative, zero = scene._derivative, scene.system.zero_forces
-
-        def step(t, y, h):
-            # kick with f(t, y), drift with the force-free rates q̇(q₀, v₁): one evaluation (module docstring
-            # of pbanim.scene)
-            counter[0] += 1
-            y1 = np.array(y, dtype=float, copy=True)
-            y1[split:] += h * rhs(t, y)[split:]
-            y1[:split] = y[:split] + h * derivative(y1, zero())[:split]
-            return y1
+        step = _kick_then_drift(scene, rhs, counter)
     elif per is not None:
         method_step = m.step
 
@@ -188,6 +203,20 @@ def advance(scene, m, counter: list, base):
             y = post_step(t + h, y, h)
         return y
     return stepped
+
+def _kick_then_drift(scene, rhs, counter: list):
+    """Symplectic Euler with one evaluation of f: kick with f(t, y), drift with the force-free rates q̇(q₀, v₁)
+    (module docstring of :mod:`pbanim.scene`); counts it in ``counter[0]``."""
+    derivative, zero, split = scene._derivative, scene.system.zero_forces, scene.system.split
+
+    def step(t, y, h):
+        counter[0] += 1
+        y1 = np.array(y, dtype=float, copy=True)
+        y1[split:] += h * rhs(t, y)[split:]
+        y1[:split] = y[:split] + h * derivative(y1, zero())[:split]
+        return y1
+    return step
+
 
 class LinearMap:
     """y₁ = S y + s: the step of method ``m`` on a linear scene (see the module docstring), S and s built once
