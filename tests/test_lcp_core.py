@@ -232,3 +232,39 @@ def test_pgs_bounded_meets_its_conditions():
         assert np.all(z >= lo - 1e-15) and np.all(z <= hi + 1e-15) and res < 1e-8
         free = (z > lo + 1e-12) & (z < hi - 1e-12)
         assert np.all(np.abs(w[free]) < 1e-8) and np.all(w[z <= lo + 1e-12] > -1e-8) and np.all(w[z >= hi - 1e-12] < 1e-8)
+
+
+# ------------------------------------------------------------------------------------------------
+# ORACLES D17: the stepping loop's PGS (pbanim.lcp.solve.lean_pgs) runs the readable sweeps — the same
+# warm-start test, the same iterates bit for bit, the same certificate — and hands back what it cannot certify
+# ------------------------------------------------------------------------------------------------
+@settings(max_examples=25, deadline=None)
+@given(m=st.integers(1, 8), seed=st.integers(0, 10**6), warm=st.sampled_from(["none", "near", "far"]))
+def test_lean_pgs_equals_solve_lcp(m, seed, warm):
+    from pbanim.lcp.solve import lean_pgs
+
+    rng = np.random.default_rng(seed)
+    G = rng.normal(size=(m, m + 2))
+    A = G @ G.T + 0.1 * np.eye(m)
+    b = rng.normal(size=m)
+    ws = {"none": None, "near": np.abs(rng.normal(size=m)) * 0.1, "far": np.full(m, 1e6)}[warm]
+    ref = solve_lcp(A, b, "pgs", tol=1e-10, warm_start=ws, validate=False)
+    got = lean_pgs(A, b, ws, 1e-10)
+    assert got is not None and got.success and ref.success
+    assert np.array_equal(got.f, ref.f) and got.iterations == ref.iterations
+    assert got.extra["threshold"] == ref.extra["threshold"]
+    assert got.extra.get("warm_start_dropped") == ref.extra.get("warm_start_dropped")
+    assert got.residual <= got.extra["threshold"]
+
+
+def test_lean_pgs_hands_back_what_it_cannot_certify():
+    from pbanim.lcp.solve import lean_pgs
+
+    A = np.array([[2.0, 1.0], [1.0, 2.0]])
+    assert lean_pgs(np.array([[1.0, 0.0], [0.0, 0.0]]), np.array([-1.0, -1.0]), None, 1e-10) is None  # Aᵢᵢ = 0
+    assert lean_pgs(A, np.array([-1.0, np.nan]), None, 1e-10) is None                                # not finite
+    assert lean_pgs(A, np.array([-1.0, -1.0]), None, 1e-14, max_iter=1) is None                      # unconverged
+    with pytest.raises(Exception, match="pgs"):                       # the readable call names the failure
+        solve_lcp(A, np.array([-1.0, -1.0]), "pgs", tol=1e-14, max_iter=1)
+    sol = lean_pgs(A, np.array([1.0, 2.0]), None, 1e-10)              # b ≥ 0: f = 0 with no sweep
+    assert sol.iterations == 0 and np.array_equal(sol.f, np.zeros(2))

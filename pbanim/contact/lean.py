@@ -31,11 +31,13 @@ Limiting cases: no contact → ũ (a free fall); a box at rest on the ground →
 
 from __future__ import annotations
 
+from math import cos, sin, sqrt
+
 import numpy as np
 
 from ..collision.shapes import Contacts
 from ..contracts import Array, Obj, Real, contract, unchecked
-from ..lcp.solve import delassus, solve_lcp
+from ..lcp.solve import delassus, lean_pgs, solve_lcp
 
 __all__ = ["LeanFrictionless", "lean_applies"]
 
@@ -87,6 +89,46 @@ def _exp_times(theta, q):
     return out
 
 
+#: up to this many bodies the rotations and the quaternion update run on floats, body by body (the same
+#: formulas as :func:`pbanim.rigid.quat.quat_to_matrix` and :func:`_exp_times`, equal to roundoff)
+FLOAT_BODIES = 4
+
+
+def _rotations_floats(q) -> np.ndarray | None:
+    """R (N, 3, 3) of the quaternions q (N, 4) by :func:`pbanim.rigid.quat.quat_to_matrix`'s formula (s = 2/|q|²)
+    on floats; None when some |q|² is outside (10⁻²⁹⁰, 10²⁹⁰) (the readable call scales it, or names a zero q)."""
+    out = []
+    for w, x, y, z in q.tolist():
+        n2 = w * w + x * x + y * y + z * z
+        if not 1e-290 < n2 < 1e290:
+            return None
+        s = 2.0 / n2
+        xx, yy, zz = s * x * x, s * y * y, s * z * z
+        xy, xz, yz = s * x * y, s * x * z, s * y * z
+        wx, wy, wz = s * w * x, s * w * y, s * w * z
+        out.append(((1.0 - yy - zz, xy - wz, xz + wy), (xy + wz, 1.0 - xx - zz, yz - wx),
+                    (xz - wy, yz + wx, 1.0 - xx - yy)))
+    return np.array(out)
+
+
+def _exp_times_floats(theta, q) -> np.ndarray:
+    """:func:`_exp_times` body by body on floats (the same formulas, in the same order)."""
+    out = []
+    for (t0, t1, t2), (b0, b1, b2, b3) in zip(theta.tolist(), q.tolist()):
+        a = sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if a < 1e-4:
+            a2 = a * a
+            sinc = 0.5 - a2 / 48.0 + a2 * a2 / 3840.0
+        else:
+            sinc = sin(0.5 * a) / a
+        a0, a1, a2, a3 = cos(0.5 * a), sinc * t0, sinc * t1, sinc * t2
+        r = sqrt(a0 * a0 + a1 * a1 + a2 * a2 + a3 * a3)
+        a0, a1, a2, a3 = a0 / r, a1 / r, a2 / r, a3 / r
+        out.append((a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3, a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+                    a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1, a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0))
+    return np.array(out)
+
+
 class LeanFrictionless:
     """The frictionless rigid step of a :class:`~pbanim.contact.friction.TimeStepping`, bound once (see the
     module docstring); ``step(t, y, h)`` sets the stepper's ``last`` and ``last_info`` as its readable step.
@@ -101,9 +143,13 @@ class LeanFrictionless:
         self.arrays = ts.detect.arrays
         self.opts = dict(ts.solver_options)
         self.solve = unchecked(solve_lcp)
+        # PGS: the sweeps called directly, certified by their own stop test (pbanim.lcp.solve.lean_pgs); any
+        # other option, or a step it does not certify, goes to the readable solve_lcp
+        self.pgs = ts.solver == "pgs" and set(self.opts) <= {"max_iter", "omega"}
         self.rotations = unchecked(s.rotations)
         N = s.N
         self.dense = N <= DENSE_BODIES
+        self.floats = N <= FLOAT_BODIES
         self.inv_mass = np.append(s.inv_mass, 0.0)                       # padded: the world's row is zero
         self.Ib_inv, self.Ib = s.inv_I_body, s.I_body
         self.m_live = np.where(s.static, 0.0, s.mass)[:, None]
@@ -125,7 +171,9 @@ class LeanFrictionless:
         q = y[3 * N:7 * N].reshape(N, 4)
         P = y[7 * N:10 * N].reshape(N, 3)
         L = y[10 * N:].reshape(N, 3)
-        R = self.rotations(y)
+        R = _rotations_floats(q) if self.floats else None
+        if R is None:
+            R = self.rotations(y)
         Rt = np.swapaxes(R, 1, 2)
         Q = self.zero.copy()
         for apply in self.applies:
@@ -167,8 +215,10 @@ class LeanFrictionless:
                 bb = np.einsum("ij,ij->i", Ga, u[a]) - np.einsum("ij,ij->i", Gb, u[b]) + bias
             last = ts.last
             ws = last.f if (last is not None and last.f.size == m) else None
-            sol = self.solve(A, bb, ts.solver, tol=ts.tol, raise_on_failure=not ts.accept_unconverged, warm_start=ws,
-                             validate=False, **self.opts)
+            sol = lean_pgs(A, bb, ws, ts.tol, **self.opts) if self.pgs else None
+            if sol is None:
+                sol = self.solve(A, bb, ts.solver, tol=ts.tol, raise_on_failure=not ts.accept_unconverged,
+                                 warm_start=ws, validate=False, **self.opts)
             ts.last = sol
             f = sol.f
             if self.dense:
@@ -193,7 +243,7 @@ class LeanFrictionless:
         L_new[~self.live[:, 0]] = 0.0
         out = np.empty(13 * N)
         out[:3 * N] = (x + h * v).ravel()
-        out[3 * N:7 * N] = _exp_times(h * w, q).ravel()
+        out[3 * N:7 * N] = (_exp_times_floats if self.floats else _exp_times)(h * w, q).ravel()
         out[7 * N:10 * N] = (self.m_live * v).ravel()
         out[10 * N:] = L_new.ravel()
         return out
