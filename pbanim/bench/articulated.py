@@ -9,8 +9,12 @@ Tables:
   in the same run, when it is installed.
 
 Goals (issue 15): batched ABA over K = 1024 states of a 10-link chain costs ≤ 1× per state what
-Pinocchio's ABA costs per call; the single-state ABA ≤ 30× Pinocchio. Both need Pinocchio; without it the
-goal lines say "not measured". Both goals are met by the world-frame kernels of
+Pinocchio's ABA costs per call; the single-state ABA ≤ 30× Pinocchio. Issue 31: the derivatives of ABA
+(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹, :func:`~pbanim.articulated.aba_derivatives_batch`) per state at K = 1024 states of the
+10-link chain cost ≤ 2× Pinocchio's ``computeABADerivatives`` per call (its Python binding, one call per
+state; the table prints what a call of the binding that does almost nothing costs, the floor of any per-call
+figure). That goal line is printed by the full run only (the quick smoke run prints the table at small K).
+All need Pinocchio; without it the goal lines say "not measured". Both goals are met by the world-frame kernels of
 :mod:`pbanim.articulated.fast` (``aba_fast`` for one state on Python floats, ``aba_batch`` for K states
 on arrays); the readable ABA is timed beside them. Equal work: the same tree, the same K states, and the
 same q̈ (the agreement column). The maximal columns evaluate the same chain as rigid rods held by hinge
@@ -24,10 +28,11 @@ import time
 import numpy as np
 
 from . import Goal, Report, Table, median_time
-from ..articulated import aba, aba_batch, aba_fast, bias_forces, crba
+from ..articulated import aba, aba_batch, aba_derivatives, aba_derivatives_batch, aba_fast, bias_forces, crba
+from ..contracts import unchecked
 from ..models.articulated import pendulum_chain, rod_chain, to_urdf
 
-__all__ = ["run", "chain", "pinocchio_aba"]
+__all__ = ["run", "chain", "pinocchio_aba", "derivative_table"]
 
 
 def chain(n: int) -> "object":
@@ -65,6 +70,56 @@ def _interleaved(fns: dict, repeats: int, K: int) -> dict:
                 fn()
             out[name].append((time.perf_counter() - start) / (calls * per))
     return out
+
+
+def _pinocchio_derivatives(tree):
+    """(``f(q, qd, tau)`` calling Pinocchio's computeABADerivatives, the floor call, the three results) or None."""
+    try:
+        import pinocchio as pin
+    except ImportError:
+        return None
+    model = pin.buildModelFromXML(to_urdf(tree, "bench"))
+    model.gravity.linear = np.asarray(tree.gravity, dtype=float)
+    data = model.createData()
+    return (lambda q, qd, tau: pin.computeABADerivatives(model, data, q, qd, tau), lambda: pin.neutral(model),
+            lambda: (data.ddq_dq.copy(), data.ddq_dv.copy(), np.triu(data.Minv) + np.triu(data.Minv, 1).T))
+
+
+def derivative_table(ns, K: int, repeats: int) -> tuple[Table, dict]:
+    """∂q̈/∂(q, q̇, τ) of an n-link chain per state: batched over K states, readable one state, and Pinocchio's
+    computeABADerivatives per call (when installed), timed in turn; returns the table and the per-repeat
+    ratio lists {n: (batched / Pinocchio)}."""
+    rng = np.random.default_rng(1)
+    batch, one = unchecked(aba_derivatives_batch), unchecked(aba_derivatives)
+    rows, ratios = [], {}
+    for n in ns:
+        tree = chain(n)
+        q, qd, tau = (rng.normal(size=(K, n)) for _ in range(3))
+        fns = {"batch": (lambda: batch(tree, q, qd, tau), K), "one": (lambda: one(tree, q[0], qd[0], tau[0]), 1)}
+        pin = _pinocchio_derivatives(tree)
+        err = float("nan")
+        if pin is not None:
+            call, floor, results = pin
+
+            def calls():
+                for k in range(K):
+                    call(q[k], qd[k], tau[k])
+            fns["pin"], fns["floor"] = (calls, K), (floor, 1)
+            ours = batch(tree, q[:8], qd[:8], tau[:8])
+            err = 0.0
+            for k in range(8):
+                call(q[k], qd[k], tau[k])
+                for a, b in zip(ours, results()):
+                    err = max(err, float(np.abs(a[k] - b).max() / (1.0 + np.abs(b).max())))
+        times = _interleaved(fns, 2 * repeats + 1, K)
+        med = {k: float(np.median(t)) for k, t in times.items()}
+        if "pin" in times:
+            ratios[n] = list(np.divide(times["batch"], times["pin"]))
+        rows.append([n, med["one"] * 1e6, med["batch"] * 1e6, med.get("pin", np.nan) * 1e6,
+                     med.get("floor", np.nan) * 1e6, float(np.median(ratios[n])) if n in ratios else np.nan, err])
+    return Table(f"derivatives of ABA (∂q̈/∂q, ∂q̈/∂q̇, H⁻¹) of an n-link chain [µs per state] (batched: K = {K})",
+                 ["n", "readable (one state)", "batched", "Pinocchio per call", "binding floor (a call doing ~nothing)",
+                  "batched / Pinocchio", "max rel. diff vs Pinocchio"], rows), ratios
 
 
 def run(quick: bool = False) -> Report:
@@ -113,6 +168,15 @@ def run(quick: bool = False) -> Report:
                           f"batched ABA per state (K = {K}) / Pinocchio ABA per call, 10 links", skipped=missing))
     rep.goals.append(Goal("articulated-aba-vs-pinocchio", ratios.get("fast", np.nan), 30.0, "<=", "x",
                           "single-state ABA (aba_fast) / Pinocchio ABA per call, 10 links", skipped=missing))
+    dtable, dratios = derivative_table([3, 10] if quick else [5, 10, 20], K, repeats)
+    rep.tables.append(dtable)
+    if not quick:
+        spread = (f"; spread over {len(dratios[10])} rounds {min(dratios[10]):.2f}..{max(dratios[10]):.2f}"
+                  if 10 in dratios else "")
+        rep.goals.append(Goal("articulated-aba-derivatives-vs-pinocchio",
+                              float(np.median(dratios[10])) if 10 in dratios else np.nan, 2.0, "<=", "x",
+                              f"batched ∂ABA per state (K = {K}) / Pinocchio computeABADerivatives per call, 10 links"
+                              f"{spread}", skipped=missing))
     slope = np.polyfit(np.log([r[0] for r in rows]), np.log([r[1] for r in rows]), 1)[0]
     slope_fast = np.polyfit(np.log([r[0] for r in rows]), np.log([r[8] for r in rows]), 1)[0]
     rep.notes.append(f"readable ABA cost grows as n^{slope:.2f}, the single-state aba_fast as n^{slope_fast:.2f} over "
