@@ -39,8 +39,9 @@ from ..contracts import Array, Opt, contract
 from ..errors import check_result
 from ..geometry import skew
 from ..rigid.quat import quat_exp, quat_multiply, quat_to_matrix
-from .dynamics import _aba, _crba, external_forces, link_transforms
-from .spatial import crf, crm
+from .dynamics import _crba, external_forces, link_transforms
+from .fast import aba_fast
+from .spatial import crm
 from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
 
@@ -52,6 +53,7 @@ _FEXT = Opt(Array(("tree.n", 6)))
 _HUGE = "of a tree and state with huge entries"
 
 
+@contract(f=Array((6,), batch="first"))
 def bar(f: np.ndarray) -> np.ndarray:
     """f̄ (…, 6, 6) with x ×* f = f̄ x for every motion vector x: f̄ = [[−n×, −F×], [−F×, 0]], f = (n, F)."""
     f = np.asarray(f, dtype=float)
@@ -92,7 +94,8 @@ def _rnea_derivatives(tree, q, qd, qdd, f_ext):
         vp = X @ v[lam] if lam >= 0 else np.zeros(6)
         ap = X @ (a[lam] if lam >= 0 else A["a0"])
         v[i] = vp + vJ
-        a[i] = ap + S @ qdd[vi] + crm(v[i]) @ vJ
+        cv, cJ = crm(v[i]), crm(vJ)                                 # v̂_i×, v̂_J× (v̂×* = −(v̂×)ᵀ)
+        a[i] = ap + S @ qdd[vi] + cv @ vJ
         dv_q[i] = X @ dv_q[lam] if lam >= 0 else np.zeros((6, nv))
         dv_d[i] = X @ dv_d[lam] if lam >= 0 else np.zeros((6, nv))
         da_q[i] = X @ da_q[lam] if lam >= 0 else np.zeros((6, nv))
@@ -100,12 +103,12 @@ def _rnea_derivatives(tree, q, qd, qdd, f_ext):
         dv_q[i][:, vi] += crm(vp) @ S                               # ∂(ⁱX_λ v̂_λ)/∂q_i = (ⁱX_λ v̂_λ)× S_i
         dv_d[i][:, vi] += S
         da_q[i][:, vi] += crm(ap) @ S
-        da_d[i][:, vi] += crm(v[i]) @ S
-        da_q[i] -= crm(vJ) @ dv_q[i]                                # ∂(v̂_i × v̂_J) = −v̂_J × ∂v̂_i (+ the q̇ term)
-        da_d[i] -= crm(vJ) @ dv_d[i]
+        da_d[i][:, vi] += cv @ S
+        da_q[i] -= cJ @ dv_q[i]                                     # ∂(v̂_i × v̂_J) = −v̂_J × ∂v̂_i (+ the q̇ term)
+        da_d[i] -= cJ @ dv_d[i]
         h = I @ v[i]
-        f[i] = I @ a[i] + crf(v[i]) @ h - fx[i]
-        G = bar(h) + crf(v[i]) @ I                                  # ∂(v̂ ×* I v̂)/∂v̂
+        f[i] = I @ a[i] - cv.T @ h - fx[i]
+        G = bar(h) - cv.T @ I                                       # ∂(v̂ ×* I v̂)/∂v̂
         df_q[i] = I @ da_q[i] + G @ dv_q[i]
         df_d[i] = I @ da_d[i] + G @ dv_d[i]
     dtau_q, dtau_d = np.zeros((nv, nv)), np.zeros((nv, nv))
@@ -145,8 +148,7 @@ def aba_derivatives(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> tuple[np.n
     −H⁻¹ times the RNEA derivatives at q̈ (module docstring). A joint that moves no inertia raises ABA's
     named error; an overflow :class:`~pbanim.errors.NonFiniteResult`."""
     with np.errstate(over="ignore", invalid="ignore"):
-        qdd = _aba(tree, q, qd, tau, f_ext)
-        check_result("aba_derivatives", qdd, _HUGE)
+        qdd = check_result("aba_derivatives", aba_fast(tree, q, qd, tau, f_ext), _HUGE)   # the same q̈ (I5)
         dq, dqd = _rnea_derivatives(tree, q, qd, qdd, f_ext)
         H = _crba(tree, q)
         Minv = np.linalg.inv(H)
