@@ -1,0 +1,452 @@
+"""The discrete search over impact sequences (chapter 10, issue 30 point 3; part of :mod:`pbanim.design`).
+
+Multiple shooting on a sliding grid (:mod:`pbanim.design.multiple`) takes the impact sequence the sketch
+shows and keeps it: its nodes sit midway between the sketch's impacts and its node states are fitted to
+the sketch points of one flight. When bounces come closer than about three sketch samples the sketch no
+longer shows them one by one (two bounces between two samples, a flight with no sample inside) and the
+sequence it starts from is wrong; no continuous iteration repairs a wrong sequence. Here the sequence is
+a discrete unknown:
+
+    σ = ((j₁, τ̂₁), …, (j_K, τ̂_K))     (the plane each impact of body 0 hits, in order, with a time guess),
+
+and the search proposes sequences, solves the continuous problem with σ fixed, and keeps the best:
+
+1. **proposals from the sketch** — for every plane j the sketched gap g_j(t_i) = n_j·x̄_i − n_j·o_j − r,
+   an impact where it has a local minimum near the plane (below ``reach``, the distance the sketch moves
+   along n_j in ``reach_samples`` samples, a median) or where its rate n_j·ẋ̄ turns from approaching to receding (a velocity
+   reversal), merged in time order;
+2. **moves** — insert an impact on any plane between two impacts (or at either end), delete one, swap
+   the planes of two neighbours: a local search that accepts the best improving neighbour;
+3. **the continuous problem with σ fixed** — multiple shooting whose nodes *are* the impacts: flight k
+   starts at τ_k (τ₀ = 0) from the state (a_k, b_k) just after the impact, x(t) = a_k + b_k s + ½ g s²,
+   s = t − τ_k, and the unknowns (τ_k, a_k, b_k) obey
+
+       a_{k−1} + b_{k−1}Δ + ½ gΔ² = a_k,   R_j (b_{k−1} + gΔ) = b_k,   n_j·a_k − n_j·o_j − r = 0,
+       R_j = 𝟙 − (1 + ε) n_j n_jᵀ,  Δ = τ_k − τ_{k−1},  n_j·(b_{k−1} + gΔ) ≤ −v_min  (an approach),
+
+   with the goals as equalities and E = ½ Σ |x(t_i) − x̄_i|² minimized (SLSQP, analytic Jacobians; the
+   nodes slide with the impacts because the impact times are unknowns);
+4. **the score** — every candidate is replayed by :func:`pbanim.design.simulate` (the exact flight,
+   independent of the closed forms above) from its (a₀, b₀): a candidate counts only if the replay shows
+   the proposed sequence; its residual is the replay's E plus the goal residual.
+
+The number of continuous solves is capped before the search starts (``max_proposals``); the report
+lists every sequence tried, its residual and whether the replay confirmed it.
+
+==========  ===================  ==============================================================
+symbol      code                 meaning
+==========  ===================  ==============================================================
+σ           ``Sequence.planes``  the planes hit, in order (body 0; one body per scene here)
+τ_k         ``Sequence.times``   impact times (guesses in a proposal, solved in a result)
+a_k, b_k    ``z`` blocks         position at τ_k and velocity just after impact k (m, m/s)
+E           ``objective``        sketch distance of the replayed motion (m²)
+==========  ===================  ==============================================================
+
+Limiting cases: K = 0 is single shooting of one parabola; a sketch whose bounces are all sampled
+(three or more samples per flight) gives the sequence of :func:`~pbanim.design.multiple.sketch_impacts`
+as the first proposal, and the search stops after its neighbours fail to improve it.
+
+Scope: one sphere with isotropic inertia on static planes (the exact flight applies, frictionless
+impacts); sequences of impacts between bodies are not searched.
+
+References: J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of rigid-body
+simulations", ACM TOG 22(4) 2003 (§4, and §7: the discrete structure of the impact sequence left open);
+H. G. Bock & K. J. Plitt 1984 (multiple shooting); M. Posa, C. Cantu, R. Tedrake, "A direct method for
+trajectory optimization of rigid bodies through contact", IJRR 2014 (impact times as unknowns).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..collision import Sphere
+from ..contracts import Int, Obj, Opt, Real, Seq, contract
+from ..errors import InvalidInput, PbanimError
+from .control import _GOALS, _check_goals
+from .scene import DesignScene
+from .shooting import _sketch, _slsqp
+from .specs import SketchPoints
+
+__all__ = ["Sequence", "SequenceSearch", "propose_sequences", "solve_sequence", "search_sequences"]
+
+
+@dataclass
+class Sequence:
+    """An impact sequence of body 0: ``planes[k]`` is hit at (about) ``times[k]``; ``origin`` says where it
+    came from (``sketch``, ``reversals``, ``insert``, ``delete``, ``swap``)."""
+
+    planes: tuple
+    times: np.ndarray
+    origin: str = "sketch"
+
+    def key(self) -> tuple:
+        return tuple(int(j) for j in self.planes)
+
+
+@dataclass
+class SequenceSearch:
+    """The outcome of :func:`search_sequences` (or of one :func:`solve_sequence`).
+
+    ``u``: (x₀, v₀) of the best candidate; ``sequence``: its planes as the replay shows them; ``times``: its
+    impact times; ``success``: the replay shows the proposed sequence, the goals hold within ``tol`` and
+    SLSQP converged; ``objective``: the replay's E; ``errors``: its distance to each sketch point (m); ``violation``: max goal residual of the replay;
+    ``tried``: one row per continuous solve (planes, origin, residual, confirmed, message), in order;
+    ``proposals``: how many solves ran (≤ the cap given)."""
+
+    u: np.ndarray
+    sequence: tuple
+    times: np.ndarray
+    success: bool
+    objective: float
+    violation: float
+    residual: float
+    message: str
+    tried: list = field(default_factory=list)
+    proposals: int = 0
+    cap: int = 0
+    errors: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+_SCENE = Obj(DesignScene)
+
+
+def _check_scene(scene):
+    if scene.N != 1 or not isinstance(scene.bodies[0].shape, Sphere) or not scene.planes:
+        raise InvalidInput("the sequence search designs one sphere's flight among planes: the scene must hold one "
+                           f"Sphere and at least one plane, got {scene.N} bodies and {len(scene.planes)} planes")
+
+
+def _planes(scene):
+    n = np.array([p.normal for p in scene.planes], dtype=float).reshape(-1, 3)
+    return n, np.einsum("ji,ji->j", n, scene.anchors) + scene.bodies[0].shape.radius
+
+
+@contract(scene=_SCENE, sketch=SketchPoints(), reach_samples=Real(gt=0))
+def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
+    """The sequences the sketch shows: local minima of each plane's gap within reach of the plane, and the
+    reversals of the normal velocity (approach → recede); at most two proposals, duplicates dropped."""
+    _check_scene(scene)
+    pts = sorted(_sketch(sketch, -np.inf, np.inf), key=lambda p: p[0])
+    if len(pts) < 3:
+        raise InvalidInput(f"need at least 3 sketch points to see impacts, got {len(pts)}")
+    ts, X = np.array([t for t, _ in pts]), np.array([x for _, x in pts])
+    n, off = _planes(scene)
+    G = X @ n.T - off                                       # (samples, planes) sketched gaps
+    minima, reversals = [], []
+    for j in range(len(off)):
+        g = G[:, j]
+        reach = reach_samples * np.median(np.abs(np.diff(g)))
+        for i in range(1, len(ts) - 1):
+            if g[i] <= g[i - 1] and g[i] < g[i + 1] and g[i] < reach:
+                minima.append((_touch_time(ts, g, i), j))
+            if g[i] - g[i - 1] < 0 < g[i + 1] - g[i] and min(g[i], g[i + 1]) < 2 * reach:
+                reversals.append((_touch_time(ts, g, i), j))
+    out = []
+    for origin, hits in (("sketch", minima), ("reversals", reversals)):
+        hits.sort()
+        seq = Sequence(tuple(j for _, j in hits), np.array([t for t, _ in hits]), origin)
+        if all(s.key() != seq.key() for s in out):
+            out.append(seq)
+    return out
+
+
+def _touch_time(ts, g, i):
+    """The time the sketched gap reaches the plane near its minimum at sample i: the incoming line (i−1, i)
+    and the outgoing line (i+1, i+2 or i, i+1) extrapolated to g = 0, averaged, kept in (t_{i−1}, t_{i+1})."""
+    def zero(a, b):
+        s = (g[b] - g[a]) / (ts[b] - ts[a])
+        return ts[a] - g[a] / s if s != 0 else ts[a]
+    t_in = zero(i - 1, i)
+    t_out = zero(i + 1, i + 2) if i + 2 < len(ts) and g[i + 2] > g[i + 1] else zero(i, i + 1)
+    return float(np.clip(0.5 * (t_in + t_out), ts[i - 1] + 1e-6, ts[i + 1] - 1e-6))
+
+
+class _Flights:
+    """The continuous problem of one sequence: unknowns z = [a₀, b₀, (τ_k, a_k, b_k) for k = 1..K]."""
+
+    def __init__(self, scene, planes, t_end, pts, goals):
+        self.g, self.eps = scene.gravity, float(scene.restitution)
+        self.n, self.off = _planes(scene)
+        self.planes, self.K, self.t_end = [int(j) for j in planes], len(planes), float(t_end)
+        self.ts = np.array([t for t, _ in pts]).reshape(-1)
+        self.X = np.array([x for _, x in pts]).reshape(-1, 3)
+        self.goals = goals
+        self.size = 6 + 7 * self.K
+
+    def base(self, k):
+        """Index of τ_k (k ≥ 1) and of a_k, b_k: (τ index or None, a slice, b slice)."""
+        if k == 0:
+            return None, slice(0, 3), slice(3, 6)
+        i = 6 + 7 * (k - 1)
+        return i, slice(i + 1, i + 4), slice(i + 4, i + 7)
+
+    def tau(self, z):
+        return np.concatenate([[0.0], z[6::7][:self.K]])
+
+    def flight_of(self, z, t):
+        return int(np.searchsorted(self.tau(z), t, side="right") - 1)
+
+    def position(self, z, t):
+        """(x(t), ∂x/∂z (3, size))."""
+        k = self.flight_of(z, t)
+        it, sa, sb = self.base(k)
+        s = t - (0.0 if it is None else z[it])
+        b = z[sb]
+        J = np.zeros((3, self.size))
+        J[:, sa] = np.eye(3)
+        J[:, sb] = s * np.eye(3)
+        if it is not None:
+            J[:, it] = -(b + self.g * s)
+        return z[sa] + b * s + 0.5 * self.g * s * s, J
+
+    def objective(self, z):
+        E, dE = 0.0, np.zeros(self.size)
+        for t, xb in zip(self.ts, self.X):
+            x, J = self.position(z, t)
+            E += 0.5 * float((x - xb) @ (x - xb))
+            dE += (x - xb) @ J
+        return E, dE
+
+    def equalities(self, z):
+        """Continuity (position, velocity), contact at each impact, then the goals: (c, ∂c/∂z)."""
+        rows, J = [], []
+        for k in range(1, self.K + 1):
+            i0, a0, b0 = self.base(k - 1)
+            i1, a1, b1 = self.base(k)
+            nj = self.n[self.planes[k - 1]]
+            Rj = np.eye(3) - (1.0 + self.eps) * np.outer(nj, nj)
+            dt = z[i1] - (0.0 if i0 is None else z[i0])
+            vm = z[b0] + self.g * dt
+            Jk = np.zeros((7, self.size))
+            Jk[0:3, a0], Jk[0:3, b0], Jk[0:3, a1], Jk[0:3, i1] = np.eye(3), dt * np.eye(3), -np.eye(3), vm
+            Jk[3:6, b0], Jk[3:6, b1], Jk[3:6, i1] = Rj, -np.eye(3), Rj @ self.g
+            if i0 is not None:
+                Jk[0:3, i0], Jk[3:6, i0] = -vm, -(Rj @ self.g)
+            Jk[6, a1] = nj
+            rows.append(np.concatenate([z[a0] + z[b0] * dt + 0.5 * self.g * dt * dt - z[a1], Rj @ vm - z[b1],
+                                        [nj @ z[a1] - self.off[self.planes[k - 1]]]]))
+            J.append(Jk)
+        for gl in self.goals:
+            x, Jx = self.position(z, gl.time)
+            rows.append(x - gl.target)
+            J.append(Jx)
+        return np.concatenate(rows), np.vstack(J)
+
+    def inequalities(self, z, v_min=1e-3, dt_min=1e-4):
+        """Approach speed ≥ v_min at each impact, increasing impact times inside (0, t_end), every flight's
+        start outside every plane: (h ≥ 0, ∂h/∂z)."""
+        rows, J = [], []
+        for k in range(1, self.K + 1):
+            i0, _, b0 = self.base(k - 1)
+            i1, a1, _ = self.base(k)
+            nj = self.n[self.planes[k - 1]]
+            dt = z[i1] - (0.0 if i0 is None else z[i0])
+            r = np.zeros((2, self.size))
+            r[0, b0], r[0, i1] = -nj, -(nj @ self.g)
+            r[1, i1] = 1.0
+            if i0 is not None:
+                r[0, i0], r[1, i0] = nj @ self.g, -1.0
+            rows.append([-(nj @ (z[b0] + self.g * dt)) - v_min, dt - dt_min])
+            J.append(r)
+        last = np.zeros((1, self.size))
+        if self.K:
+            last[0, self.base(self.K)[0]] = -1.0
+        rows.append([self.t_end - (self.tau(z)[-1] if self.K else 0.0) - (dt_min if self.K else -1.0)])
+        J.append(last)
+        for k in range(self.K + 1):
+            _, a, _ = self.base(k)
+            others = [j for j in range(len(self.off)) if k == 0 or j != self.planes[k - 1]]
+            G = np.zeros((len(others), self.size))
+            G[:, a] = self.n[others]
+            rows.append(self.n[others] @ z[a] - self.off[others])
+            J.append(G)
+        return np.concatenate([np.atleast_1d(r) for r in rows]), np.vstack(J)
+
+    def start(self, times):
+        """z from the sketch and the impact-time guesses: per flight a gravity parabola fitted to its sketch
+        points (weight 1), its neighbours' (weight 0.1) and its touches of the planes at both ends (weight 10)."""
+        tau = np.concatenate([[0.0], np.asarray(times, float)])
+        ends = np.append(tau[1:], self.t_end)
+        z = np.zeros(self.size)
+        for k in range(self.K + 1):
+            a, b = tau[k], ends[k]
+            w = np.where((self.ts >= a) & (self.ts < b), 1.0, 0.0)
+            near = np.argsort(np.minimum(np.abs(self.ts - a), np.abs(self.ts - b)))[:4]
+            w[near] = np.maximum(w[near], 0.1)
+            A, rhs = [], []
+            for t, xb, wt in zip(self.ts, self.X, w):
+                if wt > 0:
+                    s = t - a
+                    A.append(wt * np.hstack([np.eye(3), s * np.eye(3)]))
+                    rhs.append(wt * (xb - 0.5 * self.g * s * s))
+            for kk, te in ((k, a), (k + 1, b)):
+                if 1 <= kk <= self.K:
+                    nj, s = self.n[self.planes[kk - 1]], te - a
+                    A.append(10.0 * np.hstack([nj, s * nj])[None])
+                    rhs.append(10.0 * np.array([self.off[self.planes[kk - 1]] - 0.5 * s * s * (nj @ self.g)]))
+            coef = np.linalg.lstsq(np.vstack(A), np.concatenate(rhs), rcond=None)[0]
+            it, sa, sb = self.base(k)
+            if it is not None:
+                z[it] = a
+            z[sa], z[sb] = coef[:3], coef[3:]
+        return z
+
+
+def _replay(scene, u, t_end, pts, goals):
+    """The motion from u = (x₀, v₀) by :func:`pbanim.design.simulate` (exact flight): (planes hit, impact
+    times, E, max goal residual)."""
+    from .simulate import simulate
+
+    times = sorted({t for t, _ in pts} | {g.time for g in goals} | {t_end})
+    tr = simulate(scene, t_end, ["x0", "v0"], u, times=times, sensitivities=False, warn=False, check_start=False,
+                  flight="exact")
+    err = np.array([float(np.linalg.norm(tr.position(0, t) - x)) for t, x in pts])
+    E = 0.5 * float(np.sum(err ** 2))
+    viol = max((float(np.abs(tr.position(0, g.time) - g.target).max()) for g in goals), default=0.0)
+    planes = tuple(int(i.other) for i in tr.impacts if i.kind == "plane")
+    return planes, np.array([i.t for i in tr.impacts]), E, viol, tr.certified and not tr.rests, err
+
+
+@contract(scene=_SCENE, goals=_GOALS, t_end=Real(gt=0), sketch=SketchPoints(), sequence=Obj(Sequence),
+          maxiter=Int(ge=1, le=10_000), tol=Real(gt=0), ftol=Real(gt=0))
+def solve_sequence(scene, goals, t_end, sketch, sequence, *, maxiter: int = 200, tol: float = 1e-6,
+                   ftol: float = 1e-12) -> SequenceSearch:
+    """The continuous problem with the sequence fixed (module docstring, step 3), then the replay (step 4)."""
+    _check_scene(scene)
+    goals = _check_goals(scene, goals, 0.0, t_end)
+    pts = _sketch(sketch, 0.0, t_end)
+    if len(sequence.planes) != len(sequence.times) or any(not 0 <= j < len(scene.planes) for j in sequence.planes):
+        raise InvalidInput(f"sequence: one known plane per impact time, got planes {sequence.planes} and "
+                           f"{len(sequence.times)} times for {len(scene.planes)} planes")
+    fl = _Flights(scene, sequence.planes, t_end, pts, goals)
+    times = np.sort(np.clip(np.asarray(sequence.times, float), 1e-3 * t_end, (1 - 1e-3) * t_end))
+    z0 = fl.start(times)
+    cache = {}
+
+    def ev(z, which):
+        key = (z.tobytes(), which)
+        if key not in cache:
+            cache[key] = {"f": fl.objective, "c": fl.equalities, "h": fl.inequalities}[which](z)
+        return cache[key]
+
+    with np.errstate(all="ignore"):
+        res = _slsqp(lambda z: ev(z, "f")[0], lambda z: ev(z, "f")[1], lambda z: ev(z, "c")[0],
+                     lambda z: ev(z, "c")[1], lambda z: ev(z, "h")[0], lambda z: ev(z, "h")[1], z0, maxiter, ftol,
+                     [], [])
+    z = res.x if np.all(np.isfinite(res.x)) else z0
+    u = z[:6].copy()
+    try:
+        planes, imp_t, E, viol, sound, err = _replay(scene, u, t_end, pts, goals)
+    except PbanimError as exc:    # a start inside a plane, too many impacts: an honest miss, said in the message
+        planes, imp_t, E, viol, sound, err = (), np.zeros(0), np.inf, np.inf, False, np.full(len(pts), np.inf)
+        res.message = f"{res.message}; replay failed: {exc}"
+    confirmed = planes == sequence.key() and sound
+    ok = bool(confirmed and res.success and viol <= tol)
+    msg = ("replay confirms the sequence; goals met" if ok else
+           f"replay {'confirms' if confirmed else 'shows ' + str(planes) + ' instead of'} the sequence, goal residual "
+           f"{viol:.2e} (SLSQP: {res.message})")
+    return SequenceSearch(u, planes, imp_t, ok, E, viol, E + viol, msg, [], 1, 1, err)
+
+
+def _neighbours(seq, n_planes, t_end, t_worst):
+    """Insert (every plane, every gap between impacts and the ends), delete, replace (each impact's plane by
+    another), swap (each neighbour pair): ordered by how near the move's time lies to ``t_worst``."""
+    P, T = list(seq.planes), list(seq.times)
+    edges = [0.0] + T + [t_end]
+    out = []
+    for k in range(len(P) + 1):
+        tm = 0.5 * (edges[k] + edges[k + 1])
+        for j in range(n_planes):
+            if (k == 0 or P[k - 1] != j) and (k == len(P) or P[k] != j):
+                out.append((tm, Sequence(tuple(P[:k] + [j] + P[k:]), np.array(T[:k] + [tm] + T[k:]), "insert")))
+    for k in range(len(P)):
+        out.append((T[k], Sequence(tuple(P[:k] + P[k + 1:]), np.array(T[:k] + T[k + 1:]), "delete")))
+        for j in range(n_planes):
+            if j != P[k]:
+                out.append((T[k], Sequence(tuple(P[:k] + [j] + P[k + 1:]), np.array(T), "replace")))
+    for k in range(len(P) - 1):
+        if P[k] != P[k + 1]:
+            out.append((0.5 * (T[k] + T[k + 1]), Sequence(tuple(P[:k] + [P[k + 1], P[k]] + P[k + 2:]), np.array(T),
+                                                         "swap")))
+    return [s for _, s in sorted(out, key=lambda m: abs(m[0] - t_worst))]
+
+
+@contract(scene=_SCENE, goals=_GOALS, t_end=Real(gt=0), sketch=SketchPoints(), max_proposals=Int(ge=1, le=1000),
+          maxiter=Int(ge=1, le=10_000), tol=Real(gt=0), accept_rms=Real(ge=0), proposals=Opt(Seq(Obj(Sequence))))
+def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, maxiter: int = 200,
+                     tol: float = 1e-6, accept_rms: float = 0.02, proposals=None) -> SequenceSearch:
+    """The discrete search (module docstring): the proposals (default :func:`propose_sequences`; a caller may
+    give its own, e.g. the previous design's sequence), then moves around the best candidate (by residual
+    E + goal residual of its replay; its sequence is the one the replay shows), nearest the sketch point its
+    replay misses most first, accepting the first move that lowers the residual by more than 1e-9 relative;
+    the sequence a replay shows instead of the proposed one is proposed next. A sequence that hits a plane
+    twice in a row where gravity does not pull toward it (n·g ≥ 0: nothing brings the body back) is never
+    solved; such a proposal is repaired (its four possible neighbours nearest the fault are proposed). Stops at a confirmed success whose RMS distance to the sketch is ≤ ``accept_rms`` (m), when no
+    move improves, or after ``max_proposals`` continuous solves (the cap, known before the search starts)."""
+    _check_scene(scene)
+    pts = _sketch(sketch, 0.0, t_end)
+    ts = np.array([t for t, _ in pts])
+    seen, tried, best = set(), [], None
+
+    n, _ = _planes(scene)
+    returns = n @ scene.gravity < 0                      # planes gravity pulls the body back to
+
+    def possible(seq):
+        return all(a != b or returns[a] for a, b in zip(seq.planes[:-1], seq.planes[1:]))
+
+    def done():
+        return best is not None and best.success and \
+            np.sqrt(2.0 * best.objective / max(len(pts), 1)) <= accept_rms
+
+    def consider(seq):
+        nonlocal best
+        seen.add(seq.key())
+        r = solve_sequence(scene, goals, t_end, pts, seq, maxiter=maxiter, tol=tol)
+        tried.append({"planes": seq.key(), "origin": seq.origin, "residual": r.residual, "objective": r.objective,
+                      "violation": r.violation, "confirmed": r.sequence == seq.key(), "success": r.success,
+                      "replay": r.sequence})
+        better = np.isfinite(r.residual) and (best is None or r.residual < best.residual * (1 - 1e-9))
+        if better:
+            best = r
+        return better, r
+
+    pending = list(propose_sequences(scene, pts) if proposals is None else proposals)
+    while len(tried) < max_proposals and not done():
+        if pending:
+            seq = pending.pop(0)
+            if seq.key() not in seen and not possible(seq):
+                seen.add(seq.key())             # repaired, not solved: its possible neighbours, nearest the fault first
+                bad = next(k for k in range(len(seq.planes) - 1) if seq.planes[k] == seq.planes[k + 1])
+                t_bad = 0.5 * (seq.times[bad] + seq.times[bad + 1])
+                pending[:0] = [m for m in _neighbours(seq, len(scene.planes), t_end, t_bad) if possible(m)][:4]
+            elif seq.key() not in seen:
+                _, r = consider(seq)
+                if r.sequence != seq.key() and np.isfinite(r.residual):
+                    pending.insert(0, Sequence(r.sequence, r.times, "replay"))
+            continue
+        if best is None:
+            break
+        moved = False
+        t_worst = float(ts[int(np.argmax(best.errors))]) if len(ts) else 0.5 * t_end
+        for m in _neighbours(Sequence(best.sequence, best.times), len(scene.planes), t_end, t_worst):
+            if len(tried) >= max_proposals:
+                break
+            if m.key() in seen or not possible(m):
+                continue
+            better, r = consider(m)
+            if r.sequence != m.key() and r.sequence not in seen and np.isfinite(r.residual):
+                pending.append(Sequence(r.sequence, r.times, "replay"))
+            if better or pending:
+                moved = True
+                break
+        if not moved:
+            break                                 # a local minimum of the residual over the moves
+    if best is None:
+        return SequenceSearch(np.full(6, np.nan), (), np.zeros(0), False, np.inf, np.inf, np.inf,
+                              f"no proposal gave a motion ({len(tried)} tried)", tried, len(tried),
+                              int(max_proposals))
+    best.tried, best.proposals, best.cap = tried, len(tried), int(max_proposals)
+    best.message += f"; best of {len(tried)} proposals (cap {max_proposals})"
+    return best
