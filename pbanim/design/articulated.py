@@ -135,12 +135,13 @@ def simulate_chain(tree, q0, qd0, T: float, h: float, free=None, stiffness=None,
 
 @dataclass
 class ChainAim:
-    """A shooting design: the launch u found, the flight, the residual |p(T) − p*| per iterate, success."""
+    """A shooting design: the launch u found, the flight, the residual |p(T) − p*| and u per iterate, success."""
 
     u: np.ndarray
     flight: ChainFlight
     residuals: list
     success: bool
+    history: list
 
 
 @contract(tree=Tree(), q0=JointPositions("tree"), qd0=Array(("tree.nv",)), T=Real(gt=0, le=100), h=Real(gt=0, le=1),
@@ -153,9 +154,10 @@ def aim_chain(tree, q0, qd0, T: float, h: float, link: int, local, target, tol: 
     simulations. Certified: the returned flight's residual is recomputed from its own final state."""
     qd = np.array(qd0, dtype=float)
     target = np.asarray(target, dtype=float)
-    residuals = []
+    residuals, history = [], []
     for _ in range(max_iter):
         fl = simulate_chain(tree, q0, qd, T, h, free, stiffness, rest)
+        history.append(qd[fl.free].copy())
         P, D = fl.point(link, local)
         r = target - P[-1]
         residuals.append(float(np.linalg.norm(r)))
@@ -164,4 +166,4 @@ def aim_chain(tree, q0, qd0, T: float, h: float, link: int, local, target, tol: 
         qd[fl.free] += min_norm_update(D[-1], r).du
     final = PlanarKernel(tree).points(fl.y[-1, :tree.nq], [link], np.asarray(local, dtype=float)[None])[0]
     success = float(np.linalg.norm(target - final)) <= tol
-    return ChainAim(qd[fl.free].copy(), fl, residuals, success)
+    return ChainAim(history[-1], fl, residuals, success, history)
