@@ -5,10 +5,12 @@ written here by hand, from the lecture's equations, as a student would write it 
 equations, same start, same number of steps; both return the final state y = [x, v] and the bench checks
 that they agree to roundoff (equal work).
 
-* one particle on a spring, symplectic Euler (2-D): v₁ = v + h(−k x)/m, x₁ = x + h v₁ (pbanim kicks and
-  drifts into its buffers: a structure-preserving method keeps its own arithmetic, never the linear map);
-* two particles on one damped spring, symplectic Euler (2-D): not linear (pbanim binds f once and kicks and
-  drifts with one force evaluation), f = −[k_s(l − r) + k_d l̇] d̂ written out;
+* one particle on a spring, symplectic Euler (2-D): v₁ = v + h(−k x)/m, x₁ = x + h v₁ (pbanim steps a
+  scene this small on floats, the readable kick and drift operation for operation: :mod:`pbanim.particles.lean`;
+  a structure-preserving method keeps its own arithmetic, never the linear map);
+* two particles on one damped spring, symplectic Euler (2-D): not linear, f = −[k_s(l − r) + k_d l̇] d̂
+  written out (pbanim: the same float plan, the spring's force as :class:`~pbanim.particles.DampedSprings`
+  rounds it);
 * four particles, five damped springs (a square and one diagonal) and gravity, RK4 (2-D): the springs'
   f = −[k_s(l − r) + k_d l̇] d̂ gathered and scattered with the signed incidence matrix B (S × N) —
   d = B x, Q = m g + Bᵀ f — and the four stages of RK4 on (x, v) written out.
@@ -46,12 +48,13 @@ def one_particle_spring() -> Floor:
         return np.concatenate([x, v])
 
     return Floor("particles", "one particle on a spring (2-D)", "symplectic_euler", N_STEPS, pbanim, hand,
-                 notes=["one particle on a spring: pbanim's kick-drift plan (pbanim.scene.plans) on its buffers, "
-                        "one force evaluation per step; symplectic Euler never takes the linear map y1 = S y + s "
-                        "(its invariant H~ holds for the method's own arithmetic, ORACLES A1)"])
+                 notes=["one particle on a spring and the damped pair: pbanim's float plan (pbanim.particles.lean, "
+                        "chosen once per scene), the readable kick and drift on Python floats, one force evaluation "
+                        "per step; symplectic Euler never takes the linear map y1 = S y + s (its invariant H~ holds "
+                        "for the method's own arithmetic, ORACLES A1)"])
 
 
-# two particles joined by one damped spring (not linear: the bound-f plan, one force evaluation per step)
+# two particles joined by one damped spring (not linear: the float plan, one force evaluation per step)
 PAIR_X, PAIR_V, PAIR_M = np.array([[0.0, 0.0], [1.2, 0.0]]), np.array([[0.0, 0.3], [0.0, -0.6]]), np.array([1.0, 0.5])
 
 

@@ -21,6 +21,11 @@ Measured in one run, so both sides of every ratio share the machine's load:
    Jacobian (:meth:`pbanim.scene.Scene.jac`) against the finite-difference Jacobian the solver builds
    without it.
 
+5. For reference (no goal): where a small scene stops stepping on floats (issue 28, point 1). Symplectic
+   Euler on N particles in 2-D (a chain of damped springs, the first particle anchored, gravity), 1000
+   steps: the float plan (:mod:`pbanim.particles.lean`) against the vectorized kick–drift into buffers, in
+   alternating rounds, past the float plan's size (:data:`pbanim.particles.lean.FLOAT_MAX` coordinates) too.
+
 Goals (issue 2, point 4): step ≤ 1.2× the numpy step at every N; ≤ 2.5× the copy at N = 10⁶;
 springs ≤ 1.5× the sparse scatter; (issue 28) a run whose diagnostics are not read ≤ 1.1× a run that
 records states only.
@@ -181,6 +186,35 @@ def diagnostics_table(steps: int, rounds: int):
                 lazy_ratio = ratio
     return rows, lazy_ratio
 
+def float_table(sizes, steps: int, rounds: int) -> list:
+    """Rows (N, coordinates, plan a run takes, µs per step on floats, vectorized, floats / vectorized)."""
+    from ..particles import AnchorSprings, DampedSprings, Gravity, ParticleSystem
+    from ..particles.lean import FLOAT_MAX, FloatParticles
+    from ..scene import Scene
+
+    rows, h = [], 1e-3
+    for N in sizes:
+        x = np.stack([np.arange(N, dtype=float), np.zeros(N)], 1)
+        v = np.stack([np.zeros(N), 0.1 * np.cos(np.arange(N))], 1)
+        chain = np.stack([np.arange(N - 1), np.arange(1, N)], 1)
+        runs = {}
+        for plan in ("floats", "vectorized"):
+            scene = Scene(ParticleSystem(x, v, np.linspace(1.0, 2.0, N)),
+                          [Gravity(), AnchorSprings([0], None, 50.0)] + ([DampedSprings(chain, 50.0, 0.5)] if N > 1 else []))
+            scene._floats = FloatParticles(scene) if plan == "floats" else None     # either plan at any size
+            runs[plan] = scene
+        times: dict = {k: [] for k in runs}
+        for _ in range(rounds):
+            for k, scene in runs.items():
+                start = time.perf_counter()
+                scene.simulate(steps * h, h, "symplectic_euler", diagnostics=False)
+                times[k].append((time.perf_counter() - start) / steps * 1e6)
+        ratio = float(np.median(np.array(times["floats"]) / np.array(times["vectorized"])))
+        rows.append([N, 2 * N, "floats" if 2 * N <= FLOAT_MAX else "vectorized", float(np.median(times["floats"])),
+                     float(np.median(times["vectorized"])), ratio])
+    return rows
+
+
 def implicit_table(n: int, repeats: int):
     """One implicit Euler step of an n × n stiff hanging net: analytic sparse Jacobian vs finite differences."""
     from ..models.particles import hanging_net
@@ -221,6 +255,11 @@ def run(quick: bool = False) -> Report:
     n = 6 if quick else 12
     rep.tables.append(Table(f"one implicit Euler step, {n}×{n} stiff hanging net (k_s = 1e4, h = 0.01), median seconds",
                             ["Jacobian", "time", "/ analytic", "max |Δy|"], implicit_table(n, 3 if quick else 5)))
+    rep.tables.append(Table("small scenes, symplectic Euler (2-D, a chain of damped springs, anchor, gravity): "
+                            "floats against the vectorized kick-drift (µs per step, medians of alternating rounds)",
+                            ["N", "coordinates", "plan taken", "floats", "vectorized", "floats / vectorized"],
+                            float_table([1, 2, 8, 16, 24] if quick else [1, 2, 4, 8, 12, 16, 24, 32],
+                                        300 if quick else 1000, 3 if quick else 5)))
     for r in rows:
         rep.goals.append(Goal(f"particles-step-vs-numpy-N{r[0]:.0e}".replace("+0", ""), r[7], 1.2, "<=", "x",
                               "scene.step / faster of the two hand-written numpy steps"))
