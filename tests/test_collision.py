@@ -934,21 +934,21 @@ def _ball_in(planes, x0, v0, g=(0.0, -9.81), eps=0.8, radius=0.0, **kw):
 def _lean_and_readable(make, T, h, **kw):
     from pbanim.collision import lean as lean_mod
 
-    taken = [0, 0]
-    step = lean_mod.LeanBall.step
+    taken = [0, 0]                  # steps the float run took, steps it handed to the readable one
+    run = lean_mod.LeanBall.run
 
-    def counted(self, *a):
-        out = step(self, *a)
-        taken[out is None] += 1
+    def counted(self, grid, *a):
+        out = run(self, grid, *a)
+        taken[0], taken[1] = out[1], grid.n_steps - out[1]
         return out
 
-    lean_mod.LeanBall.step = counted
+    lean_mod.LeanBall.run = counted
     try:
         scene, col = make()
         a = simulate_collisions(scene, T, h, "rk4", toi="event", **kw)
         log_a = list(col.log)
     finally:
-        lean_mod.LeanBall.step = step
+        lean_mod.LeanBall.run = run
     scene, col = make()
     b = simulate_collisions(scene, T, h, "rk4", toi="event", lean=False, **kw)
     return a, b, taken, log_a, col.log
@@ -1105,3 +1105,20 @@ def test_floor_rows_of_chapter_06_are_equal_work():
         fl = make()
         a, b = np.asarray(fl.pbanim(), float), np.asarray(fl.hand(), float)
         assert a.shape == b.shape and np.abs(a - b).max() / max(1.0, np.abs(b).max()) <= fl.tol, fl.scene
+
+
+def test_lean_run_names_a_diverging_state_where_the_readable_run_does():
+    # ORACLES D17: the float run checks every state as the driver does (|y|² finite): a ball thrown up at
+    # 1.3e154 m/s overflows |y|² after 25 steps, SimulationDiverged at the same step time on both paths
+    from pbanim.errors import SimulationDiverged
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    times = []
+    for lean in (True, False):
+        scene = Scene(ParticleSystem([[0.0, 1.0]], [[0.0, 1.3e154]]),
+                      [Gravity(), Collisions(obstacles=[Plane([0, 1])], restitution=0.5)])
+        with pytest.raises(SimulationDiverged) as err:
+            simulate_collisions(scene, 0.5, 0.01, toi="event", lean=lean)
+        times.append(err.value.t)
+    assert times[0] == times[1] == pytest.approx(0.25)

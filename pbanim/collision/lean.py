@@ -37,9 +37,22 @@ from math import sqrt
 
 import numpy as np
 
-from ..contracts import Int, Obj, Real, contract
+from ..contracts import Int, Obj, Real, contract, package_code
+from ..ode.driver import check_finite
 
 __all__ = ["lean_ball"]
+
+_TRUST: dict = {}
+
+
+def _trusted(obj, names: tuple) -> bool:
+    """:func:`pbanim.contracts.package_code` of ``obj``, kept per class (what it answers depends on the class)."""
+    key = (type(obj), names)
+    got = _TRUST.get(key)
+    if got is None:
+        got = _TRUST[key] = package_code(obj, *names)
+    return got
+
 
 _HAIR = 1e-9          # relative distance to a threshold below which a step is handed to the readable one
 
@@ -61,9 +74,13 @@ def lean_ball(scene, col, method, gap_tol: float, max_events: int) -> "LeanBall 
         return None
     if col.friction != 0.0 or col.mode != "sequential" or not (0.0 < col.restitution < 1.0):
         return None
+    # the trust rule (pbanim.contracts.package_code): the float step replaces the effect's response and the
+    # forces' apply by their closed forms; a user's subclass or a copy of the module runs what it wrote
+    if not _trusted(col, ("respond", "post_step", "threshold", "gaps", "contacts", "diagnostics")):
+        return None
     for e in scene._force:
         aff = getattr(e, "affine", None)
-        if not callable(aff) or aff()[1] is not None:
+        if not callable(aff) or not _trusted(e, ("apply", "affine")) or aff()[1] is not None:
             return None
     W = float(system.W[0])
     if not W > 0:
@@ -79,9 +96,9 @@ class LeanBall:
     def __init__(self, dim: int, W: float, acc: tuple, col, r: float, gap_tol: float, max_events: int) -> None:
         self.dim, self.W, self.acc, self.col, self.r = dim, W, acc, col, r
         self.gap_tol, self.max_events = gap_tol, max_events
-        self.planes = tuple((tuple(float(c) for c in np.append(p.normal, [0.0] * 3)[:3]), float(p.offset))
-                            for p in col.planes)
+        self.planes = tuple((tuple((p.normal.tolist() + [0.0, 0.0])[:3]), float(p.offset)) for p in col.planes)
         self.eps = col.restitution
+        self.impacts: tuple = ([], [])     # where :meth:`run` appends the times and states of its impacts
 
     def rk4(self, y: list, h: float) -> list:
         """One RK4 step of ẏ = (v, a) as :func:`pbanim.ode.tableau.make_rk_step` computes it, on floats: the
@@ -96,6 +113,97 @@ class LeanBall:
             out[i] = y[i] + ((v + s3) * hb + (s1 + s1) * hc)
             out[d + i] = v + ((a + a) * hb + (a + a) * hc)
         return out
+
+    def run(self, grid, y0: list, record_every: int, threshold, readable) -> tuple[list, int, int]:
+        """The whole run on floats: (the recorded states as lists, the number of lean steps, of impacts located
+        by them), the impacts' times and states appended to the lists ``self.impacts`` holds.
+
+        A step whose start gaps are all above the event margin (``far``, as :meth:`step` tests them) and whose
+        RK4 end gaps are all positive is a flight: taken here, with the smallest end gap kept for the next
+        step's start (RK4 written out as :meth:`rk4`, bit for bit). Any other step goes to :meth:`step` (an
+        impact located), and what that hands back to ``readable(k, t, y, h) -> y₁`` (the readable step, its
+        response and its checks). Every state is checked as the driver checks it (|y|² finite, else
+        :class:`~pbanim.errors.SimulationDiverged` naming the step). ``threshold(h)``: the restitution
+        threshold of a step of size h."""
+        n, t0, H, hl = grid.n_steps, grid.t0, grid.h, grid.h_last
+        d, acc, planes, r = self.dim, self.acc, self.planes, self.r
+        inf, last, every = float("inf"), n - 1, record_every - 1
+        (n0, n1, n2), off0 = planes[0]
+        single = len(planes) == 1
+        rows, y = [list(y0)], list(y0)
+        taken = located = 0
+        times, states = self.impacts
+        cache: dict = {}                     # per flight length hs: a(hs/2), a hs, Δv per component, hs/6, hs/3
+        lo = None                            # the smallest gap of y when a flight left it, else None
+        hk, hs0 = H, None
+        vrest = threshold(H)
+        far = max(vrest * H, self.gap_tol) * (1 + _HAIR)
+        for k in range(n):
+            if k == last:                    # the last step, shortened to end at t_end: its own margins
+                hk, vrest = hl, threshold(hl)
+                far = max(vrest * hl, self.gap_tol) * (1 + _HAIR)
+            t = t0 + k * H
+            hs = (t + hk) - t                # the flight's length as :meth:`step` takes it (t₁ − t)
+            if hs != hs0:
+                hs0, inc = hs, cache.get(hs)
+                if inc is None:
+                    hb, hc, h2 = hs * (1 / 6), hs * (1 / 3), hs * 0.5
+                    inc = cache[hs] = (*(c for a in acc for c in (a * h2, a * hs, (a + a) * hb + (a + a) * hc)),
+                                       hb, hc)
+            if lo is None:
+                lo = min(g for g, _, _ in self.gaps(y))
+            if lo > far:
+                if d == 2:
+                    x0, x1, v0, v1 = y
+                    p0, q0, w0, p1, q1, w1, hb, hc = inc
+                    s = v0 + p0
+                    x0 = x0 + ((v0 + (v0 + q0)) * hb + (s + s) * hc)
+                    s = v1 + p1
+                    x1 = x1 + ((v1 + (v1 + q1)) * hb + (s + s) * hc)
+                    v0, v1 = v0 + w0, v1 + w1
+                    y1 = [x0, x1, v0, v1]
+                    norm = x0 * x0 + x1 * x1 + v0 * v0 + v1 * v1
+                    if single:
+                        lo = x0 * n0 + x1 * n1 - off0 - r
+                    else:
+                        lo = min([x0 * n_[0] + x1 * n_[1] - off - r for n_, off in planes])
+                else:
+                    y1 = list(y)
+                    hb, hc = inc[-2:]
+                    for i in range(3):
+                        ah2, ah, dv = inc[3 * i:3 * i + 3]
+                        v = y[3 + i]
+                        s = v + ah2
+                        y1[i] = y[i] + ((v + (v + ah)) * hb + (s + s) * hc)
+                        y1[3 + i] = v + dv
+                    x0, x1, x2 = y1[0], y1[1], y1[2]
+                    lo = min([x0 * n_[0] + x1 * n_[1] + x2 * n_[2] - off - r for n_, off in planes])
+                    norm = sum([u * u for u in y1])
+                if not norm < inf:           # |y|² overflows: what the driver names (SimulationDiverged)
+                    check_finite(np.array(y1), t, k, "state")
+                if 0.0 < lo:
+                    y = y1
+                    taken += 1
+                    if k % record_every == every or k == last:
+                        rows.append(y)
+                    continue
+            lo = None
+            out = self.step(t, y, hk, vrest)
+            if out is None:
+                y = readable(k, t, y, hk)
+            else:
+                y, impacts, logs = out
+                if not sum([u * u for u in y]) < inf:
+                    check_finite(np.array(y), t, k, "state")
+                for tc, yc in impacts:
+                    times.append(tc)
+                    states.append(np.array(yc))
+                self.col.log += logs
+                taken += 1
+                located += len(impacts)
+            if k % record_every == every or k == last:
+                rows.append(y)
+        return rows, taken, located
 
     def gaps(self, y: list) -> list:
         """(gᵢ, nᵢ·v, nᵢ) for every plane (x and v padded with z = 0)."""

@@ -21,6 +21,7 @@ apply the impulse, restart the solver; Hairer, Nørsett & Wanner I §II.6 (dense
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -89,7 +90,9 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
     m = get_method(method)
     split = scene.system.split
     y = np.array(scene.system.state() if y0 is None else y0, dtype=float, copy=True)
-    check_finite(y, t0, 0, "initial state")
+    with np.errstate(over="ignore", invalid="ignore"):
+        if not math.isfinite(float(y @ y)):   # (|y|² overflowing: named there too)
+            check_finite(y, t0, 0, "initial state")
     # the effects whose diagnostics describe the last response are read at the recorded times; the rest later
     history = [unchecked(e.diagnostics) for e in scene.effects if getattr(e, "history_diagnostics", False)]
 
@@ -193,33 +196,35 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
 
     start = time.perf_counter()
     if plan is not None and all(getattr(read, "__self__", None) is col for read in history):
-        # the lean step and the post-step response in one advance, the states stored by drive_lean
-        quiet, rows = recorded(t0, y), []
+        # the whole run on floats (LeanBall.run): flights and located impacts there, any other step readable
+        quiet, special = diags[0], {}             # col.last is None: what every lean step leaves
 
-        def advance(t, y, hk):
-            y1 = lean_located(t, y, hk)
-            if took[0]:
-                col.last = None
-                rows.append(quiet)
-                return y1
-            check_finite(y1, t, len(rows), "state")
-            y1 = between(0, t, y, t + hk, y1, hk)[1]
-            rows.append(recorded(t + hk, y1))
-            return y1
+        def readable(k, t, yl, hk):
+            ya = np.array(yl)
+            y1 = located(t, ya, hk)
+            check_finite(y1, t, k, "state")
+            y1 = between(0, t, ya, t + hk, y1, hk)[1]
+            check_finite(y1, t, k, "state")
+            special[k] = recorded(t + hk, y1)
+            return y1.tolist()
 
-        Y = drive_lean(advance, grid, y, "state", record_every=record_every, check_every=1)
+        plan.impacts = (impact_t, impact_y)         # in time order, with the readable steps' impacts
+        rows, lean_steps, lean_impacts = plan.run(grid, y.tolist(), record_every, threshold, readable)
+        nfev[0] += 4 * (lean_steps + lean_impacts)
+        col.last = None if grid.n_steps - 1 not in special else col.last
+        Y = np.array(rows)
         n, r = grid.n_steps, record_every
         T = np.append(grid.t0 + grid.h * np.arange(0, n, r), grid.t_end)
-        diags += [rows[k] for k in range(r - 1, n - 1, r)] + [rows[n - 1]]
+        diags += [special.get(k, quiet) for k in range(r - 1, n - 1, r)] + [special.get(n - 1, quiet)]
     else:
         drive(fixed if toi == "fixed" else located, grid, y, hooks=[between], record=record,
               record_every=record_every)
         T, Y = np.array(ts), np.array(ys)
     wall = time.perf_counter() - start
-    hist = {key: np.array([d[key] for d in diags]) for key in diags[0]}
     diagnose = unchecked(scene.diagnostics)
 
     def series():
+        hist = {key: np.array([d[key] for d in diags]) for key in diags[0]}
         full = [diagnose(t, yy) for t, yy in zip(T, Y)]
         return {**{key: np.array([d[key] for d in full]) for key in full[0]}, **hist}
 
