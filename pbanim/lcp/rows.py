@@ -36,6 +36,7 @@ velocities); R. Tonge et al., SIGGRAPH 2012 (graph coloring of contact solves).
 from __future__ import annotations
 
 import numpy as np
+from scipy import sparse
 
 from .box import _box_residual, _scale, _warm_impulses
 from ..contracts import Array, Int, Opt, Real, Seq, contract
@@ -64,6 +65,20 @@ def _rows(env) -> int:
     return np.size(env.values["bias"])
 
 
+def _color_plan(colors, m):
+    """Contacts in color order: the permutation, each color's [start, end) in it, and the contacts no color
+    holds (kept at their first iterate, still in the residual)."""
+    groups = [np.asarray(K, dtype=np.intp).ravel() for K in colors]
+    if any(np.any(K >= m) for K in groups):
+        raise InvalidInput(f"colors must hold contact indices below m = {m}")
+    perm = np.concatenate(groups) if groups else np.zeros(0, np.intp)
+    if perm.size != np.unique(perm).size:
+        raise InvalidInput("colors must not hold a contact twice (a partition of the contacts)")
+    rest = np.setdiff1d(np.arange(m), perm, assume_unique=True)
+    bounds = np.cumsum([0] + [K.size for K in groups])
+    return np.concatenate([perm, rest]), list(zip(bounds[:-1], bounds[1:]))
+
+
 @contract(a=Array((_rows,), ge=0, empty=True), b=Array((_rows,), ge=0, empty=True), Ga=Array((_rows, "d"), empty=True),
           Gb=Array((_rows, "d"), empty=True), Wb=_BLOCKS, u_free=Array(("n", "d")), bias=Array((None,), empty=True),
           mu=Array((None,), ge=0, scalar=True, empty=True), colors=Seq(Array((None,), ge=0, empty=True)),
@@ -77,6 +92,10 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     moving body (:func:`pbanim.lcp.colored.colors_by_bodies`). Returns (z, residual, sweeps, u): the box-friction
     residual of w = J u + β (the conditions of :func:`pbanim.lcp.solve.pgs_box_friction`), and u = ũ + W Jᵀ z,
     the velocities after the impulses. Stops when the residual ≤ tol·max(1, ‖b‖∞), b = J ũ + β.
+
+    Work per sweep: per color, one sparse product J_K u (its 3k rows, 2d numbers each), the three row updates
+    as numpy operations on the color's k contacts, one sparse product u += (W Jᵀ)_K Δz_K; the contacts are
+    kept in color order so that a color is a contiguous slice (no gather or scatter in the sweep).
     """
     a, b = np.asarray(a, dtype=np.intp), np.asarray(b, dtype=np.intp)
     n = a.size
@@ -84,53 +103,65 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
         raise InvalidInput(f"pgs_box_friction_rows needs 3 rows per contact (normal, two tangents), got {n} rows")
     m = n // 3
     mu = np.broadcast_to(np.asarray(mu, dtype=float), (m,))
-    if any(np.any(np.asarray(K) >= m) for K in colors):
-        raise InvalidInput(f"colors must hold contact indices below m = {m}")
+    perm, spans = _color_plan(colors, m)
+    nb, d = np.shape(u_free)
+    Ga, Gb = np.asarray(Ga, dtype=float), np.asarray(Gb, dtype=float)
     WGa = np.einsum("rij,rj->ri", Wb[a], Ga)
     WGb = np.einsum("rij,rj->ri", Wb[b], Gb)
-    d = Ga.shape[1]
-    ga3, gb3, wga3, wgb3 = (M.reshape(m, 3, d) for M in (Ga, Gb, WGa, WGb))
-    C = np.einsum("cjd,ckd->cjk", ga3, wga3) + np.einsum("cjd,ckd->cjk", gb3, wgb3)   # A's 3 × 3 diagonal blocks
-    diag = C[:, [0, 1, 2], [0, 1, 2]].ravel()
+    ga3, gb3, wga3, wgb3 = (M.reshape(m, 3, d)[perm] for M in (Ga, Gb, WGa, WGb))     # in color order
+    C = lambda j, k: np.einsum("cd,cd->c", ga3[:, j], wga3[:, k]) + np.einsum("cd,cd->c", gb3[:, j], wgb3[:, k])  # noqa: E731
+    diag = np.stack([C(0, 0), C(1, 1), C(2, 2)], axis=1)                           # A's diagonal, (m, 3)
     if np.any(diag <= 0):
         raise InvalidInput("pgs_box_friction_rows needs rows with a positive diagonal J W Jᵀ (a moving body)")
-    inv3 = (1.0 / diag).reshape(m, 3)
-    z = _warm_impulses(warm_start, n, mu)
-    u = np.array(u_free, dtype=float)
-    Jv = lambda uu: np.einsum("ri,ri->r", Ga, uu[a]) - np.einsum("ri,ri->r", Gb, uu[b])  # noqa: E731
-    thresh = tol * _scale(Jv(u) + bias)
-    if np.any(z):
-        np.add.at(u, a, WGa * z[:, None])
-        np.add.at(u, b, -WGb * z[:, None])
-    z3, bias3, ac, bc = z.reshape(m, 3), np.reshape(bias, (m, 3)), a[0::3], b[0::3]
-    # per color, gathered once: both ends of its contacts (a then b: a live body appears once in a color), their
-    # rows ±G and ±W G, A's diagonal-block couplings, 1/A_rr, β and μ; dz a buffer for the color's updates
+    inv = 1.0 / diag
+    c10, c20, c21 = C(1, 0), C(2, 0), C(2, 1)                                      # A's diagonal-block couplings
+    ac, bc = a[0::3][perm], b[0::3][perm]
+    # J and W Jᵀ as sparse matrices on u (nb·d,): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's
+    cols = np.repeat(np.concatenate([ac[:, None] * d + np.arange(d), bc[:, None] * d + np.arange(d)], axis=1), 3, axis=0)
+    dataJ = np.concatenate([ga3, -gb3], axis=2).reshape(-1)
+    dataM = np.concatenate([wga3, -wgb3], axis=2).reshape(-1)
+    w2 = 2 * d
+    itype = np.int32 if max(nb * d, 3 * m * w2) < 2 ** 31 else np.int64      # scipy's own index type: no copies
+    cols, ptr = cols.reshape(-1).astype(itype), np.arange(0, 3 * m * w2 + 1, w2, dtype=itype)
+    J = sparse.csr_matrix((dataJ, cols, ptr), shape=(3 * m, nb * d))
     plan = []
-    for K in colors:
-        K = np.asarray(K, dtype=np.intp)
-        k = K.size
-        G2 = np.concatenate([ga3[K], -gb3[K]])                                  # (2k, 3, d): a's rows, then b's
-        W2T = np.ascontiguousarray(np.swapaxes(np.concatenate([wga3[K], -wgb3[K]]), 1, 2))   # (2k, d, 3)
-        plan.append((K, k, np.concatenate([ac[K], bc[K]]), G2, W2T, C[K, 1, 0], C[K, 2, 0], C[K, 2, 1],
-                     inv3[K, 0], inv3[K, 1], inv3[K, 2], bias3[K], mu[K], np.empty((2 * k, 3, 1))))
-    for sweep in range(1, int(max_iter) + 1):
-        for K, k, ends, G2, W2T, c10, c20, c21, i0, i1, i2, beta, muK, dz in plan:
-            # w of the color's three rows from u; then normal, t₁, t₂ in turn, each w moved by the updates before
-            # it through A's diagonal block (the rows of one contact share its two bodies): the row-by-row sweep
-            w2 = G2 @ u[ends][:, :, None]
-            w = w2[:k, :, 0] + w2[k:, :, 0] + beta
-            old = z3[K]
-            f = np.maximum(old[:, 0] - w[:, 0] * i0, 0.0)
-            dz[:k, 0, 0] = d0 = f - old[:, 0]
-            lim = muK * f
-            t1 = np.minimum(np.maximum(old[:, 1] - (w[:, 1] + c10 * d0) * i1, -lim), lim)
-            dz[:k, 1, 0] = d1 = t1 - old[:, 1]
-            t2 = np.minimum(np.maximum(old[:, 2] - (w[:, 2] + c20 * d0 + c21 * d1) * i2, -lim), lim)
-            dz[:k, 2, 0] = t2 - old[:, 2]
-            dz[k:] = dz[:k]
-            z3[K] = old + dz[:k, :, 0]
-            u[ends] += (W2T @ dz)[:, :, 0]
-        res = _box_residual(z, Jv(u) + bias, mu)
+    for s, e in spans:
+        lo, hi, loc = 3 * s * w2, 3 * e * w2, ptr[:3 * (e - s) + 1]
+        JK = sparse.csr_matrix((dataJ[lo:hi], cols[lo:hi], loc), shape=(3 * (e - s), nb * d))
+        MK = sparse.csc_matrix((dataM[lo:hi], cols[lo:hi], loc), shape=(nb * d, 3 * (e - s)))
+        plan.append((s, e, JK, MK))
+    zp = _warm_impulses(None if warm_start is None else np.reshape(warm_start, (m, 3))[perm].ravel(), n, mu[perm])
+    z3, mup = zp.reshape(m, 3), mu[perm]
+    beta = np.reshape(bias, (m, 3))[perm]
+    betaf = beta.ravel()
+    u = np.array(u_free, dtype=float).ravel()
+    thresh = tol * _scale(J @ u + betaf)
+    if np.any(zp):
+        u += _transpose_product(dataM, cols, ptr, zp, nb * d)
+    sweeps, res = 0, np.inf
+    for sweeps in range(1, int(max_iter) + 1):
+        for s, e, JK, MK in plan:
+            # w of the color's rows from u; then normal, t₁, t₂ in turn, each w moved by the updates before it
+            # through A's diagonal block (the rows of one contact share its two bodies): the row-by-row sweep
+            w = (JK @ u).reshape(-1, 3) + beta[s:e]
+            old = z3[s:e]
+            f = np.maximum(old[:, 0] - w[:, 0] * inv[s:e, 0], 0.0)
+            d0 = f - old[:, 0]
+            lim = mup[s:e] * f
+            t1 = np.clip(old[:, 1] - (w[:, 1] + c10[s:e] * d0) * inv[s:e, 1], -lim, lim)
+            d1 = t1 - old[:, 1]
+            t2 = np.clip(old[:, 2] - (w[:, 2] + c20[s:e] * d0 + c21[s:e] * d1) * inv[s:e, 2], -lim, lim)
+            dz = np.stack([d0, d1, t2 - old[:, 2]], axis=1)
+            old += dz
+            u += MK @ dz.ravel()
+        res = _box_residual(zp, J @ u + betaf, mup)
         if res <= thresh:
-            return z, res, sweep, u
-    return z, _box_residual(z, Jv(u) + bias, mu), int(max_iter), u
+            break
+    z = np.empty(n)
+    z.reshape(m, 3)[perm] = z3
+    return z, res, sweeps, u.reshape(nb, d)
+
+
+def _transpose_product(dataM, cols, ptr, z, size):
+    """(W Jᵀ) z for all rows (the warm start's velocities)."""
+    return sparse.csc_matrix((dataM, cols, ptr), shape=(size, z.size)) @ z
