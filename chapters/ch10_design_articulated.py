@@ -92,7 +92,7 @@ def thrown_chain_figure(ctx):
     line, = ax.plot([], [], "-o", color="C1", ms=3, lw=2)
     trail, = ax.plot([], [], lw=1, color="C0")
     Ptip, _ = fl.point(TIP[0], TIP[1])
-    frames = 16 if ctx.quick else 48
+    frames = 8 if ctx.quick else 48
 
     def update(j):
         i = min(int(j / (frames - 1) * (len(fl.t) - 1)), len(fl.t) - 1)

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..articulated import ArticulatedTree, PlanarKernel, aba_derivatives, aba_fast
 from ..articulated.specs import JointPositions, Tree
-from ..contracts import Array, Flag, Index, Int, Opt, Real, contract
+from ..contracts import Array, Flag, Index, Int, Obj, Opt, Real, Seq, contract
 from ..errors import InvalidInput, SimulationDiverged
 from .control import min_norm_update
 
@@ -42,7 +42,7 @@ __all__ = ["thrown_chain", "ChainFlight", "ChainAim", "simulate_chain", "aim_cha
 MAX_STEPS = 100_000
 
 
-@contract(links=Int(ge=1, le=20), length=Real(gt=0), mass=Real(gt=0), gravity=Real(ge=0))
+@contract(links=Int(ge=1, le=20), length=Real(gt=0, le=100), mass=Real(gt=0, le=1e6), gravity=Real(ge=0, le=1e3))
 def thrown_chain(links: int = 4, length: float = 0.3, mass: float = 1.0, gravity: float = 9.81) -> ArticulatedTree:
     """A planar chain of ``links`` uniform rods (length, mass) hinged end to end about z, on a free base
     (slider x, slider y, hinge θ: q = (x, y, θ, q₁ … q_{n−1})), gravity −y."""
@@ -56,6 +56,8 @@ def thrown_chain(links: int = 4, length: float = 0.3, mass: float = 1.0, gravity
     return tree
 
 
+@contract(t=Array((None,)), y=Array((None, None)), dy_du=Array((None, None, None), empty=True),
+          free=Array((None,), empty=True), tree=Tree())
 @dataclass
 class ChainFlight:
     """S(t, u) of a tree: times t (N,), states y (N, nq + nv), sensitivities dy_du (N, nq + nv, p), the
@@ -133,6 +135,8 @@ def simulate_chain(tree, q0, qd0, T: float, h: float, free=None, stiffness=None,
     return ChainFlight(np.linspace(0.0, T, steps + 1), np.array(ys), np.array(Ps), free, tree)
 
 
+@contract(u=Array((None,), empty=True), flight=Obj(ChainFlight), residuals=Seq(Real(ge=0)), success=Flag(),
+          history=Seq(Array((None,), empty=True)))
 @dataclass
 class ChainAim:
     """A shooting design: the launch u found, the flight, the residual |p(T) − p*| and u per iterate, success."""

@@ -77,3 +77,30 @@ CALLS = {
                                                             "qd": np.array([0.1, 0.0, 0.5]), "h": 1e-3,
                                                             "tau": np.zeros(3)},
 }
+
+# issue 31: derivatives of RNEA and ABA (the contracts invent valid trees and states; these add a floating root,
+# a weld and external forces)
+CALLS.update({
+    _A + "derivatives.rnea_derivatives": lambda: {"tree": _tree(), "q": _tree().neutral(), "qd": np.ones(8),
+                                                  "qdd": np.zeros(8), "f_ext": np.ones((4, 6))},
+    _A + "derivatives.aba_derivatives": lambda: {"tree": _tree(), "q": _tree().neutral(), "qd": np.ones(8),
+                                                 "tau": np.zeros(8), "f_ext": np.ones((4, 6))},
+    _A + "derivatives.tangent_step": lambda: {"tree": _tree(), "q": _tree().neutral(), "dv": np.full(8, 0.1)},
+})
+
+
+def _chain_flight():
+    """A short flight of a two-rod chain (chapter 10's articulated design, issue 31)."""
+    from pbanim.design.articulated import simulate_chain, thrown_chain
+
+    tree = thrown_chain(2)
+    return simulate_chain(tree, np.array([0.0, 1.0, 0.3, 0.4]), np.array([1.0, 2.0, 1.0, 0.0]), 0.1, 0.05)
+
+
+def _chain_flight_class():
+    from pbanim.design.articulated import ChainFlight
+
+    return ChainFlight
+
+
+INSTANCES[_chain_flight_class()] = _chain_flight
