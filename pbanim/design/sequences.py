@@ -67,6 +67,7 @@ from ..errors import InvalidInput, PbanimError
 from .control import _GOALS, _check_goals
 from .scene import DesignScene
 from .shooting import _sketch, _slsqp
+from .sequence_flights import Flights, planes_of
 from .specs import SketchPoints
 
 __all__ = ["Sequence", "SequenceSearch", "propose_sequences", "solve_sequence", "search_sequences"]
@@ -118,11 +119,6 @@ def _check_scene(scene):
                            f"Sphere and at least one plane, got {scene.N} bodies and {len(scene.planes)} planes")
 
 
-def _planes(scene):
-    n = np.array([p.normal for p in scene.planes], dtype=float).reshape(-1, 3)
-    return n, np.einsum("ji,ji->j", n, scene.anchors) + scene.bodies[0].shape.radius
-
-
 @contract(scene=_SCENE, sketch=SketchPoints(), reach_samples=Real(gt=0))
 def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
     """The sequences the sketch shows: local minima of each plane's gap within reach of the plane, and the
@@ -132,7 +128,7 @@ def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
     if len(pts) < 3:
         raise InvalidInput(f"need at least 3 sketch points to see impacts, got {len(pts)}")
     ts, X = np.array([t for t, _ in pts]), np.array([x for _, x in pts])
-    n, off = _planes(scene)
+    n, off = planes_of(scene)
     G = X @ n.T - off                                       # (samples, planes) sketched gaps
     minima, reversals = [], []
     for j in range(len(off)):
@@ -153,145 +149,30 @@ def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
 
 
 def _touch_time(ts, g, i):
-    """The time the sketched gap reaches the plane near its minimum at sample i: the incoming line (i−1, i)
-    and the outgoing line (i+1, i+2 or i, i+1) extrapolated to g = 0, averaged, kept in (t_{i−1}, t_{i+1})."""
+    """The time the sketched gap reaches the plane near its minimum at sample i. Two hypotheses: the impact
+    lies in (t_i, t_{i+1}) — the incoming line (i−1, i) and the outgoing (i+1, i+2) reach g = 0 inside it —
+    or in (t_{i−1}, t_i) — lines (i−2, i−1) and (i, i+1); the one whose two zeros agree best, averaged."""
+    n = len(ts)
+
     def zero(a, b):
+        if a < 0 or b >= n:
+            return None
         s = (g[b] - g[a]) / (ts[b] - ts[a])
-        return ts[a] - g[a] / s if s != 0 else ts[a]
-    t_in = zero(i - 1, i)
-    t_out = zero(i + 1, i + 2) if i + 2 < len(ts) and g[i + 2] > g[i + 1] else zero(i, i + 1)
-    return float(np.clip(0.5 * (t_in + t_out), ts[i - 1] + 1e-6, ts[i + 1] - 1e-6))
+        return ts[a] - g[a] / s if s != 0 else None
 
-
-class _Flights:
-    """The continuous problem of one sequence: unknowns z = [a₀, b₀, (τ_k, a_k, b_k) for k = 1..K]."""
-
-    def __init__(self, scene, planes, t_end, pts, goals):
-        self.g, self.eps = scene.gravity, float(scene.restitution)
-        self.n, self.off = _planes(scene)
-        self.planes, self.K, self.t_end = [int(j) for j in planes], len(planes), float(t_end)
-        self.ts = np.array([t for t, _ in pts]).reshape(-1)
-        self.X = np.array([x for _, x in pts]).reshape(-1, 3)
-        self.goals = goals
-        self.size = 6 + 7 * self.K
-
-    def base(self, k):
-        """Index of τ_k (k ≥ 1) and of a_k, b_k: (τ index or None, a slice, b slice)."""
-        if k == 0:
-            return None, slice(0, 3), slice(3, 6)
-        i = 6 + 7 * (k - 1)
-        return i, slice(i + 1, i + 4), slice(i + 4, i + 7)
-
-    def tau(self, z):
-        return np.concatenate([[0.0], z[6::7][:self.K]])
-
-    def flight_of(self, z, t):
-        return int(np.searchsorted(self.tau(z), t, side="right") - 1)
-
-    def position(self, z, t):
-        """(x(t), ∂x/∂z (3, size))."""
-        k = self.flight_of(z, t)
-        it, sa, sb = self.base(k)
-        s = t - (0.0 if it is None else z[it])
-        b = z[sb]
-        J = np.zeros((3, self.size))
-        J[:, sa] = np.eye(3)
-        J[:, sb] = s * np.eye(3)
-        if it is not None:
-            J[:, it] = -(b + self.g * s)
-        return z[sa] + b * s + 0.5 * self.g * s * s, J
-
-    def objective(self, z):
-        E, dE = 0.0, np.zeros(self.size)
-        for t, xb in zip(self.ts, self.X):
-            x, J = self.position(z, t)
-            E += 0.5 * float((x - xb) @ (x - xb))
-            dE += (x - xb) @ J
-        return E, dE
-
-    def equalities(self, z):
-        """Continuity (position, velocity), contact at each impact, then the goals: (c, ∂c/∂z)."""
-        rows, J = [], []
-        for k in range(1, self.K + 1):
-            i0, a0, b0 = self.base(k - 1)
-            i1, a1, b1 = self.base(k)
-            nj = self.n[self.planes[k - 1]]
-            Rj = np.eye(3) - (1.0 + self.eps) * np.outer(nj, nj)
-            dt = z[i1] - (0.0 if i0 is None else z[i0])
-            vm = z[b0] + self.g * dt
-            Jk = np.zeros((7, self.size))
-            Jk[0:3, a0], Jk[0:3, b0], Jk[0:3, a1], Jk[0:3, i1] = np.eye(3), dt * np.eye(3), -np.eye(3), vm
-            Jk[3:6, b0], Jk[3:6, b1], Jk[3:6, i1] = Rj, -np.eye(3), Rj @ self.g
-            if i0 is not None:
-                Jk[0:3, i0], Jk[3:6, i0] = -vm, -(Rj @ self.g)
-            Jk[6, a1] = nj
-            rows.append(np.concatenate([z[a0] + z[b0] * dt + 0.5 * self.g * dt * dt - z[a1], Rj @ vm - z[b1],
-                                        [nj @ z[a1] - self.off[self.planes[k - 1]]]]))
-            J.append(Jk)
-        for gl in self.goals:
-            x, Jx = self.position(z, gl.time)
-            rows.append(x - gl.target)
-            J.append(Jx)
-        return np.concatenate(rows), np.vstack(J)
-
-    def inequalities(self, z, v_min=1e-3, dt_min=1e-4):
-        """Approach speed ≥ v_min at each impact, increasing impact times inside (0, t_end), every flight's
-        start outside every plane: (h ≥ 0, ∂h/∂z)."""
-        rows, J = [], []
-        for k in range(1, self.K + 1):
-            i0, _, b0 = self.base(k - 1)
-            i1, a1, _ = self.base(k)
-            nj = self.n[self.planes[k - 1]]
-            dt = z[i1] - (0.0 if i0 is None else z[i0])
-            r = np.zeros((2, self.size))
-            r[0, b0], r[0, i1] = -nj, -(nj @ self.g)
-            r[1, i1] = 1.0
-            if i0 is not None:
-                r[0, i0], r[1, i0] = nj @ self.g, -1.0
-            rows.append([-(nj @ (z[b0] + self.g * dt)) - v_min, dt - dt_min])
-            J.append(r)
-        last = np.zeros((1, self.size))
-        if self.K:
-            last[0, self.base(self.K)[0]] = -1.0
-        rows.append([self.t_end - (self.tau(z)[-1] if self.K else 0.0) - (dt_min if self.K else -1.0)])
-        J.append(last)
-        for k in range(self.K + 1):
-            _, a, _ = self.base(k)
-            others = [j for j in range(len(self.off)) if k == 0 or j != self.planes[k - 1]]
-            G = np.zeros((len(others), self.size))
-            G[:, a] = self.n[others]
-            rows.append(self.n[others] @ z[a] - self.off[others])
-            J.append(G)
-        return np.concatenate([np.atleast_1d(r) for r in rows]), np.vstack(J)
-
-    def start(self, times):
-        """z from the sketch and the impact-time guesses: per flight a gravity parabola fitted to its sketch
-        points (weight 1), its neighbours' (weight 0.1) and its touches of the planes at both ends (weight 10)."""
-        tau = np.concatenate([[0.0], np.asarray(times, float)])
-        ends = np.append(tau[1:], self.t_end)
-        z = np.zeros(self.size)
-        for k in range(self.K + 1):
-            a, b = tau[k], ends[k]
-            w = np.where((self.ts >= a) & (self.ts < b), 1.0, 0.0)
-            near = np.argsort(np.minimum(np.abs(self.ts - a), np.abs(self.ts - b)))[:4]
-            w[near] = np.maximum(w[near], 0.1)
-            A, rhs = [], []
-            for t, xb, wt in zip(self.ts, self.X, w):
-                if wt > 0:
-                    s = t - a
-                    A.append(wt * np.hstack([np.eye(3), s * np.eye(3)]))
-                    rhs.append(wt * (xb - 0.5 * self.g * s * s))
-            for kk, te in ((k, a), (k + 1, b)):
-                if 1 <= kk <= self.K:
-                    nj, s = self.n[self.planes[kk - 1]], te - a
-                    A.append(10.0 * np.hstack([nj, s * nj])[None])
-                    rhs.append(10.0 * np.array([self.off[self.planes[kk - 1]] - 0.5 * s * s * (nj @ self.g)]))
-            coef = np.linalg.lstsq(np.vstack(A), np.concatenate(rhs), rcond=None)[0]
-            it, sa, sb = self.base(k)
-            if it is not None:
-                z[it] = a
-            z[sa], z[sb] = coef[:3], coef[3:]
-        return z
+    best = None
+    for (a, b), inc, out in (((i, i + 1), (i - 1, i), (i + 1, i + 2)), ((i - 1, i), (i - 2, i - 1), (i, i + 1))):
+        if a < 0 or b >= n:
+            continue
+        zs = [z for z in (zero(*inc), zero(*out)) if z is not None]
+        if not zs:
+            continue
+        t = float(np.clip(np.mean(zs), ts[a], ts[b]))
+        miss = sum(abs(z - t) for z in zs) / len(zs) + sum(abs(z - np.clip(z, ts[a], ts[b])) for z in zs)
+        if best is None or miss < best[0]:
+            best = (miss, t)
+    t = ts[i] if best is None else best[1]
+    return float(np.clip(t, ts[max(i - 1, 0)] + 1e-6, ts[min(i + 1, n - 1)] - 1e-6))
 
 
 def _replay(scene, u, t_end, pts, goals):
@@ -320,7 +201,7 @@ def solve_sequence(scene, goals, t_end, sketch, sequence, *, maxiter: int = 200,
     if len(sequence.planes) != len(sequence.times) or any(not 0 <= j < len(scene.planes) for j in sequence.planes):
         raise InvalidInput(f"sequence: one known plane per impact time, got planes {sequence.planes} and "
                            f"{len(sequence.times)} times for {len(scene.planes)} planes")
-    fl = _Flights(scene, sequence.planes, t_end, pts, goals)
+    fl = Flights(scene, sequence.planes, t_end, pts, goals)
     times = np.sort(np.clip(np.asarray(sequence.times, float), 1e-3 * t_end, (1 - 1e-3) * t_end))
     z0 = fl.start(times)
     cache = {}
@@ -390,7 +271,7 @@ def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, ma
     ts = np.array([t for t, _ in pts])
     seen, tried, best = set(), [], None
 
-    n, _ = _planes(scene)
+    n, _ = planes_of(scene)
     returns = n @ scene.gravity < 0                      # planes gravity pulls the body back to
 
     def possible(seq):
