@@ -40,7 +40,8 @@ from ..compare.harness import have
 from ..compare.peer_mujoco import mjcf_numbers
 from ..errors import InvalidInput
 
-__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run", "settle_scene", "scene_numbers"]
+__all__ = ["have", "pybullet_stack", "mujoco_stack", "mujoco_pour", "settle_run", "settle_scene", "scene_numbers",
+           "MJ_SOLVERS"]
 
 G = 9.81
 
@@ -228,12 +229,24 @@ def scene_numbers(sc, t_end: float) -> dict:
             "L": sc.info.get("box_half")}
 
 
-def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int) -> dict:
+MJ_SOLVERS = ("newton", "cg", "pgs")
+
+
+def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int, *, solver: str | None = None,
+                 budget: float = float("inf")) -> dict:
     """:func:`settle_run` on a scene given by :func:`scene_numbers` ("stack": boxes on the ground, "pile":
     spheres in the open box |x|, |y| ≤ L): cost of the stepping call alone per step and per simulated second;
-    over the last third of the run the drift (top box / highest centre) and the deepest contact."""
+    over the last third of the run the drift (top box / highest centre) and the deepest contact.
+
+    ``solver``: MuJoCo's (one of :data:`MJ_SOLVERS`; None: its default, Newton). ``budget``: seconds of stepping
+    after which the run stops; then ``over`` is True, ``t_reached`` the simulated time reached, cost the wall
+    time per simulated second so far, and drift and penetration NaN (the scene has not settled)."""
     if engine not in ("pybullet", "mujoco"):
         raise InvalidInput(f"engine must be 'pybullet' or 'mujoco', got {engine!r}")
+    if solver is not None and (engine != "mujoco" or solver not in MJ_SOLVERS):
+        raise InvalidInput(f"solver is MuJoCo's, one of {MJ_SOLVERS}, got {solver!r} for {engine}")
+    if not budget > 0:
+        raise InvalidInput(f"budget must be a positive number of seconds, got {budget}")
     steps = _steps(S["t_end"], h)
     k0 = (2 * steps) // 3
     heights, pens, elapsed = [], [], 0.0
@@ -241,6 +254,8 @@ def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int) ->
         import mujoco
 
         model = mujoco.MjModel.from_xml_string(_mjcf_new(scene, S, h, iterations))
+        if solver is not None:
+            model.opt.solver = getattr(mujoco.mjtSolver, f"mjSOL_{solver.upper()}")
         data = mujoco.MjData(model)
         for k in range(steps):
             start = time.perf_counter()
@@ -249,6 +264,8 @@ def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int) ->
             z = data.xpos[1:, 2]
             heights.append(float(z[-1] if scene == "stack" else z.max()))
             pens.append(max(0.0, -float(np.min(data.contact.dist))) if data.ncon else 0.0)
+            if elapsed > budget:
+                break
         solver = _mj_solver(model).split(",")[0]
     else:
         import pybullet as pb
@@ -280,9 +297,14 @@ def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int) ->
                 z = [pb.getBasePositionAndOrientation(i, **kw)[0][2] for i in ids]
                 heights.append(z[-1] if scene == "stack" else max(z))
                 pens.append(max(0.0, -min((c[8] for c in pb.getContactPoints(**kw)), default=0.0)))
+                if elapsed > budget:
+                    break
         finally:
             pb.disconnect(cid)
         solver = "SI"
-    top = np.array(heights)
+    top, done = np.array(heights), len(heights)
+    if done < steps:                                   # over budget: stopped before the scene settled
+        return {"per_step": elapsed / done, "cost": elapsed / (done * h), "drift": np.nan, "pen": np.nan,
+                "solver": solver, "steps": done, "over": True, "t_reached": done * h}
     return {"per_step": elapsed / steps, "cost": elapsed / S["t_end"], "drift": float(np.abs(top[k0:] - top[k0]).max()),
-            "pen": float(max(pens[k0:])), "solver": solver, "steps": steps}
+            "pen": float(max(pens[k0:])), "solver": solver, "steps": steps, "over": False, "t_reached": steps * h}
