@@ -72,7 +72,7 @@ def _color_plan(colors, m):
     if any(np.any(K >= m) for K in groups):
         raise InvalidInput(f"colors must hold contact indices below m = {m}")
     perm = np.concatenate(groups) if groups else np.zeros(0, np.intp)
-    if perm.size != np.unique(perm).size:
+    if perm.size and np.bincount(perm, minlength=m).max() > 1:
         raise InvalidInput("colors must not hold a contact twice (a partition of the contacts)")
     rest = np.setdiff1d(np.arange(m), perm, assume_unique=True)
     bounds = np.cumsum([0] + [K.size for K in groups])
@@ -106,8 +106,8 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     perm, spans = _color_plan(colors, m)
     nb, d = np.shape(u_free)
     Ga, Gb = np.asarray(Ga, dtype=float), np.asarray(Gb, dtype=float)
-    WGa = np.einsum("rij,rj->ri", Wb[a], Ga)
-    WGb = np.einsum("rij,rj->ri", Wb[b], Gb)
+    WGa = (Wb[a] @ Ga[:, :, None])[:, :, 0]
+    WGb = (Wb[b] @ Gb[:, :, None])[:, :, 0]
     ga3, gb3, wga3, wgb3 = (M.reshape(m, 3, d)[perm] for M in (Ga, Gb, WGa, WGb))     # in color order
     C = lambda j, k: np.einsum("cd,cd->c", ga3[:, j], wga3[:, k]) + np.einsum("cd,cd->c", gb3[:, j], wgb3[:, k])  # noqa: E731
     diag = np.stack([C(0, 0), C(1, 1), C(2, 2)], axis=1)                           # A's diagonal, (m, 3)
@@ -138,20 +138,23 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     thresh = tol * _scale(J @ u + betaf)
     if np.any(zp):
         u += _transpose_product(dataM, cols, ptr, zp, nb * d)
+    # per color, its slices of the contact arrays, as views bound once (the sweep below only reads them)
+    views = [(JK, MK, beta[s:e], z3[s:e], inv[s:e, 0], inv[s:e, 1], inv[s:e, 2], mup[s:e], c10[s:e], c20[s:e],
+              c21[s:e], np.empty((e - s, 3))) for (s, e, JK, MK) in plan]
     sweeps, res = 0, np.inf
     for sweeps in range(1, int(max_iter) + 1):
-        for s, e, JK, MK in plan:
+        for JK, MK, bK, old, i0, i1, i2, muK, k10, k20, k21, dz in views:
             # w of the color's rows from u; then normal, t₁, t₂ in turn, each w moved by the updates before it
             # through A's diagonal block (the rows of one contact share its two bodies): the row-by-row sweep
-            w = (JK @ u).reshape(-1, 3) + beta[s:e]
-            old = z3[s:e]
-            f = np.maximum(old[:, 0] - w[:, 0] * inv[s:e, 0], 0.0)
-            d0 = f - old[:, 0]
-            lim = mup[s:e] * f
-            t1 = np.clip(old[:, 1] - (w[:, 1] + c10[s:e] * d0) * inv[s:e, 1], -lim, lim)
-            d1 = t1 - old[:, 1]
-            t2 = np.clip(old[:, 2] - (w[:, 2] + c20[s:e] * d0 + c21[s:e] * d1) * inv[s:e, 2], -lim, lim)
-            dz = np.stack([d0, d1, t2 - old[:, 2]], axis=1)
+            w = (JK @ u).reshape(-1, 3)
+            w += bK
+            f = np.maximum(old[:, 0] - w[:, 0] * i0, 0.0)
+            d0 = np.subtract(f, old[:, 0], out=dz[:, 0])
+            lim = muK * f
+            t1 = np.minimum(np.maximum(old[:, 1] - (w[:, 1] + k10 * d0) * i1, -lim), lim)
+            d1 = np.subtract(t1, old[:, 1], out=dz[:, 1])
+            t2 = np.minimum(np.maximum(old[:, 2] - (w[:, 2] + k20 * d0 + k21 * d1) * i2, -lim), lim)
+            np.subtract(t2, old[:, 2], out=dz[:, 2])
             old += dz
             u += MK @ dz.ravel()
         res = _box_residual(zp, J @ u + betaf, mup)
