@@ -55,7 +55,10 @@ dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unkn
 (designs that need contact: slide and stop, roll into a cup, a die on a chosen face),
 :mod:`pbanim.design.stepped_sketch` (the feasible motion nearest an infeasible sketch, and its report),
 :mod:`pbanim.design.articulated` (a chain thrown through flight: S(t, u) and ∂S/∂u of an articulated body
-from the derivatives of ABA, and a shooting design that puts its tip on a target; issue 31).
+from the derivatives of ABA, and a shooting design that puts its tip on a target; issue 31),
+:mod:`pbanim.design.sequences` and :mod:`pbanim.design.sequence_flights` (the discrete search over impact
+sequences, each solved with its impacts as the nodes of multiple shooting), :mod:`pbanim.design.sketch_ui`
+(the sketching interface: drag the motion, draw a sketch; matplotlib is imported when an editor is made).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, Z. Popović, A. Witkin, "Interactive manipulation of rigid
 body simulations", SIGGRAPH 2000; J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of
@@ -78,6 +81,8 @@ from .stepped import ContactScene, StaticBox
 from .stepped_run import ContactTrajectory, Switch, replay_chapter7, simulate_contact
 from .stepped_design import ContactDesign, design_contact
 from .stepped_sketch import SketchFit, fit_sketch
+from .sequences import Sequence, SequenceSearch, search_sequences
+from .sketch_ui import SketchEditor
 from .articulated import ChainAim, ChainFlight, aim_chain, simulate_chain, thrown_chain
 
 __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajectory", "TooManyImpacts",
@@ -85,4 +90,5 @@ __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajecto
            "flight_rhs", "flight_tangent", "augmented_step", "Impact", "apply_impact", "Trajectory", "Rest",
            "simulate", "quat_log", "flight_map", "first_impact", "exact_applies", "ContactScene", "StaticBox",
            "ContactTrajectory", "Switch", "simulate_contact", "replay_chapter7", "ContactDesign", "design_contact",
-           "SketchFit", "fit_sketch", "thrown_chain", "ChainFlight", "ChainAim", "simulate_chain", "aim_chain"]
+           "SketchFit", "fit_sketch", "thrown_chain", "ChainFlight", "ChainAim", "simulate_chain", "aim_chain",
+           "Sequence", "SequenceSearch", "search_sequences", "SketchEditor"]
