@@ -1,0 +1,162 @@
+"""Issue 28 point 4: the large-scene machinery equals the readable one on small scenes (ORACLES D17) — the grid
+broad phase against all pairs, the batched sphere narrow phase against a loop over spheres, walls and pairs, the
+row-wise colored sweep in color order against the readable sweep in the same order — and the benchmark's
+bookkeeping (budget, goal lines) on made-up runs (no timing is asserted)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pbanim.bench import contact_large
+from pbanim.bench.contact_large import _goal, cheapest
+from pbanim.bench import Table
+from pbanim.collision.broad import all_pairs, grid_pairs
+from pbanim.contact.scenes import sphere_pile
+from pbanim.errors import InvalidInput
+from pbanim.lcp import delassus
+from pbanim.lcp.colored import colors_by_bodies
+from pbanim.lcp.rows import pgs_box_friction_rows
+from pbanim.lcp.solve import pgs_box_friction
+
+
+# ORACLES D17: a uniform grid finds exactly the overlapping pairs all-pairs testing finds, whatever the radii
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), n=st.integers(2, 120), spread=st.floats(0.1, 10.0), margin=st.floats(0.0, 0.3))
+def test_grid_pairs_equal_all_pairs(seed, n, spread, margin):
+    rng = np.random.default_rng(seed)
+    c = rng.uniform(0.0, spread, (n, 3))
+    r = rng.uniform(0.05, 0.5, n)
+    g, a = grid_pairs(c, r, margin), all_pairs(c, r, margin)
+    assert np.array_equal(g.pairs, a.pairs) and g.method == "grid"
+
+
+def _pile_contacts_loop(x, r, L, margin):
+    """Readable narrow phase of the pile: every sphere against the five planes, then every pair i < j."""
+    walls = [((0, 0, 1.0), 0.0), ((1.0, 0, 0), -L), ((-1.0, 0, 0), -L), ((0, 1.0, 0), -L), ((0, -1.0, 0), -L)]
+    out = []
+    for i in range(len(x)):
+        for w, (nrm, d) in enumerate(walls):
+            s = float(np.dot(nrm, x[i]) - d - r)
+            if s <= margin:
+                out.append((i, -1, x[i] - r * np.array(nrm), np.array(nrm), s, w))
+    for i in range(len(x)):
+        for j in range(i + 1, len(x)):
+            dist = float(np.linalg.norm(x[i] - x[j]))
+            if dist - 2 * r <= margin:
+                nrm = (x[i] - x[j]) / dist
+                out.append((i, j, x[j] + r * nrm, nrm, dist - 2 * r, 0))
+    return out
+
+
+# ORACLES D17: the batched sphere–plane and sphere–sphere narrow phase returns the loop's contacts in its order
+@pytest.mark.parametrize("seed", [0, 1])
+def test_batched_sphere_narrow_phase_equals_the_loop(seed):
+    sc = sphere_pile(50, box_half=0.25, seed=seed)
+    r, L, margin = sc.info["radius"], sc.info["box_half"], 0.1 * sc.info["radius"]
+    rng = np.random.default_rng(seed)
+    y = sc.system.state()
+    x = np.column_stack([rng.uniform(-L, L, (50, 2)), rng.uniform(0.0, 0.35, 50)])   # a jumble, walls included
+    y[:150] = x.ravel()
+    A, B, p, nrm, s, keys = sc.detect.arrays(y, None)
+    loop = _pile_contacts_loop(x, r, L, margin)
+    assert A.size == len(loop) > 60 and np.sum(B < 0) > 10          # sphere–sphere and sphere–wall contacts
+    # the batched pairs come sorted (i, j), the loop's too: same contacts in the same order
+    for k, (i, j, pt, n_, sep, feat) in enumerate(loop):
+        assert (A[k], B[k]) == (i, j) and keys[k] == (i * 51 + j + 1) * 8 + feat
+        np.testing.assert_allclose(p[k], pt, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(nrm[k], n_, rtol=0, atol=1e-15)
+        assert abs(s[k] - sep) <= 1e-15
+
+
+def _problem(seed, bodies, contacts):
+    rng = np.random.default_rng(seed)
+    a = rng.integers(0, bodies, size=contacts)
+    b = rng.integers(0, bodies + 1, size=contacts)
+    b = np.where(b == a, bodies, b)
+    Ga, Gb = rng.normal(size=(3 * contacts, 6)), rng.normal(size=(3 * contacts, 6))
+    Wb = np.zeros((bodies + 1, 6, 6))
+    for k in range(bodies):
+        M = rng.normal(size=(6, 6))
+        Wb[k] = M @ M.T / 6 + 0.2 * np.eye(6)
+    u = np.vstack([rng.normal(size=(bodies, 6)), np.zeros((1, 6))])
+    bias = np.zeros(3 * contacts)
+    bias[0::3] = rng.normal(size=contacts)
+    return np.repeat(a, 3), np.repeat(b, 3), Ga, Gb, Wb, u, bias, rng.uniform(0.1, 1.0, contacts), (a, b)
+
+
+# ORACLES D16, D17: the row-wise sweep (sparse products per color, contacts in color order) is the readable
+# projected Gauss–Seidel sweep on A with the contacts renumbered in color order
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 12), sweeps=st.integers(1, 4))
+def test_rows_sweep_is_the_readable_sweep_in_color_order(seed, bodies, contacts, sweeps):
+    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _problem(seed, bodies, contacts)
+    colors = colors_by_bodies(a, b, static=[bodies])
+    z, res, k, _ = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=sweeps, tol=1e-300)
+    order = np.concatenate(colors)
+    rows = (3 * order[:, None] + np.arange(3)).ravel()
+    A = delassus(ra[rows], rb[rows], Ga[rows], Gb[rows], Wb)
+    A = 0.5 * (A + A.T)
+    bb = np.einsum("ij,ij->i", Ga[rows], u[ra[rows]]) - np.einsum("ij,ij->i", Gb[rows], u[rb[rows]]) + bias[rows]
+    zr, _, kr = pgs_box_friction(A, bb, mu[order], max_iter=sweeps, tol=1e-300)
+    # both stop early only at an exact fixed point (one decoupled contact); measured ≤ 1e-15 relative, 1e-11
+    # allows the roundoff of two evaluation orders on an ill-conditioned draw
+    assert k <= sweeps and kr <= sweeps and np.abs(z[rows] - zr).max() <= 1e-11 * max(1.0, float(np.abs(zr).max()))
+
+
+def test_rows_sweep_refuses_a_contact_in_two_colors_and_keeps_an_uncolored_one():
+    ra, rb, Ga, Gb, Wb, u, bias, mu, _ = _problem(0, 4, 3)
+    with pytest.raises(InvalidInput, match="partition"):
+        pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, [np.array([0, 1]), np.array([1])])
+    warm = np.abs(np.random.default_rng(1).normal(size=9))
+    z, *_ = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, [np.array([0])], max_iter=2, warm_start=warm)
+    lim = mu[1:] * warm[3::3]                       # contacts 1, 2 in no color: their warm start, projected
+    np.testing.assert_array_equal(z[3:].reshape(2, 3), np.column_stack([warm[3::3], np.clip(warm[4::3], -lim, lim),
+                                                                        np.clip(warm[5::3], -lim, lim)]))
+
+
+def _fake(pens, costs, over=()):
+    """A runner that returns the made-up runs in turn (per step 1 s, so the budget counts steps × h)."""
+    runs = iter(range(len(pens)))
+
+    def runner(h, it, lim):
+        k = next(runs)
+        return {"pen": pens[k], "cost": costs[k], "drift": 0.0, "per_step": 1.0, "over": k in over,
+                "t_reached": h * 10}
+    return runner
+
+
+def test_cheapest_stops_at_the_accuracy_and_at_the_budget():
+    tab = Table("t", contact_large.HEADER)
+    out = cheapest(_fake([3e-4, 5e-5, 1e-5], [1.0, 2.0, 3.0]), ((0.1, 1), (0.1, 2), (0.1, 3)), tab, ["x", 1])
+    assert out["cost"] == 2.0 and len(tab.rows) == 2 and tab.rows[-1][-1] == "yes"      # stopped at the first hit
+    tab = Table("t", contact_large.HEADER)
+    out = cheapest(_fake([3e-4, 2e-4], [1.0, 2.0], over={1}), ((0.1, 1), (0.1, 2), (0.1, 3)), tab, ["x", 1], limit=15)
+    assert out["cost"] == np.inf and out["over"] and (out["best_pen"], out["best_cost"]) == (3e-4, 1.0)
+    assert tab.rows[1][-1].startswith("over budget (stopped") and tab.rows[2][-1] == "over budget (not run)"
+
+
+def test_goal_line_says_when_no_peer_reached_the_accuracy():
+    peer = lambda pen, cost: {"cost": np.inf, "best_pen": pen, "best_cost": cost}  # noqa: E731
+    g = _goal("g", {"pbanim": {"cost": 2.0, "best_pen": 5e-5, "best_cost": 2.0}, "mujoco": peer(2e-3, 0.5),
+                    "pybullet": peer(8e-4, 1.0)}, "note")
+    assert g.measured == 4.0 and not g.met and "no peer reached 0.0001 m at any setting swept" in g.line()
+    g = _goal("g", {"pbanim": {"cost": 2.0, "best_pen": 5e-5, "best_cost": 2.0},
+                    "mujoco": {"cost": 4.0, "best_pen": 9e-5, "best_cost": 4.0}, "pybullet": peer(8e-4, 1.0)}, "n")
+    assert g.measured == 0.5 and g.met
+    g = _goal("g", {"pbanim": {"cost": np.inf, "best_pen": 3e-4, "best_cost": 1.0}, "mujoco": peer(2e-3, 0.5),
+                    "pybullet": None}, "n")
+    assert g.skipped
+
+
+def test_peer_run_stops_over_budget():
+    pytest.importorskip("mujoco")
+    from pbanim.bench import contact_peers
+
+    S = contact_peers.scene_numbers(sphere_pile(8, box_half=None), 0.5)
+    r = contact_peers.settle_scene("mujoco", "pile", S, 1 / 120, 5, solver="cg", budget=1e-9)
+    assert r["over"] and r["steps"] == 1 and np.isnan(r["pen"])
+    full = contact_peers.settle_scene("mujoco", "pile", S, 1 / 120, 5, solver="cg")
+    assert not full["over"] and full["steps"] == 60 and full["pen"] >= 0
+    with pytest.raises(InvalidInput, match="solver"):
+        contact_peers.settle_scene("pybullet", "pile", S, 1 / 120, 5, solver="cg")
