@@ -1,4 +1,4 @@
-"""Issue 28 point 4: the large-scene machinery equals the readable one on small scenes (ORACLES D17) — the grid
+"""Issue 28 point 4: the large-scene machinery equals the readable one on small scenes (ORACLES D18) — the grid
 broad phase against all pairs, the batched sphere narrow phase against a loop over spheres, walls and pairs, the
 row-wise colored sweep in color order against the readable sweep in the same order — and the benchmark's
 bookkeeping (budget, goal lines) on made-up runs (no timing is asserted)."""
@@ -20,7 +20,7 @@ from pbanim.lcp.rows import pgs_box_friction_rows
 from pbanim.lcp.solve import pgs_box_friction
 
 
-# ORACLES D17: a uniform grid finds exactly the overlapping pairs all-pairs testing finds, whatever the radii
+# ORACLES D18: a uniform grid finds exactly the overlapping pairs all-pairs testing finds, whatever the radii
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 10**6), n=st.integers(2, 120), spread=st.floats(0.1, 10.0), margin=st.floats(0.0, 0.3))
 def test_grid_pairs_equal_all_pairs(seed, n, spread, margin):
@@ -49,7 +49,7 @@ def _pile_contacts_loop(x, r, L, margin):
     return out
 
 
-# ORACLES D17: the batched sphere–plane and sphere–sphere narrow phase returns the loop's contacts in its order
+# ORACLES D18: the batched sphere–plane and sphere–sphere narrow phase returns the loop's contacts in its order
 @pytest.mark.parametrize("seed", [0, 1])
 def test_batched_sphere_narrow_phase_equals_the_loop(seed):
     sc = sphere_pile(50, box_half=0.25, seed=seed)
@@ -85,7 +85,7 @@ def _problem(seed, bodies, contacts):
     return np.repeat(a, 3), np.repeat(b, 3), Ga, Gb, Wb, u, bias, rng.uniform(0.1, 1.0, contacts), (a, b)
 
 
-# ORACLES D16, D17: the row-wise sweep (sparse products per color, contacts in color order) is the readable
+# ORACLES D16, D18: the row-wise sweep (sparse products per color, contacts in color order) is the readable
 # projected Gauss–Seidel sweep on A with the contacts renumbered in color order
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 12), sweeps=st.integers(1, 4))
