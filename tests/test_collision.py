@@ -1122,3 +1122,103 @@ def test_lean_run_names_a_diverging_state_where_the_readable_run_does():
             simulate_collisions(scene, 0.5, 0.01, toi="event", lean=lean)
         times.append(err.value.t)
     assert times[0] == times[1] == pytest.approx(0.25)
+
+
+# ------------------------------------------------------------------------------------------------
+# the float response of a few particles (pbanim.collision.lean_spheres; ORACLES D2, D10, D17)
+# ------------------------------------------------------------------------------------------------
+def _sphere_scene(kind, lean, seed=0):
+    from pbanim.particles import Gravity, ParticleSystem
+    from pbanim.scene import Scene
+
+    rng = np.random.default_rng(seed)
+    if kind == "cradle":
+        ps = ParticleSystem([[0.0, 0.0], [1.05, 0.0], [2.05, 0.0]], [[1.0, 0.0], [0.0, 0.0], [0.0, 0.0]])
+        effects = [Collisions(radius=0.5, restitution=1.0, gravity=0.0)]
+    elif kind == "box":                    # five balls of random masses and radii settling in a 2-D box
+        x = [[0.5 + 1.2 * i, 1.0 + 0.3 * (i % 2)] for i in range(5)]
+        ps = ParticleSystem(x, rng.normal(size=(5, 2)) * 2, masses=rng.uniform(0.5, 2.0, 5))
+        walls = [Plane([0, 1]), Plane([1, 0]), Plane([-1, 0], offset=-7.0)]
+        effects = [Gravity(), Collisions(obstacles=walls, radius=rng.uniform(0.2, 0.5, 5), restitution=0.6)]
+    else:                                  # three spheres dropped on a floor in 3-D
+        ps = ParticleSystem([[0, 0, 1.0], [0.3, 0.1, 2.5], [-0.2, 0.2, 4.0]], masses=[1.0, 2.0, 0.5])
+        effects = [Gravity(), Collisions(obstacles=[Plane([0, 0, 1.0])], radius=[0.5, 0.4, 0.3], restitution=0.8)]
+    scene = Scene(ps, effects)
+    scene.effects[-1].lean_path = lean
+    return scene
+
+
+@pytest.mark.parametrize("kind, T", [("cradle", 0.3), ("box", 2.0), ("3-D", 2.0)])
+def test_lean_sphere_response_equals_the_readable_one(kind, T):
+    # ORACLES D17 (and D2: the cradle passes (0, 0, v0)): the float response is the readable arithmetic in the
+    # same order; measured bit for bit on these scenes, bound 4 ulps per step of the state's scale
+    from pbanim.collision import lean_spheres as lean_mod
+
+    counts = [0, 0]                          # responses answered on floats, handed to the readable one
+    respond = lean_mod.LeanSpheres.respond
+
+    def counted(self, *a):
+        out = respond(self, *a)
+        counts[out is None] += 1
+        return out
+
+    lean_mod.LeanSpheres.respond = counted
+    try:
+        sa = _sphere_scene(kind, True)
+        a = sa.simulate(T, 1e-3, "symplectic_euler")
+    finally:
+        lean_mod.LeanSpheres.respond = respond
+    sb = _sphere_scene(kind, False)
+    b = sb.simulate(T, 1e-3, "symplectic_euler")
+    ca, cb = sa.effects[-1], sb.effects[-1]
+    assert ca._lean is not None and counts[0] > 0.4 * a.nsteps
+    scale = max(1.0, float(np.abs(b.y).max()))
+    assert np.abs(a.y - b.y).max() <= 4 * np.finfo(float).eps * a.nsteps * scale
+    assert len(ca.log) == len(cb.log) > 0
+    assert [d["regime"] for d in ca.log] == [d["regime"] for d in cb.log]
+    assert np.allclose([d["impulse"] for d in ca.log], [d["impulse"] for d in cb.log], rtol=1e-12, atol=0)
+    for key in b.diagnostics:
+        np.testing.assert_allclose(a.diagnostics[key], b.diagnostics[key], rtol=1e-12, atol=1e-12 * scale)
+    if kind == "cradle":
+        np.testing.assert_allclose(a.y[6:12:2, -1], [0.0, 0.0, 1.0], atol=1e-15)
+    if kind == "box":
+        assert counts[1] > 0                 # resting contact went to the readable plastic solve
+
+
+def test_lean_sphere_record_is_the_readable_record():
+    # the ImpulseResult a float response leaves (built when read) holds what the readable one computes
+    ys = []
+    for lean in (True, False):
+        scene = _sphere_scene("cradle", lean)
+        col = scene.effects[-1]
+        y = scene.system.state()
+        y[0] = 0.05                                              # the first ball touching the second, at 1 m/s
+        ys.append(col.respond(0.0, y, 1e-3))
+        ys.append(col.last)
+    (ya, ra, yb, rb) = ys
+    np.testing.assert_array_equal(ya, yb)
+    assert ra.regime.tolist() == rb.regime.tolist() == ["colliding", "touching"]
+    for field in ("v", "impulse", "normal_impulse", "approach", "energy_before", "energy_after", "tolerance"):
+        np.testing.assert_allclose(getattr(ra, field), getattr(rb, field), rtol=1e-15, atol=1e-15)
+    assert ra.iterations == rb.iterations and ra.extra == rb.extra
+
+
+@pytest.mark.parametrize("change", ["friction", "simultaneous", "sphere obstacle", "subclass", "many"])
+def test_scenes_the_float_response_does_not_cover_take_the_readable_one(change):
+    from pbanim.collision.lean_spheres import SMALL
+    from pbanim.particles import ParticleSystem
+    from pbanim.scene import Scene
+
+    class Mine(Collisions):
+        def respond(self, t, y, h, margin=0.0, plastic=False):
+            return super().respond(t, y, h, margin, plastic)
+
+    kw = {"friction": {"friction": 0.2}, "simultaneous": {"mode": "simultaneous"},
+          "sphere obstacle": {"obstacles": [(Sphere(0.5), [5.0, 0.0])]}}.get(change, {})
+    n = SMALL + 1 if change == "many" else 3
+    col = (Mine if change == "subclass" else Collisions)(radius=0.4, **kw)
+    Scene(ParticleSystem([[float(i), 0.0] for i in range(n)]), [col])
+    assert col._lean is None
+    ok = Collisions(radius=0.4)
+    Scene(ParticleSystem([[float(i), 0.0] for i in range(3)]), [ok])
+    assert ok._lean is not None

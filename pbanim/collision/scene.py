@@ -25,6 +25,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from .broad import all_pairs, grid_pairs
+from .lean_spheres import _Pending, lean_spheres, obstacles_apart, quick_obstacles
 from .impulse import FRICTION_MODELS, MODES, ImpulseBodies, ImpulseResult, resolve_collisions
 from .narrow import collide, sphere_plane, sphere_sphere
 from .shapes import Box, Capsule, Contacts, Plane, Sphere
@@ -117,7 +118,7 @@ class Collisions(Effect):
         self.shapes_in, self.radius_in = shapes, radius
         self.log: list[dict] = []
         self.last: ImpulseResult | None = None
-        self._bound = None
+        self._bound = self._lean = None
 
     # -- binding ------------------------------------------------------------------------------------
     @contract(system=BodySystem())
@@ -160,35 +161,24 @@ class Collisions(Effect):
                         raise InvalidInput(f"obstacle sphere centre {c.tolist()} is off the plane z = 0 of a 2-D "
                                            "particle scene; give a 2-D centre")
             self.inv_mass = system.W
-        self._quick = self._bind_quick(N)
+        self._quick = quick_obstacles(self, N)
         self._bound = None
+        self._lean = lean_spheres(self, system)
 
-    def _bind_quick(self, N: int):
-        """What tells an empty contact set, read once: the obstacles as arrays, when bodies cannot meet each
-        other (one body, or point particles) and every body is a sphere or a point; else None."""
-        if self.rigid and not all(isinstance(s, Sphere) for s in self.shapes):
-            return None
-        if N > 1 and np.any(self.radius > 0):
-            return None
-        dim = 3 if self.rigid else self.dim
-        normals = np.array([np.append(p.normal, [0.0] * 3)[:dim] for p in self.planes]).reshape(-1, dim)
-        centres = np.array([c[:dim] for _, c in self.spheres]).reshape(-1, dim)
-        return (np.ascontiguousarray(normals.T), np.array([p.offset for p in self.planes]), centres,
-                np.array([sh.radius for sh, _ in self.spheres]))
+    lean_path = True        # False: the readable response always (not the float one of pbanim.collision.lean_spheres)
 
-    def _apart(self, y, margin: float) -> bool:
-        """Whether :meth:`contacts` would find none (a gap n·x − d − r or |x − c| − r − R above ``margin``
-        everywhere): one product per kind of obstacle, no contact records."""
-        NT, off, C, R = self._quick
-        x = self.system.unpack(y)[0]
-        r = self.radius[:, None]
-        if len(off) and not (x @ NT - off - r).min() > margin:
-            return False
-        if len(C):
-            d = x[:, None, :] - C[None]
-            if not (np.sqrt((d * d).sum(axis=2)) - r - R).min() > margin:
-                return False
-        return True
+    @property
+    def last(self) -> ImpulseResult | None:
+        """The last response's :class:`~pbanim.collision.impulse.ImpulseResult` (None: no contact); a float
+        response's record is built when first read."""
+        got = self._last
+        if isinstance(got, _Pending):
+            got = self._last = got.result()
+        return got
+
+    @last.setter
+    def last(self, value) -> None:
+        self._last = value
 
     # -- state access ---------------------------------------------------------------------------
     def _poses(self, y):
@@ -322,7 +312,16 @@ class Collisions(Effect):
         A scene whose bodies cannot meet each other first tests its gaps to the obstacles (arrays bound
         once): nothing near, nothing built.
         """
-        if self._quick is not None and self._apart(y, margin):
+        lean = self._lean
+        if lean is not None and self.lean_path:
+            out = lean.respond(t, y, h, margin, plastic)
+            if out is not None:
+                return out
+        return self._readable(t, y, h, margin, plastic)
+
+    def _readable(self, t: float, y: np.ndarray, h: float, margin: float, plastic: bool) -> np.ndarray:
+        """:meth:`respond`'s readable response: detection, the impulse solver, the projection."""
+        if self._quick is not None and obstacles_apart(self, y, margin):
             self.last = None
             return y
         c = self.contacts(y, margin)
@@ -381,7 +380,12 @@ class Collisions(Effect):
 
     @contract(t=_TIME, y=_STATE, h=_STEP)
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        return self.respond(t, y, h)
+        lean = self._lean
+        if lean is not None and self.lean_path:
+            out = lean.respond(t, y, h, 0.0, False)
+            if out is not None:
+                return out
+        return self._readable(t, y, h, 0.0, False)
 
     history_diagnostics = True          # the last response: read at the recorded times of a run
 
