@@ -62,7 +62,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..collision import Sphere
-from ..contracts import Int, Obj, Opt, Real, Seq, contract
+from ..contracts import Array, Int, Obj, Opt, Real, Seq, Text, contract
 from ..errors import InvalidInput, PbanimError
 from .control import _GOALS, _check_goals
 from .scene import DesignScene
@@ -73,6 +73,7 @@ from .specs import SketchPoints
 __all__ = ["Sequence", "SequenceSearch", "propose_sequences", "solve_sequence", "search_sequences"]
 
 
+@contract(planes=Seq(Int(ge=0)), times=Array((None,), empty=True), origin=Text())
 @dataclass
 class Sequence:
     """An impact sequence of body 0: ``planes[k]`` is hit at (about) ``times[k]``; ``origin`` says where it
@@ -82,12 +83,19 @@ class Sequence:
     times: np.ndarray
     origin: str = "sketch"
 
+    def __post_init__(self) -> None:
+        self.planes, self.times = tuple(int(j) for j in self.planes), np.asarray(self.times, float).reshape(-1)
+        if len(self.planes) != self.times.size:
+            raise InvalidInput(f"Sequence: one time per impact, got {len(self.planes)} planes and "
+                               f"{self.times.size} times")
+
     def key(self) -> tuple:
-        return tuple(int(j) for j in self.planes)
+        """The planes as a tuple of ints (what a replay's sequence is compared with)."""
+        return self.planes
 
 
 @dataclass
-class SequenceSearch:
+class SequenceSearch:           # a record pbanim builds (search_sequences, solve_sequence) and users read
     """The outcome of :func:`search_sequences` (or of one :func:`solve_sequence`).
 
     ``u``: (x₀, v₀) of the best candidate; ``sequence``: its planes as the replay shows them; ``times``: its
@@ -325,9 +333,9 @@ def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, ma
         if not moved:
             break                                 # a local minimum of the residual over the moves
     if best is None:
-        return SequenceSearch(np.full(6, np.nan), (), np.zeros(0), False, np.inf, np.inf, np.inf,
-                              f"no proposal gave a motion ({len(tried)} tried)", tried, len(tried),
-                              int(max_proposals))
+        return SequenceSearch(scene.vector(["x0", "v0"]), (), np.zeros(0), False, np.inf, np.inf, np.inf,
+                              f"no proposal gave a motion ({len(tried)} tried); u is the scene's own (x0, v0)",
+                              tried, len(tried), int(max_proposals))
     best.tried, best.proposals, best.cap = tried, len(tried), int(max_proposals)
     best.message += f"; best of {len(tried)} proposals (cap {max_proposals})"
     return best

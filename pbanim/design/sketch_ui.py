@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, contract
+from ..contracts import Array, Choice, Flag, Has, Int, Obj, Opt, Real, Seq, contract
 from ..errors import InvalidInput
 from .control import min_norm_update, position_goal
 from .scene import DesignScene
@@ -55,6 +55,8 @@ from .specs import ParameterNames
 __all__ = ["SketchEditor"]
 
 MODES = ("drag", "sketch")
+_EVENT = Has("x", "y", "xdata", "ydata", "inaxes", what="a matplotlib MouseEvent")
+_AXES = Opt(Has("figure", "plot", "transData", what="a matplotlib Axes"))
 SOLVERS = ("multiple", "sequences")
 
 
@@ -66,7 +68,7 @@ class SketchEditor:
     @contract(scene=Obj(DesignScene), t_end=Real(gt=0), names=Opt(ParameterNames("scene")), u=Opt(Array((None,))),
               h=Real(gt=0), view=Seq(Int(ge=0, le=2), min_len=2, max_len=2), pick_radius=Real(gt=0),
               predict=Flag(), damping=Real(ge=0), mode=Choice(MODES), solver=Choice(SOLVERS),
-              maxiter=Int(ge=1, le=10_000))
+              maxiter=Int(ge=1, le=10_000), ax=_AXES)
     def __init__(self, scene, t_end, *, names=None, u=None, h: float = 0.02, view=(0, 2), pick_radius: float = 12.0,
                  predict: bool = False, damping: float = 1e-3, ax=None, mode: str = "drag", solver: str = "multiple",
                  maxiter: int = 100) -> None:
@@ -80,8 +82,8 @@ class SketchEditor:
         scene.values(self.names, self.u)
         self.view, self.pick_radius, self.predict = [int(v) for v in view], float(pick_radius), bool(predict)
         self.damping, self.mode, self.solver, self.maxiter = float(damping), mode, solver, int(maxiter)
-        self.grab, self.target, self.residual, self.updates = None, None, float("nan"), 0
-        self.stroke, self.result, self.prediction_error = [], None, float("nan")
+        self.grab, self.target, self.residual, self.updates = None, None, 0.0, 0
+        self.stroke, self.result, self.prediction_error = [], None, 0.0      # 0 until a drag / a release says
         if ax is None:
             import matplotlib.pyplot as plt
             ax = plt.subplots(figsize=(7, 4))[1]
@@ -153,6 +155,7 @@ class SketchEditor:
         return x
 
     # ----------------------------------------------------------------- the handlers
+    @contract(event=_EVENT)
     def press(self, event) -> None:
         """Grab the trajectory point nearest the pointer (drag), or start a stroke (sketch)."""
         if event.inaxes is not self.ax or event.xdata is None:
@@ -173,6 +176,7 @@ class SketchEditor:
         self.residual = 0.0
         self._redraw()
 
+    @contract(event=_EVENT)
     def motion(self, event) -> None:
         """One update toward the pointer (drag) or one more stroke point (sketch)."""
         if event.inaxes is not self.ax or event.xdata is None:
@@ -188,6 +192,7 @@ class SketchEditor:
         self.step()
         self._redraw()
 
+    @contract(event=_EVENT)
     def release(self, event) -> None:
         """Let go (drag; a prediction is replaced by S), or solve the sketched problem (sketch)."""
         if self.mode == "sketch":

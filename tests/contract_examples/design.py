@@ -101,6 +101,7 @@ EXEMPT = {
     "pbanim.design.stepped_run.Switch.__init__": "a record pbanim builds (simulate_contact) and users read",
     "pbanim.design.stepped_design.ContactDesign.__init__": "a record pbanim builds (design_contact) and users read",
     "pbanim.design.stepped_sketch.SketchFit.__init__": "a record pbanim builds (fit_sketch) and users read",
+    "pbanim.design.sequences.SequenceSearch.__init__": "a record pbanim builds (search_sequences) and users read",
 }
 
 
@@ -134,3 +135,64 @@ CALLS.update({
     "pbanim.design.multiple.multiple_shooting": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1,
                                                          "nodes": 2, "maxiter": 5, "max_slides": 1},
 })
+
+
+# -- issue 30 points 3 and 5: the sequence search on a ball thrown at a wall, and the sketch editor
+def _wall_scene():
+    """A ball thrown at a wall (x ≤ 0.5) in zero gravity: one impact at t = 0.4."""
+    return DesignScene([DesignBody(Sphere(0.1), velocity=[1.0, 0.0, 0.0])], [Plane([-1.0, 0.0, 0.0], offset=-0.5)],
+                       gravity=[0.0, 0.0, 0.0], restitution=1.0)
+
+
+_WALL_SKETCH = [(0.2 * k, np.array([0.2 * k if k <= 2 else 0.8 - 0.2 * k, 0.0, 0.0])) for k in range(1, 5)]
+
+
+def _wall_goal():
+    from pbanim.design.control import position_goal
+
+    return [position_goal(0, 0.8, [0.0, 0.0, 0.0])]
+
+
+def _editor():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    from pbanim.design.sketch_ui import SketchEditor
+
+    from matplotlib.figure import Figure
+
+    return SketchEditor(_scene(), 0.6, h=0.1, ax=Figure().subplots())
+
+
+def _event():
+    from matplotlib.backend_bases import MouseEvent
+
+    ed = _editor()
+    return MouseEvent("motion_notify_event", ed.canvas, 10.0, 10.0)
+
+
+CALLS.update({
+    "pbanim.design.sequences.Sequence.__init__": lambda: {"planes": [0], "times": np.array([0.4]), "origin": "given"},
+    "pbanim.design.sequences.search_sequences": lambda: {"scene": _wall_scene(), "goals": _wall_goal(), "t_end": 0.8,
+                                                        "sketch": _WALL_SKETCH, "max_proposals": 2, "maxiter": 20},
+    "pbanim.design.sketch_ui.SketchEditor.__init__": lambda: {"scene": _scene(), "t_end": 0.6, "h": 0.1,
+                                                              "maxiter": 3, "ax": None},
+    **{f"pbanim.design.sketch_ui.SketchEditor.{m}": (lambda: {"event": _event()}) for m in
+       ("press", "motion", "release")},
+})
+
+
+def _sequence():
+    from pbanim.design.sequences import Sequence
+
+    return Sequence((0,), np.array([0.4]), "given")
+
+
+def _register():
+    from pbanim.design.sequences import Sequence
+    from pbanim.design.sketch_ui import SketchEditor
+
+    INSTANCES.update({Sequence: _sequence, SketchEditor: _editor})
+
+
+_register()
