@@ -1,16 +1,24 @@
-"""Analytical derivatives of RNEA and ABA over a batch of K states (chapter 08).
+"""Analytical derivatives of RNEA and ABA over a batch of K states, in the world frame (chapter 08).
 
-The recursion of :mod:`pbanim.articulated.derivatives` (read that module first), with the derivatives with
-respect to q and to q̇ carried together as C = 2 nv columns and the batch axis last: ∂v̂_i is (6, C, K), so
-that every line of the recursion is a few numpy operations on contiguous (C, K) planes, whatever the state.
-The transforms are applied from their parts, ⁱX_λ = [[E, 0], [−E r×, E]],
+The same derivatives as :mod:`pbanim.articulated.derivatives` (read that module first), organized as
+Carpentier & Mansard (RSS 2018) do for speed: every spatial quantity in world coordinates, where RNEA needs
+no transform between links (F_λ += F_i), and a displacement δ of joint k moves its whole subtree rigidly by
+the world twist ξ = S_k δ. Holding q̇ and q̈ fixed, that displacement turns each vector of the subtree
+(S_j, I_j, f̂ᵉˣᵗ_j) with it, and changes the velocities and accelerations of the subtree by
+ξ × (v̂_i − v̂_λ(k)) and ξ × (â_i − â_λ(k)) − (ξ × v̂_λ(k)) × (v̂_i − v̂_λ(k)). Power is frame-independent, so
+the turning of S_j and F_j cancels in τ_j = S_jᵀ F_j, and what is left is linear in two vectors per column:
 
-    ⁱX_λ (ω, v) = (E ω, E (v − r × ω)),        ⁱX_λᵀ (n, f) = (Eᵀ n + r × Eᵀ f, Eᵀ f),
+    w = ξ × v̂_λ(k),   g = ξ × â_λ(k) + v̂_λ(k) × w,        (a change of q_k)
+    ∂τ_j/∂q_k = S_jᵀ (B^c_j w − Y_j g)          for j in the subtree of k (k itself included),
+    ∂τ_j/∂q_k = S_jᵀ (ξ ×* F_k + B^c_k w − Y_k g)   for j a strict ancestor of k,
 
-the cross products component by component, v̂ × ŵ = (ω × w_ω, v × w_ω + ω × w_v) and
-v̂ ×* f̂ = (ω × n + v × f, ω × f), and the constant link inertias I_i as one matrix product over all planes.
-The loops run over the n links only. The results equal the readable ones state by state to roundoff
-(ORACLES L1, I5). ``q`` of shape (nq,) is one state (K = 1, the result squeezed).
+with Y_j = Σ_{i ⪰ j} I_i the composite inertia, F_j = Σ f̂_i the composite force and B^c_j = Σ B_i,
+B_i = I_i (v̂_i×) − (I_i v̂_i)‾ − (v̂_i×*) I_i (the body's "Coriolis" matrix: ∂f̂_i = −B_i ξ when v̂_i grows by
+ξ). A change δ of q̇_k (ξ = S_k δ) adds ξ to the subtree's velocities and ξ × v̂_i + z to its accelerations,
+z = (v̂_λ(k) + v̂_k) × ξ, so ∂τ_j/∂q̇_k = S_jᵀ (−B^c_j ξ + Y_j z) in the subtree and S_jᵀ (−B^c_k ξ + Y_k z)
+above it. H comes with them: H_jk = S_jᵀ Y_j S_k (k ⪯ j). Each line is one numpy operation on all K states
+((K, 6, 6) stacks); the loops run over the links. The results equal the readable ones state by state to
+roundoff (ORACLES L1, I5). ``q`` of shape (nq,) is one state (K = 1, the result squeezed).
 """
 
 from __future__ import annotations
@@ -19,9 +27,11 @@ import numpy as np
 
 from ..contracts import Array, Opt, contract
 from ..errors import check_result
-from .batched import _crba_batch, link_transforms_batch
+from .batched import _crf, _crm, link_transforms_batch
+from .derivatives import bar
 from .dynamics import external_forces
 from .fast import aba_fast, batch_of
+from .spatial import crm, plucker_inverse
 from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
 
@@ -33,96 +43,69 @@ _FB = Opt(Array(("tree.n", 6), batch="first"))
 _HUGE = "of a tree and states with huge entries"
 
 
-def _x3(a, b):
-    """a × b along the first axis (3, ...), broadcasting over the rest."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
-    return out
+def _mv(M, x):
+    return np.einsum("kij,kj->ki", M, x)
 
 
-def _crm(x, y):
-    """x̂ × ŷ for motion vectors along the first axis (6, ...)."""
-    return np.concatenate([_x3(x[:3], y[:3]), _x3(x[3:], y[:3]) + _x3(x[:3], y[3:])])
-
-
-def _crf(x, f):
-    """x̂ ×* f̂ for a motion and a force vector along the first axis (6, ...)."""
-    return np.concatenate([_x3(x[:3], f[:3]) + _x3(x[3:], f[3:]), _x3(x[:3], f[3:])])
-
-
-def _rot(E, w, transpose=False):
-    """E w (or Eᵀ w) for E (3, 3, K) and w (3, ..., K)."""
-    if transpose:
-        return np.stack([E[0, i] * w[0] + E[1, i] * w[1] + E[2, i] * w[2] for i in range(3)])
-    return np.stack([E[i, 0] * w[0] + E[i, 1] * w[1] + E[i, 2] * w[2] for i in range(3)])
-
-
-def _X(E, r, m):
-    """ⁱX_λ m = (E ω, E (v − r × ω)) for motion vectors m (6, ..., K)."""
-    r = r.reshape((3,) + (1,) * (m.ndim - 2) + r.shape[-1:])
-    return np.concatenate([_rot(E, m[:3]), _rot(E, m[3:] - _x3(r, m[:3]))])
-
-
-def _XT(E, r, f):
-    """ⁱX_λᵀ f = (Eᵀ n + r × Eᵀ f, Eᵀ f) for force vectors f (6, ..., K)."""
-    r = r.reshape((3,) + (1,) * (f.ndim - 2) + r.shape[-1:])
-    Ef = _rot(E, f[3:], True)
-    return np.concatenate([_rot(E, f[:3], True) + _x3(r, Ef), Ef])
-
-
-def _parts(X):
-    """(E, r) of ⁱX_λ = [[E, 0], [−E r×], E]] (K, 6, 6), batch axis last: r× = −Eᵀ (−E r×)."""
-    E = np.ascontiguousarray(np.moveaxis(X[:, :3, :3], 0, -1))
-    M = -np.einsum("kji,kjl->kil", X[:, :3, :3], X[:, 3:, :3])
-    return E, np.ascontiguousarray(np.stack([M[:, 2, 1], M[:, 0, 2], M[:, 1, 0]]))
+def _relations(tree):
+    """(owner, anc, desc): the link of each velocity column, anc[j, c] = link of c ⪯ link of j (an ancestor
+    or the same), desc[j, c] = link of j ≺ link of c (a strict ancestor), each (nv,) / (nv, nv)."""
+    A, n = tree.arrays(), tree.n
+    owner = np.repeat(np.arange(n), [v.stop - v.start for v in A["vi"]])
+    up = np.zeros((n, n), dtype=bool)                           # up[i, k]: k ⪯ i
+    for i in range(n):
+        lam = tree.parent[i]
+        if lam >= 0:
+            up[i] = up[lam]
+        up[i, i] = True
+    anc = up[np.ix_(owner, owner)]
+    return owner, anc, anc.T & ~np.equal.outer(owner, owner)
 
 
 def _rnea_derivatives_batch(tree, q, qd, qdd, f_ext):
-    """(∂τ/∂q, ∂τ/∂q̇), each (K, nv, nv)."""
+    """(∂τ/∂q, ∂τ/∂q̇, H), each (K, nv, nv), by the world-frame recursion of the module docstring."""
     A, K, n, nv = tree.arrays(), q.shape[0], tree.n, tree.nv
-    fx = np.moveaxis(external_forces(tree, f_ext, K), 0, -1)        # (n, 6, K)
-    parts = [_parts(X) for X in link_transforms_batch(tree, q)]
-    qdT, qddT = np.ascontiguousarray(qd.T), np.ascontiguousarray(qdd.T)
-    a0 = np.broadcast_to(A["a0"][:, None], (6, K))
-    v, a, f, Dv, Da, Df = ([None] * n for _ in range(6))            # D*: (6, 2 nv, K), q columns then q̇
-    for i in range(n):                                              # forward: root to leaves
-        S, vi, lam, I = A["S"][i], A["vi"][i], tree.parent[i], A["I"][i]
-        E, r = parts[i]
-        cq, cd = vi, slice(nv + vi.start, nv + vi.stop)
-        vJ = S @ qdT[vi]
+    fx = external_forces(tree, f_ext, K)
+    Xup = link_transforms_batch(tree, q)
+    owner, anc, desc = _relations(tree)
+    Sw, v, a, vlam, alam, Y, Bc, F, X0 = ([None] * n for _ in range(9))
+    a0 = np.broadcast_to(A["a0"], (K, 6))
+    for i in range(n):                                          # forward: world-frame kinematics and bodies
+        lam, vi = tree.parent[i], A["vi"][i]
+        X0[i] = Xup[i] @ X0[lam] if lam >= 0 else Xup[i]       # ⁱX_0
+        Sw[i] = plucker_inverse(X0[i]) @ A["S"][i]              # S_i in world coordinates (K, 6, d)
+        vlam[i] = v[lam] if lam >= 0 else np.zeros((K, 6))
+        alam[i] = a[lam] if lam >= 0 else a0
+        vJ = np.einsum("kid,kd->ki", Sw[i], qd[:, vi])
+        v[i] = vlam[i] + vJ
+        a[i] = alam[i] + np.einsum("kid,kd->ki", Sw[i], qdd[:, vi]) + _crm(v[i], vJ)
+        Y[i] = np.swapaxes(X0[i], 1, 2) @ (A["I"][i] @ X0[i])  # ⁰I_i = ⁱX_0ᵀ I_i ⁱX_0
+        h = _mv(Y[i], v[i])
+        F[i] = _mv(Y[i], a[i]) + _crf(v[i], h) - np.einsum("kji,kj->ki", X0[i], fx[:, i])
+        IV = Y[i] @ crm(v[i])
+        Bc[i] = IV + np.swapaxes(IV, 1, 2) - bar(h)             # B_i = I v̂× − (I v̂)‾ − v̂×* I  (I symmetric)
+    for i in reversed(range(n)):                                # backward: composites, no transforms
+        lam = tree.parent[i]
         if lam >= 0:
-            vp, ap = _X(E, r, v[lam]), _X(E, r, a[lam])
-            Dv[i], Da[i] = _X(E, r, Dv[lam]), _X(E, r, Da[lam])
-        else:
-            vp, ap = np.zeros((6, K)), _X(E, r, a0)
-            Dv[i], Da[i] = np.zeros((6, 2 * nv, K)), np.zeros((6, 2 * nv, K))
-        v[i] = vp + vJ
-        a[i] = ap + S @ qddT[vi] + _crm(v[i], vJ)
-        for c in range(S.shape[1]):
-            s = S[:, c, None]
-            Dv[i][:, cq.start + c] += _crm(vp, s)                   # (ⁱX_λ v̂_λ) × S_i
-            Dv[i][:, cd.start + c] += s
-            Da[i][:, cq.start + c] += _crm(ap, s)                   # (ⁱX_λ â_λ) × S_i
-            Da[i][:, cd.start + c] += _crm(v[i], s)                 # v̂_i × S_i
-        Da[i] -= _crm(vJ[:, None], Dv[i])
-        h = I @ v[i]
-        f[i] = I @ a[i] + _crf(v[i], h) - fx[i]
-        Df[i] = (np.tensordot(I, Da[i], 1) + _crf(Dv[i], h[:, None])
-                 + _crf(v[i][:, None], np.tensordot(I, Dv[i], 1)))
-    dtau = np.zeros((nv, 2 * nv, K))
-    for i in reversed(range(n)):                                    # backward: leaves to root
-        S, vi, lam = A["S"][i], A["vi"][i], tree.parent[i]
-        dtau[vi] = np.tensordot(S.T, Df[i], 1)
-        if lam >= 0:
-            E, r = parts[i]
-            f[lam] = f[lam] + _XT(E, r, f[i])
-            Df[lam] = Df[lam] + _XT(E, r, Df[i])
-            for c in range(S.shape[1]):                             # ⁱX_λᵀ (S_i ×* f̂_i)
-                Df[lam][:, vi.start + c] += _XT(E, r, _crf(np.broadcast_to(S[:, c, None], (6, K)), f[i]))
-    out = np.moveaxis(dtau, -1, 0)
-    return out[:, :, :nv], out[:, :, nv:]
+            Y[lam] = Y[lam] + Y[i]
+            Bc[lam] = Bc[lam] + Bc[i]
+            F[lam] = F[lam] + F[i]
+    # every velocity column c at once (its joint k = owner[c]): rows (K, nv, 6)
+    xi = np.swapaxes(np.concatenate(Sw, axis=2), 1, 2)          # ξ_c = S_k e_c
+    VL, AL, V, FK = (np.stack(x, axis=1)[:, owner] for x in (vlam, alam, v, F))
+    BK, YK = np.stack(Bc, axis=1)[:, owner], np.stack(Y, axis=1)[:, owner]     # (K, nv, 6, 6)
+    w = _crm(xi, VL)
+    g = _crm(xi, AL) + _crm(VL, w)
+    z = _crm(VL + V, xi)
+    Pq = _crf(xi, FK) + np.einsum("kcij,kcj->kci", BK, w) - np.einsum("kcij,kcj->kci", YK, g)
+    Pd = np.einsum("kcij,kcj->kci", YK, z) - np.einsum("kcij,kcj->kci", BK, xi)
+    SB, SY = np.einsum("kci,kcij->kcj", xi, BK), np.einsum("kci,kcij->kcj", xi, YK)   # rows S_jᵀ B^c_j, S_jᵀ Y_j
+    T = lambda x: np.swapaxes(x, 1, 2)                          # noqa: E731
+    dq = np.where(anc, SB @ T(w) - SY @ T(g), 0.0) + np.where(desc, xi @ T(Pq), 0.0)
+    dqd = np.where(anc, SY @ T(z) - SB @ T(xi), 0.0) + np.where(desc, xi @ T(Pd), 0.0)
+    Hf = SY @ T(xi)                                             # H_jc = S_jᵀ Y_j S_c for c ⪯ j
+    H = np.where(anc, Hf, 0.0) + np.where(desc, T(Hf), 0.0)
+    return dq, dqd, H
 
 
 @contract(tree=_TREE, q=_QB, qd=_VB, qdd=_VB, f_ext=_FB)
@@ -130,7 +113,7 @@ def rnea_derivatives_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None):
     """(∂τ/∂q, ∂τ/∂q̇, H) for K states: q (K, nq), q̇ and q̈ (K, nv) → three (K, nv, nv) arrays."""
     single, q, (qd, qdd) = batch_of(q, qd=qd, qdd=qdd)
     with np.errstate(over="ignore", invalid="ignore"):
-        out = (*_rnea_derivatives_batch(tree, q, qd, qdd, f_ext), _crba_batch(tree, q))
+        out = _rnea_derivatives_batch(tree, q, qd, qdd, f_ext)
     for x in out:
         check_result("rnea_derivatives_batch", x, _HUGE)
     return tuple(x[0] for x in out) if single else out
@@ -143,8 +126,8 @@ def aba_derivatives_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None):
     single, q, (qd, tau) = batch_of(q, qd=qd, tau=tau)
     with np.errstate(over="ignore", invalid="ignore"):
         qdd = aba_fast(tree, q, qd, tau, f_ext)
-        dq, dqd = _rnea_derivatives_batch(tree, q, qd, qdd, f_ext)
-        Minv = np.linalg.inv(_crba_batch(tree, q))
+        dq, dqd, H = _rnea_derivatives_batch(tree, q, qd, qdd, f_ext)
+        Minv = np.linalg.inv(H)
         Minv = 0.5 * (Minv + np.swapaxes(Minv, 1, 2))
         dqd += np.diag(tree.arrays()["damping"])
         out = (-(Minv @ dq), -(Minv @ dqd), Minv)
