@@ -241,7 +241,11 @@ def test_chapter_is_a_percent_script_and_becomes_a_valid_notebook(chapter, tmp_p
     assert sum(c.kind == "markdown" for c in cells) >= n_figures + 1
     path = write_notebook(src, tmp_path)
     nb = json.loads(path.read_text())
-    assert nb["nbformat"] == 4 and len(nb["cells"]) == len(cells)
+    from pbanim.course.widgets import DEMOS, get_demo
+
+    get_demo("ch02_step_size")                                  # loads the demos
+    n_live = sum(d.chapter == chapter for d in DEMOS.values())
+    assert nb["nbformat"] == 4 and len(nb["cells"]) == len(cells) + 2 * n_live
     nbformat = pytest.importorskip("nbformat")
     nbformat.validate(nbformat.read(str(path), as_version=4))
 

@@ -20,6 +20,9 @@ are ``cell-0``, ``cell-1``, … so the same file gives the same bytes), :func:`w
 ``.ipynb`` — through nbformat (validated) when it is installed (``pip install pbanim[notebook]``),
 else as the same JSON written directly.
 
+A chapter with live demos (:mod:`pbanim.course.widgets`: a slider for the step size, the gains, ε, ν…)
+gets, after the figure each demo belongs to, a markdown cell and a code cell ``live("<demo>")``.
+
 Limiting cases: a file without markers is one code cell; an empty cell is dropped.
 Reference: the jupytext documentation, "The percent format"; the nbformat 4.5 JSON schema.
 """
@@ -123,6 +126,9 @@ def write_notebook(source: str | Path, out_dir: str | Path) -> Path:
     cells = percent_cells(text)
     if not cells:
         raise InvalidInput(f"{src.name} has no cells (an empty file)")
+    from .widgets import live_cells
+
+    cells = live_cells(src.stem, cells)          # a live demo's controls after its figure (pbanim.course.widgets)
     nb = notebook_json(cells, src.name)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():

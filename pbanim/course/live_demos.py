@@ -1,0 +1,267 @@
+"""The chapters' live demos (registered in :mod:`pbanim.course.widgets` on import).
+
+==================  =========  ==============================  =========================================
+demo                chapter    controls                        what is drawn (and its closed form)
+==================  =========  ==============================  =========================================
+ch02_step_size      02         method, steps per orbit         Kepler orbit e = 0.5 over two periods and
+                                                               |E − E*| (A3, A4)
+ch03_baumgarte      03         ω_b, ζ                          a bead started 10 % off its circle: C(t)
+                                                               against C̈ + 2ζω_b Ċ + ω_b² C = 0 (B2)
+ch06_restitution    06         ε                               bouncing ball: z(t) and apex heights against
+                                                               ε^(2k) h₀ (D1)
+ch08_pd_push        08         k_p, ζ, servo, h, push P        a servoed unit mass pushed at t = 0.2 s:
+                                                               θ(t) against m θ̈ + k_v θ̇ + k_p θ = 0 and
+                                                               the servo's largest stable step (F1)
+ch09_viscosity      09         ν                               Taylor–Green vortex on 16²: E(t)/E₀ against
+                                                               the implicit step's 1/(1 − νΔtλ)² (E1)
+ch10_drag           10         target x, target z              a ball through two bounces at t = 2 s: one
+                                                               min-norm update per redraw, as a drag (H5, H6)
+==================  =========  ==============================  =========================================
+
+Each ``compute(demo, **params)`` returns the data it draws (the tests check it against the closed form);
+the scenes are sized so that a redraw takes under 0.2 s (``python -m pbanim.course.widgets``).
+``ch10_drag`` keeps the design parameters u between redraws in ``demo.state`` (a drag moves on from where
+the last frame left it); another target restarts nothing, one more redraw at the same target is one more
+Gauss–Newton step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InvalidInput
+from .widgets import Control, LiveDemo, register_demo
+
+__all__: list[str] = []
+
+G = 9.81
+
+
+# -- chapter 02: step size and method on a Kepler orbit -------------------------------------------------
+def _kepler(demo, method, steps):
+    from ..models.ode import kepler
+    from ..ode import solve
+
+    kp = kepler(0.5)
+    T = kp.period
+    r = solve(kp.rhs, (0, 2 * T), kp.y0, method=method, h=T / steps, split=2)
+    return {"t": r.t / T, "orbit": r.y[:2], "dE": kp.invariants["energy"](r.y) - kp.params["E"], "h": T / steps}
+
+
+def _kepler_draw(fig, d, p):
+    a, b = fig.subplots(1, 2)
+    a.plot(*d["orbit"], lw=0.8)
+    a.plot(0, 0, "k*")
+    a.set(aspect="equal", xlabel="x", ylabel="y", title=f"{p['method']}, h = T/{p['steps']}")
+    b.semilogy(d["t"], np.abs(d["dE"]) + 1e-17, lw=0.8)
+    b.set(xlabel="t / T", ylabel="|E − E*|", title="energy error (GM = a = 1)")
+
+
+register_demo(LiveDemo(
+    "ch02_step_size", "ch02_ode", "kepler", "step size and method on a Kepler orbit (e = 0.5)",
+    (Control("method", "method", "choice", "symplectic_euler",
+             options=("euler", "symplectic_euler", "verlet", "midpoint", "rk4")),
+     Control("steps", "steps per orbit", "int", 150, 40, 400)),
+    _kepler, _kepler_draw, notes="Explicit Euler spirals out, the symplectic methods keep the energy error bounded."))
+
+
+# -- chapter 03: Baumgarte gains on a bead off its circle -----------------------------------------------
+def baumgarte_closed_form(t, C0, Cd0, omega, zeta):
+    """C(t) of C̈ + 2ζω Ċ + ω² C = 0 (under-, critically and over-damped)."""
+    t = np.asarray(t, float)
+    if abs(zeta - 1.0) < 1e-9:
+        return (C0 + (Cd0 + omega * C0) * t) * np.exp(-omega * t)
+    s = np.sqrt(complex(zeta * zeta - 1.0)) * omega
+    r1, r2 = -zeta * omega + s, -zeta * omega - s
+    a = (Cd0 - r2 * C0) / (r1 - r2)
+    return np.real(a * np.exp(r1 * t) + (C0 - a) * np.exp(r2 * t))
+
+
+def _bead(demo, omega_b, zeta, h=0.02, t_end=1.0, R=1.0):
+    from ..constraints import Constraints
+    from ..constraints.kinds import OnCircle
+    from ..particles import Gravity, ParticleSystem
+    from ..scene import Scene
+
+    x0 = 1.1 * R * np.array([np.sin(1.0), -np.cos(1.0)])
+    ps = ParticleSystem([x0], [[0.0, 0.0]], masses=1.0)
+    eff = Constraints([OnCircle([0], [0.0, 0.0], R)], stabilization="baumgarte", natural_frequency=omega_b,
+                      damping_ratio=zeta)
+    res = Scene(ps, [Gravity(), eff]).simulate(t_end, h, "rk4")
+    x = res.y[:2]
+    C = 0.5 * (np.sum(x * x, 0) - R * R)
+    return {"t": res.t, "x": x, "C": C, "C_exact": baumgarte_closed_form(res.t, C[0], 0.0, omega_b, zeta), "R": R}
+
+
+def _bead_draw(fig, d, p):
+    a, b = fig.subplots(1, 2)
+    th = np.linspace(0, 2 * np.pi, 200)
+    a.plot(d["R"] * np.cos(th), d["R"] * np.sin(th), "k:", lw=0.8)
+    a.plot(*d["x"], lw=1)
+    a.set(aspect="equal", xlabel="x (m)", ylabel="y (m)", title="the bead (RK4, h = 20 ms)")
+    b.plot(d["t"], d["C"], label="simulated C = ½(|x|² − R²)")
+    b.plot(d["t"], d["C_exact"], "k--", lw=1, label="C̈ + 2ζω_b Ċ + ω_b² C = 0")
+    b.set(xlabel="t (s)", ylabel="C (m²)", title=f"ω_b = {p['omega_b']:.3g} rad/s, ζ = {p['zeta']:.2f}")
+    b.legend(fontsize=7)
+
+
+register_demo(LiveDemo(
+    "ch03_baumgarte", "ch03_constraints", "drift", "Baumgarte gains pull a bead back onto its circle",
+    (Control("omega_b", "ω_b (rad/s)", "log", 10.0, 1.0, 20.0), Control("zeta", "ζ", "float", 1.0, 0.1, 2.0)),
+    _bead, _bead_draw, notes="k_s = ω_b², k_d = 2ζω_b; ζ = 1 is the critically damped return."))
+
+
+# -- chapter 06: restitution of a bouncing ball ------------------------------------------------------------
+def _bounce(demo, restitution, bounces=6):
+    from ..collision import simulate_collisions
+    from ..models.collision import bouncing_ball
+
+    bb = bouncing_ball(h0=1.0, restitution=restitution)
+    T = 1.01 * float(bb.impact_times(bounces + 1))
+    ev = simulate_collisions(bb.scene(), T, 0.01, toi="event")
+    post = ev.y_events[0][:bounces]
+    k = np.arange(1, len(post) + 1)
+    return {"t": ev.t, "z": ev.y[1], "k": k, "apex": post[:, 1] + post[:, 3] ** 2 / (2 * bb.g),
+            "apex_exact": bb.apex_heights(k), "h0": bb.h0}
+
+
+def _bounce_draw(fig, d, p):
+    a, b = fig.subplots(1, 2)
+    a.plot(d["t"], d["z"], lw=1)
+    a.set(xlabel="t (s)", ylabel="z (m)", title=f"ε = {p['restitution']:.2f} (events located, RK4)")
+    b.semilogy(d["k"], d["apex_exact"], "k-", label="ε^(2k) h₀")
+    b.semilogy(d["k"], d["apex"], "o", label="simulated apex")
+    b.set(xlabel="bounce k", ylabel="apex height (m)")
+    b.legend(fontsize=7)
+
+
+register_demo(LiveDemo(
+    "ch06_restitution", "ch06_collisions", "bouncing_heights", "restitution of a bouncing ball",
+    (Control("restitution", "ε", "float", 0.8, 0.2, 0.95),), _bounce, _bounce_draw,
+    notes="Each bounce scales the speed by ε and the apex by ε²."))
+
+
+# -- chapter 08: PD gains and a push ---------------------------------------------------------------------
+def pd_push_closed_form(t, P, kp, kv, m=1.0):
+    """θ(t) of m θ̈ + k_v θ̇ + k_p θ = 0 from θ = 0, θ̇ = P/m (a push P at t = 0)."""
+    return baumgarte_closed_form(t, 0.0, P / m, np.sqrt(kp / m), kv / (2 * np.sqrt(kp * m)))
+
+
+def _pd(demo, kp, zeta, servo, h, push, t_push=0.2, t_end=2.0, m=1.0):
+    from ..control.pd import largest_stable_step, pd_step
+
+    kv = 2 * zeta * np.sqrt(kp * m)
+    n = int(np.ceil(t_end / h))
+    k_push = int(round(t_push / h))
+    xs = np.zeros(n + 1)
+    x = v = 0.0
+    scale = 1e6 * max(1.0, abs(push) * h / m)
+    for k in range(n):                     # cap n = t_end / h ≤ 2e4 steps (h ≥ 1e-4)
+        if k == k_push:
+            v += push / m
+        x, v = pd_step(x, v, h, kp, kv, m, servo)
+        if not abs(x) < scale:             # unstable: the run stops here (drawn up to the divergence)
+            xs = xs[:k + 1]
+            break
+        xs[k + 1] = x
+    t = h * np.arange(len(xs))
+    exact = np.where(t >= k_push * h, pd_push_closed_form(np.maximum(t - k_push * h, 0.0), push, kp, kv, m), 0.0)
+    return {"t": t, "theta": xs, "exact": exact, "diverged": len(xs) < n + 1, "kv": kv,
+            "h_max": largest_stable_step(kp, kv, m=m, servo=servo, h_max=10.0)}
+
+
+def _pd_draw(fig, d, p):
+    ax = fig.subplots()
+    ax.plot(d["t"], d["exact"], "k--", lw=1, label="exact servo (continuous time)")
+    ax.plot(d["t"], d["theta"], lw=1, label=f"{p['servo']} PD, h = {p['h']:.2g} s")
+    state = "DIVERGED" if d["diverged"] else "stable"
+    ax.set(xlabel="t (s)", ylabel="θ (rad)", title=f"k_p = {p['kp']:.3g}, k_v = {d['kv']:.3g}, push {p['push']:.2g} N s: "
+           f"{state} (largest stable h = {d['h_max']:.3g} s)")
+    if d["diverged"]:
+        ax.set_ylim(-5 * max(p["push"], 1e-3), 5 * max(p["push"], 1e-3))
+    ax.legend(fontsize=7)
+
+
+register_demo(LiveDemo(
+    "ch08_pd_push", "ch08_characters", "pd_stability_map", "PD gains, servo and step: a servoed mass pushed",
+    (Control("kp", "k_p (N m/rad)", "log", 100.0, 1.0, 1e6), Control("zeta", "ζ", "float", 1.0, 0.0, 2.0),
+     Control("servo", "servo", "choice", "explicit", options=("explicit", "stable", "implicit")),
+     Control("h", "h (s)", "log", 0.005, 1e-4, 0.1), Control("push", "push P (N s)", "float", 1.0, 0.0, 5.0)),
+    _pd, _pd_draw, figsize=(9.0, 3.2),
+    notes="Explicit PD diverges past its largest stable step; stable and implicit PD do not."))
+
+
+# -- chapter 09: viscosity of a Taylor–Green vortex ---------------------------------------------------------
+def _tg(demo, nu, n=16, h=0.05, t_end=1.0):
+    from ..fluids import Diffusion, FluidScene, Grid, Projection, taylor_green
+
+    g = Grid((n, n), 2 * np.pi / n, "periodic")
+    res = FluidScene(g, [Diffusion(nu, "fft"), Projection("fft")], u=taylor_green(g)).simulate(t_end, h)
+    e = res.diagnostics["kinetic_energy"]
+    lam = 2 * (2 * np.cos(g.dx) - 2) / g.dx**2
+    steps = np.round(res.t / h)
+    return {"t": res.t, "E": e / e[0], "E_step": (1 - nu * h * lam) ** (-2 * steps), "E_exact": np.exp(-4 * nu * res.t)}
+
+
+def _tg_draw(fig, d, p):
+    ax = fig.subplots()
+    ax.semilogy(d["t"], d["E"], "o", ms=3, label="simulated (16², Δt = 0.05, FFT)")
+    ax.semilogy(d["t"], d["E_exact"], "k--", lw=1, label="e^(−4νk²t)")
+    ax.set(xlabel="t (s)", ylabel="E / E₀", title=f"Taylor–Green vortex, ν = {p['nu']:.3g} m²/s")
+    ax.legend(fontsize=7)
+
+
+register_demo(LiveDemo(
+    "ch09_viscosity", "ch09_fluids", "taylor_green_decay", "viscosity of a Taylor–Green vortex",
+    (Control("nu", "ν (m²/s)", "log", 0.05, 1e-3, 1.0),), _tg, _tg_draw, figsize=(6.0, 3.4),
+    notes="Only viscosity acts: the energy decays as e^(−4νk²t)."))
+
+
+# -- chapter 10: dragging a bouncing ball --------------------------------------------------------------------
+def _drag(demo, target_x, target_z, T=2.0, h=0.02):
+    from ..collision import Plane, Sphere
+    from ..design import DesignBody, DesignScene, UncertifiedTrajectory
+    from ..design.control import goal_system, min_norm_update, position_goal
+
+    names = ["x0", "v0"]
+    st = demo.state
+    if "scene" not in st:
+        st["scene"] = DesignScene([DesignBody(Sphere(0.1), position=(0.0, 0.0, 1.0), velocity=(1.0, 0.0, 2.0))],
+                                  [Plane([0, 0, 1]), Plane([-1, 0, 0], offset=-2.0)], restitution=0.8)
+        st["u"] = np.array(st["scene"].vector(names), dtype=float)
+        st["run"] = None
+    target = np.array([target_x, 0.0, target_z])
+    goal = [position_goal(0, T, target)]
+    du = np.zeros_like(st["u"])
+    if st["run"] is not None:                 # one min-norm update from the last frame's rows
+        A, x = st["run"]
+        du = min_norm_update(A, target - x).du
+    for k in range(9):                        # a step whose run is refused (a ball started in the floor,
+        try:                                  # an uncertified run) is halved, at most 8 times, as in edit
+            r, A, tr = goal_system(st["scene"], names, st["u"] + du / 2**k, goal, T, h=h)
+            break
+        except (InvalidInput, UncertifiedTrajectory):
+            if k == 8:
+                raise
+    st["u"] = st["u"] + du / 2**k
+    x = tr.position(0, T)
+    st["run"] = (A, x)
+    P = tr.positions(0)
+    return {"path": P[:, [0, 2]], "reached": x, "target": target, "residual": float(np.max(np.abs(target - x)))}
+
+
+def _drag_draw(fig, d, p):
+    ax = fig.subplots()
+    ax.plot(*d["path"].T, lw=1)
+    ax.plot(d["reached"][0], d["reached"][2], "k.", label="the ball at t = 2 s")
+    ax.plot(d["target"][0], d["target"][2], "r*", ms=10, label="dragged target")
+    ax.axvline(2.0, color="gray"), ax.axhline(0.0, color="gray")
+    ax.set(xlabel="x (m)", ylabel="z (m)", title=f"one min-norm update per redraw: |residual| = {d['residual']:.1e} m")
+    ax.legend(fontsize=7)
+
+
+register_demo(LiveDemo(
+    "ch10_drag", "ch10_design", "edit_sequence", "dragging a bouncing ball: one update per move",
+    (Control("target_x", "target x (m)", "float", 1.0, -1.0, 1.8), Control("target_z", "target z (m)", "float", 0.6,
+                                                                          0.15, 2.0)),
+    _drag, _drag_draw, figsize=(6.0, 3.6), notes="Each redraw is one min-norm update of (x₀, v₀) from the last frame."))
