@@ -103,22 +103,48 @@ class SketchEditor:
 
     # ----------------------------------------------------------------- the model
     def _simulate(self, t_star):
-        """S and ∂x(t*)/∂u at u (one run); the drawn points are the run's grid."""
+        """S and ∂x(t*)/∂u at u (one run). For a sphere in exact flight the run's grid is the whole span (the
+        flight is closed-form; the grid only places recorded states) and the drawn points are the parabolas
+        between its impacts, v⁺ = v⁻ + (j/m) n (:meth:`_parabolas`); otherwise they are the run's grid (step h)."""
+        from .exact import exact_applies
         from .simulate import simulate
 
         times = [] if t_star is None else [t_star]
-        tr = simulate(self.scene, self.t_end, self.names, self.u, times=times, h=self.h, warn=False,
-                      sensitivities=t_star is not None)
-        self.t, self.X = tr.t.copy(), tr.positions(0).copy()
+        closed = exact_applies(self.scene, self.names)
+        tr = simulate(self.scene, self.t_end, self.names, self.u, times=times,
+                      h=max(self.h, self.t_end) if closed else self.h, warn=False, sensitivities=t_star is not None)
+        if closed and not tr.rests and all(i.kind == "plane" for i in tr.impacts):
+            self.t = np.linspace(0.0, self.t_end, int(round(self.t_end / self.h)) + 1)
+            self.X = self._parabolas(tr)
+        else:
+            self.t, self.X = tr.t.copy(), tr.positions(0).copy()
         if t_star is not None:
             self.x_star, self.A = tr.position(0, t_star), tr.d_position(0, t_star)
         return tr
+
+    def _parabolas(self, tr):
+        """x(t) at the drawn times from x₀, v₀ and the run's impacts: x + v s + ½ g s² between them."""
+        d = self.scene.values(self.names, self.u)
+        x, v, t0, g = d["x0"].copy(), d["v0"].copy(), 0.0, self.scene.gravity
+        X = np.empty((len(self.t), 3))
+        hits = sorted(tr.impacts, key=lambda i: i.t) + [None]
+        for imp in hits:
+            t1 = self.t_end if imp is None else imp.t
+            sel = (self.t >= t0) & ((self.t < t1) if imp is not None else (self.t <= t1))
+            s = self.t[sel] - t0
+            X[sel] = x + s[:, None] * v + 0.5 * (s * s)[:, None] * g
+            if imp is not None:
+                s = t1 - t0
+                x, v, t0 = x + v * s + 0.5 * g * s * s, v + g * s, t1
+                v = v + imp.impulse / d["mass0"][0] * self.scene.planes[imp.other].normal
+        return X
 
     def _linearize(self):
         """x(t) and ∂x(t)/∂u at every drawn time (the prediction's model, made at press and release)."""
         from .simulate import simulate
 
-        grid = [float(t) for t in self._simulate(None).t[1:]]
+        self._simulate(None)
+        grid = [float(t) for t in self.t[1:]]
         tr = simulate(self.scene, self.t_end, self.names, self.u, times=grid, h=self.h, warn=False)
         self.lin_u = self.u.copy()
         self.lin_X = np.array([self.X[0]] + [tr.position(0, t) for t in grid])
