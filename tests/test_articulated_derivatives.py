@@ -189,3 +189,15 @@ def test_derivatives_equal_pinocchio_on_robot_urdfs(rel):
     ref = (data.ddq_dq[ix], data.ddq_dv[ix] - Minv * b, Minv)
     for a, r in zip(aba_derivatives(tree, q, qd, tau), ref):
         assert np.abs(a - r).max() <= 1e-9 * (1 + np.abs(r).max())
+
+
+def test_bench_derivative_table_smoke():
+    # pbanim bench articulated, the derivatives table: it runs and checks its own agreement with Pinocchio
+    # (ORACLES L1, 1e-9) when Pinocchio is installed; never timed here
+    from pbanim.bench.articulated import derivative_table
+
+    table, ratios = derivative_table([3], 8, 1)
+    assert [r[0] for r in table.rows] == [3] and all(r[1] > 0 and r[2] > 0 for r in table.rows)
+    agree = [r[6] for r in table.rows if np.isfinite(r[6])]
+    assert all(a < 1e-9 for a in agree)
+    assert set(ratios) <= {3}
