@@ -45,11 +45,12 @@ import numpy as np
 
 from ..contracts import Array, Choice, Either, Flag, Int, Obj, Opt, Real, Seq, contract, finite_result
 from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError
-from ..geometry import cross, tangent_basis
+from ..geometry import cross
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
 from ..scene import Effect
 from ..rigid.domain import RigidState
+from .joint_rows import ROWS_PER_JOINT, JointRowPlan
 from .specs import UnitAxis
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
@@ -167,70 +168,14 @@ class RigidJoints(Effect):
         qw = np.vstack([q0, [1.0, 0, 0, 0]])
         # the relative orientation at rest: the weld/slider rotation rows hold q_b⁻¹ q_a = q_rel0
         self._qrel0 = [quat_multiply(quat_conjugate(qw[j.b]), qw[j.a]) for j in self.joints]
+        self._plan = JointRowPlan(self.joints, system.N, self._qrel0)
 
     # -- rows -----------------------------------------------------------------------------------
     @contract(y=_Y, sparse=Flag(), returns=finite_result)
     def rows(self, y: np.ndarray, sparse: bool = False):
-        """(C, J (k, 6N), J̇u (k,), Ċ (k,)) at state y; J as a scipy.sparse CSR matrix with ``sparse``."""
-        s = self.system
-        N = s.N
-        x, q, _, _ = s.unpack(y)
-        v, w = s.velocities(y)
-        R = quat_to_matrix(q)
-        xw, Rw = np.vstack([x, np.zeros(3)]), np.concatenate([R, np.eye(3)[None]])
-        vw, ww, qw = np.vstack([v, np.zeros(3)]), np.vstack([w, np.zeros(3)]), np.vstack([q, [1.0, 0, 0, 0]])
-        C, bias = [], []
-        ri, ci, vals = [], [], []                # J in coordinate form: each row touches ≤ 2 bodies
-
-        def row(ja, jb, a, b, c, jdot):          # ja, jb: 6-vectors on bodies a, b
-            k = len(C)
-            for body, blk in ((a, ja), (b, -np.asarray(jb))):
-                if body >= 0:
-                    ri.extend([k] * 6), ci.extend(range(6 * body, 6 * body + 6)), vals.extend(blk)
-            C.append(c), bias.append(jdot)
-
-        for j, qrel0 in zip(self.joints, self._qrel0):
-            a, b = j.a, j.b
-            ra, rb = Rw[a] @ j.anchor_a, Rw[b] @ j.anchor_b
-            pa, pb = xw[a] + ra, xw[b] + rb
-            if j.kind in ("ball", "hinge", "weld"):
-                acc = cross(ww[a], cross(ww[a], ra)) - cross(ww[b], cross(ww[b], rb))
-                for k in range(3):
-                    e = np.eye(3)[k]
-                    row(np.concatenate([e, cross(ra, e)]), np.concatenate([e, cross(rb, e)]), a, b,
-                        (pa - pb)[k], acc[k])
-            if j.kind == "hinge":
-                aa, ab = Rw[a] @ j.axis_a, Rw[b] @ j.axis_b
-                for t in tangent_basis(aa[None])[:2]:
-                    t = t[0]
-                    g = cross(t, ab)
-                    jd = cross(ww[a], cross(ww[a], t)) @ ab + 2 * cross(ww[a], t) @ cross(ww[b], ab) \
-                        + t @ cross(ww[b], cross(ww[b], ab))
-                    row(np.concatenate([np.zeros(3), g]), np.concatenate([np.zeros(3), g]), a, b, t @ ab, jd)
-            if j.kind in ("slider", "weld"):
-                qrel = quat_multiply(quat_conjugate(qw[b]), quat_multiply(qw[a], quat_conjugate(qrel0)))
-                err = 2.0 * np.sign(qrel[0] if qrel[0] != 0 else 1.0) * (Rw[b] @ qrel[1:])   # small-angle, world
-                for k in range(3):
-                    e = np.eye(3)[k]
-                    row(np.concatenate([np.zeros(3), e]), np.concatenate([np.zeros(3), e]), a, b, err[k], 0.0)
-            if j.kind == "slider":
-                ab = Rw[b] @ j.axis_b
-                d = pa - pb
-                dd = (vw[a] + cross(ww[a], ra)) - (vw[b] + cross(ww[b], rb))
-                for t in tangent_basis(ab[None])[:2]:
-                    t = t[0]
-                    # C = t·d with t turning with b: Ċ = t·ḋ + (ω_b × t)·d
-                    ga = np.concatenate([t, cross(ra, t)])
-                    gb = np.concatenate([t, cross(rb, t) - cross(t, d)])
-                    acc = cross(ww[a], cross(ww[a], ra)) - cross(ww[b], cross(ww[b], rb))
-                    jd = t @ acc + 2 * cross(ww[b], t) @ dd + cross(ww[b], cross(ww[b], t)) @ d
-                    row(ga, gb, a, b, t @ d, jd)
-        import scipy.sparse as sp
-
-        C, bias = np.array(C), np.array(bias)
-        J = sp.csr_matrix((vals, (ri, ci)), shape=(len(C), 6 * N))   # duplicates (a = b rows) are summed
-        u = np.hstack([v, w]).ravel()
-        return C, (J if sparse else J.toarray()), bias, J @ u
+        """(C, J (k, 6N), J̇u (k,), Ċ (k,)) at state y; J as a scipy.sparse CSR matrix with ``sparse``
+        (all joints at once: :class:`~pbanim.articulated.joint_rows.JointRowPlan`, laid out at ``bind``)."""
+        return self._plan.evaluate(self.system, y, sparse)
 
     # -- the constraint phase ------------------------------------------------------------------
     @contract(y=_Y, j=Obj(RigidJoint), qrel0=Array((4,)), returns=finite_result)
@@ -297,7 +242,7 @@ class RigidJoints(Effect):
         Q = self._motors(y, Q)
         if self.solver == "linear":
             return self._constrain_linear(y, Q)
-        C, J, jdot, Cdot = self.rows(y)
+        C, J, jdot, Cdot = self._plan.evaluate(s, y)
         Wb, WQ = self._free_acceleration(y, Q)
         WJt = np.einsum("nij,knj->kni", Wb, J.reshape(len(C), s.N, 6)).reshape(len(C), -1)
         A = J @ WJt.T
@@ -347,7 +292,7 @@ class RigidJoints(Effect):
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
 
-        C, J, jdot, Cdot = self.rows(y, sparse=True)
+        C, J, jdot, Cdot = self._plan.evaluate(self.system, y, sparse=True)
         Wb, WQ = self._free_acceleration(y, Q)
         W = sp.block_diag(list(Wb), format="csr")
         A = (J @ W @ J.T).tocsc()
@@ -378,7 +323,7 @@ class RigidJoints(Effect):
                     else:
                         rest.append(j)
                 pending = rest
-            n_rows = {"ball": 3, "hinge": 5, "slider": 5, "weld": 6}
+            n_rows = ROWS_PER_JOINT
             blocks, start = [], 0
             for j in self.joints:
                 blocks.append((-max(depth.get(j.a, 0), depth.get(j.b, 0)), np.arange(start, start + n_rows[j.kind])))
