@@ -10,19 +10,22 @@ just after the 4th impact. The hand loop is the same law written for this one ba
     is reflected, v_y ← −ε v_y (faster than the restitution threshold 3gh: every impact of this run), and
     the rest of the step, h − τ, is one more RK4 step.
 
-Both return the final state (x, v); they agree to the root finder's roundoff. pbanim takes the float step of
-:mod:`pbanim.collision.lean` for this run (before it: the general machinery, signed distances of every
-feature and their rates, a call of the event solver per step, contact detection after each step and the
-scene's diagnostics at every recorded state, about 1600x the hand loop). CPython bounds the row: what a
-driven run pays per step whatever the physics (the state as an array in and out of the step, its
-finiteness check, its row in the recorded states; no hooks) is measured in the run and printed as the
-floor, beside a hand step of four floats.
+Both return the final state (x, v); they agree to the root finder's roundoff. pbanim runs the whole run on
+floats (:meth:`pbanim.collision.lean.LeanBall.run`, chosen once per run: the flights as the readable RK4 bit
+for bit, the impacts located by the same law; before it: a float step per step inside the driver, 8.6x,
+and before that the general machinery, about 1600x). What bounds the row now is a run's fixed cost (the
+call's contract check, the plan, the result record): the row prints it, measured in the run, as the cost of
+a run of one step spread over the row's steps.
 
 Newton's cradle (ORACLES D2): three balls in a row, the last two touching, the first arriving at 1 m/s,
 ε = 1, run by ``Scene.simulate`` with the ``Collisions`` post-step effect (fixed-step detection, Baraff's
 sequential impulses, the projection), symplectic Euler; the hand loop is that law for balls on a line (see
-:func:`_cradle_hand`). The touching pair is a contact at every step, so pbanim's general response runs at
-every step (broad phase, contact records, the certified impulse solve): no lean path covers it yet.
+:func:`_cradle_hand`). The touching pair is a contact at every step; the response is the float one of
+:mod:`pbanim.collision.lean_spheres` (contacts from the pairs bound once, the impulse loop and its
+certificate only at the impact; before it: the general response at every step, about 270x). What bounds the
+row is the scene's own step for a scene with a post-step stage (the kick–drift on arrays and the driver:
+the float step of :mod:`pbanim.particles.lean` takes only scenes without one): the row prints it, measured
+in the run with a post-step effect that returns the state unchanged.
 """
 
 from __future__ import annotations
@@ -87,29 +90,23 @@ def bouncing_ball_event() -> Floor:
 
     fl = Floor("collisions", "bouncing ball on a plane, impacts located (2-D, ε = 0.8)", "rk4+event",
                grid.n_steps, pbanim, hand)
-    fl.notes.append(f"collisions: CPython floor of a driven step (array in and out, finiteness check, recorded "
-                    f"row; drive_lean with an empty step): {_driver_floor_us(grid):.1f} µs per step")
+    fl.notes.append(f"collisions (ball): a run's fixed cost (simulate_collisions of one step, contract check, plan, "
+                    f"result) is {_setup_us(scene, H):.0f} µs, {_setup_us(scene, H) / grid.n_steps:.2f} µs per step "
+                    f"of this row's {grid.n_steps} (the hand loop: none)")
     return fl
 
 
-def _driver_floor_us(grid) -> float:
-    """µs per step that :func:`pbanim.ode.driver.drive_lean` pays around a step that does nothing but turn the
-    state into floats and back (median of 5 runs of the row's grid)."""
+def _setup_us(scene, h) -> float:
+    """µs of a run of one step of :func:`pbanim.collision.simulate_collisions` (median of 7)."""
     import time
 
-    from ..ode.driver import drive_lean
-
-    y0 = np.array([0.0, H0, 0.0, 0.0])
-    array = np.array
-
-    def advance(t, y, h):
-        return array(y.tolist())
+    from ..collision.toi import simulate_collisions
 
     times = []
-    for _ in range(5):
+    for _ in range(7):
         start = time.perf_counter()
-        drive_lean(advance, grid, y0, "state", check_every=1)
-        times.append((time.perf_counter() - start) / grid.n_steps * 1e6)
+        simulate_collisions(scene, h, h, "rk4", toi="event")
+        times.append((time.perf_counter() - start) * 1e6)
     return float(np.median(times))
 
 
@@ -173,7 +170,37 @@ def newtons_cradle() -> Floor:
 
     fl = Floor("collisions", "Newton's cradle, 3 balls on a line (2-D, ε = 1)", "symplectic_euler", CR_STEPS,
                pbanim, hand)
+    still, ratio = _scene_floor(fl.steps)
+    fl.notes.append(f"collisions (cradle): the scene's own step with a post-step stage that returns the state "
+                    f"(kick–drift on arrays, the driver) costs {still:.1f} µs per step, {ratio:.1f}x the hand loop "
+                    "in the same rounds: the floor of this row until the scene's float step takes post-step scenes")
     return fl
+
+
+def _scene_floor(steps: int) -> tuple[float, float]:
+    """(µs per step, ratio to the hand loop) of the cradle's scene with a post-step effect that does nothing,
+    both timed in alternating rounds (medians of 5)."""
+    import time
+
+    from ..particles import ParticleSystem
+    from ..scene import Effect, Scene
+
+    class _Still(Effect):
+        name, phase = "still", "post_step"
+
+        def post_step(self, t, y, h):
+            return y
+
+    scene = Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]), [_Still()])
+    tp, th = [], []
+    for _ in range(5):
+        start = time.perf_counter()
+        scene.simulate(steps * CR_H, CR_H, "symplectic_euler", diagnostics=False)
+        tp.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        _cradle_hand(steps)
+        th.append(time.perf_counter() - start)
+    return float(np.median(tp)) / steps * 1e6, float(np.median(np.array(tp) / np.array(th)))
 
 
 FLOORS = [bouncing_ball_event, newtons_cradle]

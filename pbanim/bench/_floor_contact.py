@@ -14,6 +14,12 @@ certificate):
 
 with s⁺ = s for a gap and erp·s for a penetration (erp = 0.2). Both return the final state y = [x, q, P, L]
 and the bench checks that they agree to roundoff (equal work).
+
+pbanim's step is the lean one (:class:`pbanim.contact.lean.LeanFrictionless`): PGS's sweeps called directly
+(:func:`pbanim.lcp.solve.lean_pgs`: the same warm-start test and iterates, the stopping test being the
+certificate of ``solve_lcp``, which answers only what the sweeps do not certify), the rotations and the
+quaternion update on floats for a few bodies (before: ``solve_lcp`` checking, copying and certifying its
+inputs again at every step, and those on arrays: 2.87x).
 """
 
 from __future__ import annotations

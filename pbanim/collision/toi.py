@@ -214,7 +214,10 @@ def simulate_collisions(scene, t_end: float, h: float, method: str = "rk4", toi:
         col.last = None if grid.n_steps - 1 not in special else col.last
         Y = np.array(rows)
         n, r = grid.n_steps, record_every
-        T = np.append(grid.t0 + grid.h * np.arange(0, n, r), grid.t_end)
+        T = np.empty(len(rows))                     # the times grid.times() gives, every r-th, and t_end
+        np.multiply(np.arange(0, n, r), grid.h, out=T[:-1])
+        T[:-1] += grid.t0
+        T[-1] = grid.t_end
         diags += [special.get(k, quiet) for k in range(r - 1, n - 1, r)] + [special.get(n - 1, quiet)]
     else:
         drive(fixed if toi == "fixed" else located, grid, y, hooks=[between], record=record,
