@@ -154,3 +154,14 @@ def test_a_wrong_sequence_is_reported_never_silent(rattle):
     capped = search_sequences(guess, goal, T, sketch, max_proposals=1, proposals=[short])
     assert capped.proposals == 1 and capped.cap == 1 and len(capped.tried) == 1
     assert capped.objective > 100 * noise and capped.tried[0]["residual"] == capped.residual
+
+
+def test_figure_sequence_search(figure_data):
+    # ORACLES L4 (the chapter's figure): multiple shooting from the sketch's impacts stays at a wrong sequence,
+    # the search reaches the true eleven impacts within the noise, and repairs a proposal missing a bounce.
+    d = figure_data("ch10_sequence_search")
+    assert not d["old_success"] and d["old_violation"] > 0.1
+    assert d["new_success"] and d["new_sequence_true"] and d["new_impacts"] == d["true_impacts"] == 11
+    assert d["new_objective"] < 2 * d["noise_E"] and d["goal_error"] < 1e-8 and d["v0_error"] < 0.05
+    assert d["proposals"] <= 10 and d["repair_success"] and d["repair_sequence_true"]
+    assert d["repair_proposals"] <= 6 and "insert" in d["repair_origins"]
