@@ -1,0 +1,176 @@
+"""Live controls of the chapter notebooks (pbanim.course.widgets, pbanim.course.live_demos).
+
+Every control's callback (``demo.redraw``) runs without any widget library and draws what the chapter's
+closed form says: energy error orders on the Kepler orbit (ORACLES A3, A4), the Baumgarte error equation
+(B2), apex heights ε^(2k) h₀ (D1), the PD servo's response and stability limit (F1), the Taylor–Green
+implicit step (E1), Gauss–Newton drags (H5, H6). The notebooks are executed headless with nbclient when
+it and ipykernel are installed; ``live`` without ipywidgets draws once.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pbanim.course.notebook import percent_cells, write_notebook
+from pbanim.course.widgets import DEMOS, get_demo, live, live_cells
+from pbanim.errors import InvalidInput
+
+REPO = Path(__file__).resolve().parent.parent
+get_demo("ch02_step_size")                               # registers every demo
+NAMES = sorted(DEMOS)
+
+
+def _slope(errors, ratio=2.0):
+    return float(np.polyfit(np.log([ratio**-k for k in range(len(errors))]), np.log(errors), 1)[0])
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_control_callback_draws_at_its_ends_and_defaults(name):
+    d = get_demo(name)
+    d.state.clear()
+    for c in d.controls:
+        for v in (c.options if c.kind == "choice" else (c.lo, c.hi, c.value)):
+            fig, data = d.redraw(**{c.name: v})
+            assert fig.axes and all(ax.has_data() for ax in fig.axes), (name, c.name, v)
+            for key, val in data.items():
+                if isinstance(val, np.ndarray) and val.dtype.kind == "f":
+                    assert np.all(np.isfinite(val)), (name, c.name, v, key)
+    assert d.png()[:8] == b"\x89PNG\r\n\x1a\n"
+    d.state.clear()
+
+
+def test_ch02_energy_errors_have_the_methods_orders():
+    # ORACLES A3, A4: max |E − E*| over two orbits falls as h^p (fitted over T/100, T/200, T/400)
+    d = get_demo("ch02_step_size")
+    for method, order in (("rk4", 4), ("verlet", 2), ("symplectic_euler", 1)):
+        errs = [np.max(np.abs(d.compute(d, method=method, steps=s)["dE"])) for s in (100, 200, 400)]
+        assert abs(_slope(errs) - order) < 0.7, (method, errs)
+
+
+@pytest.mark.parametrize("omega, zeta", [(10.0, 1.0), (5.0, 0.3), (1.0, 0.1), (20.0, 1.5)])
+def test_ch03_bead_follows_the_baumgarte_error_equation(omega, zeta):
+    # ORACLES B2: C̈ + 2ζω_b Ċ + ω_b² C = 0; RK4's error against the closed form falls as h⁴
+    from pbanim.course.live_demos import _bead
+
+    d = get_demo("ch03_baumgarte")
+    errs = []
+    for h in (0.02, 0.01):
+        r = _bead(d, omega, zeta, h=h)
+        errs.append(float(np.max(np.abs(r["C"] - r["C_exact"]))))
+    assert r["C"][0] == pytest.approx(0.5 * (1.21 - 1.0), rel=1e-12)
+    assert errs[1] < 1e-4 * abs(r["C"][0]) and abs(_slope(errs) - 4) < 0.8, errs
+
+
+@pytest.mark.parametrize("eps", [0.2, 0.5, 0.95])
+def test_ch06_apex_heights_scale_by_eps_squared(eps):
+    # ORACLES D1: h_k = ε^(2k) h₀ to 1e-9 (events located; RK4 is exact in free flight)
+    d = get_demo("ch06_restitution")
+    r = d.redraw(restitution=eps)[1]
+    assert len(r["k"]) >= 2
+    np.testing.assert_allclose(r["apex"], eps ** (2 * r["k"]) * r["h0"], rtol=1e-9)
+
+
+def test_ch08_push_response_converges_at_first_order_and_explicit_pd_has_its_limit():
+    # ORACLES F1: semi-implicit Euler tracks m θ̈ + k_v θ̇ + k_p θ = 0 to O(h); explicit PD at critical damping
+    # is stable iff h√k_p ≤ 2√2 − 2; implicit PD at every step
+    d = get_demo("ch08_pd_push")
+    errs = [np.max(np.abs((r := d.compute(d, kp=100.0, zeta=1.0, servo="explicit", h=h, push=1.0))["theta"]
+                          - r["exact"])) for h in (1e-3, 5e-4, 2.5e-4)]
+    assert abs(_slope(errs) - 1) < 0.1 and errs[-1] < 1e-3, errs
+    limit = (2 * np.sqrt(2) - 2) / np.sqrt(1e4)
+    below = d.compute(d, kp=1e4, zeta=1.0, servo="explicit", h=0.9 * limit, push=1.0)
+    above = d.compute(d, kp=1e4, zeta=1.0, servo="explicit", h=1.1 * limit, push=1.0)
+    assert not below["diverged"] and above["diverged"]
+    assert below["h_max"] == pytest.approx(limit, rel=1e-9)
+    assert np.all(np.isfinite(above["theta"])) and np.abs(above["theta"]).max() < 1e6 * 2
+    assert not d.compute(d, kp=1e6, zeta=0.0, servo="implicit", h=0.1, push=5.0)["diverged"]
+
+
+@pytest.mark.parametrize("nu", [1e-3, 0.05, 1.0])
+def test_ch09_energy_decays_by_the_implicit_steps_factor(nu):
+    # ORACLES E1: each step multiplies E by 1/(1 − νΔtλ)², to rtol 1e-12; the rate tends to e^(−4νt)
+    d = get_demo("ch09_viscosity")
+    r = d.compute(d, nu=nu)
+    np.testing.assert_allclose(r["E"], r["E_step"], rtol=1e-12)
+    if nu * 0.05 * 2 < 0.01:              # νΔt|λ| small: the rate is near the continuous 4νk² (k = 1)
+        assert abs(np.log(r["E"][-1]) / r["t"][-1] + 4 * nu) < 0.05 * 4 * nu
+
+
+def test_ch10_drag_redraws_are_gauss_newton_steps():
+    # ORACLES H5, H6: repeated min-norm updates at one target reach it within 1e-6 in ≤ 6 updates
+    d = get_demo("ch10_drag")
+    d.state.clear()
+    res = [d.compute(d, target_x=0.5, target_z=0.6)["residual"] for _ in range(7)]
+    assert res[0] > 0.1 and res[6] < 1e-6 and all(b < a for a, b in zip(res[:5], res[1:6])), res
+    far = d.compute(d, target_x=-1.0, target_z=0.15)      # a jump across the range: a halved step, no error
+    assert np.isfinite(far["residual"])
+    d.state.clear()
+
+
+def test_bad_parameters_and_names_are_named_errors():
+    d = get_demo("ch06_restitution")
+    with pytest.raises(InvalidInput, match="restitution must be in"):
+        d.redraw(restitution=1.5)
+    with pytest.raises(InvalidInput, match="parameters must be among"):
+        d.redraw(epsilon=0.5)
+    with pytest.raises(InvalidInput, match="method must be one of"):
+        get_demo("ch02_step_size").redraw(method="rk5")
+    with pytest.raises(InvalidInput, match="did you mean 'ch09_viscosity'"):
+        get_demo("ch09_viscosity_")
+
+
+def test_live_without_ipywidgets_draws_once(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ipywidgets", None)       # import ipywidgets → ImportError
+    out = live("ch09_viscosity")
+    assert isinstance(out, bytes) and out[:4] == b"\x89PNG"
+
+
+def test_live_with_ipywidgets_redraws_when_a_control_moves(monkeypatch):
+    pytest.importorskip("ipywidgets")
+    d = get_demo("ch06_restitution")
+    calls = []
+    real = d.png
+    monkeypatch.setattr(d, "png", lambda **kw: calls.append(kw) or real(**kw))
+    box = live("ch06_restitution")
+    slider = box.children[1].children[0]
+    slider.value = 0.5
+    assert calls == [{"restitution": 0.8}, {"restitution": 0.5}]
+
+
+def test_notebooks_get_a_live_cell_after_their_figure(tmp_path):
+    import json
+
+    for d in DEMOS.values():
+        src = REPO / "chapters" / f"{d.chapter}.py"
+        cells = json.loads(write_notebook(src, tmp_path).read_text())["cells"]
+        k = next(i for i, c in enumerate(cells) if f'live("{d.name}")' in "".join(c["source"]))
+        assert f'"{d.after}"' in "".join(cells[k - 2]["source"]) and cells[k - 1]["cell_type"] == "markdown"
+    assert live_cells("ch01_particles", percent_cells("x = 1\n")) == percent_cells("x = 1\n")
+
+
+def test_notebooks_execute_headless(tmp_path):
+    # one kernel (seconds, not a kernel per chapter): chapter 06's whole notebook with its live cell, then the
+    # live cells of the other chapters' notebooks, as written by `pbanim notebook`; not the cell that draws
+    # every figure of the chapter (the figure tests run those)
+    nbclient = pytest.importorskip("nbclient")
+    pytest.importorskip("ipykernel")
+    nbformat = pytest.importorskip("nbformat")
+    books = {d.chapter: nbformat.read(str(write_notebook(REPO / "chapters" / f"{d.chapter}.py", tmp_path)),
+                                      as_version=4) for d in DEMOS.values()}
+    nb = books["ch06_collisions"]
+    nb.cells = [c for c in nb.cells if "run_figure(" not in c.source]
+    for chapter, book in books.items():
+        if chapter != "ch06_collisions":
+            nb.cells += [c for c in book.cells if c.cell_type == "code" and "live(" in c.source]
+    nbclient.NotebookClient(nb, timeout=120, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}}).execute()
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert not [o for c in code for o in c.outputs if o.get("output_type") == "error"]
+    for name in NAMES:
+        outs = [o for c in code if f'live("{name}")' in c.source for o in c.outputs]
+        assert any("application/vnd.jupyter.widget-view+json" in o.get("data", {}) or "image/png" in o.get("data", {})
+                   for o in outs), name
