@@ -40,15 +40,23 @@ def chain(n: int) -> "object":
     return pendulum_chain(n, lengths=1.0, masses=1.0)
 
 
-def pinocchio_aba(tree):
-    """A ``f(q, qd, tau)`` calling Pinocchio's ABA on ``tree``, or None when Pinocchio is not installed."""
+def _pinocchio(tree):
+    """(pinocchio, model, data) of ``tree`` (through its URDF, with its gravity), or None without Pinocchio."""
     try:
         import pinocchio as pin
     except ImportError:
         return None
     model = pin.buildModelFromXML(to_urdf(tree, "bench"))
     model.gravity.linear = np.asarray(tree.gravity, dtype=float)
-    data = model.createData()
+    return pin, model, model.createData()
+
+
+def pinocchio_aba(tree):
+    """A ``f(q, qd, tau)`` calling Pinocchio's ABA on ``tree``, or None when Pinocchio is not installed."""
+    peer = _pinocchio(tree)
+    if peer is None:
+        return None
+    pin, model, data = peer
     return lambda q, qd, tau: pin.aba(model, data, q, qd, tau)
 
 
@@ -74,13 +82,10 @@ def _interleaved(fns: dict, repeats: int, K: int) -> dict:
 
 def _pinocchio_derivatives(tree):
     """(``f(q, qd, tau)`` calling Pinocchio's computeABADerivatives, the floor call, the three results) or None."""
-    try:
-        import pinocchio as pin
-    except ImportError:
+    peer = _pinocchio(tree)
+    if peer is None:
         return None
-    model = pin.buildModelFromXML(to_urdf(tree, "bench"))
-    model.gravity.linear = np.asarray(tree.gravity, dtype=float)
-    data = model.createData()
+    pin, model, data = peer
     return (lambda q, qd, tau: pin.computeABADerivatives(model, data, q, qd, tau), lambda: pin.neutral(model),
             lambda: (data.ddq_dq.copy(), data.ddq_dv.copy(), np.triu(data.Minv) + np.triu(data.Minv, 1).T))
 
