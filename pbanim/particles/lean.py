@@ -166,54 +166,33 @@ def _kernel(e, ps):
 def _springs(e, n: int, dim: int):
     """Damped springs on floats: c = [k_s (l − r) + (k_d ḋ·d)/l]/l, f = d(−c), as :meth:`DampedSprings._forces`
     rounds them (|d|² and ḋ·d summed component by component, left to right)."""
-    table = tuple((int(a) * dim, int(b) * dim, float(ks), float(kd), float(r))
-                  for a, b, ks, kd, r in zip(e.a, e.b, e.ks, e.kd, e.rest))
-    damped = e._damped
+    table = tuple((tuple(range(int(a) * dim, int(a) * dim + dim)), tuple(range(int(b) * dim, int(b) * dim + dim)),
+                   float(ks), float(kd), float(r)) for a, b, ks, kd, r in zip(e.a, e.b, e.ks, e.kd, e.rest))
+    damped, three = e._damped, dim == 3
     zero = [0.0] * n
 
-    if dim == 2:
-        def springs(y, Q):
-            acc = zero[:]
-            for a, b, ks, kd, r in table:
-                d0, d1 = y[a] - y[b], y[a + 1] - y[b + 1]
-                dd = d0 * d0 + d1 * d1
-                if not 0.0 < dd < inf:
-                    raise _Handoff
-                length = sqrt(dd)
-                inv = 1.0 / length
-                c = ks * (length - r)
-                if damped:
-                    va, vb = n + a, n + b
-                    c += kd * ((y[va] - y[vb]) * d0 + (y[va + 1] - y[vb + 1]) * d1) * inv
-                c = -(c * inv)
-                f0, f1 = d0 * c, d1 * c
-                acc[a] += f0
-                acc[a + 1] += f1
-                acc[b] -= f0
-                acc[b + 1] -= f1
-            return [q + s for q, s in zip(Q, acc)]
-        return springs
-
-    def springs3(y, Q):
+    def springs(y, Q):
         acc = zero[:]
-        for a, b, ks, kd, r in table:
-            d0, d1, d2 = y[a] - y[b], y[a + 1] - y[b + 1], y[a + 2] - y[b + 2]
-            dd = d0 * d0 + d1 * d1 + d2 * d2
+        for ia, ib, ks, kd, r in table:
+            d = [y[i] - y[j] for i, j in zip(ia, ib)]
+            dd = d[0] * d[0] + d[1] * d[1]
+            if three:
+                dd += d[2] * d[2]
             if not 0.0 < dd < inf:
                 raise _Handoff
             length = sqrt(dd)
             inv = 1.0 / length
             c = ks * (length - r)
             if damped:
-                va, vb = n + a, n + b
-                c += kd * ((y[va] - y[vb]) * d0 + (y[va + 1] - y[vb + 1]) * d1 + (y[va + 2] - y[vb + 2]) * d2) * inv
+                w = [y[n + i] - y[n + j] for i, j in zip(ia, ib)]
+                vd = w[0] * d[0] + w[1] * d[1]
+                if three:
+                    vd += w[2] * d[2]
+                c += kd * vd * inv
             c = -(c * inv)
-            f0, f1, f2 = d0 * c, d1 * c, d2 * c
-            acc[a] += f0
-            acc[a + 1] += f1
-            acc[a + 2] += f2
-            acc[b] -= f0
-            acc[b + 1] -= f1
-            acc[b + 2] -= f2
-        return [q + s for q, s in zip(Q, acc)]
-    return springs3
+            for i, j, u in zip(ia, ib, d):
+                f = u * c
+                acc[i] += f
+                acc[j] -= f
+        return [q + u for q, u in zip(Q, acc)]
+    return springs
