@@ -85,8 +85,14 @@ def lean_ball(scene, col, method, gap_tol: float, max_events: int) -> "LeanBall 
     W = float(system.W[0])
     if not W > 0:
         return None
-    y0 = np.asarray(system.state(), float)
-    acc = tuple(float(a) for a in scene.rhs(0.0, y0)[system.split:])   # the readable W Q (constant forces)
+    dim = system.dim
+    Q = [0.0] * dim                       # the readable W Q: the constant forces summed in declaration order
+    for e in scene._force:
+        c = e.affine()[0]
+        if c is not None:
+            c = np.asarray(c, float).ravel().tolist()
+            Q = [q + (c[i] if len(c) == dim else c[0]) for i, q in enumerate(Q)]
+    acc = tuple(W * q for q in Q)
     return LeanBall(system.dim, W, acc, col, float(col.radius[0]), gap_tol, max_events)
 
 
@@ -131,7 +137,8 @@ class LeanBall:
         (n0, n1, n2), off0 = planes[0]
         single = len(planes) == 1
         rows, y = [list(y0)], list(y0)
-        taken = located = 0
+        handed = located = 0                 # steps handed to the readable one, impacts located here
+        all_rows = record_every == 1
         times, states = self.impacts
         cache: dict = {}                     # per flight length hs: a(hs/2), a hs, Δv per component, hs/6, hs/3
         lo = None                            # the smallest gap of y when a flight left it, else None
@@ -150,12 +157,13 @@ class LeanBall:
                     hb, hc, h2 = hs * (1 / 6), hs * (1 / 3), hs * 0.5
                     inc = cache[hs] = (*(c for a in acc for c in (a * h2, a * hs, (a + a) * hb + (a + a) * hc)),
                                        hb, hc)
+                if d == 2:
+                    p0, q0, w0, p1, q1, w1, hb, hc = inc
             if lo is None:
                 lo = min(g for g, _, _ in self.gaps(y))
             if lo > far:
                 if d == 2:
                     x0, x1, v0, v1 = y
-                    p0, q0, w0, p1, q1, w1, hb, hc = inc
                     s = v0 + p0
                     x0 = x0 + ((v0 + (v0 + q0)) * hb + (s + s) * hc)
                     s = v1 + p1
@@ -179,18 +187,18 @@ class LeanBall:
                     x0, x1, x2 = y1[0], y1[1], y1[2]
                     lo = min([x0 * n_[0] + x1 * n_[1] + x2 * n_[2] - off - r for n_, off in planes])
                     norm = sum([u * u for u in y1])
-                if not norm < inf:           # |y|² overflows: what the driver names (SimulationDiverged)
-                    check_finite(np.array(y1), t, k, "state")
                 if 0.0 < lo:
+                    if not norm < inf:       # |y|² overflows: what the driver names (SimulationDiverged)
+                        check_finite(np.array(y1), t, k, "state")
                     y = y1
-                    taken += 1
-                    if k % record_every == every or k == last:
+                    if all_rows or k % record_every == every or k == last:
                         rows.append(y)
                     continue
             lo = None
             out = self.step(t, y, hk, vrest)
             if out is None:
                 y = readable(k, t, y, hk)
+                handed += 1
             else:
                 y, impacts, logs = out
                 if not sum([u * u for u in y]) < inf:
@@ -199,11 +207,10 @@ class LeanBall:
                     times.append(tc)
                     states.append(np.array(yc))
                 self.col.log += logs
-                taken += 1
                 located += len(impacts)
-            if k % record_every == every or k == last:
+            if all_rows or k % record_every == every or k == last:
                 rows.append(y)
-        return rows, taken, located
+        return rows, n - handed, located
 
     def gaps(self, y: list) -> list:
         """(gᵢ, nᵢ·v, nᵢ) for every plane (x and v padded with z = 0)."""
