@@ -90,9 +90,10 @@ def bouncing_ball_event() -> Floor:
 
     fl = Floor("collisions", "bouncing ball on a plane, impacts located (2-D, ε = 0.8)", "rk4+event",
                grid.n_steps, pbanim, hand)
-    fl.notes.append(f"collisions (ball): a run's fixed cost (simulate_collisions of one step, contract check, plan, "
-                    f"result) is {_setup_us(scene, H):.0f} µs, {_setup_us(scene, H) / grid.n_steps:.2f} µs per step "
-                    f"of this row's {grid.n_steps} (the hand loop: none)")
+    setup = _setup_us(scene, H)
+    fl.notes.append(f"collisions (ball): a run's fixed cost (simulate_collisions of one step: the step grid, the "
+                    f"plan, the result record) is {setup:.0f} µs, {setup / grid.n_steps:.2f} µs per step of this "
+                    f"row's {grid.n_steps} (the hand loop has none)")
     return fl
 
 
