@@ -1,7 +1,7 @@
 """Issue 28 point 4: the large-scene machinery equals the readable one on small scenes (ORACLES D18) — the grid
 broad phase against all pairs, the batched sphere narrow phase against a loop over spheres, walls and pairs, the
-row-wise colored sweep in color order against the readable sweep in the same order — and the benchmark's
-bookkeeping (budget, goal lines) on made-up runs (no timing is asserted)."""
+row-wise colored sweep is tested against the readable sweep in color order in ``tests/test_lcp_rows.py`` — and the
+benchmark's bookkeeping (budget, goal lines) on made-up runs (no timing is asserted)."""
 
 import numpy as np
 import pytest
@@ -14,10 +14,6 @@ from pbanim.bench import Table
 from pbanim.collision.broad import all_pairs, grid_pairs
 from pbanim.contact.scenes import sphere_pile
 from pbanim.errors import InvalidInput
-from pbanim.lcp import delassus
-from pbanim.lcp.colored import colors_by_bodies
-from pbanim.lcp.rows import pgs_box_friction_rows
-from pbanim.lcp.solve import pgs_box_friction
 
 
 # ORACLES D18: a uniform grid finds exactly the overlapping pairs all-pairs testing finds, whatever the radii
@@ -67,52 +63,6 @@ def test_batched_sphere_narrow_phase_equals_the_loop(seed):
         np.testing.assert_allclose(p[k], pt, rtol=0, atol=1e-15)
         np.testing.assert_allclose(nrm[k], n_, rtol=0, atol=1e-15)
         assert abs(s[k] - sep) <= 1e-15
-
-
-def _problem(seed, bodies, contacts):
-    rng = np.random.default_rng(seed)
-    a = rng.integers(0, bodies, size=contacts)
-    b = rng.integers(0, bodies + 1, size=contacts)
-    b = np.where(b == a, bodies, b)
-    Ga, Gb = rng.normal(size=(3 * contacts, 6)), rng.normal(size=(3 * contacts, 6))
-    Wb = np.zeros((bodies + 1, 6, 6))
-    for k in range(bodies):
-        M = rng.normal(size=(6, 6))
-        Wb[k] = M @ M.T / 6 + 0.2 * np.eye(6)
-    u = np.vstack([rng.normal(size=(bodies, 6)), np.zeros((1, 6))])
-    bias = np.zeros(3 * contacts)
-    bias[0::3] = rng.normal(size=contacts)
-    return np.repeat(a, 3), np.repeat(b, 3), Ga, Gb, Wb, u, bias, rng.uniform(0.1, 1.0, contacts), (a, b)
-
-
-# ORACLES D16, D18: the row-wise sweep (sparse products per color, contacts in color order) is the readable
-# projected Gauss–Seidel sweep on A with the contacts renumbered in color order
-@settings(max_examples=30, deadline=None)
-@given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 12), sweeps=st.integers(1, 4))
-def test_rows_sweep_is_the_readable_sweep_in_color_order(seed, bodies, contacts, sweeps):
-    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _problem(seed, bodies, contacts)
-    colors = colors_by_bodies(a, b, static=[bodies])
-    z, res, k, _ = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=sweeps, tol=1e-300)
-    order = np.concatenate(colors)
-    rows = (3 * order[:, None] + np.arange(3)).ravel()
-    A = delassus(ra[rows], rb[rows], Ga[rows], Gb[rows], Wb)
-    A = 0.5 * (A + A.T)
-    bb = np.einsum("ij,ij->i", Ga[rows], u[ra[rows]]) - np.einsum("ij,ij->i", Gb[rows], u[rb[rows]]) + bias[rows]
-    zr, _, kr = pgs_box_friction(A, bb, mu[order], max_iter=sweeps, tol=1e-300)
-    # both stop early only at an exact fixed point (one decoupled contact); measured ≤ 1e-15 relative, 1e-11
-    # allows the roundoff of two evaluation orders on an ill-conditioned draw
-    assert k <= sweeps and kr <= sweeps and np.abs(z[rows] - zr).max() <= 1e-11 * max(1.0, float(np.abs(zr).max()))
-
-
-def test_rows_sweep_refuses_a_contact_in_two_colors_and_keeps_an_uncolored_one():
-    ra, rb, Ga, Gb, Wb, u, bias, mu, _ = _problem(0, 4, 3)
-    with pytest.raises(InvalidInput, match="partition"):
-        pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, [np.array([0, 1]), np.array([1])])
-    warm = np.abs(np.random.default_rng(1).normal(size=9))
-    z, *_ = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, [np.array([0])], max_iter=2, warm_start=warm)
-    lim = mu[1:] * warm[3::3]                       # contacts 1, 2 in no color: their warm start, projected
-    np.testing.assert_array_equal(z[3:].reshape(2, 3), np.column_stack([warm[3::3], np.clip(warm[4::3], -lim, lim),
-                                                                        np.clip(warm[5::3], -lim, lim)]))
 
 
 def _fake(pens, costs, over=()):
