@@ -181,12 +181,12 @@ def test_edition_source_and_strip_checks_on_their_own():
     checks = ("C = []\n\n\ndef _only_hidden():\n    return 1\n\n\ndef _shared():\n    return 2\n\n\n"
               "@check(C, 'a')\ndef public(m):\n    return _shared()\n\n\n@check(C, 'b', public=False)\n"
               "def hidden(m):\n    return _only_hidden() + _shared()\n\n\nMUTANTS = (\n    Mutant('x'),\n)\n")
-    out = strip_checks(checks, {"hidden"}, ("MUTANTS",))
+    out = strip_checks(checks, ["hidden"], ("MUTANTS",))
     tree = ast.parse(out)
     assert {n.name for n in tree.body if isinstance(n, ast.FunctionDef)} == {"_shared", "public"}
     assert "MUTANTS = ()" in out and "Mutant(" not in out
     with pytest.raises(InvalidInput, match="no top-level functions"):
-        strip_checks(checks, {"nope"})
+        strip_checks(checks, ["nope"])
 
 
 def test_cli_student_edition_of_chosen_assignments(tmp_path, capsys):

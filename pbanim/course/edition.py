@@ -40,10 +40,12 @@ import sys
 import zipfile
 from pathlib import Path
 
-from ..contracts import Flag, Opt, PathLike, Seq, Text, contract
+import types
+
+from ..contracts import Flag, Obj, Opt, PathLike, Seq, Text, contract
 from ..errors import InvalidInput
 from .markers import END, find_regions, region_owners
-from .registry import ASSIGNMENT, get_assignment
+from .registry import ASSIGNMENT, Assignment, get_assignment
 
 __all__ = ["build_edition", "edition_source", "strip_checks", "edition_info", "edition_files", "substitute_student"]
 
@@ -61,6 +63,7 @@ def edition_info() -> dict:
     return dict(EDITION)
 
 
+@contract(assignment=Obj(Assignment), mod=Obj(types.ModuleType))
 def substitute_student(assignment, mod) -> list[str]:
     """In an edition without ``assignment``'s solution, put the student's functions where pbanim's removed
     ones were, so that pbanim's own code (a scene, a projection) runs on the student's: a method ``A.f``
@@ -89,6 +92,7 @@ def substitute_student(assignment, mod) -> list[str]:
     return done
 
 
+@contract(source=Text(), assignment=Text(nonempty=True), filename=Text())
 def edition_source(source: str, assignment: str, filename: str = "<source>") -> str:
     """``source`` with each marked region's body replaced by a ``raise NotImplementedError`` naming the
     region and ``assignment``; the marker lines and everything else unchanged (relative imports too).
@@ -124,13 +128,14 @@ def _cut(lines: list[str], node) -> None:
     lines[first - 1: node.end_lineno] = [""] * (node.end_lineno - first + 1)
 
 
+@contract(source=Text(), functions=Seq(Text(nonempty=True)), empty=Seq(Text(nonempty=True)))
 def strip_checks(source: str, functions, empty: tuple = ()) -> str:
     """``source`` without the top-level functions ``functions`` (decorators included), with each
     top-level assignment to a name in ``empty`` made an empty tuple, and without the private top-level
     functions (``_name``) no longer used by what remains.
 
     >>> src = "A = []\\n@deco(A)\\ndef hidden(m):\\n    return _h()\\n\\ndef _h():\\n    return 1\\n\\nM = (1, 2)\\n"
-    >>> print(strip_checks(src, {"hidden"}, ("M",)).strip())
+    >>> print(strip_checks(src, ["hidden"], ("M",)).strip())
     A = []
     M = ()
     """
@@ -171,6 +176,7 @@ def _module_file(module: str) -> Path:
     return Path(spec.origin)
 
 
+@contract(assignments=Seq(ASSIGNMENT, min_len=1), keep_hidden=Flag())
 def edition_files(assignments, keep_hidden: bool = False) -> dict[Path, str]:
     """{installed file: its edition text} for the files the chosen assignments change."""
     changed: dict[Path, str] = {}

@@ -38,7 +38,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..contracts import Flag, PathLike, contract
+from ..contracts import Flag, Obj, PathLike, contract
 from ..errors import InvalidInput
 from .grader import GradeReport, grade
 from .registry import ASSIGNMENT, get_assignment
@@ -67,6 +67,7 @@ exec "${PBANIM_PYTHON:-python3}" -m pbanim.course.gradescope NAME
 """
 
 
+@contract(report=Obj(GradeReport))
 def gradescope_results(report: GradeReport) -> dict:
     """Gradescope's results.json (a dict) of a grade report: one test per check, hidden ones shown after the
     due date; the score is the report's (Σ earned points)."""

@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from ..contracts import Int, Text, contract
+from ..contracts import Int, Obj, Seq, Text, contract
 from ..errors import InvalidInput
 
 __all__ = ["Control", "LiveDemo", "DEMOS", "register_demo", "get_demo", "live", "live_cells", "redraw_times"]
@@ -113,6 +113,7 @@ class LiveDemo:
 DEMOS: dict[str, LiveDemo] = {}
 
 
+@contract(demo=Obj(LiveDemo))
 def register_demo(demo: LiveDemo) -> LiveDemo:
     DEMOS[demo.name] = demo
     return demo
@@ -180,6 +181,7 @@ def live(name: str):
     return box
 
 
+@contract(chapter=Text(nonempty=True), cells=Seq(Obj("pbanim.course.notebook:Cell")))
 def live_cells(chapter: str, cells: list) -> list:
     """``cells`` of the chapter module ``chapter`` with a markdown and a code cell after each figure that
     has a live demo (the figure's code cell holds ``@figure("chNN", "<after>"``)."""
