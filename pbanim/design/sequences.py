@@ -13,10 +13,13 @@ and the search proposes sequences, solves the continuous problem with σ fixed, 
 
 1. **proposals from the sketch** — for every plane j the sketched gap g_j(t_i) = n_j·x̄_i − n_j·o_j − r,
    an impact where it has a local minimum near the plane (below ``reach``, the distance the sketch moves
-   along n_j in ``reach_samples`` samples, a median) or where its rate n_j·ẋ̄ turns from approaching to receding (a velocity
-   reversal), merged in time order;
-2. **moves** — insert an impact on any plane between two impacts (or at either end), delete one, swap
-   the planes of two neighbours: a local search that accepts the best improving neighbour;
+   along n_j in ``reach_samples`` samples, a median) or where its rate n_j·ẋ̄ turns from approaching to
+   receding (a velocity reversal), merged in time order; a caller may give its own proposals;
+2. **moves** — insert an impact on any plane between two impacts (or at either end), delete one, replace
+   one's plane, swap the planes of two neighbours, tried nearest the sketch point the best candidate misses
+   most: a local search that accepts the first improving move. A sequence that hits a plane twice in a row
+   where gravity does not pull toward it (n_j·g ≥ 0) is impossible and never solved; a proposal like that
+   is repaired (its possible neighbours nearest the fault are proposed instead);
 3. **the continuous problem with σ fixed** — multiple shooting whose nodes *are* the impacts: flight k
    starts at τ_k (τ₀ = 0) from the state (a_k, b_k) just after the impact, x(t) = a_k + b_k s + ½ g s²,
    s = t − τ_k, and the unknowns (τ_k, a_k, b_k) obey
@@ -27,8 +30,9 @@ and the search proposes sequences, solves the continuous problem with σ fixed, 
    with the goals as equalities and E = ½ Σ |x(t_i) − x̄_i|² minimized (SLSQP, analytic Jacobians; the
    nodes slide with the impacts because the impact times are unknowns);
 4. **the score** — every candidate is replayed by :func:`pbanim.design.simulate` (the exact flight,
-   independent of the closed forms above) from its (a₀, b₀): a candidate counts only if the replay shows
-   the proposed sequence; its residual is the replay's E plus the goal residual.
+   independent of the closed forms above) from its (a₀, b₀): its sequence is the one the replay shows (a
+   different one is proposed next), its residual the replay's E plus the goal residual; ``success`` only
+   when the replay shows the proposed sequence, the goals hold and SLSQP converged.
 
 The number of continuous solves is capped before the search starts (``max_proposals``); the report
 lists every sequence tried, its residual and whether the replay confirmed it.
@@ -42,9 +46,11 @@ a_k, b_k    ``z`` blocks         position at τ_k and velocity just after impact
 E           ``objective``        sketch distance of the replayed motion (m²)
 ==========  ===================  ==============================================================
 
-Limiting cases: K = 0 is single shooting of one parabola; a sketch whose bounces are all sampled
-(three or more samples per flight) gives the sequence of :func:`~pbanim.design.multiple.sketch_impacts`
-as the first proposal, and the search stops after its neighbours fail to improve it.
+The search stops at a success whose RMS distance to the sketch is at most ``accept_rms``, at a local
+minimum of the residual over the moves, or at the cap.
+
+Limiting cases: K = 0 is single shooting of one parabola; a sketch with three or more samples per flight
+gives the true sequence as its first proposal (ORACLES L4).
 
 Scope: one sphere with isotropic inertia on static planes (the exact flight applies, frictionless
 impacts); sequences of impacts between bodies are not searched.
