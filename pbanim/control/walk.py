@@ -28,7 +28,7 @@ from .biped import BIPED_JOINTS as JI, biped_contact_points, planar_biped
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .simbicon import WALK, Gait, Simbicon
 
-__all__ = ["Push", "WalkResult", "simulate_walk", "Fell", "stick_figure", "fall_cause"]
+__all__ = ["Push", "WalkResult", "simulate_walk", "Fell", "stick_figure", "fall_cause", "start_state"]
 
 
 class Fell(Exception):
@@ -94,6 +94,28 @@ def fall_cause(kernel, kin, q, ground) -> str:
     return ""
 
 
+@contract(kernel=Obj(PlanarKernel), ground=Obj(PlanarGround), split=Real(ge=0, le=0.6), speed=Real(ge=-3, le=3),
+          clearance=Real(ge=0, le=0.1))
+def start_state(kernel: PlanarKernel, ground: PlanarGround, split: float = 0.2, speed: float = 0.4,
+                clearance: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+    """(q₀, q̇₀): a walk in progress placed on the terrain. Torso upright, the right leg ``split`` rad ahead
+    and the left one behind, both feet flat on the ground line (ankle = α − shin angle, α the slope), the
+    body lifted so that the lowest of the four heel and toe points is ``clearance`` above the line (on a
+    slope the front foot touches and the back one hangs above it, never inside); moving at ``speed`` m/s
+    along the slope."""
+    alpha = ground.angle
+    q0 = np.zeros(kernel.nv)
+    q0[JI["right_hip"]], q0[JI["left_hip"]] = split, -split
+    q0[JI["right_ankle"]], q0[JI["left_ankle"]] = alpha - split, alpha + split
+    pts = biped_contact_points(kernel.tree)
+    kin = kernel.kinematics(q0)
+    p = kernel.point_positions(kin, np.array([lk for lk, _ in pts]), np.array([r for _, r in pts]))
+    q0[1] = (clearance - float(np.min(ground.gap(p)))) / ground.normal[1]     # lift along y: gap grows by n_y Δy
+    qd0 = np.zeros(kernel.nv)
+    qd0[0], qd0[1] = speed * ground.tangent
+    return q0, qd0
+
+
 @contract(gait=Obj(Gait), t_end=Real(gt=0), h=Real(gt=0), slope=Real(ge=-np.pi / 3, le=np.pi / 3), feedback=Flag(),
           push=Opt(Obj(Push)), servo=Choice(("explicit", "stable")), friction=Real(ge=0), record_every=Int(ge=1),
           max_steps=Int(ge=1), controller=Opt(Obj(Simbicon)), lean=Flag())
@@ -119,15 +141,7 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     ctrl = controller or Simbicon(kernel, gait, feedback=feedback, servo=servo)
     ctrl.reset()
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
-    q0 = np.zeros(tree.nq)
-    q0[1] = float(ground.height(0.0)) + 1e-4
-    # start from a light forward speed with the right leg ahead, as a walk in progress
-    split = 0.2
-    q0[JI["right_hip"]], q0[JI["left_hip"]] = split, -split
-    q0[JI["right_ankle"]], q0[JI["left_ankle"]] = -split, split           # feet flat
-    q0[1] -= (1 - np.cos(split)) * 0.87                                   # hip above the ankles (0.45 + 0.42)
-    qd0 = np.zeros(tree.nv)
-    qd0[0] = 0.4
+    q0, qd0 = start_state(kernel, ground)
     ts, qs, qds, coms = [0.0], [q0.copy()], [qd0.copy()], [kernel.centre_of_mass(q0)]
     state = {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
     run = (kernel, ground, stepper, ctrl, push, state)
