@@ -55,7 +55,8 @@ PY="${PBANIM_PYTHON:-python3}"
 if ! "$PY" -m pip --version >/dev/null 2>&1; then
     apt-get update && apt-get install -y python3 python3-pip
 fi
-"$PY" -m pip install ${PBANIM_PIP_ARGS:-} ./WHEEL
+# an image whose system Python is "externally managed" (PEP 668) takes the wheel with the override
+"$PY" -m pip install ${PBANIM_PIP_ARGS:-} ./WHEEL || "$PY" -m pip install --break-system-packages ${PBANIM_PIP_ARGS:-} ./WHEEL
 """
 
 _RUN = """#!/usr/bin/env bash
