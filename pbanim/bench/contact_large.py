@@ -172,8 +172,10 @@ def _goal(gid: str, res: dict, note: str) -> Goal:
         return Goal(gid, np.nan, 1.0, "<=", "x", note, skipped="mujoco or pybullet not installed")
     mine = res["pbanim"]
     if not np.isfinite(mine["cost"]):
+        best = "; ".join(f"{e} {p['best_cost']:.3g} s per sim. s at {p['best_pen']:.2g} m" for e, p in res.items()
+                         if np.isfinite(p["best_cost"]))
         return Goal(gid, np.inf, 1.0, "<=", "x", note + f" — pbanim reached {ACCURACY:g} m at no setting swept "
-                    f"(its smallest penetration {mine['best_pen']:.2g} m)")
+                    f"within its budget; the smallest penetration each engine reached: {best or 'none finished'}")
     if any(np.isfinite(p["cost"]) for p in peers.values()):
         return Goal(gid, mine["cost"] / min(p["cost"] for p in peers.values()), 1.0, "<=", "x", note)
     best = {e: p for e, p in peers.items() if np.isfinite(p["best_cost"])}
