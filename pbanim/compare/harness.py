@@ -46,7 +46,7 @@ from typing import Callable
 import numpy as np
 
 from .spec import Trace, Unsupported
-from ..contracts import Array, Choice, Flag, Func, Obj, Opt, Seq, Spec, Text, contract
+from ..contracts import Array, Choice, Flag, Func, Obj, Opt, Real, Seq, Spec, Text, contract
 from ..errors import InvalidInput, SimulationDiverged
 
 __all__ = ["ENGINES", "Engine", "Row", "Comparison", "run_compare", "check_names", "have", "versions", "OWN_STEPS"]
@@ -327,15 +327,18 @@ class Comparison:
 
 
 @contract(scenes=Opt(SCENE_NAMES), engines=Opt(ENGINE_NAMES), quick=Flag(), steps=Opt(STEPS), keep_curves=Flag(),
-          progress=Opt(Func()), own_steps=Flag())
+          progress=Opt(Func()), own_steps=Flag(), stop_below=Opt(Real(ge=0)))
 def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, keep_curves: bool = False,
-                progress: Callable[[str], None] | None = None, own_steps: bool = True) -> Comparison:
+                progress: Callable[[str], None] | None = None, own_steps: bool = True,
+                stop_below: float | None = None) -> Comparison:
     """Run ``scenes`` (names of :data:`~pbanim.compare.scenes.SCENES`, default all) in ``engines``
     (default all of :data:`ENGINES`) at each scene's steps (``quick``: its short sweep and duration, or
     ``steps`` for every scene). ``own_steps`` (when ``steps`` is not given): every engine also runs at the
     peers' own steps (:data:`OWN_STEPS`) that the sweep lacks, in rows with ``sweep = False``. Never raises
     for an engine's failure; see the module docstring. A run of more than :data:`MAX_RUN_STEPS` steps is
-    refused before anything runs."""
+    refused before anything runs. ``stop_below``: an engine whose error at a step of a scene's sweep is at or
+    below it skips that sweep's finer steps (a plot whose error axis stops there shows nothing more: the
+    sweep is capped at the accuracy shown; the skipped rows are absent, not failed)."""
     from .scenes import SCENES
 
     names = list(SCENES) if scenes is None else list(scenes)
@@ -356,10 +359,15 @@ def run_compare(scenes=None, engines=None, *, quick: bool = False, steps=None, k
     extra = {n: [h for h in OWN_STEPS.values() if own_steps and steps is None and h <= built[n].spec.time(quick)
                  and not any(math.isclose(h, s, rel_tol=1e-9) for s in sweep)] for n, sweep in sweeps.items()}
     for n, sc in built.items():
+        floored = {}                           # engine → the step of its sweep where it reached stop_below
         for h, in_sweep in [(h, True) for h in sweeps[n]] + [(h, False) for h in extra[n]]:
             for e in engs:
+                if in_sweep and h < floored.get(e, 0.0):
+                    continue
                 row = _run_one(sc, e, float(h), quick, curves, in_sweep)
                 rows.append(row)
+                if stop_below is not None and row.status == "ok" and row.error <= stop_below:
+                    floored[e] = min(floored.get(e, np.inf), float(h))
                 if progress is not None:
                     progress(f"{n:14s} {e:16s} h = {h:<8.4g} {row.status}"
                              + (f"  error {row.error:.3g}" if row.status == "ok" else f"  ({row.reason})"))
