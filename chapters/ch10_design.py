@@ -495,3 +495,25 @@ def sequence_search(ctx):
             "repair_success": fix.success, "repair_sequence_true": fix.sequence == hits, "repair_proposals": fix.proposals,
             "repair_origins": [row["origin"] for row in fix.tried], "coarse_proposal_true": gap.key() == hits,
             "repair_objective": fix.objective, "coarse_noise_E": 0.5 * len(coarse) * 3 * sigma ** 2}
+
+
+# %% [markdown]
+# ## The sketching interface (issue 30, point 5)
+#
+# `sketch_editor()` opens the editor on a bouncing ball in a matplotlib window (`python -c "from
+# chapters.ch10_design import sketch_editor; sketch_editor(show=True)"`) or in a notebook cell run with an
+# interactive backend (`%matplotlib widget`): drag a point of the motion and it follows (one Gauss–Newton update
+# per mouse event); with `mode="sketch"`, draw a stroke and multiple shooting fits a motion to it on release.
+
+# %%
+def sketch_editor(mode: str = "drag", show: bool = False, solver: str = "multiple"):
+    """The editor (pbanim.design.SketchEditor) on a ball with five bounces between a floor and a wall."""
+    from pbanim.design import SketchEditor
+
+    ed = SketchEditor(_ball([1.0, 0.3, 2.0]), 2.7, h=0.02, mode=mode, solver=solver)
+    ed.ax.set_title("drag the motion" if mode == "drag" else "draw a sketch (press, move, release)")
+    ed.ax.set_aspect("equal", adjustable="datalim")
+    if show:
+        import matplotlib.pyplot as plt
+        plt.show()
+    return ed

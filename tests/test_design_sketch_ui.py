@@ -117,3 +117,20 @@ def test_draw_a_sketch_and_run_multiple_shooting():
     run = simulate(ed.scene, T, ed.names, ed.u, times=list(ts[1:]), sensitivities=False)
     Q = np.array([run.position(0, t) for t in ts[1:]])
     assert np.abs(Q - P[1:]).max() < 1e-3 and np.abs(Q[-1] - P[-1]).max() < 1e-6
+
+
+def test_the_chapter_opens_the_editor():
+    # ORACLES L5: the chapter's editor (a ball with five bounces) draws S and answers a drag like the others.
+    import matplotlib.pyplot as plt
+
+    from chapters.ch10_design import sketch_editor
+
+    ed = sketch_editor()
+    try:
+        assert shown(ed) and ed.mode == "drag"
+        x = ed.X[70].copy()
+        send(ed, "button_press_event", x[0], x[2])
+        send(ed, "motion_notify_event", x[0] + 0.02, x[2] + 0.02)
+        assert ed.grab == pytest.approx(ed.t[70]) and ed.residual < 1e-3 and shown(ed)
+    finally:
+        plt.close(ed.ax.figure)
