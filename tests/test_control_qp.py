@@ -332,12 +332,55 @@ def test_balance_falls_past_the_capture_point_and_says_so(pushes, push):
     assert np.all(np.isfinite(r.com)) and np.all(np.isfinite(r.q))
 
 
-def test_prioritized_controller_recovers_a_smaller_push():
-    # ORACLES F14: with the centre of mass strictly first, the controller spends posture and momentum on it:
-    # it recovers 10 N s (measured 0.4 mm from the target; bound 2 mm) but falls at 20 N s (measured: 0.25 s after),
-    # where the weighted one recovers
-    r = simulate_balance(10.0, t_end=2.0, mode="prioritized")
-    assert r.outcome == "balanced" and r.com_error(0.5) < 0.002
+TORSO_LIMIT = {"torso": (-0.3, 0.3)}
+
+
+@pytest.mark.parametrize("push", [20.0, -20.0])
+def test_prioritized_controller_balances_as_the_weighted_one(push):
+    # ORACLES F14: balance first — the centre of mass and the angular momentum share level 0 (momentum weight
+    # 1e-2 inside it), the posture below, the torso kept within ±0.3 rad by an inequality of every level (F16):
+    # ±20 N s are recovered as by the weighted controller (measured 3.5 mm forward, 3.2 mm backward; bound
+    # 5 mm). With the centre of mass alone on top it fell at 20 N s (it spent the torso on the centre of mass)
+    r = simulate_balance(push, t_end=2.5, push_time=0.5, mode="prioritized", momentum_priority=0,
+                         momentum_weight=1e-2, joint_limits=TORSO_LIMIT)
+    assert r.outcome == "balanced" and r.com_error(0.5) < 0.005, (r.outcome, r.cause)
+    assert np.abs(r.q[:, BIPED_JOINTS["torso"]]).max() < 0.3 + 0.01          # measured 0.303, 0.252
+
+
+def test_a_push_that_would_pass_a_joint_limit_keeps_it_inside(pushes):
+    # ORACLES F16 in the simulation: 20 N s tips the torso forward to 0.212 rad with no limit (weighted); with
+    # the torso limited to ±0.15 rad in the QP the biped recovers the same push and the torso stays within
+    # 0.15 rad + 10 mrad (measured 0.155: the QP's answer respects the limit exactly, the simulated step —
+    # velocity-level contact, torques held over the step — overshoots it by 5 mrad)
+    free = np.abs(pushes[20.0].q[:, BIPED_JOINTS["torso"]]).max()
+    r = simulate_balance(20.0, t_end=2.5, push_time=0.5, joint_limits={"torso": (-0.15, 0.15)})
+    limited = np.abs(r.q[:, BIPED_JOINTS["torso"]]).max()
+    assert free > 0.19 and limited < 0.16 and r.outcome == "balanced" and r.com_error(0.5) < 0.005, (free, limited)
+
+
+@pytest.mark.parametrize("mode", ["weighted", "prioritized"])
+def test_joint_limits_are_inequalities_of_the_qp(mode):
+    # ORACLES F16, F10: the left knee at −0.3 rad moving at +2 rad/s toward its limit −0.25, its posture target 0
+    # (straight): the bound θ + T θ̇ + ½T²θ̈ ≤ θ_max (T = 0.1 s) asks θ̈ ≤ 2(−0.25 + 0.3 − 0.2)/0.01 = −30 rad/s²
+    # (closed form); without the limit the QP's θ̈ is above it, with the limit it is on it, the answer still
+    # obeys the equations of motion (F10) and the other joints are free
+    q, qd = crouched_state(KERNEL, 0.3)
+    i = BIPED_JOINTS["left_knee"]
+    qd[i] = 2.0
+    posture = dict(_posture(q), left_knee=0.0)
+    tasks = balance_tasks(centroidal(KERNEL, q, qd).com, posture, posture_weight=1.0)
+    free = _controller(q, mode, tasks=tasks).solve(q, qd)
+    lim = _controller(q, mode, tasks=tasks, joint_limits={"left_knee": (-2.0, -0.25)}, limit_horizon=0.1)
+    P = lim.build(q, qd)
+    assert P["ub"][i] == pytest.approx(-30.0, rel=1e-12) and P["lb"][i] == pytest.approx(2 * (-2.0 + 0.3 - 0.2) / 0.01)
+    r = lim.solve(q, qd)
+    assert free.qdd[i] > -30.0 + 1.0                       # measured −1.3 (weighted): the limit would be passed
+    assert r.success and r.qdd[i] <= -30.0 + 1e-6 and r.qdd[i] >= -30.0 - 1e-3
+    assert r.residuals["dynamics"] <= 1e-8 and r.residuals["limits"] <= 1e-6
+    with pytest.raises(InvalidInput, match="joint_limits"):
+        _controller(q, mode, tasks=tasks, joint_limits={"left_elbow": (-1.0, 1.0)})
+    with pytest.raises(InvalidInput, match="joint_limits"):
+        _controller(q, mode, tasks=tasks, joint_limits={"left_knee": (1.0, -1.0)})
 
 
 def test_torques_held_for_two_steps_still_balance():

@@ -10,6 +10,7 @@ tangential force fⱼ = (fₙ, fₜ); the QP is
           J_c q̈ + J̇_c q̇ = 0                          (a contact point on the ground does not accelerate)
           |fₜ| ≤ μ fₙ,   fₙ ≥ fₙ,min ≥ 0             (friction cone, exact in the plane; no pulling)
           |τ| ≤ τ_max                                (torque limits)
+          θ + T θ̇ + ½T² θ̈ ∈ [θ_min, θ_max]             (joint limits, optional: box bounds on q̈)
 
 with J_c the rows n·Jⱼ, t·Jⱼ of the contact points (n, t the ground's normal and tangent; a foot flat on
 the ground has four such rows for three degrees of freedom, so only a full-rank subset of them is kept,
@@ -71,7 +72,7 @@ from ..errors import InvalidInput, NonFiniteResult, PbanimError
 from .biped import BIPED_JOINTS
 from .pd import InvalidGains, _per_joint
 from .qp_features import centroidal
-from .qp_solve import backends, check_backend, contact_rows, keep_level, solve_qp
+from .qp_solve import backends, check_backend, contact_rows, joint_limit_bounds, keep_level, solve_qp
 from .qp_tasks import TARGET, InvalidTask, Task, UnknownTask, check_tasks, task_rows
 from .specs import Count, KinematicsOf, Mapping, Mask, Pair, named
 
@@ -140,6 +141,8 @@ class QPController:
     most ``contact_tol`` and it does not leave the ground faster than ``contact_speed`` (or as given to
     :meth:`solve`). ``joints``: names → coordinates for posture tasks
     (default: the biped's :data:`BIPED_JOINTS` when the tree is the biped, else each link's own name).
+    ``joint_limits``: name → (θ_min, θ_max) rad for joints of ``joints``, kept with the horizon
+    ``limit_horizon`` T (s) as inequalities of every QP (:func:`~pbanim.control.qp_solve.joint_limit_bounds`).
     """
 
     @contract(kernel=Obj(PlanarKernel), points=Seq(Pair(Index("kernel.n"), Array((3,)))),
@@ -149,12 +152,14 @@ class QPController:
               torque_limits=named(InvalidGains, Array((_ACTUATED,), ge=0, finite=False, scalar=True, empty=True)),
               min_normal=Real(ge=0), contact_tol=Real(ge=0), contact_speed=Real(ge=0), regularization=Real(gt=0),
               task_tol=_TOL, feasibility_tol=_TOL, backend=Choice(backends), native=Flag(),
-              eps_abs=_TOL, max_iter=Int(ge=1, le=100_000))
+              eps_abs=_TOL, max_iter=Int(ge=1, le=100_000),
+              joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))), limit_horizon=Real(gt=0, le=10))
     def __init__(self, kernel: PlanarKernel, points, ground: PlanarGround | None = None, tasks=(), *,
                  mode: str = "weighted", actuated=None, joints: dict | None = None, torque_limits=np.inf,
                  min_normal: float = 0.0, contact_tol: float = 2e-3, contact_speed: float = 0.05, regularization: float = 1e-6,
                  task_tol: float = 1e-4, feasibility_tol: float = 1e-6,
-                 backend: str = "proxqp", native: bool = True, eps_abs: float = 1e-9, max_iter: int = 2000):
+                 backend: str = "proxqp", native: bool = True, eps_abs: float = 1e-9, max_iter: int = 2000,
+                 joint_limits: dict | None = None, limit_horizon: float = 0.1):
         self.kernel, nv = kernel, kernel.nv
         pts = list(points)
         self.links = np.array([int(lk) for lk, _ in pts], dtype=int)
@@ -177,6 +182,13 @@ class QPController:
         self.native = bool(native)
         self.backend = check_backend(backend, self.native)
         self.tasks = check_tasks(tasks, kernel, self.joints)
+        lim = dict(joint_limits or {})
+        unknown = sorted(set(lim) - set(self.joints))
+        if unknown or any(not lo <= hi for lo, hi in lim.values()):
+            raise InvalidInput(f"QPController: joint_limits must name joints of {sorted(self.joints)} with "
+                               f"θ_min ≤ θ_max; got unknown {unknown} in {lim}")
+        self.limit_index, self.limit_horizon = np.array([self.joints[nm] for nm in lim], dtype=int), float(limit_horizon)
+        self.limit_lo, self.limit_hi = (np.array([b[k] for b in lim.values()], dtype=float) for k in (0, 1))
         M = float(kernel.mass.sum())
         self.f_scale = M * max(float(np.linalg.norm(kernel.g)), 1.0)
 
@@ -260,6 +272,9 @@ class QPController:
             G[2 * j + 1, [cn, ct]] = -mu, -1.0
         lb = np.concatenate([np.full(nv, -np.inf), -self.torque_limits, np.tile([self.min_normal, -np.inf], m2 // 2)])
         ub = np.concatenate([np.full(nv, np.inf), self.torque_limits, np.full(m2, np.inf)])
+        if self.limit_index.size:
+            i = self.limit_index
+            lb[i], ub[i] = joint_limit_bounds(q, qd, i, self.limit_lo, self.limit_hi, self.limit_horizon)
         rows = []
         for t in self.tasks:
             J, bias, ydes = task_rows(t, k, kin, q, qd, cf, self.joints)
@@ -352,7 +367,8 @@ class QPController:
         res = {"dynamics": float(np.abs(P["Aeq"][:nv] @ x - P["beq"][:nv]).max()),
                "contact": float(np.abs(P["Aeq"][nv:] @ x - P["beq"][nv:]).max(initial=0.0)),
                "cone": float(np.maximum(np.abs(ft) - self.ground.mu * fn, self.min_normal - fn).max(initial=0.0)),
-               "limits": float((np.abs(tau_a) - self.torque_limits).max(initial=0.0))}
+               "limits": float(max((np.abs(tau_a) - self.torque_limits).max(initial=0.0),
+                                   np.maximum(P["lb"][:nv] - qdd, qdd - P["ub"][:nv]).max(initial=0.0)))}
         tol = {"dynamics": self.feasibility_tol * (self.f_scale + np.abs(P["C"]).max()),
                "contact": self.feasibility_tol * (1.0 + np.abs(P["bnt"]).max(initial=0.0)),
                "cone": self.feasibility_tol * self.f_scale, "limits": self.feasibility_tol * self.f_scale}

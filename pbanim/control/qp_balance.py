@@ -3,8 +3,20 @@
 The biped stands with bent knees on both feet; the QP controller (:mod:`.qp`) tracks three features:
 
     centre of mass    c̈* = k_p (c̄ − c) − k_d ċ          c̄ above the middle of the feet (priority 0)
-    angular momentum  L̇* = −k_L L                        about the centre of mass (priority 1)
+    angular momentum  L̇* = −k_L L                        about the centre of mass (priority 1, or 0)
     posture           q̈ⱼ* = k_q (q̄ⱼ − qⱼ) − k_q' q̇ⱼ      the standing pose and an upright torso (priority 1)
+
+Priorities matter only to ``mode="prioritized"``. By default the centre of mass is alone at level 0;
+``momentum_priority=0`` puts balance first as a whole: the centre of mass and the angular momentum share
+level 0 (traded by their weights inside it), the posture uses what they leave.
+With the centre of mass alone on top, the top level buys c̈* with any motion the constraints allow —
+it whips the torso, which no lower level can then undo — and the biped fell at 20 N s where the weighted
+controller recovers 24 (measured; ORACLES F14). With the momentum beside it (weight 1e-2) and the torso
+kept within ±0.3 rad by a joint limit (an inequality of every level, ``joint_limits``), the prioritized
+controller recovers ±20 N s as the weighted one does; at ±24 it does not (measured: +24 stays up but 5.9
+mm off its target, −24 ends with an infeasible QP at 1.19 s, the torso limit's braking beyond the torque
+limits), where the weighted one is back within 4.4 and 6.2 mm: the weighted QP's posture term (weight
+1e-3) tempers every motion of the balance tasks, which strict levels by construction cannot.
 
 and the simulation is the velocity-level contact step of chapter 08
 (:class:`~pbanim.articulated.planar_step.PlanarContactStep`: Coulomb friction, heel and toe points), the
@@ -41,7 +53,7 @@ import numpy as np
 
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarContactStep, PlanarGround
-from ..contracts import Array, Choice, Int, Real, Text, contract
+from ..contracts import Array, Choice, Int, Opt, Real, Text, contract
 from ..errors import check_number
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped import BIPED_JOINTS as JI
@@ -50,7 +62,7 @@ from .pd import InvalidGains
 from .qp import MODES, InfeasibleControl, QPController
 from .qp_solve import backends
 from .qp_tasks import InvalidTask, Task
-from .specs import Mapping, named
+from .specs import Mapping, Pair, named
 from .walk import fall_cause
 
 __all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance"]
@@ -88,19 +100,22 @@ def crouched_state(kernel: PlanarKernel, knee: float = 0.3) -> tuple[np.ndarray,
 
 
 _GAIN = named(InvalidTask, Real(ge=0))
+_LEVEL = named(InvalidTask, Int(ge=0, le=10))
 _TASK_GAINS = dict(kp=_GAIN, kd=_GAIN, momentum=_GAIN, posture_kp=_GAIN, posture_kd=_GAIN, posture_weight=_GAIN,
-                   momentum_weight=_GAIN)
+                   momentum_weight=_GAIN, momentum_priority=_LEVEL, posture_priority=_LEVEL)
 
 
 @contract(com_target=Array((2,)), posture=Mapping(Text(), Real(), min_len=1), **_TASK_GAINS)
 def balance_tasks(com_target, posture: dict, *, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                   posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
-                  momentum_weight: float = 1e-3) -> list:
-    """The three tasks of the module docstring (the centre of mass at priority 0, the rest at 1): gains
-    k_p, k_d of the centre of mass, k_L (``momentum``), the posture's k_q, k_q' and the two lower weights."""
+                  momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1) -> list:
+    """The three tasks of the module docstring (the centre of mass at priority 0, the angular momentum at
+    ``momentum_priority``, the posture at ``posture_priority``): gains k_p, k_d of the centre of mass, k_L
+    (``momentum``), the posture's k_q, k_q' and the two weights (which also weigh a task inside its level)."""
     return [Task("com", target=com_target, kp=kp, kd=kd, weight=1.0, priority=0),
-            Task("momentum", kd=momentum, weight=momentum_weight, priority=1),
-            Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=posture_weight, priority=1)]
+            Task("momentum", kd=momentum, weight=momentum_weight, priority=momentum_priority),
+            Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=posture_weight,
+                 priority=posture_priority)]
 
 
 @dataclass
@@ -146,19 +161,22 @@ class BalanceResult:
 @contract(push=Real(ge=-1e4, le=1e4), t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MODES),
           control_every=Int(ge=1), friction=Real(ge=0), knee=Real(ge=0, le=1.2),
           torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
-          backend=Choice(backends), max_steps=Int(ge=1), **_TASK_GAINS)
+          backend=Choice(backends), max_steps=Int(ge=1), joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))),
+          **_TASK_GAINS)
 def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, push_time: float = 0.5,
                      mode: str = "weighted", control_every: int = 1, friction: float = 0.9, knee: float = 0.3,
                      torque_limits=300.0, record_every: int = 5, backend: str = "proxqp",
                      max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                      posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
-                     momentum_weight: float = 1e-3) -> BalanceResult:
+                     momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
+                     joint_limits: dict | None = None) -> BalanceResult:
     """Stand the planar biped with the QP controller and push it (``push`` N s at ``push_time`` s).
 
     ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`.
     """
     task_options = dict(kp=kp, kd=kd, momentum=momentum, posture_kp=posture_kp, posture_kd=posture_kd,
-                        posture_weight=posture_weight, momentum_weight=momentum_weight)
+                        posture_weight=posture_weight, momentum_weight=momentum_weight,
+                        momentum_priority=momentum_priority, posture_priority=posture_priority)
     every = int(control_every)
     tree = planar_biped()
     kernel = PlanarKernel(tree)
@@ -173,7 +191,7 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
     torso = np.array([names.index("torso")])
     posture = {nm: float(q0[i]) for nm, i in JI.items() if i >= 2}
     ctrl = QPController(kernel, pts, ground, balance_tasks(target, posture, **task_options), mode=mode,
-                        torque_limits=torque_limits, backend=backend)
+                        torque_limits=torque_limits, backend=backend, joint_limits=joint_limits)
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
     m = len(pts)
     rec = {k: [] for k in ("t", "q", "com", "vcom", "f", "fs", "status", "res")}

@@ -12,6 +12,14 @@ at both points cannot absorb), so dependent rows are dropped rather than kept: Q
 of J_cᵀ ranks the rows, and the first rank(J_c) of them are kept (:func:`contact_rows`). The forces stay
 one (fₙ, fₜ) pair per point: the QP chooses how the load is shared.
 
+**Joint limits.** A coordinate θ with limits [θ_min, θ_max] must stay inside them: with the acceleration
+held for a horizon T (≥ the step), θ + T θ̇ + ½ T² θ̈ ∈ [θ_min, θ_max] gives box bounds on θ̈
+
+    2 (θ_min − θ − T θ̇) / T²  ≤  θ̈  ≤  2 (θ_max − θ − T θ̇) / T²            (:func:`joint_limit_bounds`)
+
+(inequalities of the QP, in every level of a prioritized solve: a task never buys its acceleration with
+a joint past its limit). Near a limit and moving toward it the bound asks for braking; T sets how hard.
+
 **Priorities.** :func:`keep_level` adds a solved level's optimum to the equalities without making them
 dependent (the rows already fixed are left out).
 
@@ -45,7 +53,7 @@ from scipy.linalg.lapack import dgeqp3
 
 from ..errors import InvalidInput
 
-__all__ = ["backends", "check_backend", "contact_rows", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
+__all__ = ["backends", "check_backend", "contact_rows", "joint_limit_bounds", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
 
 # the option capping each backend's iterations (the controller's max_iter is passed to it: HiGHS's QP solver,
 # uncapped by default, ran for minutes on a prioritized level); a backend not listed keeps its own cap
@@ -102,6 +110,13 @@ def contact_rows(J: np.ndarray, Jb: np.ndarray, ground, rank_tol: float = 1e-9) 
     d = np.abs(np.diag(qr))
     rank = int(np.sum(d > rank_tol * max(d[0], 1e-300)))
     return Jnt, bnt, np.sort(jpvt[:rank] - 1)                      # LAPACK's pivots count from 1
+
+
+def joint_limit_bounds(q: np.ndarray, qd: np.ndarray, index: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                       horizon: float) -> tuple[np.ndarray, np.ndarray]:
+    """(lower, upper) bounds on q̈[index] that keep θ + T θ̇ + ½ T² θ̈ inside [lo, hi] (module docstring)."""
+    th, thd, k = q[index], qd[index], 2.0 / (horizon * horizon)
+    return k * (lo - th - horizon * thd), k * (hi - th - horizon * thd)
 
 
 def keep_level(Aeq: np.ndarray, beq: np.ndarray, Ak: np.ndarray, x: np.ndarray,

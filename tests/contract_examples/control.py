@@ -107,9 +107,10 @@ CALLS = {
     "pbanim.control.simbicon.Simbicon.balance": _qp_state,
     "pbanim.control.simbicon.Simbicon.torques": lambda ctrl: {**_qp_state(), "t": 0.1, "h": 1e-3},
     "pbanim.control.walk.simulate_walk": lambda: {"t_end": 0.01, "h": 2e-3, "record_every": 1},
+    "pbanim.control.walk.start_state": lambda: {"kernel": _biped(), "ground": PlanarGround(0.05)},
     "pbanim.control.qp.QPController.__init__": lambda: {
         "kernel": _biped(), "points": biped_contact_points(_biped().tree), "tasks": _tasks(),
-        "joints": dict(BIPED_JOINTS)},
+        "joints": dict(BIPED_JOINTS), "joint_limits": {"left_knee": (-2.0, 0.0)}},
     "pbanim.control.qp.QPController.task": lambda: {"name": "com"},
     "pbanim.control.qp.QPController.set_target": lambda: {"name": "com", "target": np.array([0.0, 1.0])},
     "pbanim.control.qp.QPController.set_weight": lambda: {"name": "com"},
