@@ -155,12 +155,14 @@ class LeanBall:
                 hs0, inc = hs, cache.get(hs)
                 if inc is None:
                     hb, hc, h2 = hs * (1 / 6), hs * (1 / 3), hs * 0.5
-                    inc = cache[hs] = (*(c for a in acc for c in (a * h2, a * hs, (a + a) * hb + (a + a) * hc)),
-                                       hb, hc)
+                    inc = []
+                    for a in acc:
+                        inc += (a * h2, a * hs, (a + a) * hb + (a + a) * hc)
+                    inc = cache[hs] = (*inc, hb, hc)
                 if d == 2:
                     p0, q0, w0, p1, q1, w1, hb, hc = inc
             if lo is None:
-                lo = min(g for g, _, _ in self.gaps(y))
+                lo = min([g for g, _, _ in self.gaps(y)])
             if lo > far:
                 if d == 2:
                     x0, x1, v0, v1 = y
