@@ -87,8 +87,8 @@ def pd_stability_map(ctx):
 # %% [markdown]
 # ## Figure `ch08_biped_walk`
 #
-# SIMBICON's walk and fast walk on flat ground: an animation, a strip of stick figures and the
-# centre of mass's speed (ORACLES F4).
+# SIMBICON's walk (Table 1 of Yin, Loken & van de Panne 2007, every number the paper's) and a fast walk of
+# ours on flat ground: an animation, a strip of stick figures and the centre of mass's speed (ORACLES F4).
 
 # %%
 def _draw_biped(ax, segments, **kw):

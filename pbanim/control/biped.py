@@ -19,8 +19,9 @@ foot (×2)         1         0.20        0.0035 (box)         ankle 0.05 m above
 ================  ========  ==========  ===================  =================================================
 
 Masses and lengths are those of the 2-D biped of Yin, Loken & van de Panne, "SIMBICON: Simple Biped
-Locomotion Control", SIGGRAPH 2007 (their Table 1, as we read it: 70/5/4/1 kg; 0.48/0.45/0.42/0.2 m);
-the moments of inertia are ours (uniform rods and a 0.2 × 0.05 box), as is the ankle placement.
+Locomotion Control", SIGGRAPH 2007, as we read the paper (70/5/4/1 kg; 0.48/0.45/0.42/0.2 m; its Table 1
+holds the gaits' control parameters, see :mod:`.simbicon`); the moments of inertia are ours (uniform rods
+and a 0.2 × 0.05 box), as is the ankle placement.
 Contact is by four points: heel and toe of each foot (:func:`biped_contact_points`).
 """
 
