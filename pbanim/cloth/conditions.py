@@ -167,6 +167,35 @@ class SpringCondition(Conditions):
         self._c = np.broadcast_to(np.array([1.0, -1.0]), (len(self), 2))
         self._one = np.ones(len(self))
 
+    def pair_terms(self, x, v, exact=True):
+        """f_e (E, 6) and the 3 × 3 blocks B_K, B_D (E, 3, 3) with K_e = c cᵀ ⊗ B_K, D_e = c cᵀ ⊗ B_D,
+        c = (1, −1) (B_D None when undamped): :meth:`terms` of a spring in a quarter of the numbers.
+
+        With ŵ = d/|d|, d = x_a − x_b, u = v_a − v_b, P = (I − ŵŵᵀ)/|d| and s = k C + k_d Ċ (Ċ = ŵ·u):
+        f_a = −s ŵ = −f_b,  B_K = −(k ŵŵᵀ + s P + k_d ŵ (P u)ᵀ),  B_D = −k_d ŵŵᵀ (``exact=False``: s clamped
+        at 0 in front of P and the unsymmetric last term left out, as in :func:`element_terms`)."""
+        el = self.elements
+        d, u = x[el[:, 0]] - x[el[:, 1]], v[el[:, 0]] - v[el[:, 1]]
+        length = np.sqrt(np.einsum("ij,ij->i", d, d))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            w = d / length[:, None]
+            k, kd = self.k[:, 0], self.kd[:, 0]
+            damped = bool(np.any(kd))
+            s = k * (length - self.rest)
+            if damped:
+                s = s + kd * np.einsum("ij,ij->i", w, u)
+            fa = -s[:, None] * w
+            ww = w[:, :, None] * w[:, None, :]
+            P = (np.eye(3) - ww) / length[:, None, None]
+        BK = ww * -k[:, None, None]
+        BK -= (s if exact else np.maximum(s, 0.0))[:, None, None] * P
+        BD = None
+        if damped:
+            BD = ww * -kd[:, None, None]
+            if exact:
+                BK -= (kd[:, None] * w)[:, :, None] * np.einsum("eij,ej->ei", P, u)[:, None, :]
+        return np.concatenate([fa, -fa], axis=1), BK, BD
+
     def evaluate(self, x, sel=None, hessian=True):
         el = self.elements if sel is None else self.elements[sel]
         one, c, rest = (self._one, self._c, self.rest) if sel is None else (self._one[sel], self._c[sel],

@@ -141,7 +141,8 @@ class Cloth:
         self.mass3 = np.repeat(sheet.masses, 3)
         self.winv = 1.0 / self.mass3
         self.fext = (sheet.masses[:, None] * self.gravity).ravel()
-        self.pattern = Pattern(self.n, [c.dofs for c in self.conditions])
+        self.pattern = Pattern(self.n, [c.dofs for c in self.conditions],
+                               [c.elements if hasattr(c, "pair_terms") else None for c in self.conditions])
         self.pinned = sheet.pinned
         free = np.ones(N, bool)
         free[self.pinned] = False
@@ -213,8 +214,8 @@ class Cloth:
         its unsymmetric damping term, for the CG solves)."""
         f = self.fext.copy()
         Kb, Db = [], []
-        for c in self.conditions:
-            fe, Ke, De = c.terms(x, v, True, exact)
+        for c, reduced in zip(self.conditions, self.pattern.reduced):
+            fe, Ke, De = c.pair_terms(x, v, exact) if reduced else c.terms(x, v, True, exact)
             f += np.bincount(c.dofs.ravel(), fe.ravel(), minlength=self.n)
             Kb.append(Ke)
             Db.append(De)
