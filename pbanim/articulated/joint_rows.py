@@ -77,11 +77,12 @@ class JointRowPlan:
         self._sparse_cols = np.concatenate([cols(self.row_a)[keep_a].ravel(), cols(self.row_b)[keep_b].ravel()])
         self._keep_a, self._keep_b = keep_a, keep_b
 
-    def evaluate(self, system, y: np.ndarray, sparse: bool = False):
-        """(C (k,), J (k, 6N) dense or CSR, J̇u (k,), Ċ = J u (k,)) at state y of ``system``."""
+    def evaluate(self, system, y: np.ndarray, sparse: bool = False, velocities=None):
+        """(C (k,), J (k, 6N) dense or CSR, J̇u (k,), Ċ = J u (k,)) at state y of ``system`` (``velocities``:
+        its (v, ω) at y when the caller has them)."""
         N, k = self.N, self.k
         x, q, _, _ = system.unpack(y)
-        v, w = system.velocities(y)
+        v, w = system.velocities(y) if velocities is None else velocities
         R = quat_to_matrix(q)
         xw, vw, ww = (np.vstack([arr, np.zeros(3)]) for arr in (x, v, w))
         Rw = np.concatenate([R, _EYE[None]])

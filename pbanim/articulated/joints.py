@@ -242,8 +242,9 @@ class RigidJoints(Effect):
         Q = self._motors(y, Q)
         if self.solver == "linear":
             return self._constrain_linear(y, Q)
-        C, J, jdot, Cdot = self._plan.evaluate(s, y)
-        Wb, WQ = self._free_acceleration(y, Q)
+        vel = s.velocities(y)
+        C, J, jdot, Cdot = self._plan.evaluate(s, y, velocities=vel)
+        Wb, WQ = self._free_acceleration(y, Q, vel[1])
         WJt = np.einsum("nij,knj->kni", Wb, J.reshape(len(C), s.N, 6)).reshape(len(C), -1)
         A = J @ WJt.T
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
@@ -274,15 +275,15 @@ class RigidJoints(Effect):
         self.last_lambda = lam
         return Q + (J.T @ lam).reshape(Q.shape)
 
-    def _free_acceleration(self, y, Q):
-        """(W blocks (N, 6, 6), u̇_free = W (Q + Q_gyro) flat) with Q_gyro = (0, −ω × I_world ω)."""
+    def _free_acceleration(self, y, Q, w=None):
+        """(W blocks (N, 6, 6), u̇_free = W (Q + Q_gyro) flat) with Q_gyro = (0, −ω × I_world ω) = (0, −ω × L):
+        the state holds L = I_world ω (``w``: ω when the caller has it)."""
         s = self.system
         Wb = s.inverse_mass_blocks(y)
-        R = quat_to_matrix(s.unpack(y)[1])
-        Iw = R @ s.I_body @ np.swapaxes(R, 1, 2)                         # world inertia
-        w = s.velocities(y)[1]
+        if w is None:
+            w = s.velocities(y)[1]
         gyro = np.zeros_like(Q)
-        gyro[:, 3:] = np.where(s.static[:, None], 0.0, -cross(w, np.einsum("nij,nj->ni", Iw, w)))
+        gyro[:, 3:] = np.where(s.static[:, None], 0.0, -cross(w, s.unpack(y)[3]))
         return Wb, np.einsum("nij,nj->ni", Wb, Q + gyro).ravel()
 
     def _constrain_linear(self, y, Q):
@@ -292,8 +293,9 @@ class RigidJoints(Effect):
         import scipy.sparse as sp
         from scipy.sparse.linalg import splu
 
-        C, J, jdot, Cdot = self._plan.evaluate(self.system, y, sparse=True)
-        Wb, WQ = self._free_acceleration(y, Q)
+        vel = self.system.velocities(y)
+        C, J, jdot, Cdot = self._plan.evaluate(self.system, y, sparse=True, velocities=vel)
+        Wb, WQ = self._free_acceleration(y, Q, vel[1])
         W = sp.block_diag(list(Wb), format="csr")
         A = (J @ W @ J.T).tocsc()
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
