@@ -170,9 +170,10 @@ def _linear_spring_cloth(k=300.0, n=4):
     return cloth
 
 
-def test_large_step_on_linear_springs_is_implicit_euler():
+@pytest.mark.parametrize("precond", ["jacobi", "multigrid"])
+def test_large_step_on_linear_springs_is_implicit_euler(precond):
     # ORACLES J3: for linear forces the one Newton step is implicit Euler; compare a dense solve of
-    # M Δv = h f(x₀ + h(v₀ + Δv)) on the free coordinates (only Cloth.forces used)
+    # M Δv = h f(x₀ + h(v₀ + Δv)) on the free coordinates (only Cloth.forces used); either preconditioner
     cloth = _linear_spring_cloth()
     y0, n, h = _random_state(cloth, 9, dx=0.02, dv=0.5), cloth.n, 0.05
     y0[:n].reshape(-1, 3)[cloth.pinned] = cloth.sheet.x0[cloth.pinned]
@@ -187,10 +188,55 @@ def test_large_step_on_linear_springs_is_implicit_euler():
     M = np.diag(cloth.mass3[F])
     rhs = h * (f0[F] + h * A @ y0[n:][F])
     dv = np.linalg.solve(M - h * h * A, rhs)
-    y1, sol = large_step(cloth, y0, h, tol=1e-13)
+    y1, sol = large_step(cloth, y0, h, tol=1e-13, precond=precond)
+    assert sol.converged
     assert np.abs(y1[n:][F] - (y0[n:][F] + dv)).max() < 1e-10 * np.abs(dv).max()     # measured 6e-16 rel
     yN, iters = newton_step(cloth, y0, h)
     assert iters == 1 and np.abs(yN - y1).max() < 1e-11                             # already converged
+
+
+def _falling_sheet_system(n, steps=4):
+    """The benchmark's kind of sheet a few large steps into its fall, and A = M − hD − h²K there (h = 1/60)."""
+    from pbanim.cloth.large_steps import _system
+    cloth = Cloth(Sheet(n, pins="corners"), stretch=1e3, shear=1e2, bend=0.1, damping=1e-3)
+    y = cloth.state()
+    for _ in range(steps):
+        y = large_step(cloth, y, 1.0 / 60.0, tol=1e-6)[0]
+    x, v = y[:cloth.n].reshape(-1, 3), y[cloth.n:].reshape(-1, 3)
+    _, kd, dd = cloth._all(x, v, exact=False)
+    return cloth, y, _system(cloth, kd, dd, 1.0 / 60.0)
+
+
+@pytest.mark.parametrize("n", [10, 20])
+def test_multigrid_preconditioner_is_spd_with_spectrum_in_0_1(n):
+    # ORACLES J6: the V-cycle (ℓ1-Jacobi smoothing, Galerkin coarse matrices) is a symmetric operator B with
+    # the eigenvalues of B A in (0, 1] — what CG needs; and damped Jacobi (ω = ⅔ on a_ii) would not be
+    from pbanim.cloth.multigrid import Multigrid
+    cloth, _, A = _falling_sheet_system(n)
+    mg = Multigrid(cloth.pattern, n, coarsest=16)
+    mg.setup(A.data)
+    assert len(mg.levels) >= 2
+    B = np.stack([mg(e) for e in np.eye(cloth.n)], axis=1)
+    assert np.abs(B - B.T).max() <= 1e3 * np.finfo(float).eps * np.abs(B).max()      # measured 1e-17 rel
+    ev = np.linalg.eigvals(B @ A.toarray()).real
+    assert ev.min() > 1e-3 and ev.max() <= 1.0 + 1e-9, (ev.min(), ev.max())          # measured 0.010 … 1
+    dinv = 1.0 / A.diagonal()
+    assert np.linalg.eigvals((2.0 / 3.0) * dinv[:, None] * A.toarray()).real.max() > 2.0   # ω D⁻¹A past 2
+
+
+def test_large_step_preconditioners_agree_with_pins_and_contacts():
+    # ORACLES J3, J6: the filtered PCG converges to one solution whatever SPD preconditioner: Jacobi and
+    # multigrid at tolerance 1e-11 on a sheet with pins, a sphere and the ground
+    cloth = Cloth(Sheet(12, pins="corners", height=0.3), stretch=1e3, shear=1e2, bend=0.1, damping=1e-3,
+                  colliders=[Sphere([0.0, 0.0, 0.0], 0.3), Ground(-0.5)])
+    y = cloth.state()
+    for _ in range(3):
+        y = large_step(cloth, y, 1.0 / 60.0, tol=1e-8)[0]
+    a, sa = large_step(cloth, y, 1.0 / 60.0, tol=1e-11, max_iter=5000)
+    b, sb = large_step(cloth, y, 1.0 / 60.0, tol=1e-11, max_iter=5000, precond="multigrid")
+    assert sa.converged and sb.converged and sb.iterations < sa.iterations
+    dv = np.abs(a[cloth.n:] - y[cloth.n:]).max()
+    assert np.abs(a - b).max() <= 1e-8 * dv, (np.abs(a - b).max(), dv)
 
 
 def test_large_steps_never_gain_energy_at_h_01_k_1e6():
