@@ -83,8 +83,8 @@ def test_readable_loop_equals_vectorized(model):
 
 @pytest.mark.parametrize("exact", [True, False])
 def test_pair_assembly_equals_full_element_blocks(exact):
-    # the springs' reduced 3 × 3 blocks (K_e = c cᵀ ⊗ B), scattered by assignment and incidence, give the K, D
-    # and f of the full 6 × 6 element blocks summed by bincount, to roundoff (ORACLES J1); a pattern whose
+    # the springs' reduced 3 × 3 blocks (K_e = c cᵀ ⊗ B), gathered with the incidence sums, give the K, D
+    # and f of the full 6 × 6 element blocks summed by bincount, to roundoff (ORACLES J1, J6); a pattern whose
     # pair blocks are shared (the same kind twice) takes the general path and agrees too
     from pbanim.cloth.assembly import Pattern
     cloth = Cloth(Sheet(6, pins="corners"), stretch=1e3, shear=1e2, bend=1.0, damping=1e-2)

@@ -39,3 +39,20 @@ def test_ode_goal_lines_say_when_the_floor_makes_a_goal_unmeetable():
     assert "2.30×" in _floor_verdict(2.3, 0.5, "solve_ivp")
     assert "meetable in principle" in _floor_verdict(0.2, 0.5, "solve_ivp")
     assert _floor_verdict(float("nan"), 1.0, "odeint") == ""
+
+
+def test_cg_tolerance_of_the_cost_rows_is_below_the_step_truncation_error():
+    # ORACLES J3, J6: at the benchmark's CG tolerance the solve's error is a small fraction of the large
+    # step's own truncation error (step doubling), with either preconditioner; a loose tolerance is not
+    from pbanim.bench.cloth import CG_TOL, cg_error_vs_truncation
+    for pc in ("jacobi", "multigrid"):
+        ex, ev = cg_error_vs_truncation(12, CG_TOL, pc)
+        assert ex < 0.2 and ev < 0.2, (pc, ex, ev)                 # measured ≤ 0.04 at N = 32
+    assert max(cg_error_vs_truncation(12, 0.5, "jacobi")) > max(cg_error_vs_truncation(12, CG_TOL, "jacobi"))
+
+
+def test_multigrid_needs_fewer_cg_iterations_than_jacobi_on_the_sheet():
+    # ORACLES J6: the V-cycle preconditioner cuts the iterations of the cost rows (counts, not times)
+    from pbanim.bench.cloth import step_costs
+    jac, mg = step_costs((16,), 1, "jacobi")[16], step_costs((16,), 1, "multigrid")[16]
+    assert mg[1] < jac[1] / 2, (mg[1], jac[1])                     # measured 28 vs 70
