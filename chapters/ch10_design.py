@@ -20,15 +20,13 @@ Figures:
 * ``die_toss``: a die thrown off a wall so that after its corner impacts it shows a chosen face up at a
   chosen place: orientation and position goals at once.
 * ``ball_into_target``: a ball bounced off a wall into a target (GIF of the edit).
-* ``contact_box_slide``, ``contact_ball_cup``, ``contact_die`` (issue 30): designs through resting and
-  sliding contact on the stepped S(t, u): a box pushed to stop on a spot, a ball rolled off a table into a
-  cup, a die thrown to rest on a chosen face at a chosen place (strip and GIF each; ORACLES L2).
 * ``shooting``: single vs multiple shooting on a noisy sketch of six impacts in 4 s, from the same start:
   single shooting ends at another impact sequence, multiple shooting (nodes midway between the sketch's
   impacts) recovers the sketched motion; the trajectories, max |C| and E per SLSQP iterate (ORACLES H8).
-* ``sequence_search`` (issue 30): a ball rattling between two walls, eleven impacts 1.7–2.7 sketch samples
-  apart: multiple shooting stays at a wrong impact sequence, the discrete search over sequences reaches the
-  sketch; the residual of every proposal it solved (ORACLES L4).
+
+The chapter goes on in :mod:`chapters.ch10_design_contact` (designs through resting and sliding contact),
+:mod:`chapters.ch10_design_search` (the search over impact sequences, the sketching interface) and
+:mod:`chapters.ch10_design_articulated` (a chain thrown through flight).
 """
 
 from __future__ import annotations
@@ -42,8 +40,6 @@ from pbanim.design.control import drag, edit, orientation_goal, position_goal
 from pbanim.design.multiple import (multiple_shooting, nodes_from_sketch, refine_states,
                                     states_from_sketch)
 from pbanim.design.shooting import single_shooting
-from pbanim.design.stepped import ContactScene, StaticBox
-from pbanim.design.stepped_design import design_contact
 from pbanim.plotting import figure
 from pbanim.rigid import quat_from_axis_angle, quat_to_matrix
 
@@ -266,6 +262,17 @@ def shooting(ctx):
             "node_times": r2.node_times, "single_history": np.array(r1.history), "multiple_history": np.array(r2.history)}
 
 
+def __getattr__(name: str):
+    """The figures and scenes of issue 30 moved to their own modules; their old import path still works."""
+    import importlib
+
+    for module in ("chapters.ch10_design_contact", "chapters.ch10_design_search"):
+        mod = importlib.import_module(module)
+        if hasattr(mod, name):
+            return getattr(mod, name)
+    raise AttributeError(f"module 'chapters.ch10_design' has no attribute {name!r}")
+
+
 # %% [markdown]
 # ## Draw the figures
 #
@@ -280,240 +287,3 @@ if __name__ == "__main__":
     for _key, _spec in figures_of({"ch10"}).items():
         print(_key, [p.name for p in run_figure(_spec, Path("figures"), quick=True)[1]])
 
-
-# %% [markdown]
-# ## Designs through contact (issue 30)
-#
-# S(t, u) stepped by chapter 07's velocity-level contact with box friction, differentiated on each step's
-# active set (pbanim.design.stepped_run), drives differential control (pbanim.design.stepped_design):
-# a box pushed to slide and stop on a spot, a ball rolled off a table into a cup, a die thrown to rest on a
-# chosen face at a chosen place. Each figure is a strip (the path and the body at six times) and a GIF.
-
-# %%
-_EDGES = [(a, b) for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1]
-
-
-def _outline(ax, shape, x, q, **kw):
-    """The body seen along y: a sphere's circle, or a box's twelve edges projected on x–z."""
-    import matplotlib.patches as mpatches
-
-    if isinstance(shape, Sphere):
-        return [ax.add_patch(mpatches.Circle((x[0], x[2]), shape.radius, fill=False, **kw))]
-    c = x + shape.vertices() @ quat_to_matrix(q).T
-    return [ax.plot(c[[a, b], 0], c[[a, b], 2], **kw)[0] for a, b in _EDGES]
-
-
-def _strip_and_gif(ctx, scene, tr, decor, goal):
-    """A strip (the path and the body at six times) and a GIF of the designed motion, seen along y."""
-    P = tr.positions()
-    fig, ax = ctx.subplots(figsize=(8, 3.2))
-    decor(ax)
-    ax.plot(P[:, 0], P[:, 2], lw=1, color="C0")
-    for k, i in enumerate(np.linspace(0, len(P) - 1, 6).astype(int)):
-        _outline(ax, scene.body.shape, P[i], tr.y[i, 3:7], color="C1", alpha=0.3 + 0.14 * k)
-    ax.plot(goal[0], goal[2], "r*", ms=12)
-    ax.set_aspect("equal"), ax.set_xlabel("x (m)"), ax.set_ylabel("z (m)")
-    ctx.save(fig, "_strip")
-    fig, ax = ctx.subplots(figsize=(8, 3.2))
-    decor(ax)
-    ax.set_aspect("equal"), ax.set_xlabel("x (m)"), ax.set_ylabel("z (m)")
-    ax.plot(goal[0], goal[2], "r*", ms=12)
-    ax.set_xlim(*ax.get_xlim()), ax.set_ylim(*ax.get_ylim())
-    drawn = []
-    frames = 24 if ctx.quick else 60
-
-    def update(j):
-        for a in drawn:
-            a.remove()
-        i = min(int(j / (frames - 1) * (len(P) - 1)), len(P) - 1)
-        drawn[:] = _outline(ax, scene.body.shape, P[i], tr.y[i, 3:7], color="C1")
-        return drawn
-
-    ctx.save_gif(fig, update, frames=frames, fps=12)
-
-
-def contact_box_scene():
-    return ContactScene(DesignBody(Box([0.2, 0.1, 0.05]), position=[0, 0, 0.05], velocity=[1.0, 0, 0]),
-                        [Plane()], friction=0.3)
-
-
-@figure("ch10", "contact_box_slide", "A box pushed to slide and stop on a spot (v₀ and μ designed)")
-def contact_box_slide(ctx):
-    """The push and μ found together (a vertical push weighted 10⁶ in M) so that the box stops on the spot."""
-    scene, T, spot = contact_box_scene(), 1.0, np.array([0.8, -0.3, 0.05])
-    d = design_contact(scene, T, ["v0", "friction"], [position_goal(0, T, spot)], rest=True, h=0.01,
-                       M=np.diag([1.0, 1.0, 1e6, 1.0]))
-
-    def decor(ax):
-        ax.axhline(0.0, color="k"), ax.set_xlim(-0.4, 1.2), ax.set_ylim(-0.05, 0.3)
-    _strip_and_gif(ctx, scene, d.trajectory, decor, spot)
-    return {"u": d.u, "names": d.names, "success": d.success, "residual": d.residual, "at_rest": d.at_rest,
-            "history": np.array(d.history), "final": d.trajectory.y[-1], "T": T, "spot": spot}
-
-
-CUP, CUP_INNER, CUP_HEIGHT = np.array([1.05, 0.1]), 0.07, 0.2
-
-
-def contact_cup_scene():
-    """A ball on a table (top at 0.8 m, edge at x = 0.5) and a cup of four walls on the floor."""
-    th, (cx, cy), w, H = 0.01, CUP, CUP_INNER, CUP_HEIGHT
-    walls = [StaticBox([th, w + 2 * th, H / 2], [cx + s * (w + th), cy, H / 2]) for s in (1, -1)]
-    walls += [StaticBox([w, th, H / 2], [cx, cy + s * (w + th), H / 2]) for s in (1, -1)]
-    body = DesignBody(Sphere(0.05), position=[0.2, 0, 0.85], velocity=[1.5, 0.0, 0])
-    return ContactScene(body, [Plane()], [StaticBox([0.5, 0.5, 0.4], [0, 0, 0.4])] + walls, friction=0.4)
-
-
-@figure("ch10", "contact_ball_cup", "A ball rolled off a table edge into a cup")
-def contact_ball_cup(ctx):
-    """The push v₀ is designed so that, rolling to the edge and flying, the ball passes over the cup's centre
-    at t = 0.62 s (goal on x and y) and drops in."""
-    scene, T, tg = contact_cup_scene(), 1.0, 0.62
-    d = design_contact(scene, T, ["v0"], [position_goal(0, tg, [*CUP, 0.0])], components=(0, 1), h=0.01)
-
-    def decor(ax):
-        import matplotlib.patches as mpatches
-        ax.add_patch(mpatches.Rectangle((-0.5, 0), 1.0, 0.8, color="0.85"))
-        for s in (1, -1):
-            ax.add_patch(mpatches.Rectangle((CUP[0] + s * (CUP_INNER + 0.01) - 0.01, 0), 0.02, CUP_HEIGHT,
-                                            color="0.5"))
-        ax.axhline(0.0, color="k"), ax.set_xlim(-0.1, 1.3), ax.set_ylim(-0.05, 1.0)
-    _strip_and_gif(ctx, scene, d.trajectory, decor, [CUP[0], 0.0, 0.05])
-    return {"u": d.u, "names": d.names, "success": d.success, "residual": d.residual, "T": T,
-            "final": d.trajectory.y[-1], "history": np.array(d.history)}
-
-
-def contact_die_scene(rng):
-    """A die (10 cm cube) thrown from 0.3 m with a random velocity and spin."""
-    v0, w0 = np.array([rng.uniform(0.5, 1.5), rng.uniform(-0.5, 0.5), rng.uniform(0, 1)]), rng.uniform(-8, 8, 3)
-    return ContactScene(DesignBody(Box([0.05, 0.05, 0.05]), position=[0, 0, 0.3], velocity=v0,
-                                   angular_velocity=w0), [Plane()], friction=0.5)
-
-
-DIE_PLACE, DIE_FACE = np.array([0.6, 0.2, 0.05]), 4
-
-
-@figure("ch10", "contact_die", "A die thrown to rest on a chosen face at a chosen place")
-def contact_die(ctx):
-    """Gauss–Newton on v₀ through the corner impacts and the rolling (with up to six seeded kicks where the
-    place lies across a jump of S); the face by the cube's symmetry on θ₀. Quick mode designs from one random
-    start (seed 0); the full run from 10 and counts the successes."""
-    starts = 1 if ctx.quick else 10
-    rng = np.random.default_rng(0)
-    out = []
-    for _ in range(starts):
-        scene = contact_die_scene(rng)
-        d = design_contact(scene, 1.5, ["v0"], [position_goal(0, 1.5, DIE_PLACE)], rest=True, face=DIE_FACE,
-                           h=0.01, max_iter=40, components=(0, 1), kicks=6)
-        out.append((scene, d))
-    scene, d = out[0]
-
-    def decor(ax):
-        ax.axhline(0.0, color="k"), ax.set_xlim(-0.2, 1.0), ax.set_ylim(-0.05, 0.45)
-    _strip_and_gif(ctx, scene, d.trajectory, decor, DIE_PLACE)
-    return {"u": d.u, "names": d.names, "success": d.success, "residual": d.residual, "face": d.face,
-            "at_rest": d.at_rest, "final": d.trajectory.y[-1], "T": 1.5, "history": np.array(d.history),
-            "successes": sum(dd.success for _, dd in out), "starts": starts}
-
-
-# %% [markdown]
-# ## Figure `ch10_sequence_search` (issue 30, point 3)
-#
-# A ball rattling down between two walls: eleven impacts in 1.2 s, 1.7 to 2.7 sketch samples apart. Multiple
-# shooting from the impacts the sketch shows stays at a wrong sequence; the discrete search over impact
-# sequences (pbanim.design.sequences) reaches the sketch.
-
-# %%
-def rattle_problem(dt: float = 0.05, sigma: float = 0.005, T: float = 1.2, seed: int = 1):
-    """The shaft (walls at x = ±0.25, a 5 cm ball, ε = 0.95) thrown at 5 m/s across it; the sketch is its
-    positions every ``dt`` with Gaussian noise ``sigma`` (seeded), the goal its true end position, the guess
-    a slower throw."""
-    def shaft(v0):
-        return DesignScene([DesignBody(Sphere(0.05), position=[0.0, 0.0, 2.0], velocity=v0)],
-                           [Plane([1, 0, 0], offset=-0.25), Plane([-1, 0, 0], offset=-0.25)], restitution=0.95)
-    true = shaft([5.0, 0.0, 0.5])
-    ts = list(np.round(np.arange(0.0, T + 1e-9, dt), 10))
-    ref = simulate(true, T, ["x0", "v0"], times=ts[1:], sensitivities=False)
-    rng = np.random.default_rng(seed)
-    sketch = [(t, (true.nominal["x0"] if t == 0 else ref.position(0, t)) + sigma * rng.normal(size=3)) for t in ts]
-    return true, ref, sketch, [position_goal(0, T, ref.position(0, T))], shaft([4.0, 0.0, 0.0])
-
-
-@figure("ch10", "sequence_search", "Searching impact sequences where multiple shooting stays at a wrong one")
-def sequence_search(ctx):
-    """x(t) of the sketch, of multiple shooting from the sketch's impacts (nodes midway between them) and of
-    the search's best sequence; what the search tried on this sketch and on one sampled every 80 ms (1.05 to
-    1.7 samples per flight), whose own proposal hits a wall twice in a row and is repaired by a move.
-    ORACLES L4."""
-    from pbanim.design.sequences import propose_sequences, search_sequences
-
-    T, sigma = 1.2, 0.005
-    true, ref, sketch, goals, guess = rattle_problem(sigma=sigma, T=T)
-    old = multiple_shooting(guess, goals, T, sketch=sketch[1:], maxiter=10 if ctx.quick else 40, max_slides=0)
-    new = search_sequences(guess, goals, T, sketch, max_proposals=10)
-    hits = tuple(i.other for i in ref.impacts)
-    _, _, coarse, goals80, guess80 = rattle_problem(dt=0.08, sigma=sigma, T=T)     # 1.05–1.7 samples per flight
-    gap = propose_sequences(guess80, coarse)[0]
-    fix = search_sequences(guess80, goals80, T, coarse, max_proposals=6)
-    tt = np.linspace(0.0, T, 481)
-    runs = {k: simulate(guess, T, names, u, times=list(tt[1:]), sensitivities=False, warn=False, check_start=False)
-            for k, names, u in (("old", old.names, old.u), ("new", ["x0", "v0"], new.u))}
-    fig, axs = ctx.subplots(1, 2, figsize=(12, 3.8), gridspec_kw={"width_ratios": [2, 1]})
-    ax = axs[0]
-    P = np.array([x for _, x in sketch])
-    ax.plot([t for t, _ in sketch], P[:, 0], "k.", ms=5, label=f"sketch (every 50 ms, σ = {1e3 * sigma:.0f} mm)")
-    for k, style, lab in (("old", "--", f"multiple shooting (run from its u): {len(runs['old'].impacts)} impacts, max |C| = "
-                                        f"{old.violation:.2f}"),
-                          ("new", "-", f"sequence search: {len(runs['new'].impacts)} impacts, E = {new.objective:.1e} m²")):
-        X = np.array([runs[k].position(0, t) for t in tt[1:]])
-        ax.plot(tt[1:], X[:, 0], style, lw=1.2, label=lab)
-    for w in (-0.2, 0.2):
-        ax.axhline(w, color="gray", lw=0.8)
-    ax.set_xlabel("t (s)"), ax.set_ylabel("x (m)  (centre; walls at ±0.2)"), ax.legend(fontsize=7, loc="lower left")
-    ax = axs[1]
-    ax.axis("off")
-    lines = []
-    for res, lab in ((new, "sketch every 50 ms"), (fix, "sketch every 80 ms")):
-        lines.append(f"search, {lab} (cap {res.cap}):")
-        if res is fix:
-            lines.append(f"  {''.join('LR'[j] for j in gap.planes)}  sketch  not solved: a wall twice in a row")
-        for row in res.tried:
-            seq = "".join("LR"[j] for j in row["planes"])
-            lines.append(f"  {seq}  {row['origin']:<7} residual {row['residual']:.1e}"
-                         f"  {'confirmed' if row['confirmed'] else 'replay differs'}")
-        lines.append("")
-    lines.append(f"noise level ½·N·3σ²: {0.5 * len(sketch) * 3 * sigma ** 2:.1e} m² (50 ms), "
-                 f"{0.5 * len(coarse) * 3 * sigma ** 2:.1e} m² (80 ms)")
-    lines.append("L, R: left, right wall")
-    ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=7, transform=ax.transAxes)
-    ctx.save(fig)
-    return {"old_violation": old.violation, "old_success": old.success, "old_impacts": len(runs["old"].impacts),
-            "new_success": new.success, "new_impacts": len(runs["new"].impacts), "true_impacts": len(hits),
-            "new_sequence_true": new.sequence == hits, "new_objective": new.objective,
-            "noise_E": 0.5 * len(sketch) * 3 * sigma ** 2, "proposals": new.proposals,
-            "goal_error": float(np.abs(runs["new"].position(0, T) - goals[0].target).max()),
-            "v0_error": float(np.abs(new.u[3:] - true.nominal["v0"]).max()),
-            "repair_success": fix.success, "repair_sequence_true": fix.sequence == hits, "repair_proposals": fix.proposals,
-            "repair_origins": [row["origin"] for row in fix.tried], "coarse_proposal_true": gap.key() == hits,
-            "repair_objective": fix.objective, "coarse_noise_E": 0.5 * len(coarse) * 3 * sigma ** 2}
-
-
-# %% [markdown]
-# ## The sketching interface (issue 30, point 5)
-#
-# `sketch_editor()` opens the editor on a bouncing ball in a matplotlib window (`python -c "from
-# chapters.ch10_design import sketch_editor; sketch_editor(show=True)"`) or in a notebook cell run with an
-# interactive backend (`%matplotlib widget`): drag a point of the motion and it follows (one Gauss–Newton update
-# per mouse event); with `mode="sketch"`, draw a stroke and multiple shooting fits a motion to it on release.
-
-# %%
-def sketch_editor(mode: str = "drag", show: bool = False, solver: str = "multiple"):
-    """The editor (pbanim.design.SketchEditor) on a ball with five bounces between a floor and a wall."""
-    from pbanim.design import SketchEditor
-
-    ed = SketchEditor(_ball([1.0, 0.3, 2.0]), 2.7, h=0.02, mode=mode, solver=solver)
-    ed.ax.set_title("drag the motion" if mode == "drag" else "draw a sketch (press, move, release)")
-    ed.ax.set_aspect("equal", adjustable="datalim")
-    if show:
-        import matplotlib.pyplot as plt
-        plt.show()
-    return ed

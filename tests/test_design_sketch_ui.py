@@ -123,7 +123,7 @@ def test_the_chapter_opens_the_editor():
     # ORACLES L5: the chapter's editor (a ball with five bounces) draws S and answers a drag like the others.
     import matplotlib.pyplot as plt
 
-    from chapters.ch10_design import sketch_editor
+    from chapters.ch10_design_search import sketch_editor
 
     ed = sketch_editor()
     try:
