@@ -257,8 +257,8 @@ def large_step(cloth, y, h: float, tol: float = 1e-4, max_iter: int = 2000, prec
     """One Baraff–Witkin large step of the cloth from the full state y: (y₁, :class:`PCGResult`).
 
     ``precond``: "jacobi" (B&W's P = diag A) or "multigrid" (a V-cycle of aggregation multigrid,
-    :mod:`pbanim.cloth.multigrid`: ~6× fewer CG iterations at N = 64, ~10× at N = 128, each ~4× dearer; the
-    stopping test is then the residual in that P⁻¹-norm). Raises SimulationDiverged when y₁ is not finite; a
+    :mod:`pbanim.cloth.multigrid`: 3.5× fewer CG iterations at N = 64, 5.6× at N = 128; a step 1.7× and
+    3.3× faster there; the stopping test is then the residual in that P⁻¹-norm). Raises SimulationDiverged when y₁ is not finite; a
     CG solve that stopped at ``max_iter`` is returned with ``converged`` False (the caller decides: the
     benchmark and chapter 12 count or report them).
     """

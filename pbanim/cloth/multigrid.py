@@ -11,7 +11,8 @@ multigrid is a preconditioner whose CG iteration count hardly grows with N:
   over i ∈ I, j ∈ J, so the coarse CSR data is one fixed 0/1 sparse matrix times the fine data (computed once
   per pattern; each step costs one sparse product per level, no sparse-matrix product);
 * **the cycle** (symmetric, so CG may use it): pre-smooth x = D₁⁻¹ r, the residual r − A x restricted, the
-  coarse correction (recursively; the coarsest level, ≤ ``coarsest`` particles, by a dense Cholesky),
+  coarse correction (recursively; the coarsest level, ≤ ``coarsest`` particles, by its inverse from a
+  dense Cholesky),
   prolonged and scaled by ``boost``, post-smooth x += D₁⁻¹ (r − A x). D₁ is the ℓ1-Jacobi diagonal
   d_i = Σ_j |a_ij|: plain damped Jacobi (ω = ⅔ on a_ii) diverges on the cloth (the shear and bend springs
   make D⁻¹A reach past 3: measured eigenvalues of P⁻¹A down to −0.5 on a 12 × 12 sheet), while ℓ1-Jacobi
@@ -19,9 +20,19 @@ multigrid is a preconditioner whose CG iteration count hardly grows with N:
   (0, 1] (measured 0.018 … 1 on 12 × 12, 0.010 … 1 on 20 × 20). A boost above 1 (over-correction) widens
   it (1.8: up to 5.8 on 20 × 20) and is left at 1.
 
-Measured on the benchmark's sheet at h = 1/60 s, six steps into the fall (relative tolerance 10⁻³): CG
-iterations 70 → 29 (N = 16), 289 → 59 (N = 64), 554 → 71 (N = 128) against Jacobi; a V-cycle costs about
-three fine matrix products, so the time per step gains little at N = 64 and ~1.7× at N = 128.
+A V-cycle costs two products with the fine A besides the CG's own. The default (``additive_top``) drops
+them: on the finest level the two corrections are added instead of applied in turn, B = D₁⁻¹ + P B₁ Pᵀ
+with B₁ the V-cycle of level 1 — a sum of two SPD operators, each at most A⁻¹ in the A-norm, so the
+spectrum of B A lies in (0, 2] (measured 0.005 … 1.97 on 20 × 20). Measured on the benchmark's sheet at
+h = 1/60 s, six steps into the fall, CG to 10⁻³ (iterations; time per step, one BLAS thread, loaded machine):
+
+=======  ================  ================  ==================
+N        Jacobi            V-cycle           additive top
+=======  ================  ================  ==================
+16       70;  5 ms         29;  8 ms         47;  9 ms
+64       290; 204 ms       58;  143 ms       84;  123 ms
+128      554; 2.08 s       71;  1.08 s       99;  0.62 s
+=======  ================  ================  ==================
 
 It is applied inside B&W's modified PCG (:func:`pbanim.cloth.large_steps.modified_pcg` with
 ``precond="multigrid"``): the filter S stays outside (c = S P⁻¹ r), so the iterates stay in the constraint
@@ -56,8 +67,8 @@ class Multigrid:
 
     ``setup(data)`` takes the CSR data of A on the finest pattern; then ``__call__(r)`` applies one V-cycle."""
 
-    def __init__(self, pattern, m: int, coarsest: int = 64, boost: float = 1.0) -> None:
-        self.boost = boost
+    def __init__(self, pattern, m: int, coarsest: int = 64, boost: float = 1.0, additive_top: bool = True) -> None:
+        self.boost, self.additive_top = boost, additive_top
         lv = _Level(pattern.n, pattern.rows.astype(np.int64), pattern.indices.astype(np.int64), pattern.indptr)
         self.levels, self.P, self.R = [lv], [], []
         for _ in range(32):                                     # m halves each level: ≤ log₂ m + 1 levels
@@ -88,14 +99,17 @@ class Multigrid:
                 data = self.R[k - 1] @ data
             self.A.append(sp.csr_matrix((data, lv.indices, lv.indptr), shape=(lv.n, lv.n)))
             self.dinv.append(1.0 / np.bincount(lv.rows, np.abs(data), minlength=lv.n))
-        self.chol = sla.cho_factor(self.A[-1].toarray(), check_finite=False)
+        c, low = sla.cho_factor(self.A[-1].toarray(), check_finite=False)
+        self.coarse_inv = sla.cho_solve((c, low), np.eye(len(c)), check_finite=False)   # ≤ 192², applied by a product
 
     def __call__(self, r) -> np.ndarray:
+        if self.additive_top and len(self.levels) > 1:         # B = D₁⁻¹ + P B₁ Pᵀ: no product with the fine A
+            return self.dinv[0] * r + self.P[0] @ self._cycle(1, self.Pt[0] @ r)
         return self._cycle(0, r)
 
     def _cycle(self, k, r):
         if k == len(self.levels) - 1:
-            return sla.cho_solve(self.chol, r, check_finite=False)
+            return self.coarse_inv @ r
         A, dinv = self.A[k], self.dinv[k]
         x = dinv * r
         xc = self._cycle(k + 1, self.Pt[k] @ (r - A @ x))
