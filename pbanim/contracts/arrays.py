@@ -21,6 +21,19 @@ _ALL = np.logical_and.reduce
 _VDOT = np.vdot                 # one BLAS pass, no warning on overflow
 
 
+
+def float_array_or_none(value) -> np.ndarray | None:
+    """``value`` as an array of floats, or None when it is not numbers: None, text, bytes, complex numbers,
+    booleans, objects, or anything ``np.asarray(value, dtype=float)`` refuses (the one coercion of every
+    array contract, dense or sparse)."""
+    if value is None or isinstance(value, (str, bytes, complex)) or \
+            isinstance(value, np.ndarray) and value.dtype.kind in "bcOSUV":
+        return None
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
 def _seeded(label: str) -> np.random.Generator:
     return np.random.default_rng(sum(ord(c) * (i + 1) for i, c in enumerate(label)))
 
@@ -83,13 +96,9 @@ class Array(Spec):
         if type(value) is np.ndarray and value.dtype is _F64:
             a = value
         else:
-            if value is None or isinstance(value, (str, bytes, complex)) or \
-                    isinstance(value, np.ndarray) and value.dtype.kind in "bcOSUV":
+            a = float_array_or_none(value)
+            if a is None:
                 raise env.fail(name, self.describe(env), value)
-            try:
-                a = np.asarray(value, dtype=float)
-            except (TypeError, ValueError):
-                raise env.fail(name, self.describe(env), value) from None
         if a.ndim == 0 and self.scalar:
             v = float(a)
             if not (math.isfinite(v) if self.finite else v == v) or not self.bounds.inside(v):

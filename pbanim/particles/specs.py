@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..contracts import Array, Either, Env, Spec
+from ..contracts.arrays import float_array_or_none
 
 __all__ = ["IndexArray", "Buffer", "Direction", "Matrix", "point", "points"]
 
@@ -276,13 +277,9 @@ class Matrix(Spec):
             if data.dtype.kind not in "fiu":
                 raise env.fail(name, self.describe(env), value, f"dtype {data.dtype}")
         else:
-            if value is None or isinstance(value, (str, bytes)) or \
-                    isinstance(value, np.ndarray) and value.dtype.kind in "bcOSUV":
+            m = float_array_or_none(value)
+            if m is None:
                 raise env.fail(name, self.describe(env), value)
-            try:
-                m = np.asarray(value, dtype=float)
-            except (TypeError, ValueError):
-                raise env.fail(name, self.describe(env), value) from None
             data = m
         detail = _match_shape(self.shape, tuple(m.shape), env)
         if detail:
