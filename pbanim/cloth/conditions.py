@@ -174,6 +174,7 @@ class SpringCondition(Conditions):
         With ŵ = d/|d|, d = x_a − x_b, u = v_a − v_b, P = (I − ŵŵᵀ)/|d| and s = k C + k_d Ċ (Ċ = ŵ·u):
         f_a = −s ŵ = −f_b,  B_K = −(k ŵŵᵀ + s P + k_d ŵ (P u)ᵀ),  B_D = −k_d ŵŵᵀ (``exact=False``: s clamped
         at 0 in front of P and the unsymmetric last term left out, as in :func:`element_terms`)."""
+        # BEGIN SOLUTION SpringCondition.pair_terms
         el = self.elements
         d, u = x[el[:, 0]] - x[el[:, 1]], v[el[:, 0]] - v[el[:, 1]]
         length = np.sqrt(np.einsum("ij,ij->i", d, d))
@@ -195,6 +196,7 @@ class SpringCondition(Conditions):
             if exact:
                 BK -= (kd[:, None] * w)[:, :, None] * np.einsum("eij,ej->ei", P, u)[:, None, :]
         return np.concatenate([fa, -fa], axis=1), BK, BD
+        # END SOLUTION
 
     def evaluate(self, x, sel=None, hessian=True):
         el = self.elements if sel is None else self.elements[sel]

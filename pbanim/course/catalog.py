@@ -14,6 +14,7 @@ ch07_lcp               07       pbanim/lcp/solve.py               projected Gaus
 ch08_pd_control        08       pbanim/control/pd.py              explicit, stable, implicit PD; torque limits
 ch09_pressure          09       pbanim/fluids/grid.py             MAC divergence, gradient, open-face counts
 ch10_impact_gradient   10       pbanim/design/impact.py           event time, δj, the saltation's flow term
+ch12_cloth_spring      12       pbanim/cloth/conditions.py        a spring's force, ∂f/∂x and ∂f/∂v blocks
 =====================  =======  ================================  =========================================
 
 Every chapter's assignment is ready. A new one is registered here once its reference module carries
@@ -24,8 +25,8 @@ until then it may be registered with ``status="pending"`` and the reason (``make
 
 from __future__ import annotations
 
-from . import (checks_constraints, checks_contact, checks_control, checks_design, checks_fluids, checks_ode,
-               checks_particles, checks_rigid)
+from . import (checks_cloth, checks_constraints, checks_contact, checks_control, checks_design, checks_fluids,
+               checks_ode, checks_particles, checks_rigid)
 from .registry import ASSIGNMENTS, Assignment, register
 
 __all__ = ["ASSIGNMENTS"]
@@ -86,3 +87,9 @@ _ready("ch10_impact_gradient", "ch10", "∂S/∂u through an impact: the saltati
        "j δk)/k applied to the momenta (apply_impact.impulse_derivative), and the flow term T⁺ = T₁ − δτ f⁺ "
        "after the jump (saltation_post). The impulse itself (chapter 6) and the contact quantities' tangents "
        "are given.", checks_design)
+_ready("ch12_cloth_spring", "ch12", "A cloth spring and its Jacobians for large steps", "pbanim.cloth.conditions",
+       "Write the force of the springs of a cloth and the 3 × 3 blocks of its Jacobians "
+       "(SpringCondition.pair_terms): f_a = −(k(|d| − r) + k_d ŵ·u) ŵ = −f_b, B_K = −(k ŵŵᵀ + s P + k_d ŵ (P u)ᵀ) "
+       "with P = (𝟙 − ŵŵᵀ)/|d|, B_D = −k_d ŵŵᵀ, and the symmetric B_K that the large step's conjugate gradients "
+       "need (exact=False: s clamped at 0, the last term left out). pbanim assembles K = ∂f/∂x and D = ∂f/∂v "
+       "from your blocks.", checks_cloth)
