@@ -42,7 +42,7 @@ from .box import _box_residual, _scale, _warm_impulses
 from ..contracts import Array, Int, Opt, Real, Seq, contract
 from ..errors import InvalidInput
 
-__all__ = ["pgs_box_friction_rows", "delassus_diagonal"]
+__all__ = ["pgs_box_friction_rows", "pgs_normal_rows", "delassus_diagonal"]
 
 _BLOCKS = Array(("n", "d", "d"))
 
@@ -116,20 +116,7 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     inv = 1.0 / diag
     c10, c20, c21 = C(1, 0), C(2, 0), C(2, 1)                                      # A's diagonal-block couplings
     ac, bc = a[0::3][perm], b[0::3][perm]
-    # J and W Jᵀ as sparse matrices on u (nb·d,): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's
-    cols = np.repeat(np.concatenate([ac[:, None] * d + np.arange(d), bc[:, None] * d + np.arange(d)], axis=1), 3, axis=0)
-    dataJ = np.concatenate([ga3, -gb3], axis=2).reshape(-1)
-    dataM = np.concatenate([wga3, -wgb3], axis=2).reshape(-1)
-    w2 = 2 * d
-    itype = np.int32 if max(nb * d, 3 * m * w2) < 2 ** 31 else np.int64      # scipy's own index type: no copies
-    cols, ptr = cols.reshape(-1).astype(itype), np.arange(0, 3 * m * w2 + 1, w2, dtype=itype)
-    J = sparse.csr_matrix((dataJ, cols, ptr), shape=(3 * m, nb * d))
-    plan = []
-    for s, e in spans:
-        lo, hi, loc = 3 * s * w2, 3 * e * w2, ptr[:3 * (e - s) + 1]
-        JK = sparse.csr_matrix((dataJ[lo:hi], cols[lo:hi], loc), shape=(3 * (e - s), nb * d))
-        MK = sparse.csc_matrix((dataM[lo:hi], cols[lo:hi], loc), shape=(nb * d, 3 * (e - s)))
-        plan.append((s, e, JK, MK))
+    J, plan, (dataM, cols, ptr) = _color_matrices(ac, bc, ga3, gb3, wga3, wgb3, spans, nb, d)
     zp = _warm_impulses(None if warm_start is None else np.reshape(warm_start, (m, 3))[perm].ravel(), n, mu[perm])
     z3, mup = zp.reshape(m, 3), mu[perm]
     beta = np.reshape(bias, (m, 3))[perm]
@@ -163,6 +150,81 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     z = np.empty(n)
     z.reshape(m, 3)[perm] = z3
     return z, res, sweeps, u.reshape(nb, d)
+
+
+@contract(a=Array((_rows,), ge=0, empty=True), b=Array((_rows,), ge=0, empty=True), Ga=Array((_rows, "d"), empty=True),
+          Gb=Array((_rows, "d"), empty=True), Wb=_BLOCKS, bias=Array((None,), empty=True),
+          colors=Seq(Array((None,), ge=0, empty=True)), max_iter=Int(ge=1), tol=Real(gt=0))
+def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol: float = 1e-8) -> tuple:
+    """Colored projected Gauss–Seidel on one row per contact (the normals), from v = 0, on the bodies' velocities:
+
+        0 ≤ pᵢ ⊥ wᵢ = J_i v + βᵢ ≥ 0,   v = W Jᵀ p,
+
+    the sweep of :func:`pgs_box_friction_rows` without its tangents (the same color plan and sparse products).
+    It serves the position correction of large contact scenes (:mod:`pbanim.contact.split`): β is a predicted
+    separation over h and v a pseudo-velocity. ``tol`` is absolute, in β's units: stops when the natural-map
+    residual max |min(pᵢ, wᵢ)| ≤ tol. Returns (p, residual, sweeps, v (n, d)); no row with β < 0: p = 0 at once.
+
+    >>> Wb = np.array([1.0, 0.0])[:, None, None] * np.eye(3)      # one unit mass on the ground (the world's W = 0)
+    >>> p, res, sweeps, v = pgs_normal_rows([0], [1], [[0.0, 0, 1]], [[0.0, 0, 1]], Wb, [-0.5], [[0]])
+    >>> float(p[0]), v[0].tolist(), sweeps                          # pushed out at 0.5 m/s: w = 0
+    (0.5, [0.0, 0.0, 0.5], 1)
+    """
+    a, b = np.asarray(a, dtype=np.intp), np.asarray(b, dtype=np.intp)
+    m = a.size
+    nb, d = Wb.shape[0], np.shape(Ga)[1]
+    beta = np.asarray(bias, dtype=float)
+    if beta.shape != (m,):
+        raise InvalidInput(f"pgs_normal_rows needs one bias per row ({m}), got shape {beta.shape}")
+    v = np.zeros(nb * d)
+    if not np.any(beta < 0):
+        return np.zeros(m), 0.0, 0, v.reshape(nb, d)
+    perm, spans = _color_plan(colors, m)
+    Ga, Gb = np.asarray(Ga, dtype=float), np.asarray(Gb, dtype=float)
+    WGa = (Wb[a] @ Ga[:, :, None])[:, :, 0]
+    WGb = (Wb[b] @ Gb[:, :, None])[:, :, 0]
+    ga, gb, wga, wgb = (M[perm][:, None, :] for M in (Ga, Gb, WGa, WGb))
+    diag = (np.einsum("cd,cd->c", ga[:, 0], wga[:, 0]) + np.einsum("cd,cd->c", gb[:, 0], wgb[:, 0]))
+    if np.any(diag <= 0):
+        raise InvalidInput("pgs_normal_rows needs rows with a positive diagonal J W Jᵀ (a moving body)")
+    J, plan, _ = _color_matrices(a[perm], b[perm], ga, gb, wga, wgb, spans, nb, d)
+    inv, bp, pp = 1.0 / diag, beta[perm], np.zeros(m)
+    views = [(JK, MK, bp[s:e], pp[s:e], inv[s:e], np.empty(e - s)) for (s, e, JK, MK) in plan]
+    sweeps, res = 0, np.inf
+    for sweeps in range(1, int(max_iter) + 1):
+        for JK, MK, bK, pK, iK, dp in views:
+            w = JK @ v
+            w += bK
+            np.subtract(np.maximum(pK - w * iK, 0.0), pK, out=dp)
+            pK += dp
+            v += MK @ dp
+        res = float(np.max(np.abs(np.minimum(pp, J @ v + bp)), initial=0.0))
+        if res <= tol:
+            break
+    p = np.empty(m)
+    p[perm] = pp
+    return p, res, sweeps, v.reshape(nb, d)
+
+
+def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
+    """J and W Jᵀ as sparse matrices on u (nb·d,), the contacts in color order with k rows each (ga, gb, wga,
+    wgb of shape (m, k, d)): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's. Returns J, per color
+    (start, end, J_K (CSR), (W Jᵀ)_K (CSC)), and the arrays of W Jᵀ (for the warm start's product)."""
+    m, k = ga.shape[:2]
+    w2 = 2 * d
+    cols = np.repeat(np.concatenate([ac[:, None] * d + np.arange(d), bc[:, None] * d + np.arange(d)], axis=1), k, axis=0)
+    dataJ = np.concatenate([ga, -gb], axis=2).reshape(-1)
+    dataM = np.concatenate([wga, -wgb], axis=2).reshape(-1)
+    itype = np.int32 if max(nb * d, k * m * w2) < 2 ** 31 else np.int64      # scipy's own index type: no copies
+    cols, ptr = cols.reshape(-1).astype(itype), np.arange(0, k * m * w2 + 1, w2, dtype=itype)
+    J = sparse.csr_matrix((dataJ, cols, ptr), shape=(k * m, nb * d))
+    plan = []
+    for s, e in spans:
+        lo, hi, loc = k * s * w2, k * e * w2, ptr[:k * (e - s) + 1]
+        JK = sparse.csr_matrix((dataJ[lo:hi], cols[lo:hi], loc), shape=(k * (e - s), nb * d))
+        MK = sparse.csc_matrix((dataM[lo:hi], cols[lo:hi], loc), shape=(nb * d, k * (e - s)))
+        plan.append((s, e, JK, MK))
+    return J, plan, (dataM, cols, ptr)
 
 
 def _transpose_product(dataM, cols, ptr, z, size):
