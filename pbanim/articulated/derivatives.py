@@ -96,6 +96,7 @@ def _rnea_derivatives(tree, q, qd, qdd, f_ext):
         v[i] = vp + vJ
         cv, cJ = crm(v[i]), crm(vJ)                                 # v̂_i×, v̂_J× (v̂×* = −(v̂×)ᵀ)
         a[i] = ap + S @ qdd[vi] + cv @ vJ
+        # BEGIN SOLUTION _rnea_derivatives.forward
         dv_q[i] = X @ dv_q[lam] if lam >= 0 else np.zeros((6, nv))
         dv_d[i] = X @ dv_d[lam] if lam >= 0 else np.zeros((6, nv))
         da_q[i] = X @ da_q[lam] if lam >= 0 else np.zeros((6, nv))
@@ -111,9 +112,11 @@ def _rnea_derivatives(tree, q, qd, qdd, f_ext):
         G = bar(h) - cv.T @ I                                       # ∂(v̂ ×* I v̂)/∂v̂
         df_q[i] = I @ da_q[i] + G @ dv_q[i]
         df_d[i] = I @ da_d[i] + G @ dv_d[i]
+        # END SOLUTION
     dtau_q, dtau_d = np.zeros((nv, nv)), np.zeros((nv, nv))
     for i in reversed(range(n)):                                    # backward: leaves to root
         S, vi, lam, X = A["S"][i], A["vi"][i], tree.parent[i], Xup[i]
+        # BEGIN SOLUTION _rnea_derivatives.backward
         dtau_q[vi] = S.T @ df_q[i]
         dtau_d[vi] = S.T @ df_d[i]
         if lam >= 0:
@@ -121,6 +124,7 @@ def _rnea_derivatives(tree, q, qd, qdd, f_ext):
             df_q[lam] = df_q[lam] + X.T @ df_q[i]
             df_q[lam][:, vi] += X.T @ bar(f[i]) @ S                 # (∂ⁱX_λ/∂q_i)ᵀ f̂_i = ⁱX_λᵀ f̂_i‾ S_i
             df_d[lam] = df_d[lam] + X.T @ df_d[i]
+        # END SOLUTION
     return dtau_q, dtau_d
 
 
@@ -151,10 +155,12 @@ def aba_derivatives(tree: ArticulatedTree, q, qd, tau, f_ext=None) -> tuple[np.n
         qdd = check_result("aba_derivatives", aba_fast(tree, q, qd, tau, f_ext), _HUGE)   # the same q̈ (I5)
         dq, dqd = _rnea_derivatives(tree, q, qd, qdd, f_ext)
         H = _crba(tree, q)
+        # BEGIN SOLUTION aba_derivatives.implicit
         Minv = np.linalg.inv(H)
         Minv = 0.5 * (Minv + Minv.T)
         dqd = dqd + np.diag(tree.arrays()["damping"])
         out = (-Minv @ dq, -Minv @ dqd, Minv)
+        # END SOLUTION
     for x in out:
         check_result("aba_derivatives", x, _HUGE)
     return out

@@ -12,6 +12,7 @@ ch05_rigid_step        05       pbanim/rigid/effects.py           torque of a po
 ch06_impulses          06       pbanim/collision/impulse.py       u, K, Newton's impulse law
 ch07_lcp               07       pbanim/lcp/solve.py               projected Gauss–Seidel for the contact LCP
 ch08_pd_control        08       pbanim/control/pd.py              explicit, stable, implicit PD; torque limits
+ch08_rnea_derivatives  08       pbanim/articulated/derivatives.py ∂τ/∂q, ∂τ/∂q̇ of RNEA; ABA's by H⁻¹
 ch09_pressure          09       pbanim/fluids/grid.py             MAC divergence, gradient, open-face counts
 ch10_impact_gradient   10       pbanim/design/impact.py           event time, δj, the saltation's flow term
 ch12_cloth_spring      12       pbanim/cloth/conditions.py        a spring's force, ∂f/∂x and ∂f/∂v blocks
@@ -25,8 +26,8 @@ until then it may be registered with ``status="pending"`` and the reason (``make
 
 from __future__ import annotations
 
-from . import (checks_cloth, checks_constraints, checks_contact, checks_control, checks_design, checks_fluids,
-               checks_ode, checks_particles, checks_rigid)
+from . import (checks_cloth, checks_constraints, checks_contact, checks_control, checks_derivatives, checks_design,
+               checks_fluids, checks_ode, checks_particles, checks_rigid)
 from .registry import ASSIGNMENTS, Assignment, register
 
 __all__ = ["ASSIGNMENTS"]
@@ -93,3 +94,9 @@ _ready("ch12_cloth_spring", "ch12", "A cloth spring and its Jacobians for large 
        "with P = (𝟙 − ŵŵᵀ)/|d|, B_D = −k_d ŵŵᵀ, and the symmetric B_K that the large step's conjugate gradients "
        "need (exact=False: s clamped at 0, the last term left out). pbanim assembles K = ∂f/∂x and D = ∂f/∂v "
        "from your blocks.", checks_cloth)
+_ready("ch08_rnea_derivatives", "ch08", "Analytical derivatives of RNEA and ABA", "pbanim.articulated.derivatives",
+       "Differentiate the recursive Newton–Euler algorithm along q and q̇ (Carpentier & Mansard 2018): the forward "
+       "pass's ∂v̂_i, ∂â_i, ∂f̂_i with the moved transform's terms (ⁱX_λ v̂_λ)× S_i and (ⁱX_λ â_λ)× S_i "
+       "(_rnea_derivatives.forward), the backward pass ∂τ_i = S_iᵀ ∂f̂_i, ∂f̂_λ += ⁱX_λᵀ ∂f̂_i + ⁱX_λᵀ f̂_i‾ S_i "
+       "(_rnea_derivatives.backward), and ABA's derivatives ∂q̈/∂q = −H⁻¹ ∂τ/∂q, ∂q̈/∂q̇ = −H⁻¹(∂τ/∂q̇ + B), "
+       "∂q̈/∂τ = H⁻¹ (aba_derivatives.implicit). RNEA, CRBA and ABA themselves are given.", checks_derivatives)
