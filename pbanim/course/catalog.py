@@ -15,6 +15,7 @@ ch08_pd_control        08       pbanim/control/pd.py              explicit, stab
 ch08_rnea_derivatives  08       pbanim/articulated/derivatives.py ∂τ/∂q, ∂τ/∂q̇ of RNEA; ABA's by H⁻¹
 ch09_pressure          09       pbanim/fluids/grid.py             MAC divergence, gradient, open-face counts
 ch10_impact_gradient   10       pbanim/design/impact.py           event time, δj, the saltation's flow term
+ch10_contact_sensitivity 10     pbanim/design/stepped_sim.py      δz of a contact step on its active set
 ch12_cloth_spring      12       pbanim/cloth/conditions.py        a spring's force, ∂f/∂x and ∂f/∂v blocks
 =====================  =======  ================================  =========================================
 
@@ -27,7 +28,7 @@ until then it may be registered with ``status="pending"`` and the reason (``make
 from __future__ import annotations
 
 from . import (checks_cloth, checks_constraints, checks_contact, checks_control, checks_derivatives, checks_design,
-               checks_fluids, checks_ode, checks_particles, checks_rigid)
+               checks_design_contact, checks_fluids, checks_ode, checks_particles, checks_rigid)
 from .registry import ASSIGNMENTS, Assignment, register
 
 __all__ = ["ASSIGNMENTS"]
@@ -100,3 +101,10 @@ _ready("ch08_rnea_derivatives", "ch08", "Analytical derivatives of RNEA and ABA"
        "(_rnea_derivatives.forward), the backward pass ∂τ_i = S_iᵀ ∂f̂_i, ∂f̂_λ += ⁱX_λᵀ ∂f̂_i + ⁱX_λᵀ f̂_i‾ S_i "
        "(_rnea_derivatives.backward), and ABA's derivatives ∂q̈/∂q = −H⁻¹ ∂τ/∂q, ∂q̈/∂q̇ = −H⁻¹(∂τ/∂q̇ + B), "
        "∂q̈/∂τ = H⁻¹ (aba_derivatives.implicit). RNEA, CRBA and ABA themselves are given.", checks_derivatives)
+_ready("ch10_contact_sensitivity", "ch10", "∂S/∂u through a contact step: the active set's linear system",
+       "pbanim.design.stepped_sim",
+       "Differentiate one velocity-level contact step (chapter 07's box friction) on its active set "
+       "(contact_step.active_set): build K δz = r with identity rows for a separating contact, the rows of A and "
+       "r = −δw|_z for a sticking one, and for a sliding tangent the normal row of A and δτⱼ − σⱼ μ δλ = σⱼ λ δμ; "
+       "solve it in least squares (redundant contacts). The contact solve, δw|_z and the map from δz to the "
+       "state's tangent are given.", checks_design_contact)

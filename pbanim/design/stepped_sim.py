@@ -223,6 +223,7 @@ def contact_step(scene, y, T, mu: float, dmu, h: float, state0=None, tol: float 
     dun = T6 @ np.einsum("rjk,j->rk", dG[0::3], ut).T + dut @ G[0::3].T
     dbeta[:, 0::3] = np.where(imp, eps * dun, T6 @ (fr.ds * slope[:, None]).T)
     dwz = T6 @ np.einsum("rjk,j->rk", dG, up).T + (dut + dWF + dFz @ Wb[0]) @ G.T + dbeta
+    # BEGIN SOLUTION contact_step.active_set
     K = np.eye(3 * M)
     rhs = np.zeros((p, 3 * M))
     eq = np.zeros(3 * M, bool)
@@ -236,6 +237,7 @@ def contact_step(scene, y, T, mu: float, dmu, h: float, state0=None, tol: float 
     K[3 * ci + 1 + cj, 3 * ci] = -sig * mu
     rhs[:, 3 * ci + 1 + cj] = np.outer(dmu, sig * z[3 * ci])
     dz = np.linalg.lstsq(K, rhs.T, rcond=1e-12)[0].T
+    # END SOLUTION
     gap = np.abs(dz @ K.T - rhs).max(initial=0.0)
     info.consistent = info.solved and bool(gap <= 1e-7 * max(1.0, float(np.abs(rhs).max(initial=0.0))))
     dF = dFz + dz @ G
