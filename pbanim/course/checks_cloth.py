@@ -9,7 +9,7 @@ s = k C + k_d Ċ and the projector P = (𝟙 − ŵŵᵀ)/|d|,
 with the element blocks K_e = ∂f_e/∂x_e = c cᵀ ⊗ B_K and D_e = ∂f_e/∂v_e = c cᵀ ⊗ B_D (c = (1, −1)); with
 ``exact=False`` the symmetric B_K of the large step: s clamped at 0 in front of P and the last term left out.
 The checks evaluate the student's function on springs of their own (no simulation) and compare with
-closed forms and with centred differences of the student's own force (ORACLES J1, J7):
+closed forms and with centred differences of the student's own force (ORACLES J1, J8):
 
 =======================  ==================================================================  ======
 check                    oracle                                                              id
@@ -19,7 +19,7 @@ spring_force             f_a = −(k(|d| − r) + k_d ŵ·u) ŵ, f_b = −f_a (N
 stiffness_fd             K_e = c cᵀ ⊗ B_K equals centred differences of f_e in x (damped,    J1
                          moving springs: the unsymmetric k_d ŵ (P u)ᵀ term included)
 damping_fd               D_e = c cᵀ ⊗ B_D equals differences of f_e in v (f is affine in v)  J1
-string_tension           a spring at rest in velocity resists along ŵ by k and sideways by   J7
+string_tension           a spring at rest in velocity resists along ŵ by k and sideways by   J8
                          its tension over its length, T/L = k(L − r)/L; compressed, the large
                          step's B_K keeps k ŵŵᵀ alone (s clamped at 0)
 =======================  ==================================================================  ======
@@ -144,7 +144,7 @@ def damping_fd(mod):
 
 
 @check(CHECKS, "string_tension", 25, "a stretched spring resists sideways by T/L; the large step clamps a "
-       "compressed one", "J7", public=False, regions=("SpringCondition.pair_terms",))
+       "compressed one", "J8", public=False, regions=("SpringCondition.pair_terms",))
 def string_tension(mod):
     k = np.array([100.0, 100.0, 100.0])
     x = np.zeros((6, 3))
