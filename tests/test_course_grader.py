@@ -3,8 +3,8 @@ the points of the checks that catch it, and student faults (endless loops, exits
 files, wrong signatures and shapes) each cost their check and become one report line.
 
 The checks themselves compare the student's module with the analytic oracles of the chapters
-(ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1): grading the
-reference to 100 % is the test that those oracles hold for pbanim's own code at the checks' tolerances.
+(ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1, J1, J8, L1, L2, L6): grading
+the reference to 100 % is the test that those oracles hold for pbanim's own code at the checks' tolerances.
 """
 
 from __future__ import annotations
@@ -45,8 +45,8 @@ def _swap(old: str, new: str):
 
 @pytest.mark.parametrize("name", sorted(READY))
 def test_reference_scores_100(name, tmp_path):
-    # ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1: every check's
-    # oracle holds for pbanim
+    # ORACLES A1, A3, A5, A7, A8, B1, B2, B5, B7, C1, C3, D1, D3, D4, D8, E2, E3, E6, F1, H1, J1, J8, L1, L2, L6:
+    # every check's oracle holds for pbanim
     rep = grade(name, _reference(tmp_path, name))
     bad = [(r.id, r.status, r.message) for r in rep.results if not r.passed]
     assert rep.score == rep.total == 100 and not bad, bad
@@ -89,7 +89,15 @@ def test_every_required_bug_of_the_issue_is_a_mutant():
                      ("ch08_pd_control", "missing_h_kv"), ("ch08_pd_control", "no_torque_limits"),
                      ("ch09_pressure", "gradient_sign"), ("ch09_pressure", "divergence_without_dx"),
                      ("ch09_pressure", "walls_counted_open"), ("ch09_pressure", "obstacle_faces_open"),
-                     ("ch10_impact_gradient", "no_event_time")]:
+                     ("ch10_impact_gradient", "no_event_time"),
+                     # the chapter parts of issue 32 point 4: cloth, articulated derivatives, contact design
+                     ("ch12_cloth_spring", "geometric_stiffness_sign"), ("ch12_cloth_spring", "missing_projector"),
+                     ("ch12_cloth_spring", "transposed_damping_block"),
+                     ("ch12_cloth_spring", "damping_on_absolute_velocity"),
+                     ("ch08_rnea_derivatives", "motion_force_cross_swapped"),
+                     ("ch08_rnea_derivatives", "missing_parent_velocity"), ("ch08_rnea_derivatives", "backward_sign"),
+                     ("ch10_contact_sensitivity", "sliding_as_sticking"),
+                     ("ch10_contact_sensitivity", "cone_direction_dropped")]:
         assert required in names
 
 

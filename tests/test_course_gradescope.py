@@ -135,3 +135,39 @@ def test_autograder_refuses_bad_arguments(tmp_path, capsys):
     assert main(["course", "autograder", "ch03_constraint", str(tmp_path / "y.zip")]) == 2
     assert "did you mean 'ch03_constraints'" in capsys.readouterr().err
     assert main(["course", "autograder", NAME]) == 2
+
+
+NEW = ["ch08_rnea_derivatives", "ch10_contact_sensitivity", "ch12_cloth_spring"]
+
+
+@pytest.mark.parametrize("name", NEW)
+def test_the_new_assignments_grade_in_the_platforms_layout(name, tmp_path, monkeypatch):
+    # ORACLES J1, J8 (ch12), L1 (ch08), L2, L6 (ch10): the checks' oracles hold for the reference, whose
+    # results.json scores 100 with hidden checks shown after the due date; the starter scores 0
+    from pbanim.course.gradescope import ROOT_VARIABLE, run_autograder
+
+    a = get_assignment(name)
+    monkeypatch.setenv(ROOT_VARIABLE, str(tmp_path))
+    make_assignment(name, tmp_path / "submission" / "starter")
+    starter = run_autograder(name)
+    assert starter["score"] == 0 and len(starter["tests"]) == len(a.checks)
+    assert all(t["output"].startswith("not_implemented") for t in starter["tests"])
+    (tmp_path / "submission" / "starter" / a.filename).write_text(_reference(a), encoding="utf-8")
+    res = run_autograder(name)
+    bad = [(t["name"], t["output"]) for t in res["tests"] if t["score"] != t["max_score"]]
+    assert res["score"] == 100 and not bad, bad
+    assert [t["visibility"] == "visible" for t in res["tests"]] == [c.public for c in a.checks]
+    assert {t["visibility"] for t in res["tests"]} == {"visible", "after_due_date"}
+
+
+def test_the_cloth_autograder_zip_runs_in_the_platforms_layout(tmp_path):
+    # the zip of a new assignment: setup.sh installs its grading edition, run_autograder grades there
+    name = "ch12_cloth_spring"
+    a = get_assignment(name)
+    root, env = _platform(tmp_path, write_autograder(name, tmp_path / "ch12.zip"))
+    make_assignment(name, root / "submission")
+    res = _run(root, env)
+    assert res["score"] == 0 and {t["output"].split(":")[0] for t in res["tests"]} == {"not_implemented"}
+    (root / "submission" / a.filename).write_text(_reference(a), encoding="utf-8")
+    res = _run(root, env)
+    assert res["score"] == 100 and [t["max_score"] for t in res["tests"]] == [c.points for c in a.checks]
