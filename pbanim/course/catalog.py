@@ -1,23 +1,23 @@
 """The assignments of the course, one or more per chapter (registered on import of this module).
 
-=====================  =======  ================================  =========================================
-assignment             chapter  reference module                  the student writes
-=====================  =======  ================================  =========================================
-ch01_particles         01       pbanim/particles/system.py        ẏ = [v, WQ], gravity, drag, symplectic Euler
-ch02_integrators       02       pbanim/ode/methods.py             Euler, symplectic Euler, Verlet, RK tableau
-ch03_constraints       03       pbanim/constraints/effect.py      the multiplier solve with Baumgarte
-ch04_reduced           04       pbanim/reduced/system.py          (JᵀMJ)ü = Jᵀ(Q − M J̇u̇) and Q_C
-ch05_rigid_body        05       pbanim/rigid/bodies.py            I⁻¹_world, ω, Baraff's ẏ
-ch05_rigid_step        05       pbanim/rigid/effects.py           torque of a point force, renormalization
-ch06_impulses          06       pbanim/collision/impulse.py       u, K, Newton's impulse law
-ch07_lcp               07       pbanim/lcp/solve.py               projected Gauss–Seidel for the contact LCP
-ch08_pd_control        08       pbanim/control/pd.py              explicit, stable, implicit PD; torque limits
-ch08_rnea_derivatives  08       pbanim/articulated/derivatives.py ∂τ/∂q, ∂τ/∂q̇ of RNEA; ABA's by H⁻¹
-ch09_pressure          09       pbanim/fluids/grid.py             MAC divergence, gradient, open-face counts
-ch10_impact_gradient   10       pbanim/design/impact.py           event time, δj, the saltation's flow term
-ch10_contact_sensitivity 10     pbanim/design/stepped_sim.py      δz of a contact step on its active set
-ch12_cloth_spring      12       pbanim/cloth/conditions.py        a spring's force, ∂f/∂x and ∂f/∂v blocks
-=====================  =======  ================================  =========================================
+========================  =======  =================================  ============================================
+assignment                chapter  reference module                   the student writes
+========================  =======  =================================  ============================================
+ch01_particles            01       pbanim/particles/system.py         ẏ = [v, WQ], gravity, drag, symplectic Euler
+ch02_integrators          02       pbanim/ode/methods.py              Euler, symplectic Euler, Verlet, RK tableau
+ch03_constraints          03       pbanim/constraints/effect.py       the multiplier solve with Baumgarte
+ch04_reduced              04       pbanim/reduced/system.py           (JᵀMJ)ü = Jᵀ(Q − M J̇u̇) and Q_C
+ch05_rigid_body           05       pbanim/rigid/bodies.py             I⁻¹_world, ω, Baraff's ẏ
+ch05_rigid_step           05       pbanim/rigid/effects.py            torque of a point force, renormalization
+ch06_impulses             06       pbanim/collision/impulse.py        u, K, Newton's impulse law
+ch07_lcp                  07       pbanim/lcp/solve.py                projected Gauss–Seidel for the contact LCP
+ch08_pd_control           08       pbanim/control/pd.py               explicit, stable, implicit PD; torque limits
+ch08_rnea_derivatives     08       pbanim/articulated/derivatives.py  ∂τ/∂q, ∂τ/∂q̇ of RNEA; ABA's by H⁻¹
+ch09_pressure             09       pbanim/fluids/grid.py              MAC divergence, gradient, open-face counts
+ch10_impact_gradient      10       pbanim/design/impact.py            event time, δj, the saltation's flow term
+ch10_contact_sensitivity  10       pbanim/design/stepped_sim.py       δz of a contact step on its active set
+ch12_cloth_spring         12       pbanim/cloth/conditions.py         a spring's force, ∂f/∂x and ∂f/∂v blocks
+========================  =======  =================================  ============================================
 
 Every chapter's assignment is ready. A new one is registered here once its reference module carries
 solution markers and a checks module exists: an :class:`~pbanim.course.registry.Assignment` with

@@ -124,8 +124,7 @@ def _differences(mod, scene, y, mu) -> np.ndarray:
         (yp, mp), (ym, mm) = moved(k, DELTA), moved(k, -DELTA)
         a = array("contact_step(...)[0] (y⁺)", _step(mod, scene, yp, mp)[0], (13,))
         b = array("contact_step(...)[0] (y⁺)", _step(mod, scene, ym, mm)[0], (13,))
-        qa, qb = a[3:7], b[3:7]
-        rel = np.array([qa[0] * qb[0] + qa[1:] @ qb[1:]] + list(-qa[0] * qb[1:] + qb[0] * qa[1:] - np.cross(qa[1:], qb[1:])))
+        rel = quat_multiply(a[3:7], b[3:7] * np.array([1.0, -1.0, -1.0, -1.0]))      # q⁺(+δ) ⊗ q⁺(−δ)⁻¹
         out[k] = np.concatenate([a[:3] - b[:3], _rotvec(rel), a[7:10] - b[7:10], a[10:] - b[10:]]) / (2 * DELTA)
     return out
 
@@ -167,7 +166,8 @@ def sliding_closed_form(mod):
     lam = M * (-erp * gap / H_STEP - (v[2] - G * H_STEP))        # v_n⁺ = −erp s/h, ũ_n = v_n − g h
     close("∂P⁺_t/∂μ", T1[12, 6:8], sigma * lam, rtol=3 * KAPPA, unit="kg m/s",
           why="τⱼ = σⱼ μ λ on the cone's bound: its μ-derivative is σⱼ λ")
-    close("∂P⁺_t/∂P_t", T1[6:8, 6:8], np.eye(2), atol=3 * KAPPA, why="a sliding impulse does not depend on the slip speed")
+    close("∂P⁺_t/∂P_t", T1[6:8, 6:8], np.eye(2), atol=3 * KAPPA,
+          why="a sliding impulse does not depend on the slip speed")
     close("∂P⁺_t/∂P_n", T1[8, 6:8], -sigma * mu, atol=3 * KAPPA,
           why="∂λ/∂P_n = −1 (the normal row prescribes v_n⁺), so ∂τⱼ/∂P_n = −σⱼ μ")
     return f"σλ, 𝟙 and −σμ columns exact to the compliance (λ = {lam:.4f} N s)"
@@ -178,7 +178,8 @@ def sliding_closed_form(mod):
 def sticking_closed_form(mod):
     erp = 0.2
     T1 = _tangents(mod, _scene(), _state(*_STICKING), 0.8, 1)
-    # p_t = −(2/7) m v_c with v_c = v_t + (ω × r)_t, r = −ρ n: the sphere's tangential effective mass m/(1 + mρ²/I) = 2m/7
+    # p_t = −(2/7) m v_c with v_c = v_t + (ω × r)_t, r = −ρ n: the sphere's tangential effective mass
+    # m/(1 + mρ²/I) = 2m/7
     want_P = np.diag([5 / 7, 5 / 7, 0.0])                       # rows δP_x, δP_y, δP_z; columns P⁺
     close("∂P⁺/∂P", T1[6:9, 6:9], want_P, atol=3 * KAPPA, why="2/7 of the contact point's momentum goes into rolling; "
           "the normal row prescribes v_n⁺")
