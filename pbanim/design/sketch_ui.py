@@ -68,10 +68,11 @@ class SketchEditor:
     @contract(scene=Obj(DesignScene), t_end=Real(gt=0), names=Opt(ParameterNames("scene")), u=Opt(Array((None,))),
               h=Real(gt=0), view=Seq(Int(ge=0, le=2), min_len=2, max_len=2), pick_radius=Real(gt=0),
               predict=Flag(), damping=Real(ge=0), mode=Choice(MODES), solver=Choice(SOLVERS),
-              maxiter=Int(ge=1, le=10_000), ax=_AXES)
+              maxiter=Int(ge=1, le=10_000), ax=_AXES, lean=Flag(), blit=Flag(), h_flight=Opt(Real(gt=0)))
     def __init__(self, scene, t_end, *, names=None, u=None, h: float = 0.02, view=(0, 2), pick_radius: float = 12.0,
                  predict: bool = False, damping: float = 1e-3, ax=None, mode: str = "drag", solver: str = "multiple",
-                 maxiter: int = 100) -> None:
+                 maxiter: int = 100, lean: bool = True, blit: bool = True,
+                 h_flight=None) -> None:
         if scene.N != 1:
             raise InvalidInput(f"SketchEditor edits one body's motion; the scene has {scene.N} bodies")
         if view[0] == view[1]:
@@ -84,6 +85,8 @@ class SketchEditor:
         self.damping, self.mode, self.solver, self.maxiter = float(damping), mode, solver, int(maxiter)
         self.grab, self.target, self.residual, self.updates = None, None, 0.0, 0
         self.stroke, self.result, self.prediction_error = [], None, 0.0      # 0 until a drag / a release says
+        self.lean, self.blit, self.path, self.n_impacts, self._bg = bool(lean), bool(blit), "", 0, None
+        self.h_flight = self.h if h_flight is None else float(h_flight)
         if ax is None:
             import matplotlib.pyplot as plt
             ax = plt.subplots(figsize=(7, 4))[1]
@@ -96,48 +99,46 @@ class SketchEditor:
         ax.set_xlabel("xyz"[self.view[0]] + " (m)"), ax.set_ylabel("xyz"[self.view[1]] + " (m)")
         self._ids = [self.canvas.mpl_connect(k, f) for k, f in (("button_press_event", self.press),
                                                                 ("motion_notify_event", self.motion),
-                                                                ("button_release_event", self.release))]
+                                                                ("button_release_event", self.release),
+                                                                ("draw_event", self._forget_background))]
         self._simulate(None)
-        self._redraw()
+        self._redraw(full=True)
         ax.relim(), ax.autoscale_view()
 
     # ----------------------------------------------------------------- the model
     def _simulate(self, t_star):
-        """S and ∂x(t*)/∂u at u (one run). For a sphere in exact flight the run's grid is the whole span (the
-        flight is closed-form; the grid only places recorded states) and the drawn points are the parabolas
-        between its impacts, v⁺ = v⁻ + (j/m) n (:meth:`_parabolas`); otherwise they are the run's grid (step h)."""
-        from .exact import exact_applies
+        """S at the drawn times and x(t*), ∂x(t*)/∂u at u (one run). ``lean``: the lean twin of the scene
+        (:mod:`pbanim.design.lean_ball`, :mod:`pbanim.design.lean_box`) at the drawn times, spaced h; where it
+        does not apply or declines (a graze, a rest, a touch), and with ``lean=False``, the readable
+        :func:`pbanim.design.simulate` on its grid of step h. ``path`` says which ran."""
         from .simulate import simulate
 
-        times = [] if t_star is None else [t_star]
-        closed = exact_applies(self.scene, self.names)
-        tr = simulate(self.scene, self.t_end, self.names, self.u, times=times,
-                      h=max(self.h, self.t_end) if closed else self.h, warn=False, sensitivities=t_star is not None)
-        if closed and not tr.rests and all(i.kind == "plane" for i in tr.impacts):
-            self.t = np.linspace(0.0, self.t_end, int(round(self.t_end / self.h)) + 1)
-            self.X = self._parabolas(tr)
-        else:
-            self.t, self.X = tr.t.copy(), tr.positions(0).copy()
+        if self.lean:
+            out = self._lean_run(t_star)
+            if out is not None:
+                self.t, self.X, x_star, A, self.n_impacts = out
+                if t_star is not None:
+                    self.x_star, self.A = x_star, A
+                self.path = "lean"
+                return
+        tr = simulate(self.scene, self.t_end, self.names, self.u, times=[] if t_star is None else [t_star], h=self.h,
+                      warn=False, sensitivities=t_star is not None)
+        self.t, self.X, self.path, self.n_impacts = tr.t.copy(), tr.positions(0).copy(), "readable", len(tr.impacts)
         if t_star is not None:
             self.x_star, self.A = tr.position(0, t_star), tr.d_position(0, t_star)
-        return tr
 
-    def _parabolas(self, tr):
-        """x(t) at the drawn times from x₀, v₀ and the run's impacts: x + v s + ½ g s² between them."""
-        d = self.scene.values(self.names, self.u)
-        x, v, t0, g = d["x0"].copy(), d["v0"].copy(), 0.0, self.scene.gravity
-        X = np.empty((len(self.t), 3))
-        hits = sorted(tr.impacts, key=lambda i: i.t) + [None]
-        for imp in hits:
-            t1 = self.t_end if imp is None else imp.t
-            sel = (self.t >= t0) & ((self.t < t1) if imp is not None else (self.t <= t1))
-            s = self.t[sel] - t0
-            X[sel] = x + s[:, None] * v + 0.5 * (s * s)[:, None] * g
-            if imp is not None:
-                s = t1 - t0
-                x, v, t0 = x + v * s + 0.5 * g * s * s, v + g * s, t1
-                v = v + imp.impulse / d["mass0"][0] * self.scene.planes[imp.other].normal
-        return X
+    def _lean_run(self, t_star):
+        from .lean_ball import _ball_run, ball_applies
+        from .lean_box import _box_run, box_applies
+
+        t = np.linspace(0.0, self.t_end, int(round(self.t_end / self.h)) + 1)
+        if ball_applies(self.scene, self.names):
+            out = _ball_run(self.scene, self.names, self.u, self.t_end, t, t_star)
+        elif box_applies(self.scene, self.names):
+            out = _box_run(self.scene, self.names, self.u, self.t_end, t, t_star, self.h_flight)
+        else:
+            return None
+        return None if out is None else (t,) + tuple(out[:3]) + (len(out[3]),)
 
     def _linearize(self):
         """x(t) and ∂x(t)/∂u at every drawn time (the prediction's model, made at press and release)."""
@@ -154,7 +155,9 @@ class SketchEditor:
             D0[:, sl["x0"]] = np.eye(3)
         self.lin_D = np.array([D0] + [tr.d_position(0, t) for t in grid])
 
-    def _redraw(self):
+    def _redraw(self, full: bool = False):
+        """Set the artists' data and show them: by blitting where the canvas can (the axes without the motion
+        cached once per view, then only the three artists drawn over it), else a full redraw."""
         self.line.set_data(self.X[:, self.view[0]], self.X[:, self.view[1]])
         if self.grab is not None:
             x = self.X[self.grab_index]
@@ -163,7 +166,30 @@ class SketchEditor:
             self.marker.set_data([], [])
         S = np.array(self.stroke).reshape(-1, 2)
         self.ink.set_data(S[:, 0], S[:, 1])
-        self.canvas.draw_idle()
+        c, dyn = self.canvas, (self.line, self.marker, self.ink)
+        if full or not self.blit or not getattr(c, "supports_blit", False):
+            c.draw_idle()
+            return
+        key = (tuple(self.ax.viewLim.bounds), tuple(self.ax.bbox.bounds))
+        if self._bg is None or self._bg_key != key:
+            for art in dyn:
+                art.set_visible(False)
+            self._capturing = True
+            try:
+                c.draw()
+            finally:
+                self._capturing = False
+                for art in dyn:
+                    art.set_visible(True)
+            self._bg, self._bg_key = c.copy_from_bbox(self.ax.bbox), key
+        c.restore_region(self._bg)
+        for art in dyn:
+            self.ax.draw_artist(art)
+        c.blit(self.ax.bbox)
+
+    def _forget_background(self, event) -> None:
+        if not getattr(self, "_capturing", False):
+            self._bg = None
 
     def _draw_plane(self, plane):
         n, o = plane.normal[self.view], plane.offset * plane.normal[self.view]

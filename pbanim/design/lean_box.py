@@ -1,0 +1,320 @@
+"""The lean twin of S(t, u) for the sketching interface's tumbling box (chapter 10, issue 30 point 5; part
+of :mod:`pbanim.design`).
+
+Between impacts a rigid body under gravity flies the deck's free-flight equations, and only the rotation
+needs a step: the translation is a parabola (RK4 is exact on it), L is constant, and the variational
+equations split the same way (δẋ = W δP, δṖ = 0, δL̇ = 0). So the lean step integrates the quaternion
+and its tangent rows alone, on a handful of floats and one (p × 7) product per stage:
+
+    q̇ = ½ Ξ(q) ω,   ω = I_w⁻¹ L,   I_w⁻¹ = R diag(I⁻¹) Rᵀ,
+    [δq̇ δL̇] = [δq δL] Aᵀ,   A = [[½ (Ξ D + Ω(ω)), ½ Ξ I_w⁻¹], [0, 0]],   D = (I_w⁻¹[L]× − [ω]×) Ξᵀ 2/|q|²,
+
+the same stages as :func:`pbanim.design.flight.augmented_step` (RK4, then q ← q/|q|, δq ← (𝟙 − q̂q̂ᵀ)δq/|q|)
+and the same rate d y₁/dh as :func:`pbanim.design.flight.step_rate` (k₂' = A(Y₂) k₁/2, …). Everything else
+is the readable run's own law, called once per impact: the grid is :func:`pbanim.ode.driver.step_grid`
+between 0, t* and t_end; the impact is located by :func:`pbanim.ode.events.crossings` (Brent on the RK4
+partial step) and applied by :func:`pbanim.design.impact.apply_impact` with the step's rate, then
+T⁺ −= δτ ⊗ rate of the rest of the step — so the result equals :func:`pbanim.design.simulate` to roundoff
+(ORACLES L5). The drawn positions between grid points are the parabolas x_a + W P_a s + ½ g s² from the
+last impact: the flight grid step ``h_flight`` needs only the accuracy of the impacts, not the spacing of
+the drawing.
+
+Where the readable run does more — a gap that dips inside a step (a touch, a hidden impact), a contact
+touching at the start or after an impact, an impact slower than ``SLOW`` (a graze, a rest), more than
+``MAX_IMPACTS`` — :func:`_box_run` returns None and the caller runs the readable S.
+
+==========  ==============  ========  ===========================================
+symbol      code            shape     meaning
+==========  ==============  ========  ===========================================
+x, q, P, L  ``x, q, P, L``  3,4,3,3   the state (Baraff's layout)
+Φᵀ          ``Tx … TL``     (p, ·)    tangent rows, one per parameter
+A           ``A7``          (7, 7)    the (q, L) block of ∂f/∂y at a stage
+==========  ==============  ========  ===========================================
+
+Limiting cases: ω = 0 leaves q and its rows fixed (A = 0 on δq, ½ Ξ I_w⁻¹ on δL); a cube (isotropic I) has
+ω constant and the step reproduces exp(½ωh) ⊗ q to the RK4 error.
+
+References: Popović et al. SIGGRAPH 2000 §4–5; Hairer, Nørsett & Wanner I §II.4 (RK and linearization
+commute); Baraff, SIGGRAPH 1997 notes (q̇ = ½ ω q).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..collision import Sphere
+from ..ode.driver import step_grid
+from ..ode.events import crossings, make_events
+from .impact import Features, apply_impact
+from .rest import hermite_dips
+
+__all__: list = []
+
+SLOW = 1e-2
+MAX_IMPACTS = 100
+NAMES = {"x0", "theta0", "v0", "omega0"}
+
+
+def box_applies(scene, names) -> bool:
+    """One body that is not a sphere, free parameters among x₀, θ₀, v₀, ω₀ (no mass, inertia, plane or ε)."""
+    return scene.N == 1 and not isinstance(scene.bodies[0].shape, Sphere) and set(names) <= NAMES
+
+
+class _Flight:
+    """The lean (q, δq, δL) RK4 step of one body (module docstring), with its constants: the stage states on
+    floats, then the four stages' matrices A built at once, then the tangent stages (one product each)."""
+
+    def __init__(self, W, m, Iinv, g):
+        self.W, self.m, self.g = W, m, g
+        self.Iinv = np.asarray(Iinv, dtype=float)
+        self.i1, self.i2, self.i3 = (float(v) for v in Iinv)
+
+    def stage(self, q, L):
+        """(q̇, Ξ(q), ω, I_w⁻¹ as 6 floats) at the stage quaternion q (not unit), on floats."""
+        w0, x1, x2, x3 = q
+        s = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
+        xx, yy, zz, xy, xz, yz = s * x1 * x1, s * x2 * x2, s * x3 * x3, s * x1 * x2, s * x1 * x3, s * x2 * x3
+        wx, wy, wz = s * w0 * x1, s * w0 * x2, s * w0 * x3
+        r00, r01, r02 = 1.0 - yy - zz, xy - wz, xz + wy
+        r10, r11, r12 = xy + wz, 1.0 - xx - zz, yz - wx
+        r20, r21, r22 = xz - wy, yz + wx, 1.0 - xx - yy
+        i1, i2, i3 = self.i1, self.i2, self.i3
+        l0, l1, l2 = L
+        b0 = i1 * (r00 * l0 + r10 * l1 + r20 * l2)               # I⁻¹ Rᵀ L
+        b1 = i2 * (r01 * l0 + r11 * l1 + r21 * l2)
+        b2 = i3 * (r02 * l0 + r12 * l1 + r22 * l2)
+        a, b, c = r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2, r20 * b0 + r21 * b1 + r22 * b2
+        Iw = (i1 * r00 * r00 + i2 * r01 * r01 + i3 * r02 * r02, i1 * r00 * r10 + i2 * r01 * r11 + i3 * r02 * r12,
+              i1 * r00 * r20 + i2 * r01 * r21 + i3 * r02 * r22, i1 * r10 * r10 + i2 * r11 * r11 + i3 * r12 * r12,
+              i1 * r10 * r20 + i2 * r11 * r21 + i3 * r12 * r22, i1 * r20 * r20 + i2 * r21 * r21 + i3 * r22 * r22)
+        qd = (0.5 * (-x1 * a - x2 * b - x3 * c), 0.5 * (w0 * a + x3 * b - x2 * c),
+              0.5 * (-x3 * a + w0 * b + x1 * c), 0.5 * (x2 * a - x1 * b + w0 * c))
+        X = ((-x1, -x2, -x3), (w0, x3, -x2), (-x3, w0, x1), (x2, -x1, w0))
+        return qd, X, (a, b, c), Iw, s
+
+    def _matrices(self, st, L):
+        """The (q, L) blocks of ∂f/∂y at the four stages: Aqq (4, 4, 4) and AqL (4, 4, 3) (module docstring)."""
+        X = np.array([e[1] for e in st])
+        I6 = [e[3] for e in st]
+        Iw = np.array([((u[0], u[1], u[2]), (u[1], u[3], u[4]), (u[2], u[4], u[5])) for u in I6])
+        l0, l1, l2 = L
+        SL = np.array(((0.0, -l2, l1), (l2, 0.0, -l0), (-l1, l0, 0.0)))
+        Om = np.array([((0.0, -a, -b, -c), (a, 0.0, -c, b), (b, c, 0.0, -a), (c, -b, a, 0.0)) for a, b, c in
+                       (e[2] for e in st)])
+        Sw = Om[:, 1:, 1:]
+        sc = np.array([e[4] for e in st])[:, None, None]
+        Aqq = 0.5 * (X @ (((Iw @ SL - Sw) @ X.transpose(0, 2, 1)) * sc) + Om)
+        return Aqq, 0.5 * (X @ Iw)
+
+    def state(self, y, h):
+        """One RK4 step of the state alone, normalized (:func:`pbanim.design.flight.plain_step`)."""
+        return self._advance(y, h)[0]
+
+    def _advance(self, y, h):
+        q, L = y[3:7], y[10:]
+        q0 = tuple(q)
+        st1 = self.stage(q0, L)
+        k1 = st1[0]
+        st2 = self.stage(tuple(qi + 0.5 * h * ki for qi, ki in zip(q0, k1)), L)
+        k2 = st2[0]
+        st3 = self.stage(tuple(qi + 0.5 * h * ki for qi, ki in zip(q0, k2)), L)
+        k3 = st3[0]
+        st4 = self.stage(tuple(qi + h * ki for qi, ki in zip(q0, k3)), L)
+        k4 = st4[0]
+        q1 = q + h / 6.0 * (np.array(k1) + 2.0 * np.array(k2) + 2.0 * np.array(k3) + np.array(k4))
+        n = math.sqrt(q1 @ q1)
+        y1 = np.empty(13)
+        y1[:3] = y[:3] + h * self.W * y[7:10] + 0.5 * h * h * self.g
+        y1[3:7], y1[7:10], y1[10:] = q1 / n, y[7:10] + h * self.m * self.g, L
+        return y1, n, (st1, st2, st3, st4)
+
+    def step(self, y, T, h, rate=False):
+        """One RK4 step of (y, T) (T may be None), normalized; with ``rate`` also its d y₁/dh (13,)."""
+        y1, n, st = self._advance(y, h)
+        q1 = y1[3:7]
+        if T is None and not rate:
+            return y1, None
+        Aqq, AqL = self._matrices(st, y[10:])
+        T1 = None
+        if T is not None:
+            Zq = T[:, 3:7]
+            B = T[:, 10:] @ AqL.transpose(0, 2, 1)              # δL's part of each stage (δL̇ = 0)
+            K1 = Zq @ Aqq[0].T + B[0]
+            K2 = (Zq + 0.5 * h * K1) @ Aqq[1].T + B[1]
+            K3 = (Zq + 0.5 * h * K2) @ Aqq[2].T + B[2]
+            K4 = (Zq + h * K3) @ Aqq[3].T + B[3]
+            T1 = T.copy()
+            T1[:, :3] += h * self.W * T[:, 7:10]
+            Tq = Zq + h / 6.0 * (K1 + 2.0 * K2 + 2.0 * K3 + K4)
+            Tq -= np.outer(Tq @ q1, q1)
+            T1[:, 3:7] = Tq / n
+        if not rate:
+            return y1, T1
+        k1, k2, k3, k4 = (np.array(e[0]) for e in st)
+        d2 = Aqq[1] @ (0.5 * k1)
+        d3 = Aqq[2] @ (0.5 * (k2 + h * d2))
+        d4 = Aqq[3] @ (k3 + h * d3)
+        r = np.zeros(13)
+        r[:3] = self.W * y[7:10] + h * self.g
+        rq = (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0 + h / 6.0 * (2.0 * d2 + 2.0 * d3 + d4)
+        r[3:7] = (rq - (rq @ q1) * q1) / n
+        r[7:10] = self.m * self.g
+        return y1, T1, r
+
+    def rhs(self, y):
+        """f(y) (13,), the flow's rate after an impact (the −f⁺δτ of the saltation)."""
+        f = np.zeros(13)
+        f[:3], f[3:7], f[7:10] = self.W * y[7:10], self.stage(tuple(y[3:7]), y[10:])[0], self.m * self.g
+        return f
+
+    def omega(self, y):
+        """ω (world) at a unit-or-not state y, on floats."""
+        return self.stage(tuple(y[3:7]), y[10:])[2]
+
+
+def _box_run(scene, names, u, t_end: float, t_draw: np.ndarray, t_star, h: float):
+    """(X at t_draw (K, 3), x(t*), ∂x(t*)/∂u (3, p), impacts [(t, feature, speed)]) or None (see the module).
+    The flight grid has step ``h`` between 0, t* and t_end, as :func:`pbanim.design.simulate` with
+    times=[t*]."""
+    from .simulate import _model
+
+    d = scene.values(names, u)
+    sl = scene.slices(names)
+    p = sum(s.stop - s.start for s in sl.values())
+    y, Phi, dm, dIinv = scene._initial_state(d, sl, p)
+    model = _model(scene, d, dm, dIinv)
+    fl = _Flight(float(model.W[0]), float(model.m[0]), model.Iinv[0], model.g)
+    T = Phi.T.copy() if t_star is not None else None
+    nrm = np.array([d[f"normal{j}"] / np.linalg.norm(d[f"normal{j}"]) for j in range(len(scene.planes))]).reshape(-1, 3)
+    feat = Features(scene)
+    off, nrm_t = feat.off, [tuple(n) for n in nrm]
+    c0j = np.einsum("ji,ji->j", nrm, feat.anchors[:len(nrm)])      # a box vertex has radius 0
+    eps, dn0, de0 = float(d["restitution"][0]), np.zeros((p, len(scene.planes), 3)), np.zeros(p)
+
+    nv = len(off) // max(1, len(nrm))                  # the features are plane-major: k = j·nv + vertex
+    verts = off[:nv]
+
+    def gaps_rates(yy):
+        """Every feature's gap and its rate ġ = n·v + (R s)·(n × ω), as one product with the body frame."""
+        R = _rot(yy[3:7])
+        a, b, c = fl.omega(yy)
+        M = np.concatenate([nrm @ R, np.array([(n1 * c - n2 * b, n2 * a - n0 * c, n0 * b - n1 * a)
+                                               for n0, n1, n2 in nrm_t]) @ R], axis=0).T       # (3, 2J)
+        V = verts @ M
+        J = len(nrm_t)
+        return (V[:, :J] + (nrm @ yy[:3] - c0j)).T.ravel(), (V[:, J:] + nrm @ (fl.W * yy[7:10])).T.ravel()
+
+    def gap(k):
+        """The gap of feature k alone (for Brent), on floats."""
+        (n0, n1, n2), (s0, s1, s2), cj = nrm_t[k // nv], tuple(verts[k % nv]), float(c0j[k // nv])
+
+        def fn(tt, yv):
+            w0, x1, x2, x3 = yv[3:7]
+            sc = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
+            xx, yy_, zz, xy, xz, yz = sc * x1 * x1, sc * x2 * x2, sc * x3 * x3, sc * x1 * x2, sc * x1 * x3, sc * x2 * x3
+            wx, wy, wz = sc * w0 * x1, sc * w0 * x2, sc * w0 * x3
+            p0 = yv[0] + (1.0 - yy_ - zz) * s0 + (xy - wz) * s1 + (xz + wy) * s2
+            p1 = yv[1] + (xy + wz) * s0 + (1.0 - xx - zz) * s1 + (yz - wx) * s2
+            p2 = yv[2] + (xz - wy) * s0 + (yz + wx) * s1 + (1.0 - xx - yy_) * s2
+            return n0 * p0 + n1 * p1 + n2 * p2 - cj
+        return fn
+
+    tol = lambda yy: 1e-9 * max(1.0, float(np.abs(yy[:3]).max()))  # noqa: E731  (simulate's contact_tol)
+    g0, d0 = gaps_rates(y)
+    if np.any(g0 <= max(tol(y), 1e-6)):
+        return None                                     # touching at the start: the readable settle decides
+    breaks = sorted({0.0, float(t_end)} | ({float(t_star)} if t_star is not None else set()))
+    anchors, impacts = [(0.0, y[:3].copy(), y[7:10].copy())], []
+    x_star = A = None
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        grid = step_grid(a, b, h)
+        for i in range(grid.n_steps):
+            t = a + i * grid.h
+            t1 = b if i == grid.n_steps - 1 else a + (i + 1) * grid.h
+            dtau = None
+            for _ in range(4 * MAX_IMPACTS + 4):
+                if dtau is None:
+                    y1, T1 = fl.step(y, T, t1 - t)
+                else:
+                    y1, T1, r = fl.step(y, T, t1 - t, rate=True)
+                    T1 -= np.outer(dtau, r)
+                g1, d1 = gaps_rates(y1)
+                tl = tol(y)
+                if np.any((np.abs(g0) <= tl) & (g1 < -tl)):
+                    return None                         # touching, then inside: the readable settle decides
+                y0 = y
+                part = lambda s_, y0=y0: fl.state(y0, s_)  # noqa: E731  (the RK4 partial step)
+                found = _dips(part, t, y0, g0, d0, g1, d1, t1 - t, tl, gap)
+                if found is None:
+                    return None                         # a tangent touch: the readable run decides
+                hit = np.flatnonzero((g0 > tl) & (g1 <= 0))
+                if hit.size:
+                    evs = make_events([gap(k) for k in hit])
+                    te, _, ev = crossings(evs, g0[hit], t, y0, t1, y1, t1 - t, part)[0]
+                    found.append((te, int(hit[evs.index(ev)])))
+                if not found:
+                    y, T, g0, d0 = y1, T1, g1, d1
+                    break
+                te, k = min(found)
+                if T is None:
+                    ye, Te, rate = fl.state(y0, te - t), None, None
+                else:
+                    ye, Te, rate = fl.step(y0, T, te - t, rate=True)
+                    if dtau is not None:
+                        Te -= np.outer(dtau, rate)
+                y, T, imp, dtau = apply_impact(model, feat, k, te, ye, Te, nrm, dn0, eps, de0, rate=rate)
+                g0, d0 = gaps_rates(y)
+                others = np.abs(g0) <= max(tol(y), 1e-6)
+                others[k] = False
+                if imp.speed < SLOW or d0[k] < SLOW or others.any() or len(impacts) >= MAX_IMPACTS:
+                    return None                         # a graze, a rest, a second contact: the readable run
+                impacts.append((te, k, imp.speed))
+                anchors.append((te, y[:3].copy(), y[7:10].copy()))
+                t = te
+                if t1 - t <= 1e-14 * max(1.0, abs(t1)):
+                    if T is not None:
+                        T = T - np.outer(dtau, fl.rhs(y))
+                    break
+            else:
+                return None
+        if t_star is not None and b == float(t_star):
+            x_star, A = y[:3].copy(), T[:, :3].T.copy()
+    X = np.empty((len(t_draw), 3))
+    ta = np.array([a_[0] for a_ in anchors])
+    idx = np.searchsorted(ta, t_draw, side="right") - 1
+    for j, (t_a, x_a, P_a) in enumerate(anchors):
+        sel = idx == j
+        s = t_draw[sel] - t_a
+        X[sel] = x_a + s[:, None] * (fl.W * P_a) + 0.5 * (s * s)[:, None] * fl.g
+    return X, x_star, A, impacts
+
+
+def _dips(part, t, y, g0, d0, g1, d1, h, tol, gap):
+    """The readable run's test for a gap that dips inside the step: the Hermite candidates, then the true
+    minimum along the partial step (bounded Brent); [(t_e, feature)] of the hidden impacts (in and out, located
+    by Brent), or None when a gap touches (within ``tol``, no impulse: the readable run records it)."""
+    from scipy.optimize import minimize_scalar
+
+    out = []
+    for k in hermite_dips(g0, d0, g1, d1, h, tol):
+        fn = gap(k)
+        low = minimize_scalar(lambda s: fn(0.0, part(s)), bounds=(0.0, h), method="bounded",
+                              options={"xatol": 1e-9 * h})
+        s, gk = float(low.x), float(low.fun)
+        if gk < 0:
+            ev = make_events([fn])
+            out.append((crossings(ev, [g0[k]], t, y, t + s, part(s), s, part)[0][0], int(k)))
+        elif gk <= tol:
+            return None
+    return out
+
+
+def _rot(q):
+    w0, x1, x2, x3 = q
+    s = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
+    xx, yy, zz, xy, xz, yz = s * x1 * x1, s * x2 * x2, s * x3 * x3, s * x1 * x2, s * x1 * x3, s * x2 * x3
+    wx, wy, wz = s * w0 * x1, s * w0 * x2, s * w0 * x3
+    return np.array([[1.0 - yy - zz, xy - wz, xz + wy], [xy + wz, 1.0 - xx - zz, yz - wx],
+                     [xz - wy, yz + wx, 1.0 - xx - yy]])
