@@ -30,6 +30,7 @@ import numpy as np
 from . import Goal, Report, Table, median_time
 from ..cloth import Cloth, Sheet, large_step, newton_step, xpbd_step
 from ..cloth.large_steps import PRECONDITIONERS
+from ..cloth.ode_blocks import second_order_jac
 from ..contracts import Choice, Flag, Int, Real, Seq, contract, unchecked
 from ..errors import PbanimError
 
@@ -104,9 +105,9 @@ def _run(cloth, method, setting, t_end, budget):
         return _steps(cloth, lambda y, h: _xpbd_step(cloth, y, h, setting, 1), 1.0 / 60.0, t_end, budget)
     f = _budgeted(rhs, budget)
     atol = setting * 1e-2
-    if method.startswith("pbanim"):
+    if method.startswith("pbanim"):                     # the stage systems at half size (Schur complement)
         r = solve(f, (0.0, t_end), y0, method="rodas4" if "RODAS" in method else "radau5", rtol=setting,
-                  atol=atol, jac=jac)
+                  atol=atol, jac=second_order_jac(cloth))
         return r.y[:n, -1]
     if method in ("scipy BDF", "scipy Radau"):
         r = si.solve_ivp(f, (0.0, t_end), y0, method=method[6:], rtol=setting, atol=atol, jac=jac)

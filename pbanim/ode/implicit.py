@@ -27,6 +27,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from .second_order import SecondOrderJacobian
 from .signature import JAC, STEP, finite_step
 from ..contracts import Array, Func, Int, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult, check_result
@@ -260,6 +261,10 @@ def jacobian(fun, t, y, f, jac):
     if jac is None:
         return _fd_jacobian(fun, t, y, f)
     J = jac(t, y) if callable(jac) else jac
+    if isinstance(J, SecondOrderJacobian):       # [[0, I], [Jx, Jv]] in blocks: solved at half size
+        if J.shape != (y.shape[-1],) * 2 or y.ndim != 1:
+            raise InvalidInput(f"jac returned a SecondOrderJacobian of shape {J.shape} for y of shape {y.shape}")
+        return J
     if sp.issparse(J):
         if y.ndim != 1:
             raise InvalidInput("jac must be a dense (K, n, n) array in batch mode, got a sparse matrix")
@@ -291,7 +296,10 @@ def stage_solver(sigma, J, t, h):
 
 
 def factor(sigma, J):
-    """A solver r ↦ (σI − J)⁻¹ r for a real or complex shift σ; batched over leading axes of a dense J."""
+    """A solver r ↦ (σI − J)⁻¹ r for a real or complex shift σ; batched over leading axes of a dense J; a
+    :class:`~pbanim.ode.second_order.SecondOrderJacobian` through its n × n Schur complement."""
+    if isinstance(J, SecondOrderJacobian):
+        return J.factor(sigma)
     if sp.issparse(J):
         n = J.shape[0]
         lu = sp.linalg.splu(sp.csc_matrix(sigma * sp.identity(n, format="csc", dtype=complex if np.iscomplexobj(sigma) else float) - J))

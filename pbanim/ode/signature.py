@@ -22,7 +22,8 @@ from ..errors import SimulationDiverged
 __all__ = ["STEP", "JAC", "finite_step"]
 
 JAC = Either(Func(), Array(("n", "n")), Obj("scipy.sparse:sparray", "scipy.sparse:spmatrix",
-                                              what="a scipy.sparse matrix"))
+                                              what="a scipy.sparse matrix"),
+             Obj("pbanim.ode.second_order:SecondOrderJacobian"))
 
 STEP = dict(fun=Func(), t=Real(), y=Array(("n",), batch="first"), h=Either(Real(gt=0), Real(lt=0)),
             split=Opt(Int(ge=0)), jac=Opt(JAC))

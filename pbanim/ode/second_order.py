@@ -1,0 +1,125 @@
+"""The Jacobian of a second-order system in block form, and its stage systems solved at half size.
+
+For y = (x, v) with ẋ = v, v̇ = a(x, v) (the deck's y = [q, v], a = W Q), the Jacobian is
+
+    J = [[0, I], [Jx, Jv]],      Jx = ∂a/∂x,  Jv = ∂a/∂v      (n × n blocks; J is 2n × 2n),
+
+and every stage system of the stiff methods, (σI − J)(p, u) = (r₁, r₂) with σ = 1/(hγ) (RODAS4) or
+γ/h, (α − iβ)/h (Radau IIA), reduces to one n × n system in the velocity part (block elimination: the
+first row gives p = (r₁ + u)/σ, put into the second):
+
+    S u = σ r₂ + Jx r₁,      S = σ²I − σJv − Jx,      p = (r₁ + u)/σ.
+
+S is the Schur complement of the block σI in σI − J, times σ. For a mass–spring system Jx = W K, Jv = W D
+and M S = σ²M − σD − K: Baraff & Witkin's system matrix with h ↦ 1/σ. One sparse LU of S replaces one of
+the 2n × 2n matrix, whose fill and factor time are several times larger (the identity blocks add
+nothing to eliminate but double the graph the ordering sees). The solve is exact arithmetic's block
+elimination, so the two agree to roundoff (κ(S)·ε; ORACLES J7 checks it).
+
+:class:`SecondOrderJacobian` carries Jx and Jv; ``jac(t, y)`` may return one to :func:`pbanim.ode.solve`
+(methods ``"rodas4"``, ``"radau5"``, ``"implicit_euler"``), and :func:`pbanim.ode.implicit.factor`
+dispatches to :meth:`SecondOrderJacobian.factor`. ``tocsr()`` gives the full J (for another solver).
+
+Notation
+--------
+==========  ===========  =======================================
+symbol      code         meaning
+==========  ===========  =======================================
+Jx, Jv      ``jx, jv``   ∂a/∂x, ∂a/∂v (sparse or dense, n × n)
+σ           ``sigma``    the shift (real or complex)
+S           ``S``        σ²I − σJv − Jx, factored once per σ
+==========  ===========  =======================================
+
+Limiting cases: Jv = 0 (undamped) leaves S = σ²I − Jx; Jx = Jv = 0 gives u = r₂/σ, p = (r₁ + u)/σ, the
+inverse of σI − [[0, I], [0, 0]].
+
+References: Hairer & Wanner, *Solving ODEs II*, §IV.8 (the linear algebra of implicit methods; second-order
+systems); Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998, §3 (the same reduction for
+implicit Euler).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..contracts import Array, Either, Obj, contract
+from ..errors import InvalidInput
+
+__all__ = ["SecondOrderJacobian"]
+
+_BLOCK = Either(Array((None, None)), Obj("scipy.sparse:sparray", "scipy.sparse:spmatrix",
+                                         what="a scipy.sparse matrix"))
+
+
+@contract(jx=_BLOCK, jv=_BLOCK)
+class SecondOrderJacobian:
+    """J = [[0, I], [Jx, Jv]] for y = (x, v), ẋ = v, v̇ = a(x, v), kept as its two blocks (module docstring).
+
+    >>> J = SecondOrderJacobian(np.array([[-4.0]]), np.array([[0.0]]))     # ẍ = −4x
+    >>> solve = J.factor(2.0)                                                 # (2I − J)⁻¹
+    >>> solve(np.array([2.0, 0.0])).tolist()                                  # [[2, −1], [4, 2]]⁻¹ (2, 0)
+    [0.5, -1.0]
+    """
+
+    def __init__(self, jx, jv) -> None:
+        if jx.shape != jv.shape or jx.shape[0] != jx.shape[1]:
+            raise InvalidInput(f"SecondOrderJacobian: Jx and Jv must be square of one shape, got {jx.shape} "
+                               f"and {jv.shape}")
+        self.sparse = sp.issparse(jx) or sp.issparse(jv)
+        self.jx = sp.csc_matrix(jx) if self.sparse else np.asarray(jx, dtype=float)
+        self.jv = sp.csc_matrix(jv) if self.sparse else np.asarray(jv, dtype=float)
+        self.n = jx.shape[0]
+        self.shape = (2 * self.n, 2 * self.n)
+
+    def tocsr(self) -> sp.csr_matrix:
+        """The full 2n × 2n J (sparse)."""
+        n = self.n
+        return sp.bmat([[None, sp.identity(n)], [sp.csr_matrix(self.jx), sp.csr_matrix(self.jv)]],
+                       format="csr")
+
+    def __matmul__(self, y):
+        """J y = (y_v, Jx y_x + Jv y_v)."""
+        n = self.n
+        return np.concatenate([y[n:], self.jx @ y[:n] + self.jv @ y[n:]])
+
+    def schur(self, sigma):
+        """S = σ²I − σJv − Jx (sparse CSC, or dense), complex when σ is."""
+        if self.sparse:
+            eye = sp.identity(self.n, format="csc", dtype=complex if np.iscomplexobj(sigma) else float)
+            return sp.csc_matrix((sigma * sigma) * eye - sigma * self.jv - self.jx)
+        S = -sigma * self.jv - self.jx
+        S[np.diag_indices(self.n)] += sigma * sigma
+        return S
+
+    def factor(self, sigma):
+        """A solver (r₁, r₂) ↦ (σI − J)⁻¹(r₁, r₂) through one factorization of S (one per σ, reused).
+
+        Raises ``np.linalg.LinAlgError`` (dense) or ``RuntimeError`` (sparse) when S is singular, as
+        :func:`pbanim.ode.implicit.factor` does."""
+        n, jx = self.n, self.jx
+        if self.sparse:
+            # S has a symmetric pattern (M S is symmetric for a mass–spring system): a minimum-degree order
+            # of S + Sᵀ and diagonal pivots where they are within 10 of the column's largest entry
+            # (partial pivoting otherwise). Measured on the N = 32 cloth (3066 unknowns, falling): 693k
+            # entries in L + U and 86 ms, against 877k and 249 ms with SuperLU's default column order.
+            solve_s = spla.splu(self.schur(sigma), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.1,
+                                options={"SymmetricMode": True}).solve
+        else:
+            lu = sla.lu_factor(self.schur(sigma), check_finite=False)
+            solve_s = lambda r: sla.lu_solve(lu, r, check_finite=False)  # noqa: E731
+
+        def solve(r):
+            r1, r2 = r[:n], r[n:]
+            u = solve_s(sigma * r2 + jx @ r1)
+            out = np.empty(2 * n, dtype=u.dtype)
+            out[n:] = u
+            out[:n] = (r1 + u) / sigma
+            return out
+        return solve
+
+    def __repr__(self) -> str:
+        kind = "sparse" if self.sparse else "dense"
+        return f"SecondOrderJacobian(n = {self.n}, {kind})"
