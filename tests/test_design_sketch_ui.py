@@ -134,3 +134,99 @@ def test_the_chapter_opens_the_editor():
         assert ed.grab == pytest.approx(ed.t[70]) and ed.residual < 1e-3 and shown(ed)
     finally:
         plt.close(ed.ax.figure)
+
+
+# ---------------------------------------------------------------- the lean twins and the blitted redraw (ORACLES L7)
+def twins(scene, T, h, i, **kw):
+    """The lean editor and the readable one on the same scene, both grabbed at drawn time index i."""
+    from matplotlib.figure import Figure
+
+    eds = [SketchEditor(scene, T, h=h, ax=Figure().subplots(), lean=lean, **kw) for lean in (True, False)]
+    for ed in eds:
+        ed.grab, ed.grab_index = float(ed.t[i]), i
+        ed._simulate(ed.grab)
+    return eds
+
+
+def test_lean_ball_equals_the_readable_s_through_five_bounces():
+    # ORACLES L7: a ball between a floor and a wall, five bounces: the lean twin's drawn motion, x(t*) and
+    # ∂x(t*)/∂u equal the readable S (simulate on the grid h) to 1e-12 (measured 2e-15), at the start and
+    # after three drag updates have moved u.
+    from pbanim.bench.design import ball_scene
+
+    lean, ref = twins(ball_scene(), 2.7, 0.02, 70)
+    for _ in range(2):
+        assert (lean.path, ref.path, lean.n_impacts, ref.n_impacts) == ("lean", "readable", 5, 5)
+        assert np.abs(lean.t - ref.t).max() < 1e-12 and np.abs(lean.X - ref.X).max() < 1e-12
+        assert np.abs(lean.x_star - ref.x_star).max() < 1e-12 and np.abs(lean.A - ref.A).max() < 1e-12
+        for ed in (lean, ref):
+            ed.target = ed.X[70] + np.array([0.05, 0.0, 0.04])
+            for _ in range(3):
+                ed.step()
+        assert np.abs(lean.u - ref.u).max() < 1e-10
+
+
+def test_lean_box_equals_the_readable_s_at_the_same_flight_step():
+    # ORACLES L7: a tumbling box (anisotropic inertia, four corner impacts on a floor and a wall): at the
+    # same grid step the lean twin (RK4 of the rotation alone, the readable event and impact laws) equals
+    # simulate to 1e-11 in the drawn motion, x(t*) and ∂x(t*)/∂u (measured 4e-14).
+    from pbanim.bench.design import box_scene
+
+    lean, ref = twins(box_scene(), 1.0, 0.01, 50)
+    assert (lean.path, ref.path, lean.n_impacts, ref.n_impacts) == ("lean", "readable", 4, 4)
+    assert np.abs(lean.t - ref.t).max() < 1e-12 and np.abs(lean.X - ref.X).max() < 1e-11
+    assert np.abs(lean.x_star - ref.x_star).max() < 1e-11 and np.abs(lean.A - ref.A).max() < 1e-11
+
+
+def test_lean_box_on_a_coarse_flight_grid():
+    # ORACLES L7: with a flight step of 0.02 s under a drawing every 5 ms, x(t*) and ∂x(t*)/∂u equal
+    # simulate at h = 0.02 to 1e-11 (the same discrete flow; measured 6e-16) and the drawn positions (the
+    # parabolas between the located impacts) lie within 1e-4 m of the readable S at h = 5 ms (measured 6e-6).
+    from pbanim.bench.design import box_scene
+
+    from matplotlib.figure import Figure
+
+    sc = box_scene()
+    ed = SketchEditor(sc, 1.0, h=0.005, h_flight=0.02, ax=Figure().subplots())
+    i = 100
+    ed.grab, ed.grab_index = float(ed.t[i]), i
+    ed._simulate(ed.grab)
+    assert ed.path == "lean" and ed.n_impacts == 4
+    tr = simulate(sc, 1.0, ed.names, ed.u, times=[ed.grab], h=0.02, warn=False)
+    assert np.abs(tr.position(0, ed.grab) - ed.x_star).max() < 1e-11
+    assert np.abs(tr.d_position(0, ed.grab) - ed.A).max() < 1e-11
+    assert shown(ed, tol=1e-4) and not shown(ed, tol=1e-9)       # a coarse flight, not the fine grid's S
+
+
+def test_the_lean_ball_declines_a_rest_and_the_readable_s_is_drawn():
+    # ORACLES L7, D1: a ball whose bounces die out (ε = 0.3) comes to rest on the floor: the lean twin
+    # declines (its chain rule has no resting contact) and the editor draws the readable S, which rests.
+    b = DesignScene([DesignBody(Sphere(0.1), position=[0, 0, 0.5], velocity=[0.5, 0.0, 0.0])], [Plane([0, 0, 1])],
+                    restitution=0.3)
+    ed = SketchEditor(b, 2.0, h=0.02)
+    assert ed.path == "readable" and shown(ed)
+    assert abs(ed.X[-1, 2] - 0.1) < 1e-9                     # resting: the centre one radius above the floor
+
+
+def test_blitted_drag_shows_the_same_pixels_as_a_full_redraw():
+    # ORACLES L7: a drag event redraws by blitting (the axes cached without the motion, the three artists
+    # drawn over it); the canvas then holds the picture a full redraw makes, pixel for pixel up to the
+    # antialiased crossings of the motion with the plane lines (< 0.1 % of the pixels differ; measured 0).
+    import matplotlib.pyplot as plt
+
+    ed = SketchEditor(ball(), 2.0, h=0.02)
+    try:
+        ed.canvas.draw()
+        x = ed.X[60].copy()
+        send(ed, "button_press_event", x[0], x[2])
+        send(ed, "motion_notify_event", x[0] + 0.05, x[2] + 0.05)
+        assert ed._bg is not None                              # the blit path ran
+        blit = np.asarray(ed.canvas.buffer_rgba()).copy()
+        ed.canvas.draw()
+        full = np.asarray(ed.canvas.buffer_rgba())
+        assert np.any(blit != 0) and np.mean(np.any(blit != full, axis=2)) < 1e-3
+        ed.line.set_data([], [])                               # and the test can see a missing motion
+        ed.canvas.draw()
+        assert np.mean(np.any(np.asarray(ed.canvas.buffer_rgba()) != blit, axis=2)) > 1e-3
+    finally:
+        plt.close(ed.ax.figure)
