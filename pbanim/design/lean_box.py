@@ -74,12 +74,7 @@ class _Flight:
     def stage(self, q, L):
         """(q̇, Ξ(q), ω, I_w⁻¹ as 6 floats) at the stage quaternion q (not unit), on floats."""
         w0, x1, x2, x3 = q
-        s = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
-        xx, yy, zz, xy, xz, yz = s * x1 * x1, s * x2 * x2, s * x3 * x3, s * x1 * x2, s * x1 * x3, s * x2 * x3
-        wx, wy, wz = s * w0 * x1, s * w0 * x2, s * w0 * x3
-        r00, r01, r02 = 1.0 - yy - zz, xy - wz, xz + wy
-        r10, r11, r12 = xy + wz, 1.0 - xx - zz, yz - wx
-        r20, r21, r22 = xz - wy, yz + wx, 1.0 - xx - yy
+        r00, r01, r02, r10, r11, r12, r20, r21, r22, s = _rot_floats(q)
         i1, i2, i3 = self.i1, self.i2, self.i3
         l0, l1, l2 = L
         b0 = i1 * (r00 * l0 + r10 * l1 + r20 * l2)               # I⁻¹ Rᵀ L
@@ -211,13 +206,10 @@ def _box_run(scene, names, u, t_end: float, t_draw: np.ndarray, t_star, h: float
         (n0, n1, n2), (s0, s1, s2), cj = nrm_t[k // nv], tuple(verts[k % nv]), float(c0j[k // nv])
 
         def fn(tt, yv):
-            w0, x1, x2, x3 = yv[3:7]
-            sc = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
-            xx, yy_, zz, xy, xz, yz = sc * x1 * x1, sc * x2 * x2, sc * x3 * x3, sc * x1 * x2, sc * x1 * x3, sc * x2 * x3
-            wx, wy, wz = sc * w0 * x1, sc * w0 * x2, sc * w0 * x3
-            p0 = yv[0] + (1.0 - yy_ - zz) * s0 + (xy - wz) * s1 + (xz + wy) * s2
-            p1 = yv[1] + (xy + wz) * s0 + (1.0 - xx - zz) * s1 + (yz - wx) * s2
-            p2 = yv[2] + (xz - wy) * s0 + (yz + wx) * s1 + (1.0 - xx - yy_) * s2
+            r00, r01, r02, r10, r11, r12, r20, r21, r22, _ = _rot_floats(yv[3:7])
+            p0 = yv[0] + r00 * s0 + r01 * s1 + r02 * s2
+            p1 = yv[1] + r10 * s0 + r11 * s1 + r12 * s2
+            p2 = yv[2] + r20 * s0 + r21 * s1 + r22 * s2
             return n0 * p0 + n1 * p1 + n2 * p2 - cj
         return fn
 
@@ -311,10 +303,15 @@ def _dips(part, t, y, g0, d0, g1, d1, h, tol, gap):
     return out
 
 
-def _rot(q):
+def _rot_floats(q):
+    """The nine entries of R(q/|q|) (row by row) and s = 2/|q|², on floats: the formula of
+    :func:`pbanim.rigid.quat_to_matrix` for the few quaternions of one step."""
     w0, x1, x2, x3 = q
     s = 2.0 / (w0 * w0 + x1 * x1 + x2 * x2 + x3 * x3)
     xx, yy, zz, xy, xz, yz = s * x1 * x1, s * x2 * x2, s * x3 * x3, s * x1 * x2, s * x1 * x3, s * x2 * x3
     wx, wy, wz = s * w0 * x1, s * w0 * x2, s * w0 * x3
-    return np.array([[1.0 - yy - zz, xy - wz, xz + wy], [xy + wz, 1.0 - xx - zz, yz - wx],
-                     [xz - wy, yz + wx, 1.0 - xx - yy]])
+    return (1.0 - yy - zz, xy - wz, xz + wy, xy + wz, 1.0 - xx - zz, yz - wx, xz - wy, yz + wx, 1.0 - xx - yy, s)
+
+
+def _rot(q):
+    return np.array(_rot_floats(q)[:9]).reshape(3, 3)
