@@ -21,6 +21,15 @@ cell with an interactive backend) projected on two world axes, and listens to th
   search over impact sequences (:mod:`pbanim.design.sequences`, ``solver="sequences"``), with the stroke's
   last point as the position goal at t_end.
 
+**At the pace of the mouse** (≥ 30 exact updates a second, ``pbanim bench design``): S and ∂x(t*)/∂u come
+from the scene's lean twin — a ball's parabolas and the chain rule through its impacts
+(:mod:`pbanim.design.lean_ball`), a box's rotation alone stepped with its tangent rows on a flight grid
+``h_flight`` (:mod:`pbanim.design.lean_box`; the drawing between grid points is the parabola from the last
+impact) — each equal to :func:`pbanim.design.simulate` (ORACLES L7); where a twin does not apply or
+declines (a rest, a graze, a touch), and with ``lean=False``, the readable S runs (``path`` says which).
+The redraw blits: the axes without the motion are cached once per view and only the three artists are drawn
+over them (``blit=False``, or a canvas that cannot blit: a full redraw).
+
 Everything the editor does goes through its handlers (``press``, ``motion``, ``release``), which take
 matplotlib :class:`~matplotlib.backend_bases.MouseEvent` objects: a test synthesizes the events on the
 Agg backend and checks the state after each (``u``, ``grab``, ``residual``, ``updates``, ``stroke``).
@@ -63,7 +72,8 @@ SOLVERS = ("multiple", "sequences")
 class SketchEditor:
     """An interactive editor of S(t, u) (module docstring). ``ax``: the matplotlib axes to draw in (default
     a new pyplot figure); ``view``: the two world axes shown (default x, z); ``h``: the simulation's grid
-    step, which is also the spacing of the drawn points."""
+    step, which is also the spacing of the drawn points; ``h_flight``: the lean box's flight step (default h);
+    ``lean``, ``blit``: the fast paths of the module docstring (on by default)."""
 
     @contract(scene=Obj(DesignScene), t_end=Real(gt=0), names=Opt(ParameterNames("scene")), u=Opt(Array((None,))),
               h=Real(gt=0), view=Seq(Int(ge=0, le=2), min_len=2, max_len=2), pick_radius=Real(gt=0),
