@@ -134,6 +134,12 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     if controller is not None and (gait is not WALK or feedback is not True or servo != "explicit"):
         raise InvalidInput("simulate_walk: give either controller (which carries its own gait, feedback and "
                            "servo) or gait, feedback and servo, not both")
+    parts = walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller)
+    return run_walk(parts, push, new_state(), lean, record_every)
+
+
+def walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller=None) -> tuple:
+    """(kernel, ground, stepper, controller (reset), step grid, q₀, q̇₀): what a walk is set up with."""
     tree = planar_biped()
     kernel = PlanarKernel(tree)
     ground = PlanarGround(slope, friction)
@@ -142,8 +148,21 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     ctrl.reset()
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
     q0, qd0 = start_state(kernel, ground)
-    ts, qs, qds, coms = [0.0], [q0.copy()], [qd0.copy()], [kernel.centre_of_mass(q0)]
-    state = {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
+    return kernel, ground, stepper, ctrl, grid, q0, qd0
+
+
+def new_state() -> dict:
+    """The loop's bookkeeping at the start of a walk (events, machine entries, push, strikes)."""
+    return {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
+
+
+def run_walk(parts: tuple, push, state: dict, lean: bool, record_every: int, *, records=None, wrap=None,
+             y0=None) -> WalkResult:
+    """Drive the walk of ``parts`` (:func:`walker`) over its grid. ``records`` (t, q, q̇, c lists, default: the
+    start state's), ``wrap`` (a function of the step function, returning the one to drive) and ``y0`` (the
+    state handed to the driver) let :mod:`.walk_branch` continue a walk from a saved state."""
+    kernel, ground, stepper, ctrl, grid, q0, qd0 = parts
+    ts, qs, qds, coms = records or ([0.0], [q0.copy()], [qd0.copy()], [kernel.centre_of_mass(q0)])
     run = (kernel, ground, stepper, ctrl, push, state)
     check_every = 1
     if lean and _leanable(ctrl, kernel):
@@ -153,21 +172,25 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
         check_every = grid.n_steps             # the lean step returns finite states only (else the readable raises)
     else:
         advance = _readable_advance(*run)
+    record = None
+    if wrap is not None:
+        advance, record = wrap(advance)
 
-    def record(t1, y1):
-        ts.append(t1), qs.append(y1[:9].copy()), qds.append(y1[9:].copy())
-        coms.append(kernel.centre_of_mass(y1[:9]))
+    def record_state(t1, y1):
+        if record is None or record():
+            ts.append(t1), qs.append(y1[:9].copy()), qds.append(y1[9:].copy())
+            coms.append(kernel.centre_of_mass(y1[:9]))
 
     start = time.perf_counter()
     fell, fall_time, cause = False, None, ""
     try:
-        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every,
-              check_every=check_every)
+        drive(advance, grid, np.concatenate([q0, qd0]) if y0 is None else y0, record=record_state,
+              record_every=record_every, check_every=check_every)
     except Fell:
         fell, (fall_time, cause) = True, state["fall"]
     wall = time.perf_counter() - start
     return WalkResult(t=np.array(ts), q=np.array(qs), qd=np.array(qds), trace=list(ctrl.fsm.trace), fell=fell,
-                      fall_time=fall_time, fall_cause=cause, wall_time=wall, h=h, com=np.array(coms),
+                      fall_time=fall_time, fall_cause=cause, wall_time=wall, h=grid.h, com=np.array(coms),
                       strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]))
 
 
