@@ -67,7 +67,7 @@ class _Flight:
     floats, then the four stages' matrices A built at once, then the tangent stages (one product each)."""
 
     def __init__(self, W, m, Iinv, g):
-        self.W, self.m, self.g = W, m, g
+        self.W, self.m, self.g, self.gl = W, m, g, tuple(float(v) for v in g)
         self.Iinv = np.asarray(Iinv, dtype=float)
         self.i1, self.i2, self.i3 = (float(v) for v in Iinv)
 
@@ -108,21 +108,26 @@ class _Flight:
         return self._advance(y, h)[0]
 
     def _advance(self, y, h):
-        q, L = y[3:7], y[10:]
-        q0 = tuple(q)
-        st1 = self.stage(q0, L)
-        k1 = st1[0]
-        st2 = self.stage(tuple(qi + 0.5 * h * ki for qi, ki in zip(q0, k1)), L)
-        k2 = st2[0]
-        st3 = self.stage(tuple(qi + 0.5 * h * ki for qi, ki in zip(q0, k2)), L)
-        k3 = st3[0]
-        st4 = self.stage(tuple(qi + h * ki for qi, ki in zip(q0, k3)), L)
-        k4 = st4[0]
-        q1 = q + h / 6.0 * (np.array(k1) + 2.0 * np.array(k2) + 2.0 * np.array(k3) + np.array(k4))
-        n = math.sqrt(q1 @ q1)
-        y1 = np.empty(13)
-        y1[:3] = y[:3] + h * self.W * y[7:10] + 0.5 * h * h * self.g
-        y1[3:7], y1[7:10], y1[10:] = q1 / n, y[7:10] + h * self.m * self.g, L
+        """(y₁, |q₁| before the normalization, the four stages) of one RK4 step of the state, on floats."""
+        x0, x1, x2, w0, v1, v2, v3, p0, p1, p2 = y[:10].tolist()
+        L = y[10:]
+        st1 = self.stage((w0, v1, v2, v3), L)
+        a1, b1, c1, d1 = st1[0]
+        hh = 0.5 * h
+        st2 = self.stage((w0 + hh * a1, v1 + hh * b1, v2 + hh * c1, v3 + hh * d1), L)
+        a2, b2, c2, d2 = st2[0]
+        st3 = self.stage((w0 + hh * a2, v1 + hh * b2, v2 + hh * c2, v3 + hh * d2), L)
+        a3, b3, c3, d3 = st3[0]
+        st4 = self.stage((w0 + h * a3, v1 + h * b3, v2 + h * c3, v3 + h * d3), L)
+        a4, b4, c4, d4 = st4[0]
+        h6 = h / 6.0
+        q = (w0 + h6 * (a1 + 2.0 * a2 + 2.0 * a3 + a4), v1 + h6 * (b1 + 2.0 * b2 + 2.0 * b3 + b4),
+             v2 + h6 * (c1 + 2.0 * c2 + 2.0 * c3 + c4), v3 + h6 * (d1 + 2.0 * d2 + 2.0 * d3 + d4))
+        n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        W, m, (g0, g1, g2), hg = self.W, self.m, self.gl, 0.5 * h * h
+        y1 = np.array((x0 + h * W * p0 + hg * g0, x1 + h * W * p1 + hg * g1, x2 + h * W * p2 + hg * g2,
+                       q[0] / n, q[1] / n, q[2] / n, q[3] / n, p0 + h * m * g0, p1 + h * m * g1, p2 + h * m * g2,
+                       *L.tolist()))
         return y1, n, (st1, st2, st3, st4)
 
     def step(self, y, T, h, rate=False):
@@ -157,6 +162,35 @@ class _Flight:
         r[3:7] = (rq - (rq @ q1) * q1) / n
         r[7:10] = self.m * self.g
         return y1, T1, r
+
+    def transport(self, pending, T, L):
+        """T carried through the pending steps [(stages, |q₁|, q̂₁, h)] (no impact among them, so L is one):
+        each step's tangent map built at once for all of them — the RK4 stages linearized,
+        M = 𝟙 + h/6 (K₁ + 2K₂ + 2K₃ + K₄) with K₁ = A₁, K₂ = A₂(𝟙 + h/2 K₁), …, then the projection
+        (𝟙 − q̂q̂ᵀ)/|q₁| — and applied in order (one product per step)."""
+        k = len(pending)
+        Aqq, AqL = self._matrices([e for p in pending for e in p[0]], L)
+        Aqq, AqL = Aqq.reshape(k, 4, 4, 4), AqL.reshape(k, 4, 4, 3)
+        h = np.array([p[3] for p in pending])[:, None, None]
+        I4 = np.eye(4)
+        Kz, Kl = Aqq[:, 0], AqL[:, 0]
+        Mz, Ml = Kz.copy(), Kl.copy()
+        for i, c in ((1, 0.5), (2, 0.5), (3, 1.0)):
+            Kz, Kl = Aqq[:, i] @ (I4 + c * h * Kz), Aqq[:, i] @ (c * h * Kl) + AqL[:, i]
+            w = 1.0 if i == 3 else 2.0
+            Mz, Ml = Mz + w * Kz, Ml + w * Kl
+        qh = np.array([p[2] for p in pending])
+        P = (I4 - qh[:, :, None] * qh[:, None, :]) / np.array([p[1] for p in pending])[:, None, None]
+        Pz, Pl = P @ (I4 + h / 6.0 * Mz), P @ (h / 6.0 * Ml)
+        T = T.copy()
+        C = np.einsum("pl,kql->kpq", T[:, 10:], Pl)
+        PzT = Pz.transpose(0, 2, 1)
+        Tq = T[:, 3:7]
+        for j in range(k):
+            Tq = Tq @ PzT[j] + C[j]
+        T[:, 3:7] = Tq
+        T[:, :3] += float(h.sum()) * self.W * T[:, 7:10]
+        return T
 
     def rhs(self, y):
         """f(y) (13,), the flow's rate after an impact (the −f⁺δτ of the saltation)."""
@@ -213,13 +247,14 @@ def _box_run(scene, names, u, t_end: float, t_draw: np.ndarray, t_star, h: float
             return n0 * p0 + n1 * p1 + n2 * p2 - cj
         return fn
 
-    tol = lambda yy: 1e-9 * max(1.0, float(np.abs(yy[:3]).max()))  # noqa: E731  (simulate's contact_tol)
+    tol = lambda yy: 1e-9 * max(1.0, *(abs(v) for v in yy[:3].tolist()))  # noqa: E731  (simulate's contact_tol)
     g0, d0 = gaps_rates(y)
     if np.any(g0 <= max(tol(y), 1e-6)):
         return None                                     # touching at the start: the readable settle decides
     breaks = sorted({0.0, float(t_end)} | ({float(t_star)} if t_star is not None else set()))
     anchors, impacts = [(0.0, y[:3].copy(), y[7:10].copy())], []
     x_star = A = None
+    pending = []                                        # steps whose tangent map is not applied yet
     for a, b in zip(breaks[:-1], breaks[1:]):
         grid = step_grid(a, b, h)
         for i in range(grid.n_steps):
@@ -227,29 +262,37 @@ def _box_run(scene, names, u, t_end: float, t_draw: np.ndarray, t_star, h: float
             t1 = b if i == grid.n_steps - 1 else a + (i + 1) * grid.h
             dtau = None
             for _ in range(4 * MAX_IMPACTS + 4):
-                if dtau is None:
-                    y1, T1 = fl.step(y, T, t1 - t)
+                if dtau is None:                        # the state now, its tangent when needed (transport)
+                    y1, n1, st = fl._advance(y, t1 - t)
+                    T1 = None
                 else:
                     y1, T1, r = fl.step(y, T, t1 - t, rate=True)
                     T1 -= np.outer(dtau, r)
                 g1, d1 = gaps_rates(y1)
                 tl = tol(y)
-                if np.any((np.abs(g0) <= tl) & (g1 < -tl)):
+                low = float(g1.min()) <= tl                  # else no gap can end the step inside or touching
+                if low and np.any((np.abs(g0) <= tl) & (g1 < -tl)):
                     return None                         # touching, then inside: the readable settle decides
                 y0 = y
                 part = lambda s_, y0=y0: fl.state(y0, s_)  # noqa: E731  (the RK4 partial step)
                 found = _dips(part, t, y0, g0, d0, g1, d1, t1 - t, tl, gap)
                 if found is None:
                     return None                         # a tangent touch: the readable run decides
-                hit = np.flatnonzero((g0 > tl) & (g1 <= 0))
-                if hit.size:
+                hit = np.flatnonzero((g0 > tl) & (g1 <= 0)) if low else ()
+                if len(hit):
                     evs = make_events([gap(k) for k in hit])
                     te, _, ev = crossings(evs, g0[hit], t, y0, t1, y1, t1 - t, part)[0]
                     found.append((te, int(hit[evs.index(ev)])))
                 if not found:
-                    y, T, g0, d0 = y1, T1, g1, d1
+                    if dtau is None and T is not None:
+                        pending.append((st, n1, y1[3:7], t1 - t))
+                    else:
+                        T = T1
+                    y, g0, d0 = y1, g1, d1
                     break
                 te, k = min(found)
+                if pending:
+                    T, pending = fl.transport(pending, T, y[10:]), []
                 if T is None:
                     ye, Te, rate = fl.state(y0, te - t), None, None
                 else:
@@ -272,7 +315,10 @@ def _box_run(scene, names, u, t_end: float, t_draw: np.ndarray, t_star, h: float
             else:
                 return None
         if t_star is not None and b == float(t_star):
+            if pending:
+                T, pending = fl.transport(pending, T, y[10:]), []
             x_star, A = y[:3].copy(), T[:, :3].T.copy()
+            T = None                                    # after t*: the drawing needs positions only
     X = np.empty((len(t_draw), 3))
     ta = np.array([a_[0] for a_ in anchors])
     idx = np.searchsorted(ta, t_draw, side="right") - 1
