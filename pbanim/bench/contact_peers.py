@@ -196,8 +196,10 @@ def _new_scene(scene: str, quick: bool) -> dict:
             "half": sc.info.get("half_extents"), "radius": sc.info.get("radius"), "L": sc.info.get("box_half")}
 
 
-def _mjcf_new(scene: str, S: dict, h: float, iterations: int) -> str:
+def _mjcf_new(scene: str, S: dict, h: float, iterations: int, options: dict | None = None) -> str:
     mu = S["mu"]
+    o = options or {}
+    soft = "".join(f' {k}="{mjcf_numbers(*o[k])}"' for k in ("solref", "solimp") if k in o)
     if scene == "stack":
         geom = f'type="box" size="{mjcf_numbers(*S["half"])}"'
         walls = '    <geom name="ground" type="plane" size="10 10 0.1"/>'
@@ -210,7 +212,7 @@ def _mjcf_new(scene: str, S: dict, h: float, iterations: int) -> str:
     bodies = "\n".join(f'    <body name="b{k}" pos="{mjcf_numbers(*x)}"><freejoint/><geom {geom} mass="1"/></body>'
                        for k, x in enumerate(S["x0"]))
     return (f'<mujoco model="pbanim-{scene}">\n  <option timestep="{mjcf_numbers(h)}" gravity="{mjcf_numbers(0, 0, -G)}" '
-            f'iterations="{int(iterations)}"/>\n  <default><geom friction="{mjcf_numbers(mu)} 0.005 0.0001"/></default>\n'
+            f'iterations="{int(iterations)}"/>\n  <default><geom friction="{mjcf_numbers(mu)} 0.005 0.0001"{soft}/></default>\n'
             f"  <worldbody>\n{walls}\n{bodies}\n  </worldbody>\n</mujoco>\n")
 
 
@@ -233,14 +235,22 @@ MJ_SOLVERS = ("newton", "cg", "pgs")
 
 
 def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int, *, solver: str | None = None,
-                 budget: float = float("inf")) -> dict:
+                 budget: float = float("inf"), options: dict | None = None) -> dict:
     """:func:`settle_run` on a scene given by :func:`scene_numbers` ("stack": boxes on the ground, "pile":
     spheres in the open box |x|, |y| ≤ L): cost of the stepping call alone per step and per simulated second;
     over the last third of the run the drift (top box / highest centre) and the deepest contact.
 
     ``solver``: MuJoCo's (one of :data:`MJ_SOLVERS`; None: its default, Newton). ``budget``: seconds of stepping
     after which the run stops; then ``over`` is True, ``t_reached`` the simulated time reached, cost the wall
-    time per simulated second so far, and drift and penetration NaN (the scene has not settled)."""
+    time per simulated second so far, and drift and penetration NaN (the scene has not settled).
+
+    ``options``: the peer's own contact settings beyond step and iterations — MuJoCo: "solref" (time constant,
+    damping ratio) and "solimp" (d₀, d_width, width) on every geom, "noslip" iterations; PyBullet: "erp" (its
+    ERP and contact ERP), "substeps" (numSubSteps)."""
+    o = dict(options or {})
+    allowed = {"mujoco": {"solref", "solimp", "noslip"}, "pybullet": {"erp", "substeps"}}.get(engine, set())
+    if set(o) - allowed:
+        raise InvalidInput(f"options for {engine} are among {sorted(allowed)}, got {sorted(o)}")
     if engine not in ("pybullet", "mujoco"):
         raise InvalidInput(f"engine must be 'pybullet' or 'mujoco', got {engine!r}")
     if solver is not None and (engine != "mujoco" or solver not in MJ_SOLVERS):
@@ -253,7 +263,9 @@ def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int, *,
     if engine == "mujoco":
         import mujoco
 
-        model = mujoco.MjModel.from_xml_string(_mjcf_new(scene, S, h, iterations))
+        model = mujoco.MjModel.from_xml_string(_mjcf_new(scene, S, h, iterations, o))
+        if "noslip" in o:
+            model.opt.noslip_iterations = int(o["noslip"])
         if solver is not None:
             model.opt.solver = getattr(mujoco.mjtSolver, f"mjSOL_{solver.upper()}")
         data = mujoco.MjData(model)
@@ -276,6 +288,10 @@ def settle_scene(engine: str, scene: str, S: dict, h: float, iterations: int, *,
             pb.setGravity(0.0, 0.0, -G, **kw)
             pb.setTimeStep(h, **kw)
             pb.setPhysicsEngineParameter(numSolverIterations=int(iterations), **kw)
+            if "erp" in o:
+                pb.setPhysicsEngineParameter(erp=float(o["erp"]), contactERP=float(o["erp"]), **kw)
+            if "substeps" in o:
+                pb.setPhysicsEngineParameter(numSubSteps=int(o["substeps"]), **kw)
             fr = float(np.sqrt(S["mu"]))                 # PyBullet multiplies the two frictions of a pair
             statics = [pb.createMultiBody(0.0, pb.createCollisionShape(pb.GEOM_PLANE, **kw), **kw)]
             if scene == "stack":
