@@ -178,16 +178,38 @@ class FigureContext:
 
     @contract(fig=_FIG, update=Func(), frames=Int(ge=1, le=10_000), fps=Int(ge=1, le=100), suffix=Text())
     def save_gif(self, fig, update: Callable[[int], Any], frames: int, fps: int = 20, suffix: str = "") -> Path | None:
-        """Write an animated GIF by calling ``update(i)`` for each frame (Pillow writer)."""
+        """Write an animated GIF by calling ``update(i)`` for each frame (the frames of matplotlib's Pillow
+        writer, bit for bit: each frame is rendered once, where ``FuncAnimation.save`` renders it twice)."""
         path = self._path(suffix, "gif")
         if path is not None:
-            from matplotlib.animation import FuncAnimation, PillowWriter
-
-            anim = FuncAnimation(fig, update, frames=frames, blit=False)
-            anim.save(path, writer=PillowWriter(fps=fps), dpi=self.dpi or GIF_DPI[self.style])
+            _write_gif(fig, update, frames, fps, self.dpi or GIF_DPI[self.style], path)
             self.files.append(path)
         pyplot().close(fig)
         return path
+
+
+def _write_gif(fig, update: Callable[[int], Any], frames: int, fps: int, dpi: float, path: Path) -> None:
+    """The GIF that ``FuncAnimation(fig, update, frames).save(path, PillowWriter(fps), dpi)`` writes: the same
+    first call ``update(0)`` (its initial draw), then per frame ``update(i)``, one Agg render at ``dpi`` and
+    the RGBA buffer (RGB when opaque), saved by Pillow with the same options."""
+    from PIL import Image
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(fig) if not isinstance(fig.canvas, FigureCanvasAgg) else fig.canvas
+    images = []
+    old_dpi = fig.dpi
+    update(0)
+    try:
+        fig.dpi = dpi
+        for i in range(frames):
+            update(i)
+            canvas.draw()
+            buf = canvas.buffer_rgba()
+            im = Image.frombuffer("RGBA", (buf.shape[1], buf.shape[0]), buf, "raw", "RGBA", 0, 1)
+            images.append(im.copy() if im.getextrema()[3][0] < 255 else im.convert("RGB"))
+    finally:
+        fig.dpi = old_dpi
+    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
 
 
 @contract(chapters=Opt(Either(Seq(Text()), Obj(set, frozenset, what="a set of chapter names"))))
