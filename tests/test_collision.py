@@ -1155,19 +1155,19 @@ def test_lean_sphere_response_equals_the_readable_one(kind, T):
     from pbanim.collision import lean_spheres as lean_mod
 
     counts = [0, 0]                          # responses answered on floats, handed to the readable one
-    respond = lean_mod.LeanSpheres.respond
+    respond = lean_mod.LeanSpheres.floats    # what the array response and the scene's float plan both call
 
     def counted(self, *a):
         out = respond(self, *a)
         counts[out is None] += 1
         return out
 
-    lean_mod.LeanSpheres.respond = counted
+    lean_mod.LeanSpheres.floats = counted
     try:
         sa = _sphere_scene(kind, True)
         a = sa.simulate(T, 1e-3, "symplectic_euler")
     finally:
-        lean_mod.LeanSpheres.respond = respond
+        lean_mod.LeanSpheres.floats = respond
     sb = _sphere_scene(kind, False)
     b = sb.simulate(T, 1e-3, "symplectic_euler")
     ca, cb = sa.effects[-1], sb.effects[-1]
@@ -1222,3 +1222,108 @@ def test_scenes_the_float_response_does_not_cover_take_the_readable_one(change):
     ok = Collisions(radius=0.4)
     Scene(ParticleSystem([[float(i), 0.0] for i in range(3)]), [ok])
     assert ok._lean is not None
+
+
+# ------------------------------------------------------------------------------------------------
+# the float plan of a small particle scene with the collision effect (pbanim.particles.lean; ORACLES D17, A16)
+# ------------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind, T", [("cradle", 0.3), ("box", 2.0), ("3-D", 2.0)])
+def test_the_float_plan_runs_the_whole_collision_step_as_the_readable_step(kind, T):
+    # ORACLES D17 and A16: symplectic Euler's kick and drift and the sphere response, both on floats in one step
+    # (plan "floats": the array response never called, the readable one only where the float one hands off),
+    # give the readable run's states (scene.lean_path and the
+    # effect's lean_path off: the kick-drift on arrays, the general response): bound 4 ulps per step of the
+    # state's scale, measured bit for bit; the same impacts logged, one evaluation of f per step; Scene.step
+    # takes the same plan (its states are simulate's, bit for bit)
+    from pbanim.collision import lean_spheres as lean_mod
+    from pbanim.ode import get_method
+
+    calls = [0, 0]                          # array responses; float responses handed off
+    respond, floats = lean_mod.LeanSpheres.respond, lean_mod.LeanSpheres.floats
+
+    def counted(self, *a):
+        calls[0] += 1
+        return respond(self, *a)
+
+    def counted_floats(self, *a):
+        out = floats(self, *a)
+        calls[1] += out is None
+        return out
+
+    sa, sb = _sphere_scene(kind, True), _sphere_scene(kind, False)
+    sb.lean_path = False
+    assert getattr(sa._advance(get_method("symplectic_euler"), [0, 0]), "plan", None) == "floats"
+    assert getattr(sb._advance(get_method("symplectic_euler"), [0, 0]), "plan", None) is None
+    lean_mod.LeanSpheres.respond, lean_mod.LeanSpheres.floats = counted, counted_floats
+    try:
+        a = sa.simulate(T, 1e-3, "symplectic_euler")
+    finally:
+        lean_mod.LeanSpheres.respond, lean_mod.LeanSpheres.floats = respond, floats
+    b = sb.simulate(T, 1e-3, "symplectic_euler")
+    assert calls[0] == 0 and (calls[1] > 0) == (kind == "box") and a.nfev == b.nfev == a.nsteps
+    scale = max(1.0, float(np.abs(b.y).max()))
+    assert np.abs(a.y - b.y).max() <= 4 * np.finfo(float).eps * a.nsteps * scale
+    ca, cb = sa.effects[-1], sb.effects[-1]
+    assert len(ca.log) == len(cb.log) > 0
+    assert [d["regime"] for d in ca.log] == [d["regime"] for d in cb.log]
+    assert [d["t"] for d in ca.log] == [d["t"] for d in cb.log]
+    if kind == "cradle":                    # ORACLES D2: the sequential law leaves (0, 0, v0)
+        np.testing.assert_allclose(a.y[6:12:2, -1], [0.0, 0.0, 1.0], atol=1e-15)
+    s, y = _sphere_scene(kind, True), None
+    y = s.system.state()
+    for k in range(50):
+        y = s.step(k * 1e-3, y, 1e-3)
+    np.testing.assert_array_equal(y, a.y[:, 50])
+
+
+def test_a_user_post_step_effect_or_collision_subclass_keeps_the_general_path():
+    # the float plan trusts the package's own collision effect only (pbanim.contracts.package_code): a user's
+    # post-step effect, a subclass of Collisions or an effect without a float response (friction) runs on
+    # arrays; an effect whose lean_path is off when the run starts has its readable response at every step
+    # after the float kick and drift (the readable states: D2's (0, 0, v0))
+    from pbanim.particles import ParticleSystem
+    from pbanim.scene import Effect, Scene
+
+    class Still(Effect):
+        name, phase = "still", "post_step"
+
+        def post_step(self, t, y, h):
+            return y
+
+    class Mine(Collisions):
+        def post_step(self, t, y, h):
+            return super().post_step(t, y, h)
+
+    def cradle(*effects):
+        return Scene(ParticleSystem([[0.0, 0.0], [1.05, 0.0], [2.05, 0.0]], [[1.0, 0.0], [0.0, 0.0], [0.0, 0.0]]),
+                     list(effects))
+
+    assert cradle(Still())._floats is None
+    assert cradle(Mine(radius=0.5, gravity=0.0))._floats is None
+    assert cradle(Collisions(radius=0.5, friction=0.3, gravity=0.0))._floats is None
+    assert cradle(Collisions(radius=0.5, gravity=0.0), Still())._floats is None
+    assert cradle(Collisions(radius=0.5, gravity=0.0))._floats is not None
+    off = cradle(Collisions(radius=0.5, restitution=1.0, gravity=0.0))
+    off.effects[-1].lean_path = False
+    assert off.effects[-1]._lean is not None and off._floats is not None
+    res = off.simulate(0.3, 1e-3, "symplectic_euler", diagnostics=False)
+    np.testing.assert_allclose(res.y[6:12:2, -1], [0.0, 0.0, 1.0], atol=1e-15)
+    assert len(off.effects[-1].log) > 0
+
+
+def test_the_float_plan_names_a_diverging_collision_run_where_the_readable_run_does():
+    # a ball launched at 3e152 m/s: |y|² overflows at step 44; the float plan (checked once per block of stored
+    # states) names the same step as the readable run (checked at every step)
+    from pbanim.errors import SimulationDiverged
+    from pbanim.particles import ParticleSystem
+    from pbanim.scene import Scene
+
+    messages = []
+    for lean in (True, False):
+        scene = Scene(ParticleSystem([[0.0, 0.0], [1.05, 0.0], [2.05, 0.0]], [[3e152, 0.0], [0.0, 0.0], [0.0, 0.0]]),
+                      [Collisions(radius=0.5, restitution=1.0, gravity=0.0)])
+        scene.lean_path = scene.effects[-1].lean_path = lean
+        with pytest.raises(SimulationDiverged) as info:
+            scene.simulate(100.0, 1.0, "symplectic_euler", diagnostics=False)
+        messages.append(str(info.value))
+    assert messages[0] == messages[1] and "step 44" in messages[0]

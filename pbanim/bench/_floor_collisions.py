@@ -20,12 +20,13 @@ a run of one step spread over the row's steps.
 Newton's cradle (ORACLES D2): three balls in a row, the last two touching, the first arriving at 1 m/s,
 ε = 1, run by ``Scene.simulate`` with the ``Collisions`` post-step effect (fixed-step detection, Baraff's
 sequential impulses, the projection), symplectic Euler; the hand loop is that law for balls on a line (see
-:func:`_cradle_hand`). The touching pair is a contact at every step; the response is the float one of
-:mod:`pbanim.collision.lean_spheres` (contacts from the pairs bound once, the impulse loop and its
-certificate only at the impact; before it: the general response at every step, about 270x). What bounds the
-row is the scene's own step for a scene with a post-step stage (the kick–drift on arrays and the driver:
-the float step of :mod:`pbanim.particles.lean` takes only scenes without one): the row prints it, measured
-in the run with a post-step effect that returns the state unchanged.
+:func:`_cradle_hand`). The touching pair is a contact at every step. The whole step runs on Python floats: the float
+plan of :mod:`pbanim.particles.lean` (kick and drift) hands the list it leaves to the float response of
+:mod:`pbanim.collision.lean_spheres` (contacts from the pairs bound once, the impulse loop and its certificate
+only at the impact, the projection), one conversion of the state in and out per step (before it: the float
+response after the kick–drift on arrays, 6.9x; before that the general response at every step, about 270x).
+The row prints its floor, measured in the run: the same three balls without the effect (the float plan's
+kick and drift, the two conversions and the driver: what any response adds to), and the response's own share.
 """
 
 from __future__ import annotations
@@ -171,30 +172,25 @@ def newtons_cradle() -> Floor:
 
     fl = Floor("collisions", "Newton's cradle, 3 balls on a line (2-D, ε = 1)", "symplectic_euler", CR_STEPS,
                pbanim, hand)
-    still, ratio = _scene_floor(fl.steps)
-    fl.notes.append(f"collisions (cradle): the scene's own step with a post-step stage that returns the state "
-                    f"(kick–drift on arrays, the driver) costs {still:.1f} µs per step, {ratio:.1f}x the hand loop "
-                    "in the same rounds: the floor of this row until the scene's float step takes post-step scenes")
+    bare, ratio = _scene_floor(fl.steps)
+    fl.notes.append(f"collisions (cradle): the scene's float step without the collision effect (kick and drift on "
+                    f"floats, the state's conversions, the driver) costs {bare:.1f} µs per step, {ratio:.1f}x the "
+                    "hand loop in the same rounds: the floor of this plan; the float response (contacts, approach "
+                    "speeds, the projection of the touching pair and its record, every step) is the rest")
     return fl
 
 
 def _scene_floor(steps: int) -> tuple[float, float]:
-    """(µs per step, ratio to the hand loop) of the cradle's scene with a post-step effect that does nothing,
-    both timed in alternating rounds (medians of 5)."""
+    """(µs per step, ratio to the hand loop) of the cradle's three balls with no effect (the float plan alone),
+    both timed in alternating rounds (medians of 7)."""
     import time
 
     from ..particles import ParticleSystem
-    from ..scene import Effect, Scene
+    from ..scene import Scene
 
-    class _Still(Effect):
-        name, phase = "still", "post_step"
-
-        def post_step(self, t, y, h):
-            return y
-
-    scene = Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]), [_Still()])
+    scene = Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]), [])
     tp, th = [], []
-    for _ in range(5):
+    for _ in range(7):
         start = time.perf_counter()
         scene.simulate(steps * CR_H, CR_H, "symplectic_euler", diagnostics=False)
         tp.append(time.perf_counter() - start)

@@ -25,11 +25,17 @@ anything is written, and :meth:`~pbanim.collision.Collisions.respond` runs the r
 answers or names the failure. The result record (``Collisions.last``, an
 :class:`~pbanim.collision.impulse.ImpulseResult`) is built when it is read. The two responses agree to
 roundoff (``tests/test_collision.py``, ORACLES D2, D17).
+
+:meth:`LeanSpheres.floats` is the response on the flat state as a Python list: the float plan of a small
+particle scene (:mod:`pbanim.particles.lean`) calls it on the list its drift leaves, so the cradle's whole step
+runs on floats. The per-step path that meets no impact (a touching pair, the cradle between impacts) reads
+the contacts, approach speeds and projection straight from the flat list, building the 3-vectors of the
+velocities only for the impulse loop or when ``Collisions.last`` is read.
 """
 
 from __future__ import annotations
 
-from math import sqrt
+from math import inf, sqrt
 
 import numpy as np
 
@@ -101,55 +107,125 @@ class LeanSpheres:
         r = [float(x) for x in col.radius]
         self.r = r
         self.planes = [(tuple(p.normal.tolist()), float(p.offset)) for p in col.planes]
-        N = self.N
-        self.pairs = [(j, i, r[i] + r[j]) for i in range(N) for j in range(i + 1, N) if r[i] > 0 and r[j] > 0]
+        N, d = self.N, self.dim
+        # (a, b, r_a + r_b, offsets of a and b, the sum again for the axis test: inf (no test) below 1e-150,
+        # where dₖ² could underflow)
+        self.pairs = [(j, i, r[i] + r[j], j * d, i * d, r[i] + r[j] if r[i] + r[j] > 1e-150 else inf)
+                      for i in range(N) for j in range(i + 1, N) if r[i] > 0 and r[j] > 0]
+        self.rows = [(i, i * d) for i in range(N)]          # (particle, offset of its position in the state)
+        self.voff = [self.split + i * d for i in range(N)] + [None]     # of its velocity (the world: none)
+        self.Wp = self.W + [0.0]
+        self.zeros = [0.0] * (N + 1)                        # a move per body, the world's last
 
     # -- contacts ---------------------------------------------------------------------------------
-    def contacts(self, x: list, margin: float) -> list:
-        """(a, b, normal, depth ≥ 0) of every contact at positions x (3-lists), in the readable order."""
+    def contacts(self, flat: list, margin: float) -> list:
+        """(a, b, normal, depth ≥ 0) of every contact at the flat state ``flat``, in the readable order. In
+        2-D the particles' z is 0: the terms 0·n_z (plane) and 0 − 0 (pair) the readable 3-vectors carry are
+        left out where they change no bit (a sum of squares plus +0; n·x plus ±0 when n·x ≠ 0, and when
+        n·x = ±0 the depth r − (±0 − d) is the same number). A pair farther apart than r_a + r_b + margin along
+        one axis is skipped before the square root: the rounded |d| = √(fl(Σ dₖ²)) is at least |dₖ| (√(fl(dₖ²))
+        = |dₖ| where dₖ² does not underflow, and rounding is monotone), so its depth would fall below −margin too."""
         out = []
         r = self.r
-        for (n0, n1, n2), off in self.planes:
-            for i, (p0, p1, p2) in enumerate(x):
-                depth = r[i] - ((p0 * n0 + p1 * n1 + p2 * n2) - off)
+        if self.dim == 2:
+            for n, off in self.planes:
+                n0, n1 = n[0], n[1]
+                for i, k in self.rows:
+                    depth = r[i] - ((flat[k] * n0 + flat[k + 1] * n1) - off)
+                    if depth >= -margin:
+                        out.append((i, -1, n, depth if depth > 0.0 else 0.0))
+            for a, b, rr, ka, kb, rf in self.pairs:
+                d0, d1 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1]
+                if rf - abs(d0) < -margin or rf - abs(d1) < -margin:
+                    continue            # |d| ≥ |dₖ| in floats too: the depth below is below −margin as well
+                dist = sqrt(d0 * d0 + d1 * d1)
+                depth = rr - dist
                 if depth >= -margin:
-                    out.append((i, -1, (n0, n1, n2), depth if depth > 0.0 else 0.0))
-        for a, b, rr in self.pairs:
-            pa, pb = x[a], x[b]
-            d0, d1, d2 = pa[0] - pb[0], pa[1] - pb[1], pa[2] - pb[2]
+                    out.append((a, b, (d0 / dist, d1 / dist, 0.0) if dist > 0 else (0.0, 0.0, 1.0),
+                                depth if depth > 0.0 else 0.0))
+            return out
+        for n, off in self.planes:
+            n0, n1, n2 = n
+            for i, k in self.rows:
+                depth = r[i] - ((flat[k] * n0 + flat[k + 1] * n1 + flat[k + 2] * n2) - off)
+                if depth >= -margin:
+                    out.append((i, -1, n, depth if depth > 0.0 else 0.0))
+        for a, b, rr, ka, kb, rf in self.pairs:
+            d0, d1, d2 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1], flat[ka + 2] - flat[kb + 2]
+            if rf - abs(d0) < -margin or rf - abs(d1) < -margin or rf - abs(d2) < -margin:
+                continue
             dist = sqrt(d0 * d0 + d1 * d1 + d2 * d2)
             depth = rr - dist
             if depth >= -margin:
-                n = (d0 / dist, d1 / dist, d2 / dist) if dist > 0 else (0.0, 0.0, 1.0)
-                out.append((a, b, n, depth if depth > 0.0 else 0.0))
+                out.append((a, b, (d0 / dist, d1 / dist, d2 / dist) if dist > 0 else (0.0, 0.0, 1.0),
+                            depth if depth > 0.0 else 0.0))
         return out
+
+    def readable(self, t: float, y: np.ndarray, h: float, margin: float, plastic: bool) -> np.ndarray:
+        """The effect's readable response (what answers a state :meth:`floats` hands off)."""
+        return self.col._readable(t, y, h, margin, plastic)
+
+    def velocities(self, flat: list) -> list:
+        """The particles' velocities as 3-lists, and the world's row (zero) last."""
+        s, d, pad = self.split, self.dim, self.pad
+        v = [flat[k:k + d] + pad for k in range(s, s + self.N * d, d)]
+        v.append([0.0, 0.0, 0.0])
+        return v
+
+    def approach(self, flat: list, c: list) -> tuple:
+        """(v⁻ = n·(v_a − v_b) per contact, S = max ‖v_a − v_b‖) on the flat state: the readable 3-vector
+        arithmetic (in 2-D the z terms are 0 − 0 = 0: n·u gets its + 0·n_z, ‖u‖² its + 0 dropped)."""
+        vo, u0n, speed = self.voff, [], 0.0
+        if self.dim == 2:
+            for a, b, n, _ in c:
+                ka, kb = vo[a], vo[b]
+                if kb is None:
+                    u0, u1 = flat[ka], flat[ka + 1]
+                else:
+                    u0, u1 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1]
+                u0n.append(u0 * n[0] + u1 * n[1] + 0.0 * n[2])
+                sp = sqrt(u0 * u0 + u1 * u1)
+                if sp > speed:                  # max(speed, sp): the first of equals, NaN never taken
+                    speed = sp
+            return u0n, speed
+        for a, b, n, _ in c:
+            ka, kb = vo[a], vo[b]
+            if kb is None:
+                u0, u1, u2 = flat[ka], flat[ka + 1], flat[ka + 2]
+            else:
+                u0, u1, u2 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1], flat[ka + 2] - flat[kb + 2]
+            u0n.append(u0 * n[0] + u1 * n[1] + u2 * n[2])
+            sp = sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+            if sp > speed:
+                speed = sp
+        return u0n, speed
 
     # -- the response -----------------------------------------------------------------------------
     def respond(self, t: float, y: np.ndarray, h: float, margin: float, plastic: bool):
         """The new state, or None when the readable response must answer (see the module docstring); sets
         ``col.last`` (built when read) and appends to ``col.log`` as the readable response does."""
-        col, N, d, s = self.col, self.N, self.dim, self.split
         flat = y.tolist()
-        pad = self.pad
-        c = self.contacts([flat[k:k + d] + pad for k in range(0, N * d, d)], margin)
+        out = self.floats(t, flat, h, margin, plastic)
+        return out if out is None else y if out is flat else np.array(out)
+
+    def floats(self, t: float, flat: list, h: float, margin: float, plastic: bool):
+        """:meth:`respond` on the flat state as a list of floats: a new list, ``flat`` itself when nothing
+        changes, or None (the readable response answers); the float plan of :mod:`pbanim.particles.lean` calls
+        it after its own kick and drift, so a step makes no numpy call between its two conversions."""
+        col = self.col
+        c = self.contacts(flat, margin)
         if not c:
-            col.last = None
-            return y
-        v = [flat[k:k + d] + pad for k in range(s, s + N * d, d)]
-        v.append([0.0, 0.0, 0.0])                           # the world's row
-        u0n, speed = [], 0.0
-        for a, b, n, _ in c:
-            va, vb = v[a], v[b]
-            u = (va[0] - vb[0], va[1] - vb[1], va[2] - vb[2])
-            u0n.append(u[0] * n[0] + u[1] * n[1] + u[2] * n[2])
-            speed = max(speed, sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]))
-        if not speed < float("inf"):
+            col._last = None                # (Collisions.last's own slot: the property reads it)
+            return flat
+        u0n, speed = self.approach(flat, c)
+        if not speed < inf:
             return None
         tol_s = _TOL * speed
         rest = self.threshold(h)
         if min(u0n) >= -tol_s:          # nothing approaches: no impulse, the certificate holds as it stands
-            col.last = _Pending(self, v, c, [(0.0, 0.0, 0.0)] * len(c), u0n, 1, 0, speed, rest, None)
-            return self._finish(y, flat, c, None)
+            col._last = _Pending(self, flat, c, None, u0n, 1, 0, speed, rest, None)
+            return self._finish(flat, c, None)
+        v = self.velocities(flat)
         eps = 0.0 if plastic else col.restitution
         out = self._sequential(v, c, eps, max(rest, tol_s), speed, col.max_iter)
         if out is None:
@@ -161,7 +237,7 @@ class LeanSpheres:
         if any(j > 0 for j in jn):
             col.log.append({"t": t, "contacts": len(c), "impulse": float(np.sum(jn)), "vn_min": min(u0n),
                             "regime": pending.regimes().tolist()})
-        return self._finish(y, flat, c, impulse)
+        return self._finish(flat, c, impulse)
 
     def _sequential(self, v, c, eps, fast, speed, max_iter):
         """Baraff's loop of :func:`pbanim.collision.impulse._sequential` on floats (``v`` updated in place), its
@@ -216,14 +292,15 @@ class LeanSpheres:
         return impulse, its, capped, T0, T1, vn1, speed1
 
     def energy(self, v: list) -> float:
-        """½ Σ |vᵢ|²/Wᵢ over the particles with Wᵢ > 0."""
-        terms = [(vi[0] ** 2 + vi[1] ** 2 + vi[2] ** 2) / w for vi, w in zip(v, self.W) if w > 0]
+        """½ Σ |vᵢ|²/Wᵢ over the particles with Wᵢ > 0 (vₖ² as numpy squares: vₖ·vₖ, inf past overflow)."""
+        terms = [(vi[0] * vi[0] + vi[1] * vi[1] + vi[2] * vi[2]) / w for vi, w in zip(v, self.W) if w > 0]
         return float(0.5 * np.sum(terms))
 
-    def _finish(self, y, flat, c, impulse):
-        """The state after the impulses (v += W J, the readable accumulation order) and the projection."""
+    def _finish(self, flat, c, impulse):
+        """The state after the impulses (v += W J, the readable accumulation order) and the projection: a new
+        list, ``flat`` when nothing moves, None when it overflows."""
         col, N, d, s, W = self.col, self.N, self.dim, self.split, self.W
-        out = None
+        out, check = None, 0.0          # check: the sum of the entries written (non-finite if one of them is)
         if impulse is not None:
             dv = [[0.0, 0.0, 0.0] for _ in range(N)]
             for (a, _, _, _), J in zip(c, impulse):
@@ -237,36 +314,42 @@ class LeanSpheres:
             for i in range(N):
                 for k in range(d):
                     out[s + i * d + k] += dv[i][k]
-        if col.project and any(dep > 0 for _, _, _, dep in c):
-            Wp = W + [0.0]
-            moves = []                            # (body, move, sign, normal): a's then b's, as the readable
+                    check += out[s + i * d + k]
+        if col.project:
+            # each body moved along its deepest contact's normal by its share of the depth: the last of the
+            # largest moves in the readable order (a's, then b's), found in one pass
+            Wp, best, dx = self.Wp, self.zeros[:], None
             for side, sign in ((0, 1.0), (1, -1.0)):
                 for cc in c:
-                    a, b, n, dep = cc
+                    dep = cc[3]
                     if dep > 0:
+                        a, b = cc[0], cc[1]
                         wsum = Wp[a] + Wp[b]
-                        share = dep / wsum if wsum > 0 else 0.0
                         body = cc[side]
-                        moves.append((body, share * Wp[body], sign, n))
-            best = {}
-            for body, m, _, _ in moves:
-                best[body] = max(best.get(body, 0.0), m)
-            dx = {}
-            for body, m, sign, n in moves:
-                if m > 0 and m >= best[body]:
-                    dx[body] = (sign * m * n[0], sign * m * n[1], sign * m * n[2])
-            if out is None:
-                out = list(flat)
-            for body, move in dx.items():
-                if 0 <= body < N:
-                    for k in range(d):
-                        out[body * d + k] += move[k]
+                        m = (dep / wsum if wsum > 0 else 0.0) * Wp[body]
+                        if m > 0 and m >= best[body]:
+                            best[body] = m
+                            if dx is None:
+                                dx = {}
+                            n = cc[2]
+                            dx[body] = (sign * m * n[0], sign * m * n[1], sign * m * n[2])
+            if dx is not None:
+                if out is None:
+                    out = list(flat)
+                for body, move in dx.items():
+                    if 0 <= body < N:
+                        k = body * d
+                        out[k] += move[0]
+                        out[k + 1] += move[1]
+                        check += out[k] + out[k + 1]
+                        if d == 3:
+                            out[k + 2] += move[2]
+                            check += out[k + 2]
         if out is None:
-            return y
-        new = np.array(out)
-        if not sum([u * u for u in out]) < float("inf"):
+            return flat
+        if check - check != 0.0:
             return None                           # an overflowing update: the readable one names it
-        return new
+        return out
 
 
 def _vn(v, a, b, n) -> float:
@@ -278,7 +361,9 @@ class _Pending:
     """What a lean response leaves for ``Collisions.last``: the :class:`ImpulseResult` built when read."""
 
     def __init__(self, lean, v, c, impulse, u0n, its, capped, speed, rest, done) -> None:
-        self.lean, self.v, self.c, self.impulse, self.u0n = lean, v, c, impulse, u0n      # (v: the step's own)
+        # v: the step's velocities (3-lists, the world's row last), or with no impulse (done None) the flat state
+        # they are read from when the record is built
+        self.lean, self.v, self.c, self.impulse, self.u0n = lean, v, c, impulse, u0n
         self.its, self.capped, self.speed, self.rest, self.done = its, capped, speed, rest, done
 
     def regimes(self) -> np.ndarray:
@@ -289,13 +374,14 @@ class _Pending:
     def result(self):
         from .impulse import ImpulseResult
 
-        c, m = self.c, len(self.c)
+        c, m, v, impulse = self.c, len(self.c), self.v, self.impulse
         if self.done is None:                  # no impulse: the velocities, energy and approach as they stood
-            T = self.lean.energy(self.v)
+            v, impulse = self.lean.velocities(v), np.zeros((m, 3))
+            T = self.lean.energy(v)
             vn1, speed1, jn, T0, T1 = self.u0n, self.speed, [0.0] * m, T, T
         else:
             T0, T1, vn1, speed1, jn = self.done
-        return ImpulseResult(np.array(self.v[:-1]), np.zeros((self.lean.N, 3)), np.array(self.impulse, float),
+        return ImpulseResult(np.array(v[:-1]), np.zeros((self.lean.N, 3)), np.array(impulse, float),
                              np.array(jn, float), np.zeros(m, bool), self.its, "sequential", 0.0,
                              {"rounds": 0, "plastic_finish": False, "energy_capped": self.capped}, self.regimes(),
                              max(0.0, -min(vn1)), T0, T1, _TOL * max(self.speed, speed1))

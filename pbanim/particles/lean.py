@@ -29,19 +29,29 @@ sum of several springs' forces on one particle, which the readable path forms as
 incidence matrix (another order of the same terms: equal to roundoff). ORACLES A1 (H̃ kept to roundoff)
 holds for it as for the readable step.
 
+A post-step stage that offers a response on floats — the package's own
+:class:`~pbanim.collision.Collisions` (its own code, :func:`pbanim.contracts.package_code`) with its float
+response bound (:meth:`pbanim.collision.lean_spheres.LeanSpheres.floats`: a few spheres, no friction, the
+sequential law) —
+runs on the list the drift leaves, so a whole step (kick, drift, contact detection, impulses, projection)
+makes no numpy call between the state's two conversions. A response it cannot answer on floats (resting
+contact, a failed certificate) hands the state to the effect's readable response; a non-finite state is
+returned as it is, for the driver to name the step.
+
 When: a scene of the package's own :class:`ParticleSystem` of at most :data:`FLOAT_MAX` coordinates whose
-effects are the package's :class:`Gravity`, :class:`Drag`, :class:`AnchorSprings` and
+force effects are the package's :class:`Gravity`, :class:`Drag`, :class:`AnchorSprings` and
 :class:`DampedSprings` only (exactly these classes: a user's subclass or a course assignment's copy runs the
-``apply`` it wrote, :func:`pbanim.contracts.package_code`), with no constraint or post-step stage, stepped by
-symplectic Euler. The effects' parameters are read when a run starts (``scene.step``: at its first call).
+``apply`` it wrote, :func:`pbanim.contracts.package_code`), with no constraint stage and no post-step stage but
+the collision effect above, stepped by symplectic Euler. The effects' parameters are read when a run starts (``scene.step``: at its first call).
 A spring of length 0, or one whose |d|² overflows, hands the step to the readable path (which has the rule
 for both); float arithmetic raises on no other non-finite value, so the driver checks the stored states
-once per block. ``scene.lean_path = False`` runs the readable step (``tests/test_scene.py``, ORACLES A16).
+once per block. ``scene.lean_path = False`` runs the readable step (``tests/test_scene.py``, ORACLES A16;
+with collisions ``tests/test_collision.py``, ORACLES D17).
 """
 
 from __future__ import annotations
 
-from math import inf, sqrt
+from math import inf, isfinite, sqrt
 
 import numpy as np
 
@@ -81,9 +91,15 @@ def float_plan(scene) -> "FloatParticles | None":
 
     ps = scene.system
     if (not isinstance(ps, ParticleSystem) or ps.split > FLOAT_MAX or ps.dim not in (2, 3) or scene._constraint
-            or scene._post or not package_code(ps, "derivative", "kick_drift", "unpack", "zero_forces")):
+            or not package_code(ps, "derivative", "kick_drift", "unpack", "zero_forces")):
         return None
     if not all(type(e) in (Gravity, Drag, AnchorSprings, DampedSprings) for e in scene._force):
+        return None
+    # post-step stages: each must offer a response on floats (the package's collision effect with its float
+    # response bound, ``_lean``: pbanim.collision.lean_spheres); a user's effect, or a subclass with its own
+    # post_step, runs the post_step it wrote, on arrays
+    if not all(callable(getattr(getattr(e, "_lean", None), "floats", None)) and package_code(e, "post_step")
+               for e in scene._post):
         return None
     return FloatParticles(scene)
 
@@ -109,6 +125,19 @@ class FloatParticles:
             else:
                 kernels.append(_kernel(e, ps))
         kernels = tuple(kernels)
+        if not kernels:
+            # constant forces only (none, or gravity): the kick h (Qₖ Wₖ) is the same number every step, formed
+            # once per step size with the readable rounding
+            kick = [0.0, None]
+
+            def step(y: list, h: float) -> list:
+                if kick[1] != h:
+                    kick[:] = [[h * (q * w) for q, w in zip(Q0, W)], h]
+                v1 = [v + dv for v, dv in zip(y[n:], kick[0])]
+                y1 = [x + h * u for x, u in zip(y, v1)]
+                y1 += v1
+                return y1
+            return step
 
         def step(y: list, h: float) -> list:
             Q = Q0[:]
@@ -120,20 +149,79 @@ class FloatParticles:
             return y1
         return step
 
-    def advance(self, counter: list, readable):
-        """``advance(t, y, h)`` of the scene's driver on floats, counting one evaluation of f per step in
-        ``counter[0]``; ``readable`` (the readable kick–drift) takes a step this one hands off."""
-        step, array = self.stepper(), np.array
+    def responses(self) -> tuple:
+        """Per post-step stage, its float response ``(t, y, h, margin, plastic) -> list | None``
+        (:meth:`pbanim.collision.lean_spheres.LeanSpheres.floats`), or None where the effect's ``lean_path`` is
+        off now (its readable response then answers every step)."""
+        return tuple(e._lean.floats if e.lean_path and e._lean is not None else None for e in self.scene._post)
 
-        def advance(t, y, h):
-            try:
-                y1 = array(step(y.tolist(), h))
-            except _Handoff:
-                return readable(t, y, h)
-            counter[0] += 1
-            return y1
+    def advance(self, counter: list, readable, post=()):
+        """``advance(t, y, h)`` of the scene's driver on floats, counting one evaluation of f per step in
+        ``counter[0]``; ``readable`` (the readable kick–drift) takes a step this one hands off, and ``post``
+        (the post-step stages' ``post_step``, in order) the state a float response hands off (from that stage
+        on), or the state after a handed-off kick–drift."""
+        step, array = self.stepper(), np.array
+        if not post:
+            def advance(t, y, h):
+                try:
+                    y1 = array(step(y.tolist(), h))
+                except _Handoff:
+                    return readable(t, y, h)
+                counter[0] += 1
+                return y1
+        else:
+            floats, post = self.responses(), tuple(post)
+            # the response a float one hands its state to: the effect's readable one (not its post_step, which
+            # would try the float response again)
+            readables = tuple(post_step if f is None else e._lean.readable
+                              for f, e, post_step in zip(floats, self.scene._post, post))
+
+            def handoff(t1, y1, h, i):
+                """The readable response of stage i, then the post-step stages after it; a non-finite state is
+                returned as it is (no stage runs on it: the driver names the step, as it names a diverged one)."""
+                y = array(y1)
+                if not isfinite(sum([u * u for u in y1])):
+                    return y
+                y = readables[i](t1, y, h, 0.0, False) if floats[i] is not None else post[i](t1, y, h)
+                for post_step in post[i + 1:]:
+                    y = post_step(t1, y, h)
+                return y
+
+            def handed(t, y, h):
+                """A kick–drift handed to the readable step, then the post-step stages."""
+                y = readable(t, y, h)
+                for post_step in post:
+                    y = post_step(t + h, y, h)
+                return y
+
+            if len(floats) == 1 and floats[0] is not None:
+                respond = floats[0]
+
+                def advance(t, y, h):           # one response (the usual scene): no loop over the stages
+                    try:
+                        y1 = step(y.tolist(), h)
+                    except _Handoff:
+                        return handed(t, y, h)
+                    counter[0] += 1
+                    out = respond(t + h, y1, h, 0.0, False)
+                    return handoff(t + h, y1, h, 0) if out is None else array(out)
+            else:
+                def advance(t, y, h):
+                    try:
+                        y1 = step(y.tolist(), h)
+                    except _Handoff:
+                        return handed(t, y, h)
+                    counter[0] += 1
+                    t1 = t + h
+                    for i, respond in enumerate(floats):
+                        out = None if respond is None else respond(t1, y1, h, 0.0, False)
+                        if out is None:
+                            return handoff(t1, y1, h, i)
+                        y1 = out
+                    return array(y1)
         # float arithmetic raises on no non-finite value (a zero or infinite spring length goes to the readable
-        # step): the driver may check the stored states once per block
+        # step, a non-finite state skips the readable response): the driver may check the stored states once
+        # per block
         advance.nan_safe = True
         advance.plan = "floats"
         return advance

@@ -15,7 +15,8 @@ linear map      every force effect linear (``linear = True``), no constraint  y�
                 symplectic Euler or Verlet), n ≤ LINEAR_MAX, the package's
                 own effects and system
 floats          symplectic Euler, a small particle scene of the package's     the readable kick and drift on
-                own gravity, drag, anchor and damped springs                  Python floats, bit for bit
+                own gravity, drag, anchor and damped springs, and at most     Python floats, bit for bit (and
+                the package's collision effect after the step                 the sphere response on them)
                 (:mod:`pbanim.particles.lean`)
 kick–drift      symplectic Euler, a system with ``kick_drift`` (particles),   one force evaluation into
                 no constraint effect                                          buffers; affine forces folded
@@ -173,7 +174,7 @@ def advance(scene, m, counter: list, base):
             and not _overrides(scene, base, ("rhs", "forces", "applied_forces"))):
         # a small particle scene: the readable kick and drift on floats (pbanim.particles.lean); a spring of zero
         # or overflowing length hands its step to the readable one
-        return scene._floats.advance(counter, _kick_then_drift(scene, scene._rhs, counter))
+        return scene._floats.advance(counter, _kick_then_drift(scene, scene._rhs, counter), post)
     if m.name == "symplectic_euler" and scene._lean and lean and not _overrides(scene, base, ("rhs", "forces",
                                                                                              "applied_forces")):
         kick = scene._kick.step
