@@ -47,6 +47,7 @@ import numpy as np
 from ..collision import Sphere
 from ..ode.driver import step_grid
 from ..ode.events import crossings, make_events
+from ..rigid import quat_to_matrix
 from .impact import Features, apply_impact
 from .rest import hermite_dips
 
@@ -72,35 +73,33 @@ class _Flight:
         self.i1, self.i2, self.i3 = (float(v) for v in Iinv)
 
     def stage(self, q, L):
-        """(q̇, Ξ(q), ω, I_w⁻¹ as 6 floats) at the stage quaternion q (not unit), on floats."""
+        """(q̇, q, ω) at the stage quaternion q (not unit), on floats: ω = R I⁻¹ Rᵀ L, q̇ = ½ Ξ(q) ω."""
         w0, x1, x2, x3 = q
         r00, r01, r02, r10, r11, r12, r20, r21, r22, s = _rot_floats(q)
-        i1, i2, i3 = self.i1, self.i2, self.i3
         l0, l1, l2 = L
-        b0 = i1 * (r00 * l0 + r10 * l1 + r20 * l2)               # I⁻¹ Rᵀ L
-        b1 = i2 * (r01 * l0 + r11 * l1 + r21 * l2)
-        b2 = i3 * (r02 * l0 + r12 * l1 + r22 * l2)
+        b0 = self.i1 * (r00 * l0 + r10 * l1 + r20 * l2)          # I⁻¹ Rᵀ L
+        b1 = self.i2 * (r01 * l0 + r11 * l1 + r21 * l2)
+        b2 = self.i3 * (r02 * l0 + r12 * l1 + r22 * l2)
         a, b, c = r00 * b0 + r01 * b1 + r02 * b2, r10 * b0 + r11 * b1 + r12 * b2, r20 * b0 + r21 * b1 + r22 * b2
-        Iw = (i1 * r00 * r00 + i2 * r01 * r01 + i3 * r02 * r02, i1 * r00 * r10 + i2 * r01 * r11 + i3 * r02 * r12,
-              i1 * r00 * r20 + i2 * r01 * r21 + i3 * r02 * r22, i1 * r10 * r10 + i2 * r11 * r11 + i3 * r12 * r12,
-              i1 * r10 * r20 + i2 * r11 * r21 + i3 * r12 * r22, i1 * r20 * r20 + i2 * r21 * r21 + i3 * r22 * r22)
         qd = (0.5 * (-x1 * a - x2 * b - x3 * c), 0.5 * (w0 * a + x3 * b - x2 * c),
               0.5 * (-x3 * a + w0 * b + x1 * c), 0.5 * (x2 * a - x1 * b + w0 * c))
-        X = ((-x1, -x2, -x3), (w0, x3, -x2), (-x3, w0, x1), (x2, -x1, w0))
-        return qd, X, (a, b, c), Iw, s
+        return qd, q, (a, b, c)
 
     def _matrices(self, st, L):
-        """The (q, L) blocks of ∂f/∂y at the four stages: Aqq (4, 4, 4) and AqL (4, 4, 3) (module docstring)."""
-        X = np.array([e[1] for e in st])
-        I6 = [e[3] for e in st]
-        Iw = np.array([((u[0], u[1], u[2]), (u[1], u[3], u[4]), (u[2], u[4], u[5])) for u in I6])
+        """The (q, L) blocks of ∂f/∂y at the stages st [(q̇, q, ω)], all at once: Aqq (n, 4, 4) and AqL (n, 4, 3)
+        (module docstring), from the stage quaternions and rates."""
+        Q = np.array([e[1] for e in st])
+        w0, x1, x2, x3 = Q.T
+        X = np.stack([-Q[:, 1:], np.stack([w0, x3, -x2], -1), np.stack([-x3, w0, x1], -1),
+                      np.stack([x2, -x1, w0], -1)], axis=1)
+        R = quat_to_matrix(Q)
+        Iw = (R * self.Iinv) @ R.transpose(0, 2, 1)
         l0, l1, l2 = L
         SL = np.array(((0.0, -l2, l1), (l2, 0.0, -l0), (-l1, l0, 0.0)))
         Om = np.array([((0.0, -a, -b, -c), (a, 0.0, -c, b), (b, c, 0.0, -a), (c, -b, a, 0.0)) for a, b, c in
                        (e[2] for e in st)])
-        Sw = Om[:, 1:, 1:]
-        sc = np.array([e[4] for e in st])[:, None, None]
-        Aqq = 0.5 * (X @ (((Iw @ SL - Sw) @ X.transpose(0, 2, 1)) * sc) + Om)
+        sc = (2.0 / np.einsum("ni,ni->n", Q, Q))[:, None, None]
+        Aqq = 0.5 * (X @ (((Iw @ SL - Om[:, 1:, 1:]) @ X.transpose(0, 2, 1)) * sc) + Om)
         return Aqq, 0.5 * (X @ Iw)
 
     def state(self, y, h):
