@@ -66,14 +66,6 @@ def _state(gap: float, v, omega) -> np.ndarray:
 
 
 def _step(mod, scene, y, mu, T=None, dmu=None):
-    from ..contact.assembly import rigid_rows
-    from ..contracts import unchecked
-
-    # the step's given code hands chapter 07's rigid_rows the positions alone ({"x": …}), as code inside pbanim
-    # may (its calls skip the boundary's contract); the student's copy lives outside the package, so its call is
-    # bound to the same unchecked function
-    if getattr(mod, "rigid_rows", None) is rigid_rows:
-        mod.rigid_rows = unchecked(rigid_rows)
     out = attr(mod, "contact_step")(scene, y, T, mu, dmu, H_STEP)
     if not isinstance(out, tuple) or len(out) != 3:
         raise CheckFailed(f"contact_step must return (y⁺, T⁺, StepInfo), got {type(out).__name__}")
