@@ -4,13 +4,15 @@ of :mod:`pbanim.design`).
 Between impacts a rigid body under gravity flies the deck's free-flight equations, and only the rotation
 needs a step: the translation is a parabola (RK4 is exact on it), L is constant, and the variational
 equations split the same way (δẋ = W δP, δṖ = 0, δL̇ = 0). So the lean step integrates the quaternion
-and its tangent rows alone, on a handful of floats and one (p × 7) product per stage:
+alone, on a handful of floats, and its tangent rows by the linearized stages:
 
     q̇ = ½ Ξ(q) ω,   ω = I_w⁻¹ L,   I_w⁻¹ = R diag(I⁻¹) Rᵀ,
     [δq̇ δL̇] = [δq δL] Aᵀ,   A = [[½ (Ξ D + Ω(ω)), ½ Ξ I_w⁻¹], [0, 0]],   D = (I_w⁻¹[L]× − [ω]×) Ξᵀ 2/|q|²,
 
 the same stages as :func:`pbanim.design.flight.augmented_step` (RK4, then q ← q/|q|, δq ← (𝟙 − q̂q̂ᵀ)δq/|q|)
-and the same rate d y₁/dh as :func:`pbanim.design.flight.step_rate` (k₂' = A(Y₂) k₁/2, …). Everything else
+and the same rate d y₁/dh as :func:`pbanim.design.flight.step_rate` (k₂' = A(Y₂) k₁/2, …). The tangent is
+needed only where an impact or t* reads it (none after t*): the steps between are kept, and their linearized
+maps built for all of them at once (:meth:`_Flight.transport`), one product per step. Everything else
 is the readable run's own law, called once per impact: the grid is :func:`pbanim.ode.driver.step_grid`
 between 0, t* and t_end; the impact is located by :func:`pbanim.ode.events.crossings` (Brent on the RK4
 partial step) and applied by :func:`pbanim.design.impact.apply_impact` with the step's rate, then
