@@ -96,9 +96,11 @@ from .methods import (METHODS, TABLEAUX, Method, Tableau, dop853_step, dopri5_st
                           explicit_rk_step, expm_small, exponential_euler_step, get_method, implicit_euler_step,
                           implicit_midpoint_step, midpoint_step, newton_solve, radau5_step, rk4_step,
                           rodas4_step, symplectic_euler_step, verlet_step, vern7_step)
+from .second_order import SecondOrderJacobian
 from .solve import SCIPY_METHODS, solve
 
 __all__ = ["Method", "Tableau", "METHODS", "TABLEAUX", "SCIPY_METHODS", "get_method", "solve",
            "explicit_rk_step", "euler_step", "midpoint_step", "rk4_step", "symplectic_euler_step",
            "verlet_step", "implicit_euler_step", "implicit_midpoint_step", "exponential_euler_step", "dopri5_step",
-           "dop853_step", "vern7_step", "rodas4_step", "radau5_step", "newton_solve", "expm_small"]
+           "dop853_step", "vern7_step", "rodas4_step", "radau5_step", "newton_solve", "expm_small",
+           "SecondOrderJacobian"]

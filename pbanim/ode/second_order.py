@@ -45,13 +45,19 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..contracts import Array, Either, Obj, contract
+from ..contracts import Array, Either, Obj, Real, contract
 from ..errors import InvalidInput
 
 __all__ = ["SecondOrderJacobian"]
 
 _BLOCK = Either(Array((None, None)), Obj("scipy.sparse:sparray", "scipy.sparse:spmatrix",
                                          what="a scipy.sparse matrix"))
+_SIGMA = Either(Real(gt=0), Real(lt=0), Obj(complex, what="a complex shift"))
+
+
+def _check_shift(sigma):
+    if not (np.isfinite(sigma) and sigma != 0):
+        raise InvalidInput(f"SecondOrderJacobian: the shift σ must be finite and nonzero, got {sigma}")
 
 
 @contract(jx=_BLOCK, jv=_BLOCK)
@@ -85,8 +91,10 @@ class SecondOrderJacobian:
         n = self.n
         return np.concatenate([y[n:], self.jx @ y[:n] + self.jv @ y[n:]])
 
+    @contract(sigma=_SIGMA)
     def schur(self, sigma):
         """S = σ²I − σJv − Jx (sparse CSC, or dense), complex when σ is."""
+        _check_shift(sigma)
         if self.sparse:
             eye = sp.identity(self.n, format="csc", dtype=complex if np.iscomplexobj(sigma) else float)
             return sp.csc_matrix((sigma * sigma) * eye - sigma * self.jv - self.jx)
@@ -94,11 +102,13 @@ class SecondOrderJacobian:
         S[np.diag_indices(self.n)] += sigma * sigma
         return S
 
+    @contract(sigma=_SIGMA)
     def factor(self, sigma):
         """A solver (r₁, r₂) ↦ (σI − J)⁻¹(r₁, r₂) through one factorization of S (one per σ, reused).
 
         Raises ``np.linalg.LinAlgError`` (dense) or ``RuntimeError`` (sparse) when S is singular, as
         :func:`pbanim.ode.implicit.factor` does."""
+        _check_shift(sigma)
         n, jx = self.n, self.jx
         if self.sparse:
             # S has a symmetric pattern (M S is symmetric for a mass–spring system): a minimum-degree order

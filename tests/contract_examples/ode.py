@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from pbanim.ode import euler_step
+from pbanim.ode import SecondOrderJacobian, euler_step
 
 
 def oscillator(t, y):
@@ -36,3 +36,10 @@ CALLS.update({
     "pbanim.ode.implicit.newton_solve": lambda: {"fun": oscillator, "y0": np.array([1.0, 0.0]), "theta_h": 0.1},
 })
 
+
+
+def _second_order_jacobian():
+    return SecondOrderJacobian(np.array([[-4.0, 1.0], [1.0, -4.0]]), -0.1 * np.eye(2))
+
+
+INSTANCES = {SecondOrderJacobian: _second_order_jacobian}
