@@ -173,12 +173,12 @@ def runner(rhs, jac, y0, t_end, atol_scale):
     return run
 
 
-def sweep_problem(key, tols, repeats=1, budget=2.0, variants=None):
+def sweep_problem(key, tols, repeats=1, budget=2.0, variants=None, repeat_below=0.5):
     """Sweep every variant of problem ``key`` over ``tols`` (loose to tight): {variant: [(rtol, error, time, nfev)]}.
 
     The variants take turns at each tolerance (so a change of machine load hits both libraries alike);
-    each point is the best of ``repeats`` runs (one run when it takes over 0.5 s); a variant stops at its
-    first run below :data:`FLOOR` or over ``budget`` seconds.
+    each point is the best of ``repeats`` runs (one run when it takes over ``repeat_below`` seconds); a
+    variant stops at its first run below :data:`FLOOR` or over ``budget`` seconds.
     """
     rhs, jac, y0, t_end, error, scale = _problem(key)
     _, ours, theirs = PROBLEMS[key]
@@ -189,7 +189,7 @@ def sweep_problem(key, tols, repeats=1, budget=2.0, variants=None):
     for rtol in tols:
         for v in list(active):
             times, value, nfev = [], None, 0
-            while len(times) < repeats and (not times or times[0] < 0.5):   # long runs are timed once
+            while len(times) < repeats and (not times or times[0] < repeat_below):   # long runs: timed once
                 start = time.perf_counter()
                 value, nfev = run(v, rtol)
                 times.append(time.perf_counter() - start)
