@@ -6,7 +6,7 @@ CG iterations growing as the sheet bends: 1 → ~50 at CG tolerance 10⁻², ~1 
 timed in alternating rounds, the median and the spread printed with the mean CG iterations.
 
 The CG tolerance ε the step needs: the CG error is set against the step's own truncation error (step
-doubling, :func:`pbanim.bench.cloth.cg_error_vs_truncation`); below 1 the solve is not what limits the step's
+doubling, :func:`cg_error_vs_truncation`); below 1 the solve is not what limits the step's
 accuracy. Measured at N = 64 (multigrid, 6 steps into the fall): 0.04 at ε = 10⁻³, 0.28 (x) / 0.17 (v) at
 10⁻², 0.59 / 0.42 at 3·10⁻². So 10⁻² is the loosest tolerance kept (printed in each run).
 
@@ -15,6 +15,10 @@ raises the iterations (N = 64, ε = 10⁻³, steps 10–30: ~145 and ~175 agains
 is relative to the filtered right-hand side, and the previous Δv is a worse start than the prescribed
 part z); the multigrid hierarchy of an earlier step reused for 10 steps (the V-cycle of a stale A) takes
 150–290 iterations against ~50 (ε = 10⁻²): the falling sheet's A changes too much from step to step.
+
+The cost per step against N (:func:`step_costs`, one step ``WARM`` steps into the fall, both
+preconditioners, XPBD 1 × 10 beside it) and the check of the benchmark's CG tolerance
+(:func:`cg_error_vs_truncation`) live here too; :mod:`pbanim.bench.cloth` re-exports them.
 
 The floor of this design at N = 64, printed by each run: the assembly of f, K, D, the V-cycle's setup,
 and per CG iteration one product with A (~470 000 stored entries) and one V-cycle.
@@ -27,13 +31,20 @@ import time
 import numpy as np
 
 from . import median_time
-from ..cloth import large_step
-from ..cloth.large_steps import _constraints, _preconditioner, _system
-from ..contracts import unchecked
+from ..cloth import large_step, xpbd_step
+from ..cloth.large_steps import PRECONDITIONERS, _constraints, _preconditioner, _system
+from ..contracts import Choice, Int, Real, Seq, contract, unchecked
 
-_large_step = unchecked(large_step)
+_large_step, _xpbd_step = unchecked(large_step), unchecked(xpbd_step)
 
 H = 1.0 / 60.0
+CG_TOL = 1e-3            # large steps at h = 1/60: CG error ≤ 0.1× the step's truncation error (cg_error_vs_truncation)
+WARM = 6                 # steps into the fall where a step is timed (the first ones need few CG iterations)
+
+
+def _sheet(n):
+    from .cloth import sheet                            # the benchmark's sheet (imported when called: no cycle)
+    return sheet(n)
 
 
 def one_second(cloth, tol: float, precond: str = "multigrid") -> tuple[float, float]:
@@ -78,3 +89,42 @@ def floor_per_step(cloth, its: float, precond: str = "multigrid") -> tuple[float
                    f"{1e3 * t_filter:.2f} ms + {its:.0f} CG iterations × ({1e3 * t_mv:.2f} ms A product "
                    f"[{A.nnz} entries] + {1e3 * t_pc:.2f} ms V-cycle) = {1e3 * total:.1f} ms a step, "
                    f"{60 * total:.2f} s per simulated second")
+
+
+@contract(sizes=Seq(Int(ge=2, le=256), min_len=1, max_len=8), repeats=Int(ge=1, le=20),
+          precond=Choice(PRECONDITIONERS), tol=Real(gt=0, lt=1))
+def step_costs(sizes=(16, 32, 64), repeats: int = 2, precond: str = "jacobi", tol: float = CG_TOL) -> dict:
+    """{N: (large step s, its CG iterations, XPBD 1 × 10 s)} at h = 1/60 s, medians of ``repeats`` steps from
+    the state ``WARM`` steps into the fall (the CG iterations of that step counted), CG to ``tol`` with
+    ``precond``."""
+    out = {}
+    for n in sizes:
+        cloth = _sheet(n)
+        y = cloth.state()
+        for _ in range(WARM):
+            y = _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond)[0]
+        its = _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond)[1].iterations
+        t_ls = median_time(lambda: _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond), repeats=repeats)
+        _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10)                       # colouring once
+        t_x = median_time(lambda: _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10), repeats=repeats)
+        out[n] = (t_ls, its, t_x)
+    return out
+
+
+@contract(n=Int(ge=4, le=256), tol=Real(gt=0, lt=1), precond=Choice(PRECONDITIONERS))
+def cg_error_vs_truncation(n: int, tol: float = CG_TOL, precond: str = "jacobi") -> tuple[float, float]:
+    """(CG error / local truncation error) in x and in v of one large step at h = 1/60 s, ``WARM`` steps into
+    the fall: the CG error against the same step solved to 10⁻¹⁰, the truncation error estimated by step
+    doubling (the step of h against two of h/2, both solved to 10⁻¹⁰). Below 1: the solve is not what
+    limits the step's accuracy."""
+    cloth, h = _sheet(n), 1.0 / 60.0
+    y = cloth.state()
+    for _ in range(WARM):
+        y = _large_step(cloth, y, h, tol, 20000, precond)[0]
+    tight = _large_step(cloth, y, h, 1e-10, 50000, "multigrid")[0]
+    half = _large_step(cloth, _large_step(cloth, y, h / 2, 1e-10, 50000, "multigrid")[0], h / 2, 1e-10, 50000,
+                       "multigrid")[0]
+    y1 = _large_step(cloth, y, h, tol, 20000, precond)[0]
+    k = cloth.n
+    return tuple(float(np.abs(y1[s] - tight[s]).max() / np.abs(half[s] - tight[s]).max())
+                 for s in (slice(None, k), slice(k, None)))

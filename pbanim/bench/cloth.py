@@ -30,12 +30,13 @@ import time
 
 import numpy as np
 
-from . import Goal, Report, Table, median_time
+from . import Goal, Report, Table
+from ._cloth_realtime import (CG_TOL, WARM, cg_error_vs_truncation, floor_per_step, step_costs,
+                              wall_per_simulated_second)
 from ..cloth import Cloth, Sheet, large_step, newton_step, xpbd_step
 from ..cloth.large_steps import PRECONDITIONERS
 from ..cloth.ode_blocks import second_order_jac
-from ._cloth_realtime import floor_per_step, wall_per_simulated_second
-from ..contracts import Choice, Flag, Int, Real, Seq, contract, unchecked
+from ..contracts import Choice, Flag, Int, Real, contract, unchecked
 from ..errors import PbanimError
 
 # the solvers, bound once past their argument checks (the benchmark's own calls are valid)
@@ -45,8 +46,6 @@ __all__ = ["run", "sheet", "work_precision", "step_costs", "largest_stable_step"
            "METHODS", "T_END"]
 
 T_END = 0.05
-CG_TOL = 1e-3            # large steps at h = 1/60: CG error ≤ 0.1× the step's truncation error (cg_error_vs_truncation)
-WARM = 6                 # steps into the fall where a step is timed (the first ones need few CG iterations)
 METHODS = ("large steps", "Newton", "XPBD", "pbanim RODAS4", "pbanim Radau", "scipy BDF", "scipy Radau",
            "scipy odeint")
 PBANIM = METHODS[:5]
@@ -219,45 +218,6 @@ def _alternating(cloth, a, b, rounds, budget):
             ts.append(time.perf_counter() - t0)
         ratios.append(ts[0] / ts[1])
     return float(np.median(ratios)), float(np.percentile(ratios, 25)), float(np.percentile(ratios, 75))
-
-
-@contract(sizes=Seq(Int(ge=2, le=256), min_len=1, max_len=8), repeats=Int(ge=1, le=20),
-          precond=Choice(PRECONDITIONERS), tol=Real(gt=0, lt=1))
-def step_costs(sizes=(16, 32, 64), repeats: int = 2, precond: str = "jacobi", tol: float = CG_TOL) -> dict:
-    """{N: (large step s, its CG iterations, XPBD 1 × 10 s)} at h = 1/60 s, medians of ``repeats`` steps from
-    the state ``WARM`` steps into the fall (the CG iterations of that step counted), CG to ``tol`` with
-    ``precond``."""
-    out = {}
-    for n in sizes:
-        cloth = sheet(n)
-        y = cloth.state()
-        for _ in range(WARM):
-            y = _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond)[0]
-        its = _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond)[1].iterations
-        t_ls = median_time(lambda: _large_step(cloth, y, 1.0 / 60.0, tol, 20000, precond), repeats=repeats)
-        _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10)                       # colouring once
-        t_x = median_time(lambda: _xpbd_step(cloth, y, 1.0 / 60.0, 1, 10), repeats=repeats)
-        out[n] = (t_ls, its, t_x)
-    return out
-
-
-@contract(n=Int(ge=4, le=256), tol=Real(gt=0, lt=1), precond=Choice(PRECONDITIONERS))
-def cg_error_vs_truncation(n: int, tol: float = CG_TOL, precond: str = "jacobi") -> tuple[float, float]:
-    """(CG error / local truncation error) in x and in v of one large step at h = 1/60 s, ``WARM`` steps into
-    the fall: the CG error against the same step solved to 10⁻¹⁰, the truncation error estimated by step
-    doubling (the step of h against two of h/2, both solved to 10⁻¹⁰). Below 1: the solve is not what
-    limits the step's accuracy."""
-    cloth, h = sheet(n), 1.0 / 60.0
-    y = cloth.state()
-    for _ in range(WARM):
-        y = _large_step(cloth, y, h, tol, 20000, precond)[0]
-    tight = _large_step(cloth, y, h, 1e-10, 50000, "multigrid")[0]
-    half = _large_step(cloth, _large_step(cloth, y, h / 2, 1e-10, 50000, "multigrid")[0], h / 2, 1e-10, 50000,
-                       "multigrid")[0]
-    y1 = _large_step(cloth, y, h, tol, 20000, precond)[0]
-    k = cloth.n
-    return tuple(float(np.abs(y1[s] - tight[s]).max() / np.abs(half[s] - tight[s]).max())
-                 for s in (slice(None, k), slice(k, None)))
 
 
 def _stable(cloth, step, h, t_end=0.2):
