@@ -136,6 +136,28 @@ def test_the_chapter_opens_the_editor():
         plt.close(ed.ax.figure)
 
 
+def test_the_chapter_opens_the_box_editor():
+    # ORACLES L5, L7: the chapter's box editor draws the lean twin's S (flight step 0.02 s under a drawing every
+    # 5 ms: within 1e-4 m of the readable S) and a drag lowers the residual at the pointer.
+    import matplotlib.pyplot as plt
+
+    from chapters.ch10_design_search import sketch_editor
+
+    ed = sketch_editor(scene="box")
+    try:
+        assert ed.path == "lean" and shown(ed, tol=1e-4)
+        x = ed.X[100].copy()
+        send(ed, "button_press_event", x[0], x[2])
+        res = []
+        for _ in range(2):
+            send(ed, "motion_notify_event", x[0] + 0.03, x[2] + 0.03)
+            res.append(ed.residual)
+        assert ed.grab is not None and abs(ed.grab - ed.t[100]) <= 0.02     # the nearest drawn point (pixels)
+        assert res[1] < 0.1 * res[0] and ed.path == "lean"
+    finally:
+        plt.close(ed.ax.figure)
+
+
 # ---------------------------------------------------------------- the lean twins and the blitted redraw (ORACLES L7)
 def twins(scene, T, h, i, **kw):
     """The lean editor and the readable one on the same scene, both grabbed at drawn time index i."""
