@@ -109,14 +109,18 @@ def biped_walk(ctx):
     kernel = PlanarKernel(planar_biped())
     plt_frames = np.arange(0, len(r.t), 5 if ctx.quick else 2)[:40 if ctx.quick else 400]
     fig, ax = ctx.subplots(figsize=(6, 3))
+    # the artists made once and moved each frame (clearing the axes and drawing anew cost 10x more per frame)
+    bones = [ax.plot([], [], "-", lw=2, color="k")[0] for _ in stick_figure(kernel, r.q[0])]
+    floor = ax.plot([], [], color="0.5", lw=1)[0]
+    ax.set(ylim=(-0.1, 1.6), aspect="equal")
 
     def draw(i):
-        ax.clear()
         k = plt_frames[i]
-        _draw_biped(ax, stick_figure(kernel, r.q[k]))
+        for line, seg in zip(bones, stick_figure(kernel, r.q[k])):
+            line.set_data(seg[:, 0], seg[:, 1])
         cx = r.com[k, 0]
-        ax.plot([cx - 2, cx + 2], [0, 0], color="0.5", lw=1)
-        ax.set(xlim=(cx - 1.5, cx + 1.5), ylim=(-0.1, 1.6), aspect="equal", title=f"t = {r.t[k]:.2f} s")
+        floor.set_data([cx - 2, cx + 2], [0, 0])
+        ax.set(xlim=(cx - 1.5, cx + 1.5), title=f"t = {r.t[k]:.2f} s")
 
     ctx.save_gif(fig, draw, len(plt_frames), fps=25)
     fig2, (a, b) = ctx.subplots(2, 1, figsize=(11, 5))

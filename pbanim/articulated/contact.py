@@ -76,21 +76,24 @@ class Staircase:
 
 
 def point_jacobians(tree, q: np.ndarray, links, points) -> tuple[np.ndarray, np.ndarray]:
-    """World positions (m, 3) and point Jacobians (m, 3, nv) of link-frame ``points`` on ``links``."""
+    """World positions (m, 3) and point Jacobians (m, 3, nv) of link-frame ``points`` on ``links``.
+
+    The motion subspaces in world Plücker coordinates (ω_j, v_j) = ⁰X_j S_j are formed once per link, and the
+    columns ω_j × p + v_j of every point at once, kept on the path from the root to the point's link (the
+    same products as a walk up the path, point by point, so the same numbers)."""
     A = tree.arrays()
     _, X0, origins = world_poses(tree, q)
-    Xinv = [plucker_inverse(X) for X in X0]                         # ⁰X_i: link i → world
-    m = len(links)
-    P, J = np.zeros((m, 3)), np.zeros((m, 3, tree.nv))
-    for k, (i, r) in enumerate(zip(links, points)):
-        p = origins[i] + X0[i][:3, :3].T @ r
-        P[k] = p
-        j = i
-        while j >= 0:                                               # the path to the root: < n steps
-            s = Xinv[j] @ A["S"][j]                                 # (6, d_j) in world Plücker coordinates
-            cols = cross(s[:3].T, np.broadcast_to(p, (s.shape[1], 3))) + s[3:].T
-            J[k][:, A["vi"][j]] = cols.T
-            j = tree.parent[j]
+    links = np.asarray(links, dtype=int).reshape(-1)
+    m, nv = links.size, tree.nv
+    P = np.zeros((m, 3))
+    for k, (i, r) in enumerate(zip(links.tolist(), points)):
+        P[k] = origins[i] + X0[i][:3, :3].T @ r
+    Sw = np.zeros((6, nv))                                          # ⁰X_j S_j, the columns of joint j
+    for j, (X, S, vi) in enumerate(zip(X0, A["S"], A["vi"])):
+        if S.shape[1]:
+            Sw[:, vi] = plucker_inverse(X) @ S
+    cols = cross(Sw[:3].T[None, :, :], P[:, None, :]) + Sw[3:].T[None, :, :]      # (m, nv, 3)
+    J = np.where(A["path"][links][:, :, None], cols, 0.0).transpose(0, 2, 1).copy()
     return P, J
 
 

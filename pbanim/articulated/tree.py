@@ -188,6 +188,12 @@ class ArticulatedTree:
             self._cache = {"XT": XT, "I": I, "S": S, "qi": self._q_index, "vi": self._v_index,
                            "a0": np.concatenate([np.zeros(3), -self.gravity]),
                            "damping": np.repeat(self.damping, [v.stop - v.start for v in self._v_index])}
+            path = np.zeros((self.n, self.nv), dtype=bool)        # path[i]: the velocity coordinates root → i
+            for i in range(self.n):
+                path[i, self._v_index[i]] = True
+                if self.parent[i] >= 0:
+                    path[i] |= path[self.parent[i]]
+            self._cache["path"] = path
         return self._cache
 
     @contract(i=Index("self.n"), qi=JointPositions("self", joint="i", batch="first"))
