@@ -110,3 +110,79 @@ def test_peer_run_stops_over_budget():
     assert not full["over"] and full["steps"] == 60 and full["pen"] >= 0
     with pytest.raises(InvalidInput, match="solver"):
         contact_peers.settle_scene("pybullet", "pile", S, 1 / 120, 5, solver="cg")
+
+
+def _split_pair(sc, y, **kw):
+    """One step from y with the position correction and one with it never triggered (position_tol 1 m): the same
+    velocity solve, so any difference is the correction's."""
+    from pbanim.contact.split import SplitStepping
+
+    out = []
+    for ptol in (1e-5, 1.0):
+        ts = SplitStepping(sc.system, sc.detect, sc.forces, friction=sc.friction, iterations=200, tol=1e-10,
+                           position_tol=ptol, **kw)
+        out.append((ts.step(0.0, y.copy(), 1 / 60), ts))
+    return out
+
+
+def _deepest(sc, y):
+    return float(np.max(sc.detect(y)[0].depth, initial=0.0))
+
+
+# ORACLES D19: the position correction moves the bodies out of penetration and adds no kinetic energy (the
+# momenta are the velocity solve's, P bit for bit); Baumgarte feedback on the same state adds kinetic energy
+def test_split_correction_removes_penetration_and_adds_no_kinetic_energy():
+    from pbanim.contact.split import SplitStepping
+
+    sc = sphere_pile(3, box_half=0.3)
+    s, r = sc.system, sc.info["radius"]
+    y = s.state()
+    x, _, P, _ = s.unpack(y)
+    x[:] = [[0.0, 0.0, r - 3e-3], [0.001, 0.0, 3 * r - 6e-3], [0.0, 0.001, 5 * r - 9e-3]]   # a column, 3 mm into each
+    P[:] = [[0.2, 0.0, 0.0], [0.0, -0.1, 0.0], [0.0, 0.0, -0.3]]
+    (y_fix, ts), (y_raw, _) = _split_pair(sc, y)
+    assert ts.stats["position_steps"] == 1 and _deepest(sc, y) > 2.9e-3 and _deepest(sc, y_raw) > 2.5e-3
+    assert _deepest(sc, y_fix) <= 2e-5                     # 1e-5 linearized; measured 1e-5
+    assert np.array_equal(y_fix[21:30], y_raw[21:30])      # P: the velocity solve's, untouched
+    assert np.allclose(y_fix[30:], y_raw[30:], rtol=0, atol=1e-14)   # L: turned by roundoff (r × n ≈ 0 on a sphere)
+    assert s.kinetic_energy(y_fix) == pytest.approx(s.kinetic_energy(y_raw), rel=1e-13)
+    baum = SplitStepping(s, sc.detect, sc.forces, friction=sc.friction, iterations=200, tol=1e-10, correction=False)
+    assert s.kinetic_energy(baum.step(0.0, y.copy(), 1 / 60)) > 1.5 * s.kinetic_energy(y_fix)
+
+
+# ORACLES D19: boxes turned by the correction keep their kinetic energy (the spin turned with the body)
+def test_split_correction_turns_boxes_without_kinetic_energy():
+    from pbanim.contact.scenes import brick_wall
+    from pbanim.rigid.quat import quat_from_axis_angle
+
+    sc = brick_wall(3, per_row=2)
+    s = sc.system
+    y = s.state()
+    x, q, P, L = s.unpack(y)
+    x[:, 2] -= 4e-3                                        # every brick 3 mm into what is under it
+    q[:] = quat_from_axis_angle(np.array([[1.0, 0.3, 0.0]] * 3), np.array([0.004, -0.003, 0.002]))
+    L[:] = [[0.01, -0.02, 0.005], [0.0, 0.01, 0.02], [-0.01, 0.0, 0.01]]
+    (y_fix, ts), (y_raw, _) = _split_pair(sc, y)
+    N = s.N
+    turned = np.abs(y_fix[3 * N:7 * N] - y_raw[3 * N:7 * N]).max()
+    assert ts.stats["position_steps"] == 1 and turned > 1e-6 and _deepest(sc, y_raw) > 1e-3
+    assert _deepest(sc, y_fix) <= 1e-4
+    assert np.array_equal(y_fix[7 * N:10 * N], y_raw[7 * N:10 * N])
+    assert s.kinetic_energy(y_fix) == pytest.approx(s.kinetic_energy(y_raw), rel=1e-13)    # measured ≤ 1e-16
+
+
+# ORACLES D19: a pile dropped at h = 1/60 rests within the accuracy of the large-scene benchmark, warm started from
+# the last step's impulses (matched by key) or not
+def test_split_pile_rests_within_the_accuracy():
+    from pbanim.contact.split import SplitStepping
+
+    for warm in (True, False):
+        sc = sphere_pile(12, box_half=0.12, margin=0.01)
+        ts = SplitStepping(sc.system, sc.detect, sc.forces, friction=sc.friction, iterations=200, tol=1e-4,
+                           position_tol=5e-5, warm_start=warm)
+        y, pens = sc.system.state(), []
+        for k in range(45):
+            y = ts.step(k / 60, y, 1 / 60)
+            pens.append(ts.last_info["penetration"])
+        assert max(pens[30:]) <= contact_large.ACCURACY and ts.stats["position_steps"] > 0
+        assert ts.stats["persisted"] > 0 if warm else ts.stats["persisted"] == 0

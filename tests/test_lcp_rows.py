@@ -165,3 +165,57 @@ def test_rows_sweep_refuses_a_contact_in_two_colors_and_keeps_an_uncolored_one()
     lim = mu[1:] * warm[3::3]                       # contacts 1, 2 in no color: their warm start, projected
     np.testing.assert_array_equal(z[3:].reshape(2, 3), np.column_stack([warm[3::3], np.clip(warm[4::3], -lim, lim),
                                                                         np.clip(warm[5::3], -lim, lim)]))
+
+
+# ORACLES D18: the normal rows alone (the position correction's LCP) — the colored sweep on velocities against the
+# readable projected Gauss–Seidel on A = J W Jᵀ in color order, and converged, the frictionless LCP's conditions
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 14), sweeps=st.integers(1, 5))
+def test_normal_rows_sweep_equals_gauss_seidel_on_A(seed, bodies, contacts, sweeps):
+    from pbanim.lcp.rows import pgs_normal_rows
+    from pbanim.lcp.solve import pgs
+
+    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _rows_problem(seed, bodies, contacts)
+    Gn_a, Gn_b, beta = Ga[0::3], Gb[0::3], bias[0::3] - 0.5        # at least one row pushed (β < 0) on average
+    colors = colors_by_bodies(a, b, static=[bodies])
+    order = np.concatenate([np.asarray(K, dtype=np.intp) for K in colors])
+    A = delassus(a, b, Gn_a, Gn_b, Wb)
+    A = 0.5 * (A + A.T)
+    p, res, k, v = pgs_normal_rows(a, b, Gn_a, Gn_b, Wb, beta, colors, max_iter=sweeps, tol=1e-300)
+    if not np.any(beta < 0):
+        assert k == 0 and not np.any(p) and not np.any(v)
+        return
+    pr, _, _ = pgs(A[np.ix_(order, order)], beta[order], max_iter=sweeps, tol=1e-300)   # readable, color order
+    scale = max(1.0, float(np.abs(pr).max()))
+    assert np.abs(p[order] - pr).max() <= 1e-11 * scale and 1 <= k <= sweeps        # stops early only at res = 0
+    imp = np.zeros((bodies + 1, 6))
+    np.add.at(imp, a, Gn_a * p[:, None])
+    np.add.at(imp, b, -Gn_b * p[:, None])
+    assert np.allclose(v, np.einsum("nij,nj->ni", Wb, imp), atol=1e-10 * scale)
+    if np.linalg.eigvalsh(A).min() < 1e-2:          # converged answers only where unique (A positive definite)
+        return
+    p, res, k, v = pgs_normal_rows(a, b, Gn_a, Gn_b, Wb, beta, colors, max_iter=5000, tol=1e-10)
+    w = A @ p + beta
+    assert res <= 1e-10 and np.all(p >= 0) and w.min() >= -1e-9 and np.abs(np.minimum(p, w)).max() <= 1e-9
+
+
+# ORACLES D11: warm started from any nearby impulses, the colored sweep on velocities reaches the cold start's answer
+# (unique on a positive definite A) within its tolerance, in fewer sweeps from the answer itself
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_rows_warm_start_reaches_the_cold_answer(seed):
+    ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _rows_problem(seed, 8, 4)   # 12 rows on 48 dofs: A positive definite
+    A = delassus(ra, rb, Ga, Gb, Wb)
+    assert np.linalg.eigvalsh(0.5 * (A + A.T)).min() > 1e-3
+    colors = colors_by_bodies(a, b, static=[8])
+    tol = 1e-11
+    z, res, k, u1 = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=20000, tol=tol)
+    near = z * np.random.default_rng(seed).uniform(0.5, 1.5, z.size)            # last step's impulses, say
+    zw, resw, kw, uw = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=20000, tol=tol,
+                                             warm_start=near)
+    cond = np.linalg.cond(0.5 * (A + A.T))
+    scale_b = max(1.0, float(np.abs(np.einsum("ij,ij->i", Ga, u[ra]) - np.einsum("ij,ij->i", Gb, u[rb]) + bias).max()))
+    assert res <= tol * scale_b and resw <= tol * scale_b          # the stopping test, relative to max(1, ‖b‖∞)
+    assert np.abs(zw - z).max() <= 10 * cond * tol * max(1.0, np.abs(z).max())
+    z2, _, k2, _ = pgs_box_friction_rows(ra, rb, Ga, Gb, Wb, u, bias, mu, colors, max_iter=20000, tol=tol,
+                                         warm_start=z)
+    assert k2 <= 2 < k
