@@ -30,7 +30,10 @@ from ..errors import check_result
 from .batched import _crf, _crm, link_transforms_batch
 from .derivatives import bar
 from .dynamics import external_forces
-from .fast import aba_fast, batch_of
+from .fast import _check_quaternions, _joint_frame_forces, _pivot_array, aba_fast, batch_of
+from .fastbatch import _inertia_bias, sweep_batch
+from .fastkernel import _cross, _cross_motion
+from .fastplan import FLOATING, plan_for
 from .spatial import crm, plucker_inverse
 from .specs import JointPositions, Tree
 from .tree import ArticulatedTree
@@ -112,6 +115,111 @@ def _rnea_derivatives_batch(tree, q, qd, qdd, f_ext):
     return dq, dqd, H
 
 
+def _crm_t(v, w):
+    """v̂ × ŵ on stacks with the components first ((6, ...) arrays)."""
+    return np.array(_cross_motion(tuple(v), tuple(w)))
+
+
+def _crf_t(v, f):
+    """v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first."""
+    a, b, c = _cross(v[:3], f[:3]), _cross(v[3:], f[3:]), _cross(v[:3], f[3:])
+    return np.array([a[0] + b[0], a[1] + b[1], a[2] + b[2], c[0], c[1], c[2]])
+
+
+def _pairs(x, y):
+    """(x_j · y_c) for every row j and column c: x (m, r, K), y (m, c, K) → (r, c, K)."""
+    return np.einsum("ajk,ack->jck", x, y)
+
+
+def _coriolis_matrices(I, v, h):
+    """B_i = X + Xᵀ − h̄ with X = I_i (v̂_i ×), for stacks I (6, 6, n, K), v̂ and h = I v̂ (6, n, K).
+
+    Row a of X: (I_a,ω × ω + I_a,u × u,  I_a,u × ω) (a row times ω× is the row crossed with ω)."""
+    Iw, Iu = I[:, :3].transpose(1, 0, 2, 3), I[:, 3:].transpose(1, 0, 2, 3)   # components first, rows next
+    om, u = v[:3, None], v[3:, None]
+    X = np.empty_like(I)
+    X[:, :3] = np.array(_cross(Iw, om)).transpose(1, 0, 2, 3) + np.array(_cross(Iu, u)).transpose(1, 0, 2, 3)
+    X[:, 3:] = np.array(_cross(Iu, om)).transpose(1, 0, 2, 3)
+    B = X + X.transpose(1, 0, 2, 3)
+    for blk, x in (((slice(0, 3), slice(0, 3)), h[:3]), ((slice(0, 3), slice(3, 6)), h[3:]),
+                   ((slice(3, 6), slice(0, 3)), h[3:])):          # − h̄: + n× on the first block, + F× on two
+        Bb = B[blk]
+        Bb[0, 1] -= x[2]
+        Bb[0, 2] += x[1]
+        Bb[1, 0] += x[2]
+        Bb[1, 2] -= x[0]
+        Bb[2, 0] -= x[1]
+        Bb[2, 1] += x[0]
+    return B
+
+
+def _cholesky_inverse(H):
+    """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹."""
+    m = H.shape[0]
+    L, Li = np.zeros_like(H), np.zeros_like(H)
+    for j in range(m):
+        Lj = L[j, :j]
+        L[j, j] = np.sqrt(H[j, j] - np.einsum("pk,pk->k", Lj, Lj))
+        if j + 1 < m:
+            L[j + 1:, j] = (H[j + 1:, j] - np.einsum("ipk,pk->ik", L[j + 1:, :j], Lj)) / L[j, j]
+    for i in range(m):                                          # L⁻¹ row by row (forward substitution)
+        r = -np.einsum("jk,jck->ck", L[i, :i], Li[:i])
+        r[i] += 1.0
+        Li[i] = r / L[i, i]
+    return np.einsum("jik,jck->ick", Li, Li)
+
+
+def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
+    """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹) as (nv, nv, K) stacks, the batch axis last, for trees without a floating joint.
+
+    The world-frame ABA (:mod:`.fastbatch`) leaves R_i, p_i, S_i, v̂_i, v̂_λ(i), Ĉ_i and â'_i = â_i − Ĉ_i in
+    its buffers; the rigid world inertias I_i and p̂_i come from the same kernel's step, f̂_i = I_i â'_i + p̂_i.
+    Then the formulas of the module docstring, every cross product by its components, every column at once,
+    the pairs (j, c) as one product each, and H⁻¹ by a Cholesky factorization on the stacks."""
+    P, K = plan_for(tree), q.shape[0]
+    n, nv, par = P.n, P.nv, P.parents
+    F = None
+    if f_ext is not None:
+        F = np.ascontiguousarray(_joint_frame_forces(P, external_forces(tree, f_ext, K)).transpose(2, 1, 0))
+    sweep_batch(P, q, qd, tau, F, _pivot_array, _check_quaternions)
+    w = P.work
+    _inertia_bias(P, w, F)                                      # w["IA"] = I_i (rigid), w["pA"] = p̂_i
+    Y, v, vp = w["IA"], w["v"][:, :n], w["vp"]
+    ae = np.empty((6, n + 1, K))
+    np.add(w["acc"], w["C"][:, :n], out=ae[:, :n])              # â_i = â'_i + Ĉ_i; row n: the world's â₀
+    ae[:, n] = np.asarray(P.a0)[:, None]
+    Fo = np.einsum("abnk,bnk->ank", Y, w["acc"]) + w["pA"]
+    Bc = _coriolis_matrices(Y, v, np.einsum("abnk,bnk->ank", Y, v))
+    for i in reversed(range(n)):                                # composites, leaves first, no transforms
+        lam = par[i]
+        if lam >= 0:
+            Y[:, :, lam] += Y[:, :, i]
+            Bc[:, :, lam] += Bc[:, :, i]
+            Fo[:, lam] += Fo[:, i]
+    cols, anc, desc = _relations(tree)                          # no floating joint: one column per moving link
+    xi, VL, V = w["S"][:, cols], vp[:, cols], v[:, cols]
+    AL = ae[:, np.where(par < 0, n, par)[cols]]
+    YK, BK, FK = Y[:, :, cols], Bc[:, :, cols], Fo[:, cols]
+    wq = _crm_t(xi, VL)
+    g = _crm_t(xi, AL) + _crm_t(VL, wq)
+    z = _crm_t(VL + V, xi)
+    Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) - np.einsum("abck,bck->ack", YK, g)
+    Pd = np.einsum("abck,bck->ack", YK, z) - np.einsum("abck,bck->ack", BK, xi)
+    SBY = np.concatenate([np.einsum("ack,abck->bck", xi, BK), np.einsum("ack,abck->bck", xi, YK)])
+    zero = np.zeros_like(xi)
+    A = _pairs(SBY, np.concatenate([np.concatenate([wq, -xi, zero], axis=1), np.concatenate([-g, z, xi], axis=1)]))
+    D = _pairs(xi, np.concatenate([Pq, Pd], axis=1))
+    anc, desc = anc[:, :, None], desc[:, :, None]
+    HA = A[:, 2 * nv:]
+    H = np.where(anc, HA, np.where(desc, HA.transpose(1, 0, 2), 0.0))
+    dq = np.where(anc, A[:, :nv], np.where(desc, D[:, :nv], 0.0))
+    dqd = np.where(anc, A[:, nv:2 * nv], np.where(desc, D[:, nv:], 0.0))
+    dqd += P.damping[:, None, None] * np.eye(nv)[:, :, None]
+    Minv = _cholesky_inverse(H)
+    R = -np.einsum("ijk,jck->ick", Minv, np.concatenate([dq, dqd], axis=1))
+    return R[:, :nv], R[:, nv:], Minv
+
+
 @contract(tree=_TREE, q=_QB, qd=_VB, qdd=_VB, f_ext=_FB)
 def rnea_derivatives_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None):
     """(∂τ/∂q, ∂τ/∂q̇, H) for K states: q (K, nq), q̇ and q̈ (K, nv) → three (K, nv, nv) arrays."""
@@ -123,18 +231,26 @@ def rnea_derivatives_batch(tree: ArticulatedTree, q, qd, qdd, f_ext=None):
     return tuple(x[0] for x in out) if single else out
 
 
+def _aba_derivatives_general(tree, q, qd, tau, f_ext):
+    """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹), each (K, nv, nv), from the RNEA derivatives above at q̈ = ABA (any tree)."""
+    qdd = aba_fast(tree, q, qd, tau, f_ext)
+    dq, dqd, H = _rnea_derivatives_batch(tree, q, qd, qdd, f_ext)
+    Minv = np.linalg.inv(H)
+    Minv = 0.5 * (Minv + np.swapaxes(Minv, 1, 2))
+    dqd += np.diag(tree.arrays()["damping"])
+    return -(Minv @ dq), -(Minv @ dqd), Minv
+
+
 @contract(tree=_TREE, q=_QB, qd=_VB, tau=_VB, f_ext=_FB)
 def aba_derivatives_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None):
     """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹) for K states: q (K, nq), q̇ and τ (K, nv) → three (K, nv, nv) arrays, at
     q̈ = ABA(q, q̇, τ) (damping and f̂ᵉˣᵗ included; a joint that moves no inertia raises ABA's named error)."""
     single, q, (qd, tau) = batch_of(q, qd=qd, tau=tau)
     with np.errstate(over="ignore", invalid="ignore"):
-        qdd = aba_fast(tree, q, qd, tau, f_ext)
-        dq, dqd, H = _rnea_derivatives_batch(tree, q, qd, qdd, f_ext)
-        Minv = np.linalg.inv(H)
-        Minv = 0.5 * (Minv + np.swapaxes(Minv, 1, 2))
-        dqd += np.diag(tree.arrays()["damping"])
-        out = (-(Minv @ dq), -(Minv @ dqd), Minv)
+        if np.any(plan_for(tree).kinds == FLOATING):
+            out = _aba_derivatives_general(tree, q, qd, tau, f_ext)
+        else:
+            out = tuple(np.ascontiguousarray(np.moveaxis(x, -1, 0)) for x in _aba_derivatives_lean(tree, q, qd, tau, f_ext))
     for x in out:
         check_result("aba_derivatives_batch", x, _HUGE)
     return tuple(x[0] for x in out) if single else out
