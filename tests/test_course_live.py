@@ -174,3 +174,59 @@ def test_notebooks_execute_headless(tmp_path):
         outs = [o for c in code if f'live("{name}")' in c.source for o in c.outputs]
         assert any("application/vnd.jupyter.widget-view+json" in o.get("data", {}) or "image/png" in o.get("data", {})
                    for o in outs), name
+
+
+def _shown(fig):
+    """What a figure shows, drawn: per axes its title, limits, legend texts and every line's data."""
+    fig.canvas.draw()
+    out = []
+    for ax in fig.axes:
+        leg = ax.get_legend()
+        out.append((ax.get_title(), ax.get_xlim(), ax.get_ylim(), [t.get_text() for t in leg.get_texts()] if leg else [],
+                    [np.asarray(line.get_xydata(), float) for line in ax.get_lines()]))
+    return out
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_an_updated_figure_shows_what_a_new_one_shows(name):
+    # a redraw updates the figure built at the first one (set_data, titles, limits); at every control's ends
+    # and default it shows what a figure built from the same data shows: the same lines, titles and legend
+    # texts, and limits that hold the new figure's (the limits before are kept when the new ones lie inside
+    # them and span at least half of them: the drawn axes are reused)
+    d = get_demo(name)
+    d.state.clear()
+    d._built = None
+    first, _ = d.frame()
+    for c in d.controls:
+        for v in (c.options if c.kind == "choice" else (c.lo, c.hi, c.value)):
+            fig, data = d.frame(**{c.name: v})
+            assert fig is first
+            fresh, _ = d.build(data, d.params(**{c.name: v}))
+            for ax, (ta, xa, ya, la, da), (tb, xb, yb, lb, db) in zip(fig.axes, _shown(fig), _shown(fresh)):
+                assert ta == tb and la == lb, (name, c.name, v)
+                for (lim_a, lim_b), log in zip(((xa, xb), (ya, yb)), (ax.get_xscale() == "log", ax.get_yscale() == "log")):
+                    (a0, a1), (b0, b1) = sorted(np.log10(lim_a) if log else lim_a), sorted(np.log10(lim_b) if log else lim_b)
+                    tol = 1e-9 * (b1 - b0)
+                    assert a0 <= b0 + tol and b1 - tol <= a1 and b1 - b0 >= 0.5 * (a1 - a0) - tol, \
+                        (name, c.name, v, lim_a, lim_b)
+                assert len(da) == len(db)
+                for a, b in zip(da, db):
+                    np.testing.assert_array_equal(a, b)
+    d.state.clear()
+
+
+def test_the_pd_demo_states_are_the_servo_steps_to_roundoff():
+    # ORACLES F1's step, taken 20 000 times at h = 1e-4 as A^m times the first m states (⌈log₂ n⌉ products):
+    # the step-by-step loop of pd_step to 4 ulps × steps of the largest |state| (measured 1.3e-14 relative)
+    from pbanim.control.pd import pd_step
+    from pbanim.course.live_demos import _pd_states
+
+    for servo, kp, kv, h, n in (("explicit", 100.0, 20.0, 1e-4, 20000), ("stable", 1e4, 200.0, 0.011, 300),
+                                ("implicit", 1e6, 0.0, 0.1, 20)):
+        S = _pd_states(kp, kv, h, servo, 1.0, n)
+        x, v, ref = 0.0, 1.0, []
+        for _ in range(n):
+            x, v = pd_step(x, v, h, kp, kv, 1.0, servo)
+            ref.append((x, v))
+        ref = np.array(ref)
+        assert np.abs(S - ref).max() <= 4 * np.finfo(float).eps * n * np.abs(ref).max(), servo

@@ -50,11 +50,29 @@ def _kepler(demo, method, steps):
 
 def _kepler_draw(fig, d, p):
     a, b = fig.subplots(1, 2)
-    a.plot(*d["orbit"], lw=0.8)
+    (orbit,) = a.plot(*d["orbit"], lw=0.8)
     a.plot(0, 0, "k*")
-    a.set(aspect="equal", xlabel="x", ylabel="y", title=f"{p['method']}, h = T/{p['steps']}")
-    b.semilogy(d["t"], np.abs(d["dE"]) + 1e-17, lw=0.8)
+    a.set(aspect="equal", xlabel="x", ylabel="y")
+    (err,) = b.semilogy(d["t"], np.abs(d["dE"]) + 1e-17, lw=0.8)
     b.set(xlabel="t / T", ylabel="|E − E*|", title="energy error (GM = a = 1)")
+    arts = {"orbit": orbit, "err": err, "axes": (a, b)}
+    _kepler_update(arts, d, p, rescale=False)
+    return arts
+
+
+def _kepler_update(arts, d, p, rescale=True):
+    arts["orbit"].set_data(*d["orbit"])
+    arts["err"].set_data(d["t"], np.abs(d["dE"]) + 1e-17)
+    arts["axes"][0].set_title(f"{p['method']}, h = T/{p['steps']}")
+    if rescale:
+        _rescale(*arts["axes"])
+
+
+def _rescale(*axes):
+    """Limits from the artists' new data (as a first draw sets them)."""
+    for ax in axes:
+        ax.relim()
+        ax.autoscale_view()
 
 
 register_demo(LiveDemo(
@@ -62,7 +80,8 @@ register_demo(LiveDemo(
     (Control("method", "method", "choice", "symplectic_euler",
              options=("euler", "symplectic_euler", "verlet", "midpoint", "rk4")),
      Control("steps", "steps per orbit", "int", 150, 40, 400)),
-    _kepler, _kepler_draw, notes="Explicit Euler spirals out, the symplectic methods keep the energy error bounded."))
+    _kepler, _kepler_draw, notes="Explicit Euler spirals out, the symplectic methods keep the energy error bounded.",
+    update=_kepler_update))
 
 
 # -- chapter 03: Baumgarte gains on a bead off its circle -----------------------------------------------
@@ -97,18 +116,27 @@ def _bead_draw(fig, d, p):
     a, b = fig.subplots(1, 2)
     th = np.linspace(0, 2 * np.pi, 200)
     a.plot(d["R"] * np.cos(th), d["R"] * np.sin(th), "k:", lw=0.8)
-    a.plot(*d["x"], lw=1)
+    (path,) = a.plot(*d["x"], lw=1)
     a.set(aspect="equal", xlabel="x (m)", ylabel="y (m)", title="the bead (RK4, h = 20 ms)")
-    b.plot(d["t"], d["C"], label="simulated C = ½(|x|² − R²)")
-    b.plot(d["t"], d["C_exact"], "k--", lw=1, label="C̈ + 2ζω_b Ċ + ω_b² C = 0")
+    (C,) = b.plot(d["t"], d["C"], label="simulated C = ½(|x|² − R²)")
+    (exact,) = b.plot(d["t"], d["C_exact"], "k--", lw=1, label="C̈ + 2ζω_b Ċ + ω_b² C = 0")
     b.set(xlabel="t (s)", ylabel="C (m²)", title=f"ω_b = {p['omega_b']:.3g} rad/s, ζ = {p['zeta']:.2f}")
     b.legend(fontsize=7)
+    return {"path": path, "C": C, "exact": exact, "axes": (a, b)}
+
+
+def _bead_update(arts, d, p):
+    arts["path"].set_data(*d["x"])
+    arts["C"].set_data(d["t"], d["C"])
+    arts["exact"].set_data(d["t"], d["C_exact"])
+    arts["axes"][1].set_title(f"ω_b = {p['omega_b']:.3g} rad/s, ζ = {p['zeta']:.2f}")
+    _rescale(*arts["axes"])
 
 
 register_demo(LiveDemo(
     "ch03_baumgarte", "ch03_constraints", "drift", "Baumgarte gains pull a bead back onto its circle",
     (Control("omega_b", "ω_b (rad/s)", "log", 10.0, 1.0, 20.0), Control("zeta", "ζ", "float", 1.0, 0.1, 2.0)),
-    _bead, _bead_draw, notes="k_s = ω_b², k_d = 2ζω_b; ζ = 1 is the critically damped return."))
+    _bead, _bead_draw, notes="k_s = ω_b², k_d = 2ζω_b; ζ = 1 is the critically damped return.", update=_bead_update))
 
 
 # -- chapter 06: restitution of a bouncing ball ------------------------------------------------------------
@@ -127,18 +155,27 @@ def _bounce(demo, restitution, bounces=6):
 
 def _bounce_draw(fig, d, p):
     a, b = fig.subplots(1, 2)
-    a.plot(d["t"], d["z"], lw=1)
+    (z,) = a.plot(d["t"], d["z"], lw=1)
     a.set(xlabel="t (s)", ylabel="z (m)", title=f"ε = {p['restitution']:.2f} (events located, RK4)")
-    b.semilogy(d["k"], d["apex_exact"], "k-", label="ε^(2k) h₀")
-    b.semilogy(d["k"], d["apex"], "o", label="simulated apex")
+    (exact,) = b.semilogy(d["k"], d["apex_exact"], "k-", label="ε^(2k) h₀")
+    (apex,) = b.semilogy(d["k"], d["apex"], "o", label="simulated apex")
     b.set(xlabel="bounce k", ylabel="apex height (m)")
     b.legend(fontsize=7)
+    return {"z": z, "exact": exact, "apex": apex, "axes": (a, b)}
+
+
+def _bounce_update(arts, d, p):
+    arts["z"].set_data(d["t"], d["z"])
+    arts["exact"].set_data(d["k"], d["apex_exact"])
+    arts["apex"].set_data(d["k"], d["apex"])
+    arts["axes"][0].set_title(f"ε = {p['restitution']:.2f} (events located, RK4)")
+    _rescale(*arts["axes"])
 
 
 register_demo(LiveDemo(
     "ch06_restitution", "ch06_collisions", "bouncing_heights", "restitution of a bouncing ball",
     (Control("restitution", "ε", "float", 0.8, 0.2, 0.95),), _bounce, _bounce_draw,
-    notes="Each bounce scales the speed by ε and the apex by ε²."))
+    notes="Each bounce scales the speed by ε and the apex by ε².", update=_bounce_update))
 
 
 # -- chapter 08: PD gains and a push ---------------------------------------------------------------------
@@ -148,38 +185,70 @@ def pd_push_closed_form(t, P, kp, kv, m=1.0):
 
 
 def _pd(demo, kp, zeta, servo, h, push, t_push=0.2, t_end=2.0, m=1.0):
-    from ..control.pd import largest_stable_step, pd_step
+    from ..control.pd import largest_stable_step
 
     kv = 2 * zeta * np.sqrt(kp * m)
-    n = int(np.ceil(t_end / h))
+    n = int(np.ceil(t_end / h))                # h ≥ 1e-4 (the control's range): n ≤ 2e4 steps
     k_push = int(round(t_push / h))
-    xs = np.zeros(n + 1)
-    x = v = 0.0
+    xs = np.zeros(n + 1)                       # at rest until the push
+    xs[k_push + 1:] = _pd_states(kp, kv, h, servo, push / m, n - k_push, m)[:, 0]
     scale = 1e6 * max(1.0, abs(push) * h / m)
-    for k in range(n):                     # cap n = t_end / h ≤ 2e4 steps (h ≥ 1e-4)
-        if k == k_push:
-            v += push / m
-        x, v = pd_step(x, v, h, kp, kv, m, servo)
-        if not abs(x) < scale:             # unstable: the run stops here (drawn up to the divergence)
-            xs = xs[:k + 1]
-            break
-        xs[k + 1] = x
+    bad = np.flatnonzero(~(np.abs(xs) < scale))
+    if len(bad):                               # unstable: drawn up to the divergence
+        xs = xs[:bad[0]]
     t = h * np.arange(len(xs))
     exact = np.where(t >= k_push * h, pd_push_closed_form(np.maximum(t - k_push * h, 0.0), push, kp, kv, m), 0.0)
     return {"t": t, "theta": xs, "exact": exact, "diverged": len(xs) < n + 1, "kv": kv,
             "h_max": largest_stable_step(kp, kv, m=m, servo=servo, h_max=10.0)}
 
 
+def _pd_states(kp, kv, h, servo, v0, n, m=1.0) -> np.ndarray:
+    """(θ, θ̇) after 1 … n steps of :func:`pbanim.control.pd.pd_step` from θ = 0, θ̇ = v0, as an (n, 2) array.
+
+    The step is linear, s⁺ = A s, with A's columns the step of (1, 0) and (0, 1); the states are A s₀, then
+    A^m times the first m states for m = 1, 2, 4, … (⌈log₂ n⌉ products instead of n steps: the plot's
+    20 000 steps at h = 10⁻⁴ in a millisecond). Past an overflow the states are inf or NaN, as the loop's
+    would be past the divergence the caller cuts at; before it they equal the step-by-step loop to roundoff
+    (``tests/test_course_live.py``)."""
+    from ..control.pd import pd_step
+
+    A = np.array([pd_step(1.0, 0.0, h, kp, kv, m, servo), pd_step(0.0, 1.0, h, kp, kv, m, servo)], float).T
+    S = np.empty((n, 2))
+    S[0] = A @ np.array([0.0, v0])
+    P, k = A, 1                                 # P = A^k; S[:k] known
+    with np.errstate(over="ignore", invalid="ignore"):
+        while k < n:                            # ⌈log₂ n⌉ rounds
+            take = min(k, n - k)
+            S[k:k + take] = S[:take] @ P.T
+            P, k = P @ P, k + take
+    return S
+
+
 def _pd_draw(fig, d, p):
     ax = fig.subplots()
-    ax.plot(d["t"], d["exact"], "k--", lw=1, label="exact servo (continuous time)")
-    ax.plot(d["t"], d["theta"], lw=1, label=f"{p['servo']} PD, h = {p['h']:.2g} s")
+    (exact,) = ax.plot(d["t"], d["exact"], "k--", lw=1, label="exact servo (continuous time)")
+    (theta,) = ax.plot(d["t"], d["theta"], lw=1, label=f"{p['servo']} PD, h = {p['h']:.2g} s")
+    ax.set(xlabel="t (s)", ylabel="θ (rad)")
+    arts = {"exact": exact, "theta": theta, "legend": ax.legend(fontsize=7), "axes": (ax,)}
+    _pd_update(arts, d, p, rescale=False)
+    return arts
+
+
+def _pd_update(arts, d, p, rescale=True):
+    ax = arts["axes"][0]
+    arts["exact"].set_data(d["t"], d["exact"])
+    arts["theta"].set_data(d["t"], d["theta"])
+    label = f"{p['servo']} PD, h = {p['h']:.2g} s"
+    arts["theta"].set_label(label)
+    arts["legend"].get_texts()[1].set_text(label)
     state = "DIVERGED" if d["diverged"] else "stable"
-    ax.set(xlabel="t (s)", ylabel="θ (rad)", title=f"k_p = {p['kp']:.3g}, k_v = {d['kv']:.3g}, push {p['push']:.2g} N s: "
-           f"{state} (largest stable h = {d['h_max']:.3g} s)")
+    ax.set_title(f"k_p = {p['kp']:.3g}, k_v = {d['kv']:.3g}, push {p['push']:.2g} N s: {state} (largest stable "
+                 f"h = {d['h_max']:.3g} s)")
+    if rescale:
+        ax.set_autoscaley_on(True)
+        _rescale(ax)
     if d["diverged"]:
         ax.set_ylim(-5 * max(p["push"], 1e-3), 5 * max(p["push"], 1e-3))
-    ax.legend(fontsize=7)
 
 
 register_demo(LiveDemo(
@@ -188,7 +257,7 @@ register_demo(LiveDemo(
      Control("servo", "servo", "choice", "explicit", options=("explicit", "stable", "implicit")),
      Control("h", "h (s)", "log", 0.005, 1e-4, 0.1), Control("push", "push P (N s)", "float", 1.0, 0.0, 5.0)),
     _pd, _pd_draw, figsize=(9.0, 3.2),
-    notes="Explicit PD diverges past its largest stable step; stable and implicit PD do not."))
+    notes="Explicit PD diverges past its largest stable step; stable and implicit PD do not.", update=_pd_update))
 
 
 # -- chapter 09: viscosity of a Taylor–Green vortex ---------------------------------------------------------
@@ -205,16 +274,24 @@ def _tg(demo, nu, n=16, h=0.05, t_end=1.0):
 
 def _tg_draw(fig, d, p):
     ax = fig.subplots()
-    ax.semilogy(d["t"], d["E"], "o", ms=3, label="simulated (16², Δt = 0.05, FFT)")
-    ax.semilogy(d["t"], d["E_exact"], "k--", lw=1, label="e^(−4νk²t)")
+    (E,) = ax.semilogy(d["t"], d["E"], "o", ms=3, label="simulated (16², Δt = 0.05, FFT)")
+    (exact,) = ax.semilogy(d["t"], d["E_exact"], "k--", lw=1, label="e^(−4νk²t)")
     ax.set(xlabel="t (s)", ylabel="E / E₀", title=f"Taylor–Green vortex, ν = {p['nu']:.3g} m²/s")
     ax.legend(fontsize=7)
+    return {"E": E, "exact": exact, "axes": (ax,)}
+
+
+def _tg_update(arts, d, p):
+    arts["E"].set_data(d["t"], d["E"])
+    arts["exact"].set_data(d["t"], d["E_exact"])
+    arts["axes"][0].set_title(f"Taylor–Green vortex, ν = {p['nu']:.3g} m²/s")
+    _rescale(*arts["axes"])
 
 
 register_demo(LiveDemo(
     "ch09_viscosity", "ch09_fluids", "taylor_green_decay", "viscosity of a Taylor–Green vortex",
     (Control("nu", "ν (m²/s)", "log", 0.05, 1e-3, 1.0),), _tg, _tg_draw, figsize=(6.0, 3.4),
-    notes="Only viscosity acts: the energy decays as e^(−4νk²t)."))
+    notes="Only viscosity acts: the energy decays as e^(−4νk²t).", update=_tg_update))
 
 
 # -- chapter 10: dragging a bouncing ball --------------------------------------------------------------------
@@ -252,16 +329,36 @@ def _drag(demo, target_x, target_z, T=2.0, h=0.02):
 
 def _drag_draw(fig, d, p):
     ax = fig.subplots()
-    ax.plot(*d["path"].T, lw=1)
-    ax.plot(d["reached"][0], d["reached"][2], "k.", label="the ball at t = 2 s")
-    ax.plot(d["target"][0], d["target"][2], "r*", ms=10, label="dragged target")
-    ax.axvline(2.0, color="gray"), ax.axhline(0.0, color="gray")
+    (path,) = ax.plot(*d["path"].T, lw=1)
+    (reached,) = ax.plot(d["reached"][0], d["reached"][2], "k.", label="the ball at t = 2 s")
+    (target,) = ax.plot(d["target"][0], d["target"][2], "r*", ms=10, label="dragged target")
+    walls = (ax.axvline(2.0, color="gray"), ax.axhline(0.0, color="gray"))
     ax.set(xlabel="x (m)", ylabel="z (m)", title=f"one min-norm update per redraw: |residual| = {d['residual']:.1e} m")
     ax.legend(fontsize=7)
+    _drag_limits(ax, d)
+    return {"path": path, "reached": reached, "target": target, "walls": walls, "axes": (ax,)}
+
+
+def _drag_limits(ax, d):
+    """The path, the ball and the target with 5 % margins (the walls, lines across the axes, left out)."""
+    pts = np.vstack([d["path"], d["reached"][[0, 2]], d["target"][[0, 2]]])
+    lo, hi = pts.min(0), pts.max(0)
+    pad = 0.05 * np.maximum(hi - lo, 1e-9)
+    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
+    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+
+
+def _drag_update(arts, d, p):
+    arts["path"].set_data(*d["path"].T)
+    arts["reached"].set_data([d["reached"][0]], [d["reached"][2]])
+    arts["target"].set_data([d["target"][0]], [d["target"][2]])
+    arts["axes"][0].set_title(f"one min-norm update per redraw: |residual| = {d['residual']:.1e} m")
+    _drag_limits(arts["axes"][0], d)
 
 
 register_demo(LiveDemo(
     "ch10_drag", "ch10_design", "edit_sequence", "dragging a bouncing ball: one update per move",
     (Control("target_x", "target x (m)", "float", 1.0, -1.0, 1.8), Control("target_z", "target z (m)", "float", 0.6,
                                                                           0.15, 2.0)),
-    _drag, _drag_draw, figsize=(6.0, 3.6), notes="Each redraw is one min-norm update of (x₀, v₀) from the last frame."))
+    _drag, _drag_draw, figsize=(6.0, 3.6), notes="Each redraw is one min-norm update of (x₀, v₀) from the last frame.",
+    update=_drag_update))
