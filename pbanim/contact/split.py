@@ -49,7 +49,6 @@ import numpy as np
 from .stepping import FrictionStepping
 from .specs import RIGID
 from ..contracts import Flag, Func, Int, Obj, Real, Seq, contract
-from ..geometry import tangent_basis
 from ..lcp.rows import pgs_normal_rows
 
 __all__ = ["SplitStepping"]
@@ -75,47 +74,37 @@ class SplitStepping(FrictionStepping):
         self.stats.update(position_steps=0, position_sweeps=0)
 
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        """One step t → t + h (``last_info``: contacts, residuals of both solves, the penetration at y)."""
-        if not self.correction:
-            return super().step(t, y, h)
-        s = self.system
-        N = s.N
-        R = s.rotations(y)
-        Q = self._applied(t, y)
-        u, Wb, rowfn, _ = self._kinematics(y, Q, h, R)
-        ca, cb, point, normal, sep, keys, contacts = self._contacts(y, R)
-        m = ca.size
-        self.stats["steps"] += 1
-        self.last_info = {"contacts": contacts, "m": m, "residual": 0.0, "position_residual": 0.0,
-                          "penetration": float(np.max(-sep, initial=0.0))}
-        v = None
-        if m:
-            self.stats["contact_steps"] += 1
-            self.stats["contacts"] += m
-            a = np.where(ca < 0, N, ca)
-            b = np.where(cb < 0, N, cb)
-            t1, t2 = tangent_basis(normal)
-            D = np.stack([normal, t1, t2], axis=1).reshape(-1, 3)
-            rows = rowfn(np.repeat(a, 3), np.repeat(b, 3), np.repeat(point, 3, axis=0), D)
-            bias = np.zeros(3 * m)
-            bias[0::3] = np.maximum(sep, 0.0) / h                      # no feedback on penetration
-            self._bodies = (a, b)
-            z, res, u = self._solve_rows(rows, Wb, u, bias, keys)
-            Gan, Gbn = rows.Ga[0::3], rows.Gb[0::3]
-            pred = sep + h * (np.einsum("rd,rd->r", Gan, u[a]) - np.einsum("rd,rd->r", Gbn, u[b]))
-            if np.any(pred < -self.position_tol):
-                p, pres, sweeps, v = pgs_normal_rows(a, b, Gan, Gbn, Wb, pred / h, self._colors_of(keys),
-                                                     max_iter=self.position_iterations, tol=self.position_tol / h)
-                self.stats["position_steps"] += 1
-                self.stats["position_sweeps"] += sweeps
-                self.last_info["position_residual"] = h * pres
-            self.last_info.update(residual=res, normal_impulse=z[0::3])
-        else:
-            self._remember(keys, np.zeros((0, 3), dtype=int), np.zeros(0))
-        y1 = self._advance(y, u[:N], h, R)
-        if v is not None:
-            _correct(s, y1, h * v[:N])
+        """One step t → t + h (``last_info``: contacts, residuals of both solves, the penetration at y): the step of
+        FrictionStepping, whose velocity solve (:meth:`_solve_rows`) is replaced, then the bodies moved by h v."""
+        self._h, self._shift = h, None
+        self.last_info = {}
+        y1 = super().step(t, y, h)
+        self.last_info.setdefault("position_residual", 0.0)
+        if self._shift is not None:
+            _correct(self.system, y1, self._shift)
         return y1
+
+    def _solve_rows(self, rows, Wb, u, bias, keys):
+        """The velocity solve without feedback on penetration, then the position sweeps (module docstring, steps
+        1–2): returns FrictionStepping's (z, residual, u⁺) and keeps h v for :meth:`step`."""
+        if not self.correction:
+            return super()._solve_rows(rows, Wb, u, bias, keys)
+        h, N = self._h, self.system.N
+        sep = -np.asarray(self.last_info["contacts"].depth, dtype=float)
+        bias = bias.copy()
+        bias[0::3] = np.maximum(sep, 0.0) / h                          # no feedback on penetration
+        z, res, u = super()._solve_rows(rows, Wb, u, bias, keys)
+        a, b = self._bodies
+        Gan, Gbn = rows.Ga[0::3], rows.Gb[0::3]
+        pred = sep + h * (np.einsum("rd,rd->r", Gan, u[a]) - np.einsum("rd,rd->r", Gbn, u[b]))
+        if np.any(pred < -self.position_tol):
+            p, pres, sweeps, v = pgs_normal_rows(a, b, Gan, Gbn, Wb, pred / h, self._colors_of(keys),
+                                                 max_iter=self.position_iterations, tol=self.position_tol / h)
+            self.stats["position_steps"] += 1
+            self.stats["position_sweeps"] += sweeps
+            self.last_info["position_residual"] = h * pres
+            self._shift = h * v[:N]
+        return z, res, u
 
 
 def _correct(system, y, dq) -> None:
