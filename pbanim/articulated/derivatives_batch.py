@@ -23,6 +23,8 @@ roundoff (ORACLES L1, I5). ``q`` of shape (nq,) is one state (K = 1, the result 
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..contracts import Array, Opt, contract
@@ -126,31 +128,49 @@ def _crf_t(v, f):
     return np.array([a[0] + b[0], a[1] + b[1], a[2] + b[2], c[0], c[1], c[2]])
 
 
-def _pairs(x, y):
-    """(x_j · y_c) for every row j and column c: x (m, r, K), y (m, c, K) → (r, c, K)."""
-    return np.einsum("ajk,ack->jck", x, y)
-
-
 def _coriolis_matrices(I, v, h):
     """B_i = X + Xᵀ − h̄ with X = I_i (v̂_i ×), for stacks I (6, 6, n, K), v̂ and h = I v̂ (6, n, K).
 
-    Row a of X: (I_a,ω × ω + I_a,u × u,  I_a,u × ω) (a row times ω× is the row crossed with ω)."""
-    Iw, Iu = I[:, :3].transpose(1, 0, 2, 3), I[:, 3:].transpose(1, 0, 2, 3)   # components first, rows next
-    om, u = v[:3, None], v[3:, None]
-    X = np.empty_like(I)
-    X[:, :3] = np.array(_cross(Iw, om)).transpose(1, 0, 2, 3) + np.array(_cross(Iu, u)).transpose(1, 0, 2, 3)
-    X[:, 3:] = np.array(_cross(Iu, om)).transpose(1, 0, 2, 3)
+    Column l of X from the columns of I: a row r times ω× is r × ω, so X[:, :3] = I_ω × ω + I_u × u and
+    X[:, 3:] = I_u × ω, each component one line on all rows at once."""
+    X, t = np.empty_like(I), np.empty_like(I[:, 0])
+    for l, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
+        for x, off, out in ((v[:3], 0, X[:, l]), (v[:3], 3, X[:, 3 + l])):
+            np.multiply(I[:, off + j], x[k], out=out)
+            np.multiply(I[:, off + k], x[j], out=t)
+            out -= t
+        np.multiply(I[:, 3 + j], v[3 + k], out=t)
+        X[:, l] += t
+        np.multiply(I[:, 3 + k], v[3 + j], out=t)
+        X[:, l] -= t
     B = X + X.transpose(1, 0, 2, 3)
-    for blk, x in (((slice(0, 3), slice(0, 3)), h[:3]), ((slice(0, 3), slice(3, 6)), h[3:]),
-                   ((slice(3, 6), slice(0, 3)), h[3:])):          # − h̄: + n× on the first block, + F× on two
-        Bb = B[blk]
-        Bb[0, 1] -= x[2]
-        Bb[0, 2] += x[1]
-        Bb[1, 0] += x[2]
-        Bb[1, 2] -= x[0]
-        Bb[2, 0] -= x[1]
-        Bb[2, 1] += x[0]
+    for rows, cols, x in ((0, 0, h[:3]), (0, 3, h[3:]), (3, 0, h[3:])):   # − h̄: + n× on one block, + F× on two
+        for r, c, sign, k in ((0, 1, -1, 2), (0, 2, 1, 1), (1, 0, 1, 2), (1, 2, -1, 0), (2, 0, -1, 1), (2, 1, 1, 0)):
+            if sign > 0:
+                B[rows + r, cols + c] += x[k]
+            else:
+                B[rows + r, cols + c] -= x[k]
     return B
+
+
+_ROWS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _row_pairs(tree, P):
+    """Per velocity row j: (ancestor columns c ⪯ j, strict-descendant columns), as slices where contiguous;
+    with the column→link map and whether it is the identity (cached per tree and plan)."""
+    hit = _ROWS.get(tree)
+    if hit is None or hit[0] is not P:
+        cols, anc, desc = _relations(tree)
+
+        def part(mask):
+            idx = np.flatnonzero(mask)
+            if idx.size and np.array_equal(idx, np.arange(idx[0], idx[-1] + 1)):
+                return slice(int(idx[0]), int(idx[-1]) + 1)
+            return idx
+        rows = [(part(anc[j]), part(desc[j])) for j in range(P.nv)]
+        hit = _ROWS[tree] = (P, cols, np.array_equal(cols, np.arange(P.n)), rows)
+    return hit[1:]
 
 
 def _cholesky_inverse(H):
@@ -189,31 +209,37 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     np.add(w["acc"], w["C"][:, :n], out=ae[:, :n])              # â_i = â'_i + Ĉ_i; row n: the world's â₀
     ae[:, n] = np.asarray(P.a0)[:, None]
     Fo = np.einsum("abnk,bnk->ank", Y, w["acc"]) + w["pA"]
-    Bc = _coriolis_matrices(Y, v, np.einsum("abnk,bnk->ank", Y, v))
+    h = np.einsum("abnk,bnk->ank", Y, v)                         # momenta I_i v̂_i
+    Bc = _coriolis_matrices(Y, v, h)
     for i in reversed(range(n)):                                # composites, leaves first, no transforms
         lam = par[i]
         if lam >= 0:
             Y[:, :, lam] += Y[:, :, i]
             Bc[:, :, lam] += Bc[:, :, i]
             Fo[:, lam] += Fo[:, i]
-    cols, anc, desc = _relations(tree)                          # no floating joint: one column per moving link
-    xi, VL, V = w["S"][:, cols], vp[:, cols], v[:, cols]
+            h[:, lam] += h[:, i]
+    cols, same, rows = _row_pairs(tree, P)                       # no floating joint: one column per moving link
+    pick = (lambda x: x) if same else (lambda x: x[..., cols, :])   # noqa: E731
+    xi, VL, V, YK, BK, FK, hK = (pick(x) for x in (w["S"], vp, v, Y, Bc, Fo, h))
     AL = ae[:, np.where(par < 0, n, par)[cols]]
-    YK, BK, FK = Y[:, :, cols], Bc[:, :, cols], Fo[:, cols]
     wq = _crm_t(xi, VL)
     g = _crm_t(xi, AL) + _crm_t(VL, wq)
     z = _crm_t(VL + V, xi)
+    Bxi = np.einsum("abck,bck->ack", BK, xi)
     Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) - np.einsum("abck,bck->ack", YK, g)
-    Pd = np.einsum("abck,bck->ack", YK, z) - np.einsum("abck,bck->ack", BK, xi)
-    SBY = np.concatenate([np.einsum("ack,abck->bck", xi, BK), np.einsum("ack,abck->bck", xi, YK)])
-    zero = np.zeros_like(xi)
-    A = _pairs(SBY, np.concatenate([np.concatenate([wq, -xi, zero], axis=1), np.concatenate([-g, z, xi], axis=1)]))
-    D = _pairs(xi, np.concatenate([Pq, Pd], axis=1))
-    anc, desc = anc[:, :, None], desc[:, :, None]
-    HA = A[:, 2 * nv:]
-    H = np.where(anc, HA, np.where(desc, HA.transpose(1, 0, 2), 0.0))
-    dq = np.where(anc, A[:, :nv], np.where(desc, D[:, :nv], 0.0))
-    dqd = np.where(anc, A[:, nv:2 * nv], np.where(desc, D[:, nv:], 0.0))
+    Pd = np.einsum("abck,bck->ack", YK, z) - Bxi
+    # rows S_jᵀ B^c_j = (B^c_jᵀ S_j)ᵀ with Bᵀ = B + 2h̄ (h̄ is antisymmetric), and S_jᵀ Y_j = (Y_j S_j)ᵀ
+    SBY = np.concatenate([Bxi + 2.0 * _crf_t(xi, hK), np.einsum("abck,bck->ack", YK, xi)])
+    RA = np.stack([np.concatenate([wq, -g]), np.concatenate([-xi, z]), np.concatenate([np.zeros_like(xi), xi])],
+                  axis=1)                                       # (12, 3, nv, K): dq, dqd and H on the path
+    RD = np.stack([Pq, Pd], axis=1)                             # (6, 2, nv, K): dq, dqd above it
+    out = np.zeros((3, nv, nv, K))
+    for j, (ca, cd) in enumerate(rows):                         # only the pairs on a common path
+        out[:, j, ca] = np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca])
+        out[:2, j, cd] = np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd])
+    for j, (ca, cd) in enumerate(rows):
+        out[2, j, cd] = out[2, cd, j]                           # H symmetric
+    dq, dqd, H = out
     dqd += P.damping[:, None, None] * np.eye(nv)[:, :, None]
     Minv = _cholesky_inverse(H)
     R = -np.einsum("ijk,jck->ick", Minv, np.concatenate([dq, dqd], axis=1))
