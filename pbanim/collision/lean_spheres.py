@@ -136,7 +136,7 @@ class LeanSpheres:
                         out.append((i, -1, n, depth if depth > 0.0 else 0.0))
             for a, b, rr, ka, kb, rf in self.pairs:
                 d0, d1 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1]
-                if rf - abs(d0) < -margin or rf - abs(d1) < -margin:
+                if rf - (d0 if d0 >= 0.0 else -d0) < -margin or rf - (d1 if d1 >= 0.0 else -d1) < -margin:
                     continue            # |d| ≥ |dₖ| in floats too: the depth below is below −margin as well
                 dist = sqrt(d0 * d0 + d1 * d1)
                 depth = rr - dist
@@ -152,7 +152,8 @@ class LeanSpheres:
                     out.append((i, -1, n, depth if depth > 0.0 else 0.0))
         for a, b, rr, ka, kb, rf in self.pairs:
             d0, d1, d2 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1], flat[ka + 2] - flat[kb + 2]
-            if rf - abs(d0) < -margin or rf - abs(d1) < -margin or rf - abs(d2) < -margin:
+            if (rf - (d0 if d0 >= 0.0 else -d0) < -margin or rf - (d1 if d1 >= 0.0 else -d1) < -margin
+                    or rf - (d2 if d2 >= 0.0 else -d2) < -margin):
                 continue
             dist = sqrt(d0 * d0 + d1 * d1 + d2 * d2)
             depth = rr - dist
