@@ -128,12 +128,12 @@ def _crf_t(v, f):
     return np.array([a[0] + b[0], a[1] + b[1], a[2] + b[2], c[0], c[1], c[2]])
 
 
-def _coriolis_matrices(I, v, h):
-    """B_i = X + Xᵀ − h̄ with X = I_i (v̂_i ×), for stacks I (6, 6, n, K), v̂ and h = I v̂ (6, n, K).
+def _coriolis_matrices(I, v, h, X, B, t):
+    """B_i = X + Xᵀ − h̄ with X = I_i (v̂_i ×), for stacks I (6, 6, n, K), v̂ and h = I v̂ (6, n, K), into B
+    (X, t: scratch of the shapes of I and I[:, 0]).
 
     Column l of X from the columns of I: a row r times ω× is r × ω, so X[:, :3] = I_ω × ω + I_u × u and
     X[:, 3:] = I_u × ω, each component one line on all rows at once."""
-    X, t = np.empty_like(I), np.empty_like(I[:, 0])
     for l, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):
         for x, off, out in ((v[:3], 0, X[:, l]), (v[:3], 3, X[:, 3 + l])):
             np.multiply(I[:, off + j], x[k], out=out)
@@ -143,7 +143,7 @@ def _coriolis_matrices(I, v, h):
         X[:, l] += t
         np.multiply(I[:, 3 + k], v[3 + j], out=t)
         X[:, l] -= t
-    B = X + X.transpose(1, 0, 2, 3)
+    np.add(X, X.transpose(1, 0, 2, 3), out=B)
     for rows, cols, x in ((0, 0, h[:3]), (0, 3, h[3:]), (3, 0, h[3:])):   # − h̄: + n× on one block, + F× on two
         for r, c, sign, k in ((0, 1, -1, 2), (0, 2, 1, 1), (1, 0, 1, 2), (1, 2, -1, 0), (2, 0, -1, 1), (2, 1, 1, 0)):
             if sign > 0:
@@ -153,64 +153,73 @@ def _coriolis_matrices(I, v, h):
     return B
 
 
-_ROWS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_WORK: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def _row_pairs(tree, P):
-    """Per velocity row j: (ancestor columns c ⪯ j, strict-descendant columns), as slices where contiguous;
-    with the column→link map and whether it is the identity (cached per tree and plan)."""
-    hit = _ROWS.get(tree)
-    if hit is None or hit[0] is not P:
+def _work(tree, P, K):
+    """Per tree (and plan, and K): the velocity columns' links, whether they are the links themselves, per row j
+    the (ancestor columns c ⪯ j, strict-descendant columns) as slices where contiguous, and the large buffers
+    (fresh arrays of megabytes cost page faults, which here cost more than the arithmetic). Not re-entrant,
+    like the ABA kernel's own buffers."""
+    hit = _WORK.get(tree)
+    if hit is None or hit["plan"] is not P or hit["K"] != K:
         cols, anc, desc = _relations(tree)
+        n, nv = P.n, P.nv
 
         def part(mask):
             idx = np.flatnonzero(mask)
             if idx.size and np.array_equal(idx, np.arange(idx[0], idx[-1] + 1)):
                 return slice(int(idx[0]), int(idx[-1]) + 1)
             return idx
-        rows = [(part(anc[j]), part(desc[j])) for j in range(P.nv)]
-        hit = _ROWS[tree] = (P, cols, np.array_equal(cols, np.arange(P.n)), rows)
-    return hit[1:]
+        hit = _WORK[tree] = dict(
+            plan=P, K=K, cols=cols, same=np.array_equal(cols, np.arange(n)),
+            rows=[(part(anc[j]), part(desc[j])) for j in range(nv)], X=np.empty((6, 6, n, K)),
+            B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
+            a=np.empty((6, n + 1, K)), RA=np.zeros((12, 3, nv, K)), RD=np.empty((6, 2, nv, K)),
+            SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
+            Li=np.zeros((nv, nv, K)), Minv=np.empty((nv, nv, K)), R=np.empty((nv, 2, nv, K)))
+    return hit
 
 
-def _cholesky_inverse(H):
-    """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹."""
+def _cholesky_inverse(H, L, Li, Minv):
+    """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹, into
+    Minv (L, Li: buffers whose strict upper triangles are zero)."""
     m = H.shape[0]
-    L, Li = np.zeros_like(H), np.zeros_like(H)
     for j in range(m):
         Lj = L[j, :j]
-        L[j, j] = np.sqrt(H[j, j] - np.einsum("pk,pk->k", Lj, Lj))
+        np.sqrt(H[j, j] - np.einsum("pk,pk->k", Lj, Lj), out=L[j, j])
         if j + 1 < m:
-            L[j + 1:, j] = (H[j + 1:, j] - np.einsum("ipk,pk->ik", L[j + 1:, :j], Lj)) / L[j, j]
+            np.divide(H[j + 1:, j] - np.einsum("ipk,pk->ik", L[j + 1:, :j], Lj), L[j, j], out=L[j + 1:, j])
     for i in range(m):                                          # L⁻¹ row by row (forward substitution)
-        r = -np.einsum("jk,jck->ck", L[i, :i], Li[:i])
+        r = Li[i]
+        np.negative(np.einsum("jk,jck->ck", L[i, :i], Li[:i]), out=r)
         r[i] += 1.0
-        Li[i] = r / L[i, i]
-    return np.einsum("jik,jck->ick", Li, Li)
+        r /= L[i, i]
+    return np.einsum("jik,jck->ick", Li, Li, out=Minv)
 
 
 def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
-    """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹) as (nv, nv, K) stacks, the batch axis last, for trees without a floating joint.
+    """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹), each (K, nv, nv), for trees without a floating joint, the batch axis last inside.
 
     The world-frame ABA (:mod:`.fastbatch`) leaves R_i, p_i, S_i, v̂_i, v̂_λ(i), Ĉ_i and â'_i = â_i − Ĉ_i in
     its buffers; the rigid world inertias I_i and p̂_i come from the same kernel's step, f̂_i = I_i â'_i + p̂_i.
     Then the formulas of the module docstring, every cross product by its components, every column at once,
-    the pairs (j, c) as one product each, and H⁻¹ by a Cholesky factorization on the stacks."""
+    only the pairs (j, c) on a common path, and H⁻¹ by a Cholesky factorization on the stacks."""
     P, K = plan_for(tree), q.shape[0]
     n, nv, par = P.n, P.nv, P.parents
     F = None
     if f_ext is not None:
         F = np.ascontiguousarray(_joint_frame_forces(P, external_forces(tree, f_ext, K)).transpose(2, 1, 0))
     sweep_batch(P, q, qd, tau, F, _pivot_array, _check_quaternions)
-    w = P.work
+    w, b = P.work, _work(tree, P, K)
     _inertia_bias(P, w, F)                                      # w["IA"] = I_i (rigid), w["pA"] = p̂_i
-    Y, v, vp = w["IA"], w["v"][:, :n], w["vp"]
-    ae = np.empty((6, n + 1, K))
+    Y, v, vp, ae, Fo, h = w["IA"], w["v"][:, :n], w["vp"], b["a"], b["F"], b["h"]
     np.add(w["acc"], w["C"][:, :n], out=ae[:, :n])              # â_i = â'_i + Ĉ_i; row n: the world's â₀
     ae[:, n] = np.asarray(P.a0)[:, None]
-    Fo = np.einsum("abnk,bnk->ank", Y, w["acc"]) + w["pA"]
-    h = np.einsum("abnk,bnk->ank", Y, v)                         # momenta I_i v̂_i
-    Bc = _coriolis_matrices(Y, v, h)
+    np.einsum("abnk,bnk->ank", Y, w["acc"], out=Fo)
+    Fo += w["pA"]
+    np.einsum("abnk,bnk->ank", Y, v, out=h)                     # momenta I_i v̂_i
+    Bc = _coriolis_matrices(Y, v, h, b["X"], b["B"], b["t"])
     for i in reversed(range(n)):                                # composites, leaves first, no transforms
         lam = par[i]
         if lam >= 0:
@@ -218,32 +227,44 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
             Bc[:, :, lam] += Bc[:, :, i]
             Fo[:, lam] += Fo[:, i]
             h[:, lam] += h[:, i]
-    cols, same, rows = _row_pairs(tree, P)                       # no floating joint: one column per moving link
-    pick = (lambda x: x) if same else (lambda x: x[..., cols, :])   # noqa: E731
+    cols, rows = b["cols"], b["rows"]                           # no floating joint: one column per moving link
+    pick = (lambda x: x) if b["same"] else (lambda x: x[..., cols, :])   # noqa: E731
     xi, VL, V, YK, BK, FK, hK = (pick(x) for x in (w["S"], vp, v, Y, Bc, Fo, h))
     AL = ae[:, np.where(par < 0, n, par)[cols]]
+    RA, RD, SBY = b["RA"], b["RD"], b["SBY"]                    # RA[:6, 2] stays 0
     wq = _crm_t(xi, VL)
-    g = _crm_t(xi, AL) + _crm_t(VL, wq)
-    z = _crm_t(VL + V, xi)
+    RA[:6, 0] = wq
+    np.negative(_crm_t(xi, AL) + _crm_t(VL, wq), out=RA[6:, 0])           # −g
+    np.negative(xi, out=RA[:6, 1])
+    RA[6:, 1] = _crm_t(VL + V, xi)                                        # z
+    RA[6:, 2] = xi
     Bxi = np.einsum("abck,bck->ack", BK, xi)
-    Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) - np.einsum("abck,bck->ack", YK, g)
-    Pd = np.einsum("abck,bck->ack", YK, z) - Bxi
+    np.add(_crf_t(xi, FK), np.einsum("abck,bck->ack", BK, wq), out=RD[:, 0])
+    RD[:, 0] += np.einsum("abck,bck->ack", YK, RA[6:, 0])                 # Pq = ξ ×* F + B w − Y g
+    np.subtract(np.einsum("abck,bck->ack", YK, RA[6:, 1]), Bxi, out=RD[:, 1])   # Pd = Y z − B ξ
     # rows S_jᵀ B^c_j = (B^c_jᵀ S_j)ᵀ with Bᵀ = B + 2h̄ (h̄ is antisymmetric), and S_jᵀ Y_j = (Y_j S_j)ᵀ
-    SBY = np.concatenate([Bxi + 2.0 * _crf_t(xi, hK), np.einsum("abck,bck->ack", YK, xi)])
-    RA = np.stack([np.concatenate([wq, -g]), np.concatenate([-xi, z]), np.concatenate([np.zeros_like(xi), xi])],
-                  axis=1)                                       # (12, 3, nv, K): dq, dqd and H on the path
-    RD = np.stack([Pq, Pd], axis=1)                             # (6, 2, nv, K): dq, dqd above it
-    out = np.zeros((3, nv, nv, K))
+    np.add(Bxi, 2.0 * _crf_t(xi, hK), out=SBY[:6])
+    np.einsum("abck,bck->ack", YK, xi, out=SBY[6:])
+    out = b["out"]                                              # (row j, dq | dqd | H, column c, K)
     for j, (ca, cd) in enumerate(rows):                         # only the pairs on a common path
-        out[:, j, ca] = np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca])
-        out[:2, j, cd] = np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd])
+        if isinstance(ca, slice):
+            np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca], out=out[j, :, ca])
+        else:
+            out[j][:, ca] = np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca])
+        if isinstance(cd, slice):
+            np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd], out=out[j, :2, cd])
+        else:
+            out[j][:2, cd] = np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd])
     for j, (ca, cd) in enumerate(rows):
-        out[2, j, cd] = out[2, cd, j]                           # H symmetric
-    dq, dqd, H = out
-    dqd += P.damping[:, None, None] * np.eye(nv)[:, :, None]
-    Minv = _cholesky_inverse(H)
-    R = -np.einsum("ijk,jck->ick", Minv, np.concatenate([dq, dqd], axis=1))
-    return R[:, :nv], R[:, nv:], Minv
+        out[j, 2, cd] = out[cd, 2, j]                           # H symmetric
+    if P.damping.any():
+        out[:, 1] += P.damping[:, None, None] * np.eye(nv)[:, :, None]
+    Minv = _cholesky_inverse(out[:, 2], b["L"], b["Li"], b["Minv"])
+    R = np.einsum("ijk,jtck->itck", Minv, out[:, :2], out=b["R"])
+    res = np.empty((3, K, nv, nv))
+    np.negative(R.transpose(1, 3, 0, 2), out=res[:2])
+    res[2] = Minv.transpose(2, 0, 1)
+    return res[0], res[1], res[2]
 
 
 @contract(tree=_TREE, q=_QB, qd=_VB, qdd=_VB, f_ext=_FB)
@@ -276,7 +297,7 @@ def aba_derivatives_batch(tree: ArticulatedTree, q, qd, tau, f_ext=None):
         if np.any(plan_for(tree).kinds == FLOATING):
             out = _aba_derivatives_general(tree, q, qd, tau, f_ext)
         else:
-            out = tuple(np.ascontiguousarray(np.moveaxis(x, -1, 0)) for x in _aba_derivatives_lean(tree, q, qd, tau, f_ext))
+            out = _aba_derivatives_lean(tree, q, qd, tau, f_ext)
     for x in out:
         check_result("aba_derivatives_batch", x, _HUGE)
     return tuple(x[0] for x in out) if single else out
