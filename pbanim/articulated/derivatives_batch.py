@@ -175,7 +175,7 @@ def _work(tree, P, K):
             plan=P, K=K, cols=cols, same=np.array_equal(cols, np.arange(n)),
             rows=[(part(anc[j]), part(desc[j])) for j in range(nv)], X=np.empty((6, 6, n, K)),
             B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
-            a=np.empty((6, n + 1, K)), RA=np.zeros((12, 3, nv, K)), RD=np.empty((6, 2, nv, K)),
+            a=np.empty((6, n + 1, K)), RA=np.zeros((3, nv, 12, K)), RD=np.empty((2, nv, 6, K)),
             SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
             Li=np.zeros((nv, nv, K)), Minv=np.empty((nv, nv, K)), R=np.empty((nv, 2, nv, K)))
     return hit
@@ -192,9 +192,9 @@ def _cholesky_inverse(H, L, Li, Minv):
             np.divide(H[j + 1:, j] - np.einsum("ipk,pk->ik", L[j + 1:, :j], Lj), L[j, j], out=L[j + 1:, j])
     for i in range(m):                                          # L⁻¹ row by row (forward substitution)
         r = Li[i]
-        np.negative(np.einsum("jk,jck->ck", L[i, :i], Li[:i]), out=r)
-        r[i] += 1.0
-        r /= L[i, i]
+        np.negative(np.einsum("jk,jck->ck", L[i, :i], Li[:i, :i]), out=r[:i])
+        r[i] = 1.0
+        r[:i + 1] /= L[i, i]
     return np.einsum("jik,jck->ick", Li, Li, out=Minv)
 
 
@@ -231,30 +231,28 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     pick = (lambda x: x) if b["same"] else (lambda x: x[..., cols, :])   # noqa: E731
     xi, VL, V, YK, BK, FK, hK = (pick(x) for x in (w["S"], vp, v, Y, Bc, Fo, h))
     AL = ae[:, np.where(par < 0, n, par)[cols]]
-    RA, RD, SBY = b["RA"], b["RD"], b["SBY"]                    # RA[:6, 2] stays 0
+    RA, RD, SBY = b["RA"], b["RD"], b["SBY"]                    # (dq | dqd | H, column, component, K)
+    T = lambda x: x.transpose(1, 0, 2)                          # noqa: E731  (component, column) ↔
     wq = _crm_t(xi, VL)
-    RA[:6, 0] = wq
-    np.negative(_crm_t(xi, AL) + _crm_t(VL, wq), out=RA[6:, 0])           # −g
-    np.negative(xi, out=RA[:6, 1])
-    RA[6:, 1] = _crm_t(VL + V, xi)                                        # z
-    RA[6:, 2] = xi
-    Bxi = np.einsum("abck,bck->ack", BK, xi)
-    np.add(_crf_t(xi, FK), np.einsum("abck,bck->ack", BK, wq), out=RD[:, 0])
-    RD[:, 0] += np.einsum("abck,bck->ack", YK, RA[6:, 0])                 # Pq = ξ ×* F + B w − Y g
-    np.subtract(np.einsum("abck,bck->ack", YK, RA[6:, 1]), Bxi, out=RD[:, 1])   # Pd = Y z − B ξ
+    mg = -(_crm_t(xi, AL) + _crm_t(VL, wq))                     # −g
+    z = _crm_t(VL + V, xi)
+    RA[0, :, :6], RA[0, :, 6:], RA[1, :, :6], RA[1, :, 6:], RA[2, :, 6:] = T(wq), T(mg), -T(xi), T(z), T(xi)
+    Bxi = np.einsum("abck,bck->ack", BK, xi)                    # RA[2, :, :6] stays 0
+    Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) + np.einsum("abck,bck->ack", YK, mg)
+    RD[0], RD[1] = T(Pq), T(np.einsum("abck,bck->ack", YK, z) - Bxi)   # Pq = ξ ×* F + B w − Y g, Pd = Y z − B ξ
     # rows S_jᵀ B^c_j = (B^c_jᵀ S_j)ᵀ with Bᵀ = B + 2h̄ (h̄ is antisymmetric), and S_jᵀ Y_j = (Y_j S_j)ᵀ
     np.add(Bxi, 2.0 * _crf_t(xi, hK), out=SBY[:6])
     np.einsum("abck,bck->ack", YK, xi, out=SBY[6:])
     out = b["out"]                                              # (row j, dq | dqd | H, column c, K)
     for j, (ca, cd) in enumerate(rows):                         # only the pairs on a common path
         if isinstance(ca, slice):
-            np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca], out=out[j, :, ca])
+            np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca], out=out[j, :, ca])
         else:
-            out[j][:, ca] = np.einsum("ak,atck->tck", SBY[:, j], RA[:, :, ca])
+            out[j][:, ca] = np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca])
         if isinstance(cd, slice):
-            np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd], out=out[j, :2, cd])
+            np.einsum("ak,tcak->tck", xi[:, j], RD[:, cd], out=out[j, :2, cd])
         else:
-            out[j][:2, cd] = np.einsum("ak,atck->tck", xi[:, j], RD[:, :, cd])
+            out[j][:2, cd] = np.einsum("ak,tcak->tck", xi[:, j], RD[:, cd])
     for j, (ca, cd) in enumerate(rows):
         out[j, 2, cd] = out[cd, 2, j]                           # H symmetric
     if P.damping.any():
