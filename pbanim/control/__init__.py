@@ -7,6 +7,7 @@ module                 what it holds
 :mod:`.fsm`            state machines with timed and event transitions, checked when built
 :mod:`.biped`          the 7-link planar biped (SIMBICON's 2-D model), also as URDF
 :mod:`.simbicon`       SIMBICON's controller and two gaits; :mod:`.walk` runs it with contact and pushes
+                       (:mod:`.walk_branch`: many pushes on one walk, simulated once up to each push)
 :mod:`.qp`             the optimization controller after de Lasa et al. 2010 (weighted or prioritized QPs),
                        with :mod:`.qp_tasks`, :mod:`.qp_features`, :mod:`.qp_solve`, :mod:`.qp_balance`
 :mod:`.specs`          the argument specs the contracts of this chapter need beyond :mod:`pbanim.contracts`

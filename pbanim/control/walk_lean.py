@@ -1,7 +1,8 @@
 """The walk's step on its lean path: SIMBICON's servos on Python floats, the planar contact step in one pass.
 
 :func:`~pbanim.control.walk.simulate_walk` steps the biped thousands of times per run (the push envelope of
-the chapter: 70 runs of 12 s at h = 2 ms). The readable step asks the controller (:meth:`Simbicon.torques`:
+the chapter: 70 pushed runs of 7 s at h = 2 ms, each branched from the walk before its push by
+:mod:`.walk_branch`). The readable step asks the controller (:meth:`Simbicon.torques`:
 the machine, the balance feedback, a servo per joint in a loop over names) and then the contact step
 (:class:`~pbanim.articulated.planar_step.PlanarContactStep`); each goes through a dozen calls that exist to
 be read. Here the same step is taken with what depends only on the gait — per state of the machine the
