@@ -226,6 +226,6 @@ def test_bench_derivative_table_smoke():
 
     table, ratios = derivative_table([3], 8, 1)
     assert [r[0] for r in table.rows] == [3] and all(r[1] > 0 and r[2] > 0 for r in table.rows)
-    agree = [r[7] for r in table.rows if np.isfinite(r[7])]
+    agree = [r[8] for r in table.rows if np.isfinite(r[8])]
     assert all(a < 1e-9 for a in agree)
     assert set(ratios) <= {3}
