@@ -213,8 +213,9 @@ def solve_radau(fun, t0, tf, y, f0, m, h, rtol, atol, t_eval, evs, max_steps, sp
     FW = np.zeros(6 * n)                         # [F₁ F₂ F₃ W₁ W₂ W₃], flattened
     F3, W3, Wf = FW[:3 * n].reshape(3, n), FW[3 * n:].reshape(3, n), FW[3 * n:]
     sc3 = np.empty((3, n))
-    KLAM = np.kron(LAM, np.eye(n))              # M = (Λ ⊗ I)/h − I₃ ⊗ J is block_inverse's matrix
-    KTL = np.hstack([np.kron(TINV, np.eye(n)), -KLAM])
+    if small:                                   # M = (Λ ⊗ I)/h − I₃ ⊗ J is block_inverse's matrix (small n only:
+        KLAM = np.kron(LAM, np.eye(n))          # dense 3n × 3n, 40 GB at n = 24 564)
+        KTL = np.hstack([np.kron(TINV, np.eye(n)), -KLAM])
     KJ, J_kron = None, None
     c0, c1 = float(C[0]), float(C[1])
     dot, absolute, size3 = np.dot, np.abs, 3.0 * n
