@@ -32,8 +32,9 @@ from ..errors import check_result
 from .batched import _crf, _crm, link_transforms_batch
 from .derivatives import bar
 from .dynamics import external_forces
-from .fast import _check_quaternions, _joint_frame_forces, _pivot_array, aba_fast, batch_of
-from .fastbatch import _inertia_bias, sweep_batch
+from .fast import _joint_frame_forces, _pivot_array, aba_fast, batch_of
+from .fastbatch import _inertia_bias, _kinematics, _motion
+from .fastbatch import _work as _kernel_work
 from .fastkernel import _cross, _cross_motion
 from .fastplan import FLOATING, plan_for
 from .spatial import crm, plucker_inverse
@@ -175,19 +176,22 @@ def _work(tree, P, K):
             plan=P, K=K, cols=cols, same=np.array_equal(cols, np.arange(n)),
             rows=[(part(anc[j]), part(desc[j])) for j in range(nv)], X=np.empty((6, 6, n, K)),
             B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
-            a=np.empty((6, n + 1, K)), RA=np.zeros((3, nv, 12, K)), RD=np.empty((2, nv, 6, K)),
+            a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)), Y=np.empty((6, 6, n, K)),
             SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
             Li=np.zeros((nv, nv, K)), Minv=np.empty((nv, nv, K)), R=np.empty((nv, 2, nv, K)))
     return hit
 
 
-def _cholesky_inverse(H, L, Li, Minv):
+def _cholesky_inverse(H, L, Li, Minv, links):
     """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹, into
-    Minv (L, Li: buffers whose strict upper triangles are zero)."""
+    Minv (L, Li: buffers whose strict upper triangles are zero). A pivot ≤ 1e-280 (a joint that moves no
+    inertia) raises the ABA's named error for the joint's link ``links[j]``."""
     m = H.shape[0]
     for j in range(m):
         Lj = L[j, :j]
-        np.sqrt(H[j, j] - np.einsum("pk,pk->k", Lj, Lj), out=L[j, j])
+        d = H[j, j] - np.einsum("pk,pk->k", Lj, Lj)
+        _pivot_array(d, int(links[j]), 1e-280)
+        np.sqrt(d, out=L[j, j])
         if j + 1 < m:
             np.divide(H[j + 1:, j] - np.einsum("ipk,pk->ik", L[j + 1:, :j], Lj), L[j, j], out=L[j + 1:, j])
     for i in range(m):                                          # L⁻¹ row by row (forward substitution)
@@ -210,54 +214,81 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     F = None
     if f_ext is not None:
         F = np.ascontiguousarray(_joint_frame_forces(P, external_forces(tree, f_ext, K)).transpose(2, 1, 0))
-    sweep_batch(P, q, qd, tau, F, _pivot_array, _check_quaternions)
-    w, b = P.work, _work(tree, P, K)
+    w, b = _kernel_work(P, K), _work(tree, P, K)
+    qT, qdT = w["qT"], w["qdT"]
+    np.copyto(qT, q.T)
+    np.copyto(qdT, qd.T)
+    np.take(qT, P.revolute_q, axis=0, out=w["qr"])
+    _kinematics(P, w, qT, qdT, np.cos(w["qr"], out=w["cos"]), np.sin(w["qr"], out=w["sin"]))
+    _motion(P, w, qdT)                                          # S_i, v̂_i, v̂_λ(i), Ĉ_i
     _inertia_bias(P, w, F)                                      # w["IA"] = I_i (rigid), w["pA"] = p̂_i
-    Y, v, vp, ae, Fo, h = w["IA"], w["v"][:, :n], w["vp"], b["a"], b["F"], b["h"]
-    np.add(w["acc"], w["C"][:, :n], out=ae[:, :n])              # â_i = â'_i + Ĉ_i; row n: the world's â₀
-    ae[:, n] = np.asarray(P.a0)[:, None]
-    np.einsum("abnk,bnk->ank", Y, w["acc"], out=Fo)
-    Fo += w["pA"]
-    np.einsum("abnk,bnk->ank", Y, v, out=h)                     # momenta I_i v̂_i
-    Bc = _coriolis_matrices(Y, v, h, b["X"], b["B"], b["t"])
+    I, v, vp, ae, Fo, h, Y = w["IA"], w["v"][:, :n], w["vp"], b["a"], b["F"], b["h"], b["Y"]
+    np.einsum("abnk,bnk->ank", I, v, out=h)                     # momenta I_i v̂_i
+    Bc = _coriolis_matrices(I, v, h, b["X"], b["B"], b["t"])
+    Y[...] = I
     for i in reversed(range(n)):                                # composites, leaves first, no transforms
         lam = par[i]
         if lam >= 0:
             Y[:, :, lam] += Y[:, :, i]
             Bc[:, :, lam] += Bc[:, :, i]
-            Fo[:, lam] += Fo[:, i]
             h[:, lam] += h[:, i]
-    cols, rows = b["cols"], b["rows"]                           # no floating joint: one column per moving link
+    cols, rows, S = b["cols"], b["rows"], w["S"]
     pick = (lambda x: x) if b["same"] else (lambda x: x[..., cols, :])   # noqa: E731
-    xi, VL, V, YK, BK, FK, hK = (pick(x) for x in (w["S"], vp, v, Y, Bc, Fo, h))
+    xi, YK = pick(S), pick(Y)
+    SY = b["SBY"][6:]
+    np.einsum("abck,bck->ack", YK, xi, out=SY)                  # S_jᵀ Y_j = (Y_j S_j)ᵀ
+    out = b["out"]                                              # (row j, dq | dqd | H, column c, K)
+    for j, (ca, cd) in enumerate(rows):                         # H_jc = S_jᵀ Y_j S_c for c ⪯ j
+        out[j, 2, ca] = np.einsum("ak,ack->ck", SY[:, j], xi[:, ca])
+    for j, (ca, cd) in enumerate(rows):
+        out[j, 2, cd] = out[cd, 2, j]
+    Minv = _cholesky_inverse(out[:, 2], b["L"], b["Li"], b["Minv"], cols)
+    # q̈ = H⁻¹ (τ − b q̇ − S_jᵀ F⁰_j), F⁰ the composite forces at q̈ = 0 (â'_i = â₀ for every link)
+    a0 = np.asarray(P.a0)
+    np.einsum("abnk,b->ank", I, a0, out=Fo)
+    Fo += w["pA"]
+    for i in reversed(range(n)):
+        if par[i] >= 0:
+            Fo[:, par[i]] += Fo[:, i]
+    rhs = tau.T - np.einsum("ack,ack->ck", xi, pick(Fo))
+    if P.damping.any():
+        rhs -= P.damping[:, None] * qd.T
+    qdd = np.einsum("ijk,jk->ik", Minv, rhs)
+    Sq = S * np.where(P.dof[:, None] >= 0, qdd[np.maximum(P.dof, 0)], 0.0)   # S_i q̈_i per link
+    acc = w["acc"]                                              # â'_i = â'_λ + S_i q̈_i, â'_root's parent = â₀
+    for i in range(n):
+        np.add(acc[:, par[i]] if par[i] >= 0 else a0[:, None], Sq[:, i], out=acc[:, i])
+    np.add(acc, w["C"][:, :n], out=ae[:, :n])                   # â_i = â'_i + Ĉ_i; row n: the world's â₀
+    ae[:, n] = a0[:, None]
+    np.einsum("abnk,bnk->ank", I, acc, out=Fo)                  # f̂_i = I_i â'_i + p̂_i
+    Fo += w["pA"]
+    for i in reversed(range(n)):
+        if par[i] >= 0:
+            Fo[:, par[i]] += Fo[:, i]
+    VL, V, BK, FK, hK = (pick(x) for x in (vp, v, Bc, Fo, h))
     AL = ae[:, np.where(par < 0, n, par)[cols]]
     RA, RD, SBY = b["RA"], b["RD"], b["SBY"]                    # (dq | dqd | H, column, component, K)
     T = lambda x: x.transpose(1, 0, 2)                          # noqa: E731  (component, column) ↔
     wq = _crm_t(xi, VL)
     mg = -(_crm_t(xi, AL) + _crm_t(VL, wq))                     # −g
     z = _crm_t(VL + V, xi)
-    RA[0, :, :6], RA[0, :, 6:], RA[1, :, :6], RA[1, :, 6:], RA[2, :, 6:] = T(wq), T(mg), -T(xi), T(z), T(xi)
-    Bxi = np.einsum("abck,bck->ack", BK, xi)                    # RA[2, :, :6] stays 0
+    RA[0, :, :6], RA[0, :, 6:], RA[1, :, :6], RA[1, :, 6:] = T(wq), T(mg), -T(xi), T(z)
+    Bxi = np.einsum("abck,bck->ack", BK, xi)
     Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) + np.einsum("abck,bck->ack", YK, mg)
     RD[0], RD[1] = T(Pq), T(np.einsum("abck,bck->ack", YK, z) - Bxi)   # Pq = ξ ×* F + B w − Y g, Pd = Y z − B ξ
     # rows S_jᵀ B^c_j = (B^c_jᵀ S_j)ᵀ with Bᵀ = B + 2h̄ (h̄ is antisymmetric), and S_jᵀ Y_j = (Y_j S_j)ᵀ
     np.add(Bxi, 2.0 * _crf_t(xi, hK), out=SBY[:6])
-    np.einsum("abck,bck->ack", YK, xi, out=SBY[6:])
-    out = b["out"]                                              # (row j, dq | dqd | H, column c, K)
     for j, (ca, cd) in enumerate(rows):                         # only the pairs on a common path
         if isinstance(ca, slice):
-            np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca], out=out[j, :, ca])
+            np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca], out=out[j, :2, ca])
         else:
-            out[j][:, ca] = np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca])
+            out[j][:2, ca] = np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca])
         if isinstance(cd, slice):
             np.einsum("ak,tcak->tck", xi[:, j], RD[:, cd], out=out[j, :2, cd])
         else:
             out[j][:2, cd] = np.einsum("ak,tcak->tck", xi[:, j], RD[:, cd])
-    for j, (ca, cd) in enumerate(rows):
-        out[j, 2, cd] = out[cd, 2, j]                           # H symmetric
     if P.damping.any():
         out[:, 1] += P.damping[:, None, None] * np.eye(nv)[:, :, None]
-    Minv = _cholesky_inverse(out[:, 2], b["L"], b["Li"], b["Minv"])
     R = np.einsum("ijk,jtck->itck", Minv, out[:, :2], out=b["R"])
     res = np.empty((3, K, nv, nv))
     np.negative(R.transpose(1, 3, 0, 2), out=res[:2])
