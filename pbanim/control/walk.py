@@ -134,11 +134,11 @@ def simulate_walk(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, *, sl
     if controller is not None and (gait is not WALK or feedback is not True or servo != "explicit"):
         raise InvalidInput("simulate_walk: give either controller (which carries its own gait, feedback and "
                            "servo) or gait, feedback and servo, not both")
-    parts = walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller)
-    return run_walk(parts, push, new_state(), lean, record_every)
+    parts = _walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller)
+    return _run_walk(parts, push, _new_state(), lean, record_every)
 
 
-def walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller=None) -> tuple:
+def _walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps, controller=None) -> tuple:
     """(kernel, ground, stepper, controller (reset), step grid, q₀, q̇₀): what a walk is set up with."""
     tree = planar_biped()
     kernel = PlanarKernel(tree)
@@ -151,14 +151,14 @@ def walker(gait, t_end, h, slope, feedback, servo, friction, record_every, max_s
     return kernel, ground, stepper, ctrl, grid, q0, qd0
 
 
-def new_state() -> dict:
+def _new_state() -> dict:
     """The loop's bookkeeping at the start of a walk (events, machine entries, push, strikes)."""
     return {"events": (), "entries": {}, "pushed": None, "strikes": [], "enter": {}, "step": None}
 
 
-def run_walk(parts: tuple, push, state: dict, lean: bool, record_every: int, *, records=None, wrap=None,
+def _run_walk(parts: tuple, push, state: dict, lean: bool, record_every: int, *, records=None, wrap=None,
              y0=None) -> WalkResult:
-    """Drive the walk of ``parts`` (:func:`walker`) over its grid. ``records`` (t, q, q̇, c lists, default: the
+    """Drive the walk of ``parts`` (:func:`_walker`) over its grid. ``records`` (t, q, q̇, c lists, default: the
     start state's), ``wrap`` (a function of the step function, returning the one to drive) and ``y0`` (the
     state handed to the driver) let :mod:`.walk_branch` continue a walk from a saved state."""
     kernel, ground, stepper, ctrl, grid, q0, qd0 = parts

@@ -22,7 +22,7 @@ import numpy as np
 from ..contracts import Choice, Flag, Int, Obj, Real, Seq, contract
 from ..ode.driver import MAX_STEPS
 from .simbicon import WALK, Gait, Simbicon
-from .walk import Push, WalkResult, new_state, push_due, run_walk, walker
+from .walk import Push, WalkResult, _new_state, _run_walk, _walker, push_due
 
 __all__ = ["simulate_pushes"]
 
@@ -41,9 +41,9 @@ def simulate_pushes(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, pus
     simulated once (module docstring); the arguments are :func:`.walk.simulate_walk`'s."""
     args = (gait, t_end, h, slope, feedback, servo, friction, record_every, max_steps)
     pushes = list(pushes)
-    base = walker(*args)
+    base = _walker(*args)
     kernel, ground, stepper, ctrl, grid = base[:5]
-    state = new_state()
+    state = _new_state()
     records = ([0.0], [base[5].copy()], [base[6].copy()], [kernel.centre_of_mass(base[5])])
     pending = dict(enumerate(pushes))
     branch = {}                                 # push index -> (step index, snapshot, copies of the lists)
@@ -68,7 +68,7 @@ def simulate_pushes(gait: Gait = WALK, t_end: float = 20.0, h: float = 5e-4, pus
         return watched, None
 
     try:
-        unpushed = run_walk(base, None, state, lean, record_every, records=records, wrap=wrap)
+        unpushed = _run_walk(base, None, state, lean, record_every, records=records, wrap=wrap)
     except _Placed:
         unpushed = None
     return [_continue(args, p, branch[i], lean, record_every) if i in branch else unpushed
@@ -80,7 +80,7 @@ def _continue(args: tuple, push: Push, point: tuple, lean: bool, record_every: i
     the steps before the branch point skipped (neither taken nor recorded)."""
     k0, snap, trace, history, strikes, records = point
     (y, fsm_state, entered, _, _, events, entries, enter, step, _, lean_kin, kin, modes, _) = snap
-    parts = walker(*args)
+    parts = _walker(*args)
     ctrl: Simbicon = parts[3]
     ctrl.fsm.state, ctrl.fsm.entered, ctrl.fsm.trace = fsm_state, entered, trace
     ctrl.history = history
@@ -99,4 +99,4 @@ def _continue(args: tuple, push: Push, point: tuple, lean: bool, record_every: i
             counter[0] = k + 1
             return advance(t, yy, hh) if k >= k0 else y    # before the branch point: the saved state, untouched
         return skipping, lambda: counter[0] > k0
-    return run_walk(parts, push, state, lean, record_every, records=records, wrap=wrap)
+    return _run_walk(parts, push, state, lean, record_every, records=records, wrap=wrap)
