@@ -93,7 +93,7 @@ def _spring_energy_methods():
 # (1 + h²ω²) per step, symplectic Euler oscillates within O(hω), RK4 slowly loses).
 
 # %%
-@figure("ch01", "spring_energy", "Mass on a spring: relative energy error per integrator")
+@figure("ch01", "spring_energy", "Mass on a spring: relative energy error per integrator", cost=9.0)
 def spring_energy(ctx):
     k, m = 4.0, 1.0                       # ω = 2 rad/s
     omega = np.sqrt(k / m)
@@ -143,7 +143,7 @@ def _static_sag(net) -> np.ndarray:
 # sparse spring Jacobians stays bounded (Baraff & Witkin 1998).
 
 # %%
-@figure("ch01", "hanging_net", "Stiff hanging net at a large step: explicit vs implicit Euler")
+@figure("ch01", "hanging_net", "Stiff hanging net at a large step: explicit vs implicit Euler", cost=3.0)
 def hanging_net_figure(ctx):
     n = 6 if ctx.quick else 12
     net = hanging_net(n, n, spacing=0.1, mass=0.01, stiffness=1e4, damping=0.0)

@@ -186,7 +186,7 @@ def t_handle_flip(ctx):
 # |q| = 1 to roundoff.
 
 # %%
-@figure("ch05", "quat_drift", "Quaternion norm drift per integrator; renormalization; exponential map")
+@figure("ch05", "quat_drift", "Quaternion norm drift per integrator; renormalization; exponential map", cost=6.0)
 def quat_drift(ctx):
     h = 0.05
     t_end = 10.0 if ctx.quick else 40.0
@@ -231,7 +231,8 @@ def quat_drift(ctx):
 # Error of ω(t) vs wall time per integrator and quaternion policy.
 
 # %%
-@figure("ch05", "work_precision", "Torque-free body: error of ω(t) vs wall time per integrator and quaternion policy")
+@figure("ch05", "work_precision", "Torque-free body: error of ω(t) vs wall time per integrator and quaternion policy",
+        cost=25.0)
 def work_precision(ctx):
     from pbanim.bench.rigid import work_precision as wp
 
@@ -264,7 +265,7 @@ def work_precision(ctx):
 # An animation (GIF) of a box tumbling about an axis near its intermediate axis.
 
 # %%
-@figure("ch05", "tumbling_box", "A box tumbling near its intermediate axis (animation)")
+@figure("ch05", "tumbling_box", "A box tumbling near its intermediate axis (animation)", cost=5.0)
 def tumbling_box(ctx):
     ext = np.array([0.4, 1.0, 1.6])
     I = box_inertia(1.0, ext)

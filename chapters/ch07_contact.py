@@ -112,7 +112,8 @@ def incline_stick_slip(ctx):
 # What accuracy costs: natural-map residual vs time for every LCP solver.
 
 # %%
-@figure("ch07", "solver_residual_time", "What accuracy costs: natural-map residual vs time for every LCP solver")
+@figure("ch07", "solver_residual_time", "What accuracy costs: natural-map residual vs time for every LCP solver",
+        cost=13.0)
 def solver_residual_time(ctx):
     m = 60 if ctx.quick else 200
     case = random_contact_lcp(m, redundant=True, seed=7)
@@ -173,7 +174,8 @@ def _box_outline(x, R, h):
 # A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5).
 
 # %%
-@figure("ch07", "stack_settling", "A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5)")
+@figure("ch07", "stack_settling", "A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5)",
+        cost=14.0)
 def stack_settling(ctx):
     n = 3 if ctx.quick else 6
     sc = box_stack(n, 1.0)
@@ -226,7 +228,8 @@ def stack_settling(ctx):
 # Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps).
 
 # %%
-@figure("ch07", "sphere_pile", "Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps)")
+@figure("ch07", "sphere_pile", "Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps)",
+        cost=18.0)
 def sphere_pile(ctx):
     n, T, h = (20, 0.4, 4e-3) if ctx.quick else (100, 1.2, 4e-3)
     sc = sphere_pour(n)
