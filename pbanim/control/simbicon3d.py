@@ -1,0 +1,208 @@
+"""SIMBICON in 3-D: the four-state machine, sagittal and coronal balance feedback, heading (chapter 08).
+
+The planar controller (:mod:`.simbicon`) carries over to the 3-D biped (:mod:`.biped3d`) as Yin, Loken &
+van de Panne (SIGGRAPH 2007, section 5) describe it:
+
+1. **The machine**: states R0 (right stance, δt seconds), R1 (right stance until the left foot strikes),
+   L0, L1 the mirror images; each state holds targets for the swing hip, swing and stance knees and
+   ankles, and the torso.
+2. **Balance feedback in both planes**: with d and v the centre of mass's offset from the stance ankle
+   and its velocity, both in the heading frame (x forward, y left), the swing hip's targets are
+
+       θ̄_sag = θ̄_sag,0 + c_d,sag d_x + c_v,sag v_x,     θ̄_cor = ± θ̄_cor,0 + c_d,cor d_y + c_v,cor v_y,
+
+   θ̄_cor positive moving the swing foot to the left (the sign of θ̄_cor,0 points it outwards).
+3. **The torso and the swing thigh are servoed in the world frame**: with R̄ the target orientation and R
+   the link's, the world torque is τ = k_p log(R̄ Rᵀ) − k_v ω (log: the rotation vector). The torso's
+   target is R_z(ψ̄) R_−y(θ̄_tor) (ψ̄ the heading), the swing thigh's R_z(ψ̄) R_x(θ̄_cor) R_−y(θ̄_sag).
+   Only the hips can act on the trunk, so the stance hip supplies what the swing hip does not:
+   τ_stance = −τ_torso − τ_swing. A hip is three revolutes with world axes aⱼ: the world torque τ on the
+   thigh (−τ on the pelvis) is the joint torques τⱼ = aⱼ·τ (the same power τ·ω_rel = Σ τⱼ q̇ⱼ).
+4. **Turning**: the heading ψ̄ is a target; changing it yaws the trunk and the swing thigh toward it.
+
+Knees and ankles are joint-space stable PD servos (as the planar walk's: τ = k_p(θ̄ − θ − hθ̇) − k_v θ̇⁺,
+:mod:`.pd`), and the swing hip's damping about each of its own axes is taken at θ̇⁺ too (the thigh's yaw
+inertia, ≈ 0.03 kg m², would otherwise bound the step at h < 2 I/k_v ≈ 2 ms, ORACLES F1).
+
+:data:`WALK3D` is **ours**: the sagittal numbers are Table 1's planar walk (δt 0.3 s; swh 0.4/−0.7, swk
+−1.1/−0.05, swa 0.2/0.2, stk −0.05/−0.1, sta 0.2/0.2, c_d 0/2.2, c_v 0.2/0) and the coronal ones ours; the
+gains (hip and torso 1000/100, knee 300/30, ankle 100/10 N m/rad, N m s/rad) are ours for the heavier
+70 kg 3-D body (see the measurements in :mod:`.simbicon3d_walk`).
+
+Notation: ψ heading (yaw about z); d, v centre-of-mass offset and velocity in the heading frame; θ̄ targets;
+k_p, k_v gains; h the step; R_a(θ) the rotation by θ about axis a.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..contracts import Anything, Array, Choice, Obj, Real, Text, contract
+from .specs import Mapping, Names, NotBefore, Pair
+from .biped3d import BIPED3D_JOINTS as JI
+from .biped3d_step import WorldStep, _rot
+from .fsm import StateMachine, Transition
+
+__all__ = ["Phase3D", "Gait3D", "WALK3D", "Simbicon3D", "rotation_vector"]
+
+_ANGLE = Real(ge=-np.pi, le=np.pi)
+_FB = Real(ge=0)
+STATES = ("R0", "R1", "L0", "L1")
+SIDES = {"R": ("right", "left"), "L": ("left", "right")}
+_Y, _X, _Z = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
+
+
+@contract(swh=_ANGLE, swk=_ANGLE, swa=_ANGLE, stk=_ANGLE, sta=_ANGLE, tor=_ANGLE, cor=_ANGLE, cd=_FB, cv=_FB,
+          cd_cor=_FB, cv_cor=_FB)
+@dataclass(frozen=True)
+class Phase3D:
+    """Targets of one state (rad): swing hip sagittal (swh) and coronal (cor, outward positive), swing and
+    stance knee and ankle, torso pitch (tor, back positive); sagittal (cd, cv) and coronal feedback gains."""
+
+    swh: float
+    swk: float
+    swa: float
+    stk: float
+    sta: float
+    tor: float = 0.0
+    cor: float = 0.0
+    cd: float = 0.0
+    cv: float = 0.0
+    cd_cor: float = 0.0
+    cv_cor: float = 0.0
+
+
+_GAINS = Mapping(Choice(("hip", "torso", "knee", "ankle")), Real(ge=0), keys=("hip", "torso", "knee", "ankle"))
+
+
+@contract(name=Text(), dt=Real(gt=0, le=5), phases=Pair(Obj(Phase3D), Obj(Phase3D)), kp=_GAINS, kv=_GAINS,
+          limit=Real(gt=0))
+@dataclass(frozen=True)
+class Gait3D:
+    """δt, the two phases (timed, then until foot strike), gains (k_p, k_v) per joint kind, torque limit."""
+
+    name: str
+    dt: float
+    phases: tuple
+    kp: dict = field(default_factory=lambda: {"hip": 300.0, "torso": 300.0, "knee": 300.0, "ankle": 300.0})
+    kv: dict = field(default_factory=lambda: {"hip": 30.0, "torso": 30.0, "knee": 30.0, "ankle": 30.0})
+    limit: float = 600.0
+
+
+WALK3D = Gait3D("3-D walk (ours: Table 1's sagittal numbers, our coronal ones)", 0.3,
+                (Phase3D(swh=0.4, swk=-1.1, swa=0.2, stk=-0.05, sta=0.2, cd=0.0, cv=0.2, cor=0.0, cd_cor=0.5,
+                         cv_cor=0.4),
+                 Phase3D(swh=-0.7, swk=-0.05, swa=0.2, stk=-0.1, sta=0.2, cd=2.2, cv=0.0, cor=0.0, cd_cor=0.5,
+                         cv_cor=0.4)))
+
+
+@contract(R=Array((3, 3)))
+def rotation_vector(R: np.ndarray) -> np.ndarray:
+    """log(R): the axis times the angle (|angle| ≤ π) of the rotation matrix R."""
+    c = min(max((np.trace(R) - 1.0) / 2.0, -1.0), 1.0)
+    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    ang = np.arccos(c)
+    s = np.sin(ang)
+    if s < 1e-9:
+        if c > 0:
+            return 0.5 * w
+        B = (R + np.eye(3)) / 2.0                              # angle π: the axis from R + 1 = 2 a aᵀ
+        a = B[int(np.argmax(np.diag(B)))]
+        return np.pi * a / np.linalg.norm(a)
+    return ang / (2.0 * s) * w
+
+
+class Simbicon3D:
+    """The 3-D controller: ``torques(t, q, q̇, events, kin, h)`` → (τ₀, k), τ = τ₀ − k ⊙ q̇⁺.
+
+    ``step``: the biped's :class:`~pbanim.control.biped3d_step.WorldStep` (its kinematics and Jacobians);
+    ``heading``: the target yaw ψ̄ (rad), changeable between steps (:attr:`heading`).
+    """
+
+    @contract(step=Obj(WorldStep), gait=Obj(Gait3D), heading=Real(ge=-10, le=10), start=Choice(STATES))
+    def __init__(self, step: WorldStep, gait: Gait3D = WALK3D, heading: float = 0.0, start: str = "R0") -> None:
+        self.step, self.gait, self.heading = step, gait, float(heading)
+        tree = step.tree
+        names = [lk.name for lk in tree.links]
+        self.link = {nm: names.index(nm) for nm in ("pelvis", "left_thigh", "right_thigh", "left_foot", "right_foot")}
+        p0, p1 = gait.phases
+        self.fsm = StateMachine({"R0": p0, "R1": p1, "L0": p0, "L1": p1},
+                                [Transition("R0", "R1", after=gait.dt), Transition("R1", "L0", on="left_strike"),
+                                 Transition("L0", "L1", after=gait.dt), Transition("L1", "R0", on="right_strike")],
+                                initial=start)
+        self.mass = step.mass
+        self.M = float(step.mass.sum())
+        self.history: list = []
+
+    def sides(self) -> tuple[str, str]:
+        """(stance, swing)."""
+        return SIDES[self.fsm.state[0]]
+
+    @contract(kin=Anything("the dict of step.kinematics(q)"), qd=Array(("self.step.tree.nv",)))
+    def balance(self, kin, qd) -> tuple[np.ndarray, np.ndarray, float]:
+        """(d, v, ψ): the centre of mass's offset from the stance ankle and its velocity in the heading frame
+        (x forward, y left; 2-vectors), and the pelvis's heading ψ."""
+        st = self.step
+        _, Jc = st.point_jacobians(kin, np.arange(st.tree.n), st.com)
+        com = self.mass @ kin["c"] / self.M
+        vcom = np.einsum("n,nij,j->i", self.mass, Jc, qd) / self.M
+        R0 = kin["R"][self.link["pelvis"]]
+        psi = float(np.arctan2(R0[1, 0], R0[0, 0]))
+        c, s = np.cos(psi), np.sin(psi)
+        ankle = kin["o"][self.link[f"{self.sides()[0]}_foot"]]
+        r = com - ankle
+        return (np.array([c * r[0] + s * r[1], -s * r[0] + c * r[1]]),
+                np.array([c * vcom[0] + s * vcom[1], -s * vcom[0] + c * vcom[1]]), psi)
+
+    @contract(t=NotBefore("self.fsm.entered"), q=Array(("self.step.tree.nq",)), qd=Array(("self.step.tree.nv",)),
+              events=Names(), kin=Anything("the dict of step.kinematics(q), or None"), h=Real(ge=0))
+    def torques(self, t: float, q, qd, events=(), kin=None, h: float = 0.0):
+        """Joint forces (τ₀, k) for the state (q, q̇) at time t after ``events`` (module docstring); records
+        (t, state, d, v, ψ) in :attr:`history`."""
+        self.fsm.update(t, events)
+        ph: Phase3D = self.fsm.payload
+        stance, swing = self.sides()
+        g = self.gait
+        kp, kv = g.kp, g.kv
+        st = self.step
+        kin = st.kinematics(q) if kin is None else kin
+        tau, k = np.zeros(qd.size), np.zeros(qd.size)
+        d, v, psi = self.balance(kin, qd)
+        # knees and ankles: joint space, stable PD (q index = q̇ index + 1: the quaternion's extra number)
+        for joint, target, kind in ((f"{swing}_knee", ph.swk, "knee"), (f"{swing}_ankle_y", ph.swa, "ankle"),
+                                    (f"{swing}_ankle_x", 0.0, "ankle"), (f"{stance}_knee", ph.stk, "knee"),
+                                    (f"{stance}_ankle_y", ph.sta, "ankle"), (f"{stance}_ankle_x", 0.0, "ankle")):
+            i = JI[joint]
+            tau[i], k[i] = kp[kind] * (target - q[i + 1] - h * qd[i]), kv[kind]
+        # world-frame torso and swing thigh
+        S = kin["S"]
+        Rz = _rot(_Z, self.heading)
+        R_tor = Rz @ _rot(_Y, ph.tor)
+        w0 = S[:3, :3] @ qd[:3]                                    # the pelvis's world angular velocity
+        tau_torso = kp["torso"] * rotation_vector(R_tor @ kin["R"][self.link["pelvis"]].T) - kv["torso"] * w0
+        sag = ph.swh + ph.cd * d[0] + ph.cv * v[0]
+        out = 1.0 if swing == "left" else -1.0
+        cor = out * ph.cor + ph.cd_cor * d[1] + ph.cv_cor * v[1]
+        R_sw = Rz @ _rot(_X, cor) @ _rot(_Y, sag)
+        thigh = self.link[f"{swing}_thigh"]
+        hips = [JI[f"{swing}_hip_{a}"] for a in "zxy"]
+        w_thigh = S[:3] @ (qd * st.mask[thigh])
+        tau_swing = kp["hip"] * rotation_vector(R_sw @ kin["R"][thigh].T) - kv["hip"] * w_thigh
+        for j in hips:                                             # its damping about its own axis at q̇⁺
+            tau[j] = S[:3, j] @ tau_swing + kv["hip"] * qd[j]
+            k[j] = kv["hip"]
+        tau_stance = -tau_torso - tau_swing
+        for a in "zxy":
+            j = JI[f"{stance}_hip_{a}"]
+            tau[j] = S[:3, j] @ tau_stance
+        np.clip(tau, -g.limit, g.limit, out=tau)
+        self.history.append((t, self.fsm.state, d, v, psi))
+        return tau, k
+
+    @contract(t=Real())
+    def reset(self, t: float = 0.0) -> None:
+        """Back to the initial state at time t, history cleared."""
+        self.fsm.reset(t)
+        self.history = []
