@@ -178,13 +178,13 @@ def _work(tree, P, K):
             B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
             a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)), Y=np.empty((6, 6, n, K)),
             SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
-            Li=np.zeros((nv, nv, K)), Minv=np.empty((nv, nv, K)), R=np.empty((nv, 2, nv, K)))
+            Li=np.zeros((nv, nv, K)))
     return hit
 
 
 def _cholesky_inverse(H, L, Li, Minv, links):
     """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹, into
-    Minv (L, Li: buffers whose strict upper triangles are zero). A pivot ≤ 1e-280 (a joint that moves no
+    Minv (K, m, m), the batch axis first (L, Li: buffers whose strict upper triangles are zero). A pivot ≤ 1e-280 (a joint that moves no
     inertia) raises the ABA's named error for the joint's link ``links[j]``."""
     m = H.shape[0]
     for j in range(m):
@@ -199,7 +199,8 @@ def _cholesky_inverse(H, L, Li, Minv, links):
         np.negative(np.einsum("jk,jck->ck", L[i, :i], Li[:i, :i]), out=r[:i])
         r[i] = 1.0
         r[:i + 1] /= L[i, i]
-    return np.einsum("jik,jck->ick", Li, Li, out=Minv)
+    Lk = Li.transpose(2, 0, 1)
+    return np.matmul(Lk.transpose(0, 2, 1), Lk, out=Minv)
 
 
 def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
@@ -242,7 +243,8 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
         out[j, 2, ca] = np.einsum("ak,ack->ck", SY[:, j], xi[:, ca])
     for j, (ca, cd) in enumerate(rows):
         out[j, 2, cd] = out[cd, 2, j]
-    Minv = _cholesky_inverse(out[:, 2], b["L"], b["Li"], b["Minv"], cols)
+    res = np.empty((3, K, nv, nv))                              # the results, the batch axis first
+    Minv = _cholesky_inverse(out[:, 2], b["L"], b["Li"], res[2], cols)
     # q̈ = H⁻¹ (τ − b q̇ − S_jᵀ F⁰_j), F⁰ the composite forces at q̈ = 0 (â'_i = â₀ for every link)
     a0 = np.asarray(P.a0)
     np.einsum("abnk,b->ank", I, a0, out=Fo)
@@ -253,7 +255,7 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     rhs = tau.T - np.einsum("ack,ack->ck", xi, pick(Fo))
     if P.damping.any():
         rhs -= P.damping[:, None] * qd.T
-    qdd = np.einsum("ijk,jk->ik", Minv, rhs)
+    qdd = np.matmul(Minv, rhs.T[:, :, None])[:, :, 0].T
     Sq = S * np.where(P.dof[:, None] >= 0, qdd[np.maximum(P.dof, 0)], 0.0)   # S_i q̈_i per link
     acc = w["acc"]                                              # â'_i = â'_λ + S_i q̈_i, â'_root's parent = â₀
     for i in range(n):
@@ -289,10 +291,9 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
             out[j][:2, cd] = np.einsum("ak,tcak->tck", xi[:, j], RD[:, cd])
     if P.damping.any():
         out[:, 1] += P.damping[:, None, None] * np.eye(nv)[:, :, None]
-    R = np.einsum("ijk,jtck->itck", Minv, out[:, :2], out=b["R"])
-    res = np.empty((3, K, nv, nv))
-    np.negative(R.transpose(1, 3, 0, 2), out=res[:2])
-    res[2] = Minv.transpose(2, 0, 1)
+    np.matmul(Minv, out[:, 0].transpose(2, 0, 1), out=res[0])
+    np.matmul(Minv, out[:, 1].transpose(2, 0, 1), out=res[1])
+    np.negative(res[:2], out=res[:2])
     return res[0], res[1], res[2]
 
 
