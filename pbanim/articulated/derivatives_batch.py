@@ -118,15 +118,20 @@ def _rnea_derivatives_batch(tree, q, qd, qdd, f_ext):
     return dq, dqd, H
 
 
-def _crm_t(v, w):
-    """v̂ × ŵ on stacks with the components first ((6, ...) arrays)."""
-    return np.array(_cross_motion(tuple(v), tuple(w)))
+def _crm_t(v, w, out):
+    """out = v̂ × ŵ on stacks with the components first ((6, ...) arrays)."""
+    for i, x in enumerate(_cross_motion(tuple(v), tuple(w))):
+        out[i] = x
+    return out
 
 
-def _crf_t(v, f):
-    """v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first."""
+def _crf_t(v, f, out):
+    """out = v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first."""
     a, b, c = _cross(v[:3], f[:3]), _cross(v[3:], f[3:]), _cross(v[:3], f[3:])
-    return np.array([a[0] + b[0], a[1] + b[1], a[2] + b[2], c[0], c[1], c[2]])
+    for i in range(3):
+        np.add(a[i], b[i], out=out[i])
+        out[3 + i] = c[i]
+    return out
 
 
 def _coriolis_matrices(I, v, h, X, B, t):
@@ -178,7 +183,7 @@ def _work(tree, P, K):
             B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
             a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)), Y=np.empty((6, 6, n, K)),
             SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
-            Li=np.zeros((nv, nv, K)))
+            Li=np.zeros((nv, nv, K)), m=np.empty((8, 6, nv, K)))
     return hit
 
 
@@ -271,15 +276,25 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     AL = ae[:, np.where(par < 0, n, par)[cols]]
     RA, RD, SBY = b["RA"], b["RD"], b["SBY"]                    # (dq | dqd | H, column, component, K)
     T = lambda x: x.transpose(1, 0, 2)                          # noqa: E731  (component, column) ↔
-    wq = _crm_t(xi, VL)
-    mg = -(_crm_t(xi, AL) + _crm_t(VL, wq))                     # −g
-    z = _crm_t(VL + V, xi)
-    RA[0, :, :6], RA[0, :, 6:], RA[1, :, :6], RA[1, :, 6:] = T(wq), T(mg), -T(xi), T(z)
-    Bxi = np.einsum("abck,bck->ack", BK, xi)
-    Pq = _crf_t(xi, FK) + np.einsum("abck,bck->ack", BK, wq) + np.einsum("abck,bck->ack", YK, mg)
-    RD[0], RD[1] = T(Pq), T(np.einsum("abck,bck->ack", YK, z) - Bxi)   # Pq = ξ ×* F + B w − Y g, Pd = Y z − B ξ
+    wq, g, z, Pq, Pd, Bxi, t6, t7 = b["m"]                      # (6, nv, K) buffers
+    _crm_t(xi, VL, wq)
+    _crm_t(xi, AL, g)
+    g += _crm_t(VL, wq, t6)                                     # g = ξ × â_λ + v̂_λ × w
+    _crm_t(np.add(VL, V, out=t7), xi, z)
+    RA[0, :, :6], RA[1, :, 6:] = T(wq), T(z)
+    np.negative(T(g), out=RA[0, :, 6:])
+    np.negative(T(xi), out=RA[1, :, :6])
+    np.einsum("abck,bck->ack", BK, xi, out=Bxi)
+    _crf_t(xi, FK, Pq)                                          # Pq = ξ ×* F + B w − Y g, Pd = Y z − B ξ
+    Pq += np.einsum("abck,bck->ack", BK, wq, out=t6)
+    Pq -= np.einsum("abck,bck->ack", YK, g, out=t6)
+    np.einsum("abck,bck->ack", YK, z, out=Pd)
+    Pd -= Bxi
+    RD[0], RD[1] = T(Pq), T(Pd)
     # rows S_jᵀ B^c_j = (B^c_jᵀ S_j)ᵀ with Bᵀ = B + 2h̄ (h̄ is antisymmetric), and S_jᵀ Y_j = (Y_j S_j)ᵀ
-    np.add(Bxi, 2.0 * _crf_t(xi, hK), out=SBY[:6])
+    _crf_t(xi, hK, t6)
+    t6 *= 2.0
+    np.add(Bxi, t6, out=SBY[:6])
     for j, (ca, cd) in enumerate(rows):                         # only the pairs on a common path
         if isinstance(ca, slice):
             np.einsum("ak,tcak->tck", SBY[:, j], RA[:, ca], out=out[j, :2, ca])
