@@ -40,7 +40,7 @@ from pbanim.plotting import figure
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=3.0)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=37.0)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
@@ -97,7 +97,7 @@ def drape(ctx):
 
 # %%
 @figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers",
-        cost=2.0)
+        cost=26.0)
 def work_precision_figure(ctx):
     n, budget = (8, 1.5) if ctx.quick else (16, 20.0)
     wp = work_precision(n, budget, ctx.quick)
@@ -124,7 +124,7 @@ def work_precision_figure(ctx):
 # smaller step. Large steps (implicit Euler, linearized) and XPBD do not care.
 
 # %%
-@figure("ch12", "stable_step", "Largest stable step vs stiffness per method")
+@figure("ch12", "stable_step", "Largest stable step vs stiffness per method", cost=16.0)
 def stable_step(ctx):
     ks = (1e2, 1e3, 1e4) if ctx.quick else (1e1, 1e2, 1e3, 1e4, 1e5)
     n = 6 if ctx.quick else 8
