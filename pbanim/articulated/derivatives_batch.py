@@ -19,6 +19,12 @@ z = (v̂_λ(k) + v̂_k) × ξ, so ∂τ_j/∂q̇_k = S_jᵀ (−B^c_j ξ + Y_j z
 above it. H comes with them: H_jk = S_jᵀ Y_j S_k (k ⪯ j). Each line is one numpy operation on all K states
 ((K, 6, 6) stacks); the loops run over the links. The results equal the readable ones state by state to
 roundoff (ORACLES L1, I5). ``q`` of shape (nq,) is one state (K = 1, the result squeezed).
+
+Trees without a floating joint take a lean path for ∂ABA (:func:`_aba_derivatives_lean`): the batch axis
+last, the large arrays in buffers kept per tree and K (fresh arrays of megabytes cost page faults), S_jᵀ B^c_j
+read off B^c_j S_j (Bᵀ = B + 2h̄, h̄ antisymmetric), only the pairs (j, c) on a common path, and one Cholesky
+factor of H for q̈, H⁻¹ and −H⁻¹ ∂τ (no ABA sweep). The general path (any tree, floating roots included) is
+kept beside it; both equal the readable derivatives to roundoff.
 """
 
 from __future__ import annotations
@@ -211,10 +217,12 @@ def _cholesky_inverse(H, L, Li, Minv, links):
 def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     """(∂q̈/∂q, ∂q̈/∂q̇, H⁻¹), each (K, nv, nv), for trees without a floating joint, the batch axis last inside.
 
-    The world-frame ABA (:mod:`.fastbatch`) leaves R_i, p_i, S_i, v̂_i, v̂_λ(i), Ĉ_i and â'_i = â_i − Ĉ_i in
-    its buffers; the rigid world inertias I_i and p̂_i come from the same kernel's step, f̂_i = I_i â'_i + p̂_i.
+    The world-frame ABA kernel's own steps (:mod:`.fastbatch`) give R_i, p_i, S_i, v̂_i, v̂_λ(i), Ĉ_i, the
+    rigid world inertias I_i and p̂_i = v̂_i ×* I_i v̂_i + I_i Ĉ_i − f̂ᵉˣᵗ_i; its sweeps are not run. H (from the
+    composites Y_j) is factored once, H = L Lᵀ, and the same factor gives q̈ = H⁻¹ (τ − b q̇ − S_jᵀ F⁰_j), F⁰
+    the composite forces at q̈ = 0 (every â'_i = â₀), then â'_i = â'_λ + S_i q̈_i and f̂_i = I_i â'_i + p̂_i.
     Then the formulas of the module docstring, every cross product by its components, every column at once,
-    only the pairs (j, c) on a common path, and H⁻¹ by a Cholesky factorization on the stacks."""
+    only the pairs (j, c) on a common path, and −H⁻¹ ∂τ from the same factor."""
     P, K = plan_for(tree), q.shape[0]
     n, nv, par = P.n, P.nv, P.parents
     F = None
