@@ -13,7 +13,7 @@ Pinocchio's ABA costs per call; the single-state ABA ≤ 30× Pinocchio. Issue 3
 (∂q̈/∂q, ∂q̈/∂q̇, H⁻¹, :func:`~pbanim.articulated.aba_derivatives_batch`) per state at K = 1024 states of the
 10-link chain cost ≤ 2× Pinocchio's ``computeABADerivatives`` per call (its Python binding, one call per
 state; the table prints what a call of the binding that does almost nothing costs, the floor of any per-call
-figure, and the batched ABA alone, the first stage of the derivatives). That goal line is printed by the full
+figure, and the batched ABA alone for scale: the lean path below does not run it). That goal line is printed by the full
 run only (the quick smoke run prints the table at small K), with the spread over its rounds and the same ratio
 in process time (the machine may be shared). Trees without a floating joint, the benchmark's chain among them,
 take the lean path of :mod:`pbanim.articulated.derivatives_batch` (batch axis last, the ABA kernel's buffers,
@@ -103,7 +103,7 @@ def derivative_table(ns, K: int, repeats: int, cpu_ratios: dict | None = None) -
     """∂q̈/∂(q, q̇, τ) of an n-link chain per state: batched over K states, readable one state, and Pinocchio's
     computeABADerivatives per call (when installed), timed in turn; returns the table and the per-repeat
     ratio lists {n: (batched / Pinocchio)} (wall clock; ``cpu_ratios``, when given, receives the same in process
-    time). The batched ABA alone (q̈ only, the first stage of the batched derivatives) is timed beside them."""
+    time). The batched ABA alone (q̈ only) is timed beside them for scale."""
     rng = np.random.default_rng(1)
     batch, one = unchecked(aba_derivatives_batch), unchecked(aba_derivatives)
     rows, ratios = [], {}
@@ -142,7 +142,7 @@ def derivative_table(ns, K: int, repeats: int, cpu_ratios: dict | None = None) -
                      med.get("pin", np.nan) * 1e6,
                      med.get("floor", np.nan) * 1e6, float(np.median(ratios[n])) if n in ratios else np.nan, err])
     return Table(f"derivatives of ABA (∂q̈/∂q, ∂q̈/∂q̇, H⁻¹) of an n-link chain [µs per state] (batched: K = {K})",
-                 ["n", "readable (one state)", "batched", "of which ABA (batched q̈ alone)",
+                 ["n", "readable (one state)", "batched", "batched ABA alone (q̈ only, for scale)",
                   "of which fixed per-batch cost (the batch at K = 8, / K)", "Pinocchio per call",
                   "binding floor (a call doing ~nothing)",
                   "batched / Pinocchio", "max rel. diff vs Pinocchio"], rows), ratios
