@@ -9,8 +9,8 @@ import os
 import numpy as np
 import pytest
 
-from pbanim.articulated import (ArticulatedTree, aba, aba_derivatives, aba_derivatives_batch, crba, load_urdf, rnea,
-                                rnea_derivatives, rnea_derivatives_batch, tangent_step)
+from pbanim.articulated import (ArticulatedTree, aba, aba_batch, aba_derivatives, aba_derivatives_batch, crba, load_urdf,
+                                rnea, rnea_derivatives, rnea_derivatives_batch, tangent_step)
 from pbanim.errors import InvalidInput
 from pbanim.models.articulated import pendulum_chain, urdf_path
 from test_articulated import _to_pinocchio, random_tree, random_state
@@ -151,6 +151,17 @@ def test_lean_path_equals_general_path_call_after_call(n, seed, kinds):
             for a, g, b in zip(lean, general, one):
                 assert np.abs(a[k] - b).max() <= 5e-14 * (1 + np.abs(b).max())
                 assert np.abs(a[k] - g[k]).max() <= 1e-12 * cond * (1 + np.abs(g[k]).max())
+
+
+def test_a_joint_moving_no_inertia_raises_the_abas_named_error():
+    # the lean path runs no ABA sweep; its Cholesky pivot of H is checked as the ABA's pivot is, and names the joint
+    from pbanim.errors import SingularChartError
+
+    tree = pendulum_chain(3, lengths=1.0, masses=[1.0, 1.0, 0.0])
+    q = np.zeros((2, 3))
+    for fn in (aba_batch, aba_derivatives_batch):
+        with pytest.raises(SingularChartError, match="joint 2"):
+            fn(tree, q, q, q)
 
 
 def test_bad_input_is_named():

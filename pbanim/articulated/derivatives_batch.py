@@ -187,16 +187,16 @@ def _work(tree, P, K):
             plan=P, K=K, cols=cols, same=np.array_equal(cols, np.arange(n)),
             rows=[(part(anc[j]), part(desc[j])) for j in range(nv)], X=np.empty((6, 6, n, K)),
             B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
-            a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)), Y=np.empty((6, 6, n, K)),
-            SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
+            a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)),
+            Y=np.empty((6, 6, n, K)), SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
             Li=np.zeros((nv, nv, K)), m=np.empty((8, 6, nv, K)))
     return hit
 
 
 def _cholesky_inverse(H, L, Li, Minv, links):
     """H⁻¹ of symmetric positive definite stacks H (m, m, K) by Cholesky, H = L Lᵀ, H⁻¹ = L⁻ᵀ L⁻¹, into
-    Minv (K, m, m), the batch axis first (L, Li: buffers whose strict upper triangles are zero). A pivot ≤ 1e-280 (a joint that moves no
-    inertia) raises the ABA's named error for the joint's link ``links[j]``."""
+    Minv (K, m, m), the batch axis first (L, Li: buffers whose strict upper triangles are zero). A pivot
+    ≤ 1e-280 (a joint that moves no inertia) raises the ABA's named error for the joint's link ``links[j]``."""
     m = H.shape[0]
     for j in range(m):
         Lj = L[j, :j]
