@@ -1,4 +1,4 @@
-"""The push envelope's branched walks equal the pushed walks run from the start (ORACLES F17)."""
+"""The push envelope's branched walks equal the pushed walks run from the start (ORACLES F19)."""
 
 import numpy as np
 import pytest
@@ -19,7 +19,7 @@ def _same(a, b):
 
 @pytest.mark.parametrize("lean", [True, False])
 def test_branched_pushes_equal_the_runs_from_the_start(lean):
-    # F17: bit for bit, on the lean and on the readable step
+    # F19: bit for bit, on the lean and on the readable step
     branched = simulate_pushes(WALK, 2.4, 2e-3, PUSHES, servo="stable", record_every=7, lean=lean)
     alone = [simulate_walk(WALK, 2.4, 2e-3, servo="stable", record_every=7, push=p, lean=lean) for p in PUSHES]
     assert [r.fell for r in alone] == [True, False, False, False]   # both outcomes compared
