@@ -173,3 +173,19 @@ def test_bad_input_is_named():
         WorldStep(TREE, [(99, [0.0, 0.0, 0.0])])
     with pytest.raises(InvalidInput):
         Simbicon3D(WorldStep(TREE, PTS), heading=float("nan"))
+
+
+def test_walks_on_flat_ground_two_seconds():
+    # ORACLES F18: the 3-D walk at h = 2 ms from a 0.4 m/s start: no fall in 2 s, the machine cycles
+    # R0 → R1 → L0 → L1 with ≥ 5 foot strikes (measured 6), moving forward at 0.4–1.0 m/s (measured 0.65 over
+    # the last second) and staying within 0.3 m of its line (measured 0.18 m). (Longer runs are measured, not
+    # tested here: 20 s walked, 62 strikes, 15.8 m.)
+    from pbanim.control.simbicon3d_walk import simulate_walk3d
+    r = simulate_walk3d(t_end=2.0, h=2e-3)
+    assert not r.fell and r.t[-1] == pytest.approx(2.0)
+    states = [s for _, s in r.trace]
+    cycle = ["R0", "R1", "L0", "L1"]
+    assert all(b == cycle[(cycle.index(a) + 1) % 4] for a, b in zip(states, states[1:]))
+    assert r.steps >= 5
+    assert 0.4 <= r.speed(1.0) <= 1.0, r.speed(1.0)
+    assert np.abs(r.com[:, 1]).max() < 0.3

@@ -10,6 +10,8 @@ module                 what it holds
                        (:mod:`.walk_branch`: many pushes on one walk, simulated once up to each push)
 :mod:`.qp`             the optimization controller after de Lasa et al. 2010 (weighted or prioritized QPs),
                        with :mod:`.qp_tasks`, :mod:`.qp_features`, :mod:`.qp_solve`, :mod:`.qp_balance`
+:mod:`.biped3d`        the 3-D biped (SIMBICON's 3-D model, masses ours), its lean contact step :mod:`.biped3d_step`
+:mod:`.simbicon3d`     SIMBICON in 3-D (coronal feedback, heading); :mod:`.simbicon3d_walk` runs it
 :mod:`.specs`          the argument specs the contracts of this chapter need beyond :mod:`pbanim.contracts`
 =====================  =====================================================================================
 
@@ -27,10 +29,13 @@ from .pd import (SERVOS, InvalidGains, PDServo, UnknownJoint, explicit_pd_stable
 from .qp import InfeasibleControl, InvalidTask, QPController, QPResult, Task, UnknownTask
 from .qp_balance import BalanceResult, simulate_balance
 from .simbicon import FAST_WALK, WALK, Gait, Phase, Simbicon
+from .simbicon3d import WALK3D, Gait3D, Phase3D, Simbicon3D
+from .simbicon3d_walk import Walk3DResult, simulate_walk3d
 from .walk import Push, WalkResult, simulate_walk
 
 __all__ = ["PDServo", "InvalidGains", "UnknownJoint", "SERVOS", "pd_step", "explicit_pd_stable", "stable_pd_stable",
            "largest_stable_step", "stable_pd_acceleration", "servo_track", "StateMachine", "Transition", "InvalidMachine",
            "Gait", "Phase", "WALK", "FAST_WALK", "Simbicon", "Push", "WalkResult", "simulate_walk",
            "QPController", "QPResult", "Task", "InfeasibleControl", "InvalidTask", "UnknownTask", "BalanceResult",
-           "simulate_balance"]
+           "simulate_balance",
+           "Gait3D", "Phase3D", "WALK3D", "Simbicon3D", "Walk3DResult", "simulate_walk3d"]

@@ -112,7 +112,10 @@ class WorldStep:
         n, nv = tree.n, tree.nv
         R, o = np.zeros((n, 3, 3)), np.zeros((n, 3))
         S = np.zeros((6, nv))
-        R0 = quat_to_matrix(q[:4] / np.linalg.norm(q[:4]))
+        nrm = np.linalg.norm(q[:4])
+        if not nrm > 1e-9:
+            raise InvalidInput(f"q[:4] must be the pelvis's (non-zero) quaternion, got {q[:4]}")
+        R0 = quat_to_matrix(q[:4] / nrm)
         R[0], o[0] = R0, q[4:7]
         S[:3, :3], S[3:, :3], S[3:, 3:6] = R0, _skew(q[4:7]) @ R0, R0
         for i in range(1, n):

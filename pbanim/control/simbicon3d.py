@@ -161,13 +161,13 @@ class Simbicon3D:
     def torques(self, t: float, q, qd, events=(), kin=None, h: float = 0.0):
         """Joint forces (τ₀, k) for the state (q, q̇) at time t after ``events`` (module docstring); records
         (t, state, d, v, ψ) in :attr:`history`."""
+        st = self.step
+        kin = st.kinematics(q) if kin is None else kin              # (checks the quaternion)
         self.fsm.update(t, events)
         ph: Phase3D = self.fsm.payload
         stance, swing = self.sides()
         g = self.gait
         kp, kv = g.kp, g.kv
-        st = self.step
-        kin = st.kinematics(q) if kin is None else kin
         tau, k = np.zeros(qd.size), np.zeros(qd.size)
         d, v, psi = self.balance(kin, qd)
         # knees and ankles: joint space, stable PD (q index = q̇ index + 1: the quaternion's extra number)

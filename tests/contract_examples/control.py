@@ -15,6 +15,20 @@ from pbanim.control import (WALK, Gait, Phase, PDServo, Push, QPController, Simb
 from pbanim.control.biped import BIPED_JOINTS, biped_contact_points, planar_biped
 from pbanim.control.qp_balance import BalanceResult, balance_tasks, crouched_state
 from pbanim.control.walk import WalkResult
+from pbanim.control.biped3d import biped3d, biped3d_contact_points, standing_state3d
+from pbanim.control.biped3d_step import WorldStep
+from pbanim.control.simbicon3d import WALK3D, Gait3D, Phase3D, Simbicon3D
+from pbanim.control.simbicon3d_walk import Walk3DResult, simulate_walk3d
+
+
+@functools.lru_cache(maxsize=1)
+def _biped3d():
+    """The 3-D biped's tree (read only)."""
+    return biped3d()
+
+
+def _world_step():
+    return WorldStep(_biped3d(), biped3d_contact_points(_biped3d()))
 
 
 @functools.lru_cache(maxsize=1)
@@ -82,6 +96,15 @@ INSTANCES = {
     Task: lambda: Task("com", target=(0.0, 1.0), kp=10.0, kd=5.0),
     QPController: _qp,
     BalanceResult: _short_balance,
+    Phase3D: lambda: WALK3D.phases[0],
+    Gait3D: lambda: WALK3D,
+    Simbicon3D: lambda: Simbicon3D(_world_step()),
+    Walk3DResult: lambda: simulate_walk3d(t_end=0.006, h=2e-3, record_every=1),
+}
+
+SKIP_EDGES = {
+    "pbanim.control.simbicon3d_walk.simulate_walk3d": "t_end at its bound (600 s of walking) runs for an hour: the "
+                                                      "edges of t_end are what the step grid's cap checks",
 }
 
 _M = np.array([[2.0, 0.3], [0.3, 1.0]])
@@ -119,10 +142,30 @@ CALLS = {
     "pbanim.control.qp.QPController.solve": _qp_state,
     "pbanim.control.qp.QPController.torques": _qp_state,
     "pbanim.control.qp_balance.simulate_balance": lambda: {"t_end": 0.004, "h": 2e-3, "push_time": 0.002},
+    "pbanim.control.biped3d.biped3d_contact_points": lambda: {"tree": _biped3d()},
+    "pbanim.control.biped3d_step.WorldStep.__init__": lambda: {"tree": _biped3d(),
+                                                               "contact_points": biped3d_contact_points(_biped3d())},
+    "pbanim.control.biped3d_step.WorldStep.kinematics": lambda ws: {"q": standing_state3d()[0]},
+    "pbanim.control.biped3d_step.WorldStep.point_jacobians": lambda ws: {
+        "kin": ws.kinematics(standing_state3d()[0]), "links": np.array([7, 13]), "points": np.zeros((2, 3))},
+    "pbanim.control.biped3d_step.WorldStep.mass_matrix": lambda ws: {"kin": ws.kinematics(standing_state3d()[0])},
+    "pbanim.control.biped3d_step.WorldStep.step": lambda ws: {"q": standing_state3d()[0], "qd": np.zeros(18),
+                                                              "h": 2e-3, "tau0": np.zeros(18)},
+    "pbanim.control.biped3d_step.WorldStep.integrate": lambda ws: {"q": standing_state3d()[0], "u": np.ones(18),
+                                                                   "h": 2e-3},
+    "pbanim.control.simbicon3d.Gait3D.__init__": lambda: {"name": "g", "dt": 0.3, "phases": WALK3D.phases,
+                                                           "kp": dict(WALK3D.kp), "kv": dict(WALK3D.kv)},
+    "pbanim.control.simbicon3d.Simbicon3D.__init__": lambda: {"step": _world_step()},
+    "pbanim.control.simbicon3d.Simbicon3D.balance": lambda c: {"kin": c.step.kinematics(standing_state3d()[0]),
+                                                               "qd": np.zeros(18)},
+    "pbanim.control.simbicon3d.Simbicon3D.torques": lambda c: {"t": 0.1, "q": standing_state3d()[0],
+                                                               "qd": np.zeros(18), "h": 2e-3},
+    "pbanim.control.simbicon3d_walk.simulate_walk3d": lambda: {"t_end": 0.006, "h": 2e-3, "record_every": 1},
 }
 
 EXEMPT = {
     "pbanim.control.walk.WalkResult.__init__": "a result record simulate_walk builds; users read it",
     "pbanim.control.qp.QPResult.__init__": "a result record QPController.solve builds; users read it",
     "pbanim.control.qp_balance.BalanceResult.__init__": "a result record simulate_balance builds; users read it",
+    "pbanim.control.simbicon3d_walk.Walk3DResult.__init__": "a result record simulate_walk3d builds; users read it",
 }

@@ -1,0 +1,137 @@
+"""Running the 3-D biped: the controller, the lean contact step and the fall detector in one loop (chapter 08).
+
+Each step of length h: the controller (:class:`.simbicon3d.Simbicon3D`) reads the state and the foot
+strikes of the last step and returns τ₀ and the stable-PD damping k; the lean step
+(:class:`.biped3d_step.WorldStep`) advances the biped with contact and box friction; a foot "strikes" when
+one of its four sole corners carries a normal impulse. A fall (the pelvis below 0.7 m, or the trunk tipped
+past 1 rad) stops the run and is reported with its time and cause. Runs go through the one fixed-step
+driver (:mod:`pbanim.ode.driver`: its grid, its cap, its finiteness check → ``SimulationDiverged``).
+
+A push is an impulse P (N s, horizontal, world frame) on the torso's centre of mass at time t_P:
+Δq̇ = H⁻¹ J_cᵀ P. A turn moves the controller's heading ψ̄ toward a new value from a given time, at 0.5 rad/s (a step change
+of 0.7 rad at once fell within 0.4 s: the stance hip's yaw torque spun the stance foot).
+
+Measured (h = 2 ms, :data:`~.simbicon3d.WALK3D`, start at 0.4 m/s): see :func:`simulate_walk3d` and
+ORACLES F18 for the numbers the tests hold.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..contracts import Array, Int, Obj, Opt, Real, contract, unchecked
+from ..ode.driver import MAX_STEPS, drive, step_grid
+from .biped3d import biped3d, biped3d_contact_points, standing_state3d
+from .biped3d_step import WorldStep
+from .simbicon3d import WALK3D, Gait3D, Simbicon3D
+
+__all__ = ["Walk3DResult", "simulate_walk3d"]
+
+
+TURN_RATE = 0.5          # rad/s: how fast the heading target turns toward a new heading
+
+
+class _Fell(Exception):
+    pass
+
+
+@dataclass
+class Walk3DResult:
+    """States, centre of mass, machine trace, fall (time, cause), wall time and step of a 3-D walk."""
+
+    t: np.ndarray
+    q: np.ndarray
+    com: np.ndarray
+    heading: np.ndarray
+    trace: list
+    fell: bool
+    fall_time: float | None
+    fall_cause: str
+    wall_time: float
+    h: float
+
+    @contract(last=Real(gt=0))
+    def speed(self, last: float = 5.0) -> float:
+        """Mean horizontal speed of the centre of mass over the last ``last`` seconds (m/s)."""
+        k = self.t >= self.t[-1] - last
+        d = self.com[k][-1, :2] - self.com[k][0, :2]
+        return float(np.linalg.norm(d) / max(self.t[k][-1] - self.t[k][0], 1e-12))
+
+    @property
+    def steps(self) -> int:
+        """Foot strikes: the number of entries into R0 or L0 after the start."""
+        return sum(1 for _, s in self.trace[1:] if s in ("R0", "L0"))
+
+    @property
+    def realtime_factor(self) -> float:
+        """Simulated seconds per wall-clock second."""
+        t_sim = self.fall_time if self.fell else float(self.t[-1])
+        return float(t_sim / self.wall_time) if self.wall_time > 0 else float("inf")
+
+
+@contract(gait=Obj(Gait3D), t_end=Real(gt=0, le=600), h=Real(gt=0, le=0.01), speed=Real(ge=0, le=2),
+          push=Opt(Array((3,))), turn=Opt(Array((2,))), friction=Real(ge=0), record_every=Int(ge=1),
+          max_steps=Int(ge=1))
+def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3, *, speed: float = 0.4,
+                    push=None, turn=None, friction: float = 0.9, record_every: int = 25,
+                    max_steps: int = MAX_STEPS) -> Walk3DResult:
+    """Walk the 3-D biped from a standing start moving at ``speed`` m/s. ``push``: (t_P, P_x, P_y), an
+    impulse (N s, world) on the torso at time t_P; ``turn``: (t, ψ̄), the heading target from time t."""
+    tree = biped3d()
+    ws = WorldStep(tree, biped3d_contact_points(tree), friction=friction, tol=1e-5)
+    ctrl = Simbicon3D(ws, gait)
+    torques, stepf, kinematics = unchecked(ctrl.torques), unchecked(ws.step), unchecked(ws.kinematics)
+    q0, qd0 = standing_state3d(speed=speed)
+    nq = tree.nq
+    torso = [lk.name for lk in tree.links].index("torso")
+    M = float(ws.mass.sum())
+    state = {"events": (), "pushed": False}
+    ts, qs, coms, heads = [], [], [], []
+
+    def record(t1, y1):
+        kin = kinematics(y1[:nq])
+        ts.append(t1), qs.append(y1[:nq].copy()), coms.append(ws.mass @ kin["c"] / M)
+        heads.append(ctrl.history[-1][4] if ctrl.history else 0.0)
+
+    def advance(t, y, hh):
+        q, qd = y[:nq], y[nq:]
+        if turn is not None and t >= turn[0]:                   # ψ̄ moves toward the new heading at TURN_RATE
+            ctrl.heading += float(np.clip(turn[1] - ctrl.heading, -TURN_RATE * hh, TURN_RATE * hh))
+        kin = kinematics(q)
+        if push is not None and not state["pushed"] and t >= push[0]:
+            _, Jc = ws.point_jacobians(kin, np.array([torso]), ws.com[[torso]])
+            qd = qd + np.linalg.solve(ws.mass_matrix(kin), Jc[0].T @ np.array([push[1], push[2], 0.0]))
+            state["pushed"] = True
+        tau, k = torques(t, q, qd, state["events"], kin, hh)
+        q1, u1 = stepf(q, qd, hh, tau, k, kin)
+        ev = []
+        if ws.last is not None:
+            z, near = ws.last["impulses"], ws.last["contacts"]
+            for side, first in (("left", 0), ("right", 4)):
+                if np.any(z[0::3][(near >= first) & (near < first + 4)] > 0):
+                    ev.append(f"{side}_strike")
+        state["events"] = tuple(ev)
+        R0 = kinematics(q1)["R"][0]
+        cause = ("pelvis dropped below 0.7 m" if q1[6] < 0.7 else
+                 f"trunk tipped {np.degrees(np.arccos(min(R0[2, 2], 1.0))):.0f}°" if R0[2, 2] < np.cos(1.0) else "")
+        if cause:
+            state["fall"] = (t + hh, cause)
+            raise _Fell(cause)
+        return np.concatenate([q1, u1])
+
+    grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
+    y0 = np.concatenate([q0, qd0])
+    record(0.0, y0)
+    start = time.perf_counter()
+    fell, fall_time, cause = False, None, ""
+    try:
+        drive(advance, grid, y0, record=record, record_every=record_every)
+    except _Fell:
+        fell, (fall_time, cause) = True, state["fall"]
+    wall = time.perf_counter() - start
+    return Walk3DResult(t=np.array(ts), q=np.array(qs), com=np.array(coms), heading=np.array(heads),
+                        trace=list(ctrl.fsm.trace), fell=fell, fall_time=fall_time, fall_cause=cause,
+                        wall_time=wall, h=h)
