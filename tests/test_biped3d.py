@@ -189,3 +189,13 @@ def test_walks_on_flat_ground_two_seconds():
     assert r.steps >= 5
     assert 0.4 <= r.speed(1.0) <= 1.0, r.speed(1.0)
     assert np.abs(r.com[:, 1]).max() < 0.3
+
+
+def test_turns_by_the_heading_target():
+    # ORACLES F18: the heading target moved to 0.7 rad at 0.5 rad/s from t = 0.4 s: the pelvis turns by ≥ 30°
+    # within 2.6 s without falling (measured 0.736 rad = 42°), and its path bends toward +y (measured y 0.54 m)
+    from pbanim.control.simbicon3d_walk import simulate_walk3d
+    r = simulate_walk3d(t_end=2.6, h=2e-3, turn=np.array([0.4, 0.7]))
+    assert not r.fell
+    assert r.heading[-1] - r.heading[0] >= np.radians(30.0)
+    assert r.com[-1, 1] > 0.3
