@@ -11,8 +11,8 @@ A push is an impulse P (N s, horizontal, world frame) on the torso's centre of m
 Δq̇ = H⁻¹ J_cᵀ P. A turn moves the controller's heading ψ̄ toward a new value from a given time, at 0.5 rad/s (a step change
 of 0.7 rad at once fell within 0.4 s: the stance hip's yaw torque spun the stance foot).
 
-Measured (h = 2 ms, :data:`~.simbicon3d.WALK3D`, start at 0.4 m/s): see :func:`simulate_walk3d` and
-ORACLES F18 for the numbers the tests hold.
+Measured (h = 2 ms, :data:`~.simbicon3d.WALK3D`, start at 0.4 m/s): ORACLES F18 (what the tests hold, and
+what was measured once: pushes, turns, other steps).
 """
 
 from __future__ import annotations
