@@ -54,8 +54,8 @@ def test_die_thrown_to_rest_on_a_chosen_face_at_a_chosen_place(figure_data):
     # (Gauss–Newton on v0 with backtracking through the kinks of S) on the chosen face (the cube's symmetry
     # applied to θ₀ relabels the faces of the same motion). Chapter 07's replay rests on that face within
     # 1 mm of the place (the compliance κ's 1e-9 difference grows through the impacts: measured 6e-9 to
-    # 3e-4 m over random starts). Quick mode designs from one random start; from 10 starts (full run of the
-    # figure, measured once) the successes are counted
+    # 3e-4 m over random starts). The figure designs the first random throw; how many of 10 throws succeed is
+    # the full `pbanim bench design`'s row design-die-successes (≈ 45 s a throw: not in the suite)
     d = figure_data("ch10_contact_die")
     assert d["success"] and d["face"] == 4 and d["at_rest"] and d["residual"] <= 1e-6
     assert d["successes"] >= 0.8 * d["starts"]
