@@ -119,12 +119,14 @@ def test_stands_two_seconds_with_the_weight_on_its_soles():
 
 
 def test_rotation_vector():
+    from pbanim.articulated.spatial import rotation
     from pbanim.control.biped3d_step import _rot
     rng = np.random.default_rng(3)
     for ang in (1e-12, 0.3, 2.0, 3.1):
         a = rng.normal(size=3)
         a /= np.linalg.norm(a)
         assert np.allclose(rotation_vector(_rot(a, ang)), ang * a, atol=1e-9)
+        assert np.abs(_rot(a, ang) - rotation(a, ang)).max() < 8 * np.finfo(float).eps  # lean = readable
 
 
 def test_controller_torques_by_hand():

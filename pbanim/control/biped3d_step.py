@@ -38,7 +38,7 @@ from ..articulated.tree import ROTATING
 from ..articulated.specs import Tree
 from ..contracts import Anything, Array, Int, Opt, Real, contract, unchecked
 from ..errors import InvalidInput
-from ..geometry import tangent_basis
+from ..geometry import skew, tangent_basis
 from ..lcp import pgs_box_friction
 from ..rigid.quat import quat_to_matrix
 
@@ -48,16 +48,14 @@ _aba, _pgs = unchecked(aba_fast), unchecked(pgs_box_friction)
 
 
 def _rot(axis, angle: float) -> np.ndarray:
+    """The lean twin of :func:`pbanim.articulated.spatial.rotation` for one angle (Rodrigues written out:
+    one array built, where the readable form builds [a]× and its square; tests/test_biped3d.py compares them)."""
     x, y, z = axis
     c, s = np.cos(angle), np.sin(angle)
     t = 1.0 - c
     return np.array([[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
                      [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
                      [t * x * z - s * y, t * y * z + s * x, t * z * z + c]])
-
-
-def _skew(p) -> np.ndarray:
-    return np.array([[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]])
 
 
 class WorldStep:
@@ -117,7 +115,7 @@ class WorldStep:
             raise InvalidInput(f"q[:4] must be the pelvis's (non-zero) quaternion, got {q[:4]}")
         R0 = quat_to_matrix(q[:4] / nrm)
         R[0], o[0] = R0, q[4:7]
-        S[:3, :3], S[3:, :3], S[3:, 3:6] = R0, _skew(q[4:7]) @ R0, R0
+        S[:3, :3], S[3:, :3], S[3:, 3:6] = R0, skew(q[4:7]) @ R0, R0
         for i in range(1, n):
             j, lam = tree.joints[i], tree.parent[i]
             Rl = R[lam] @ j.R

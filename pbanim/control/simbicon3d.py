@@ -45,6 +45,8 @@ from .specs import Mapping, Names, NotBefore, Pair
 from .biped3d import BIPED3D_JOINTS as JI
 from .biped3d_step import WorldStep, _rot
 from .fsm import StateMachine, Transition
+from ..design.simulate import quat_log
+from ..rigid.quat import matrix_to_quat
 
 __all__ = ["Phase3D", "Gait3D", "WALK3D", "Simbicon3D", "rotation_vector"]
 
@@ -101,18 +103,9 @@ WALK3D = Gait3D("3-D walk (ours: Table 1's sagittal numbers, our coronal ones)",
 
 @contract(R=Array((3, 3)))
 def rotation_vector(R: np.ndarray) -> np.ndarray:
-    """log(R): the axis times the angle (|angle| ≤ π) of the rotation matrix R."""
-    c = min(max((np.trace(R) - 1.0) / 2.0, -1.0), 1.0)
-    w = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
-    ang = np.arccos(c)
-    s = np.sin(ang)
-    if s < 1e-9:
-        if c > 0:
-            return 0.5 * w
-        B = (R + np.eye(3)) / 2.0                              # angle π: the axis from R + 1 = 2 a aᵀ
-        a = B[int(np.argmax(np.diag(B)))]
-        return np.pi * a / np.linalg.norm(a)
-    return ang / (2.0 * s) * w
+    """log(R): the axis times the angle (|angle| ≤ π) of the rotation matrix R — through its quaternion
+    (:func:`pbanim.rigid.matrix_to_quat`, :func:`pbanim.design.simulate.quat_log`), well conditioned at 0 and π."""
+    return quat_log(matrix_to_quat(R))
 
 
 class Simbicon3D:
