@@ -40,6 +40,25 @@ import numpy as np
 __all__ = ["Flights", "planes_of"]
 
 
+def _fit_flight(ts, X, g, a, b, touches):
+    """(x(a), ẋ(a)) of the gravity parabola x(t) = x(a) + ẋ(a) s + ½ g s², s = t − a, fitted by least squares to
+    the sketch points (ts, X) inside [a, b) (weight 1), the four nearest [a, b) outside (weight 0.1) and the
+    touches (n, s, c): n·x(a + s) = c (weight 10)."""
+    w = np.where((ts >= a) & (ts < b), 1.0, 0.0)
+    near = np.argsort(np.minimum(np.abs(ts - a), np.abs(ts - b)))[:4]
+    w[near] = np.maximum(w[near], 0.1)
+    A, rhs = [], []
+    for t, xb, wt in zip(ts, X, w):
+        if wt > 0:
+            s = t - a
+            A.append(wt * np.hstack([np.eye(3), s * np.eye(3)]))
+            rhs.append(wt * (xb - 0.5 * g * s * s))
+    for nj, s, c in touches:
+        A.append(10.0 * np.hstack([nj, s * nj])[None])
+        rhs.append(10.0 * np.array([c - 0.5 * s * s * (nj @ g)]))
+    return np.linalg.lstsq(np.vstack(A), np.concatenate(rhs), rcond=None)[0]
+
+
 def planes_of(scene):
     """(normals (J, 3), n_j·o_j + r (J,)): the planes the centre of body 0 (a sphere of radius r) touches."""
     n = np.array([p.normal for p in scene.planes], dtype=float).reshape(-1, 3)
@@ -155,21 +174,9 @@ class Flights:
         z = np.zeros(self.size)
         for k in range(self.K + 1):
             a, b = tau[k], ends[k]
-            w = np.where((self.ts >= a) & (self.ts < b), 1.0, 0.0)
-            near = np.argsort(np.minimum(np.abs(self.ts - a), np.abs(self.ts - b)))[:4]
-            w[near] = np.maximum(w[near], 0.1)
-            A, rhs = [], []
-            for t, xb, wt in zip(self.ts, self.X, w):
-                if wt > 0:
-                    s = t - a
-                    A.append(wt * np.hstack([np.eye(3), s * np.eye(3)]))
-                    rhs.append(wt * (xb - 0.5 * self.g * s * s))
-            for kk, te in ((k, a), (k + 1, b)):
-                if 1 <= kk <= self.K:
-                    nj, s = self.n[self.planes[kk - 1]], te - a
-                    A.append(10.0 * np.hstack([nj, s * nj])[None])
-                    rhs.append(10.0 * np.array([self.off[self.planes[kk - 1]] - 0.5 * s * s * (nj @ self.g)]))
-            coef = np.linalg.lstsq(np.vstack(A), np.concatenate(rhs), rcond=None)[0]
+            touches = [(self.n[self.planes[kk - 1]], te - a, self.off[self.planes[kk - 1]])
+                       for kk, te in ((k, a), (k + 1, b)) if 1 <= kk <= self.K]
+            coef = _fit_flight(self.ts, self.X, self.g, a, b, touches)
             it, sa, sb = self.base(k)
             if it is not None:
                 z[it] = a

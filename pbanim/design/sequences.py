@@ -146,13 +146,9 @@ def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
     G = X @ n.T - off                                       # (samples, planes) sketched gaps
     minima, reversals = [], []
     for j in range(len(off)):
-        g = G[:, j]
-        reach = reach_samples * np.median(np.abs(np.diff(g)))
-        for i in range(1, len(ts) - 1):
-            if g[i] <= g[i - 1] and g[i] < g[i + 1] and g[i] < reach:
-                minima.append((_touch_time(ts, g, i), j))
-            if g[i] - g[i - 1] < 0 < g[i + 1] - g[i] and min(g[i], g[i + 1]) < 2 * reach:
-                reversals.append((_touch_time(ts, g, i), j))
+        lo, rev = _gap_touches(ts, G[:, j], reach_samples)
+        minima += [(t, j) for t in lo]
+        reversals += [(t, j) for t in rev]
     out = []
     for origin, hits in (("sketch", minima), ("reversals", reversals)):
         hits.sort()
@@ -160,6 +156,20 @@ def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
         if all(s.key() != seq.key() for s in out):
             out.append(seq)
     return out
+
+
+def _gap_touches(ts, g, reach_samples):
+    """The touches a sketched gap g(t_i) shows: (times of its local minima below ``reach``, times of its
+    reversals from approaching to receding near zero), ``reach`` = ``reach_samples`` × the median |Δg| of a
+    sample; each time by :func:`_touch_time`. A plane's gap or a pair's (:mod:`pbanim.design.body_sequences`)."""
+    reach = reach_samples * np.median(np.abs(np.diff(g)))
+    minima, reversals = [], []
+    for i in range(1, len(ts) - 1):
+        if g[i] <= g[i - 1] and g[i] < g[i + 1] and g[i] < reach:
+            minima.append(_touch_time(ts, g, i))
+        if g[i] - g[i - 1] < 0 < g[i + 1] - g[i] and min(g[i], g[i + 1]) < 2 * reach:
+            reversals.append(_touch_time(ts, g, i))
+    return minima, reversals
 
 
 def _touch_time(ts, g, i):
@@ -283,61 +293,22 @@ def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, ma
     _check_scene(scene)
     pts = _sketch(sketch, 0.0, t_end)
     ts = np.array([t for t, _ in pts])
-    seen, tried, best = set(), [], None
-
     n, _ = planes_of(scene)
     returns = n @ scene.gravity < 0                      # planes gravity pulls the body back to
 
     def possible(seq):
         return all(a != b or returns[a] for a, b in zip(seq.planes[:-1], seq.planes[1:]))
 
-    def done():
-        return best is not None and best.success and \
-            np.sqrt(2.0 * best.objective / max(len(pts), 1)) <= accept_rms
-
-    def consider(seq):
-        nonlocal best
-        seen.add(seq.key())
-        r = solve_sequence(scene, goals, t_end, pts, seq, maxiter=maxiter, tol=tol)
-        tried.append({"planes": seq.key(), "origin": seq.origin, "residual": r.residual, "objective": r.objective,
-                      "violation": r.violation, "confirmed": r.sequence == seq.key(), "success": r.success,
-                      "replay": r.sequence})
-        better = np.isfinite(r.residual) and (best is None or r.residual < best.residual * (1 - 1e-9))
-        if better:
-            best = r
-        return better, r
+    def fault(seq):
+        bad = next(k for k in range(len(seq.planes) - 1) if seq.planes[k] == seq.planes[k + 1])
+        return 0.5 * (seq.times[bad] + seq.times[bad + 1])
 
     pending = list(propose_sequences(scene, pts) if proposals is None else proposals)
-    while len(tried) < max_proposals and not done():
-        if pending:
-            seq = pending.pop(0)
-            if seq.key() not in seen and not possible(seq):
-                seen.add(seq.key())             # repaired, not solved: its possible neighbours, nearest the fault first
-                bad = next(k for k in range(len(seq.planes) - 1) if seq.planes[k] == seq.planes[k + 1])
-                t_bad = 0.5 * (seq.times[bad] + seq.times[bad + 1])
-                pending[:0] = [m for m in _neighbours(seq, len(scene.planes), t_end, t_bad) if possible(m)][:4]
-            elif seq.key() not in seen:
-                _, r = consider(seq)
-                if r.sequence != seq.key() and np.isfinite(r.residual):
-                    pending.insert(0, Sequence(r.sequence, r.times, "replay"))
-            continue
-        if best is None:
-            break
-        moved = False
-        t_worst = float(ts[int(np.argmax(best.errors))]) if len(ts) else 0.5 * t_end
-        for m in _neighbours(Sequence(best.sequence, best.times), len(scene.planes), t_end, t_worst):
-            if len(tried) >= max_proposals:
-                break
-            if m.key() in seen or not possible(m):
-                continue
-            better, r = consider(m)
-            if r.sequence != m.key() and r.sequence not in seen and np.isfinite(r.residual):
-                pending.append(Sequence(r.sequence, r.times, "replay"))
-            if better or pending:
-                moved = True
-                break
-        if not moved:
-            break                                 # a local minimum of the residual over the moves
+    best, tried = _search_loop(pending, lambda seq: solve_sequence(scene, goals, t_end, pts, seq, maxiter=maxiter,
+                                                                   tol=tol),
+                               lambda seq, t: _neighbours(seq, len(scene.planes), t_end, t), possible, fault,
+                               lambda key, times: Sequence(key, times, "replay"), ts, len(pts), t_end,
+                               max_proposals, accept_rms, "planes")
     if best is None:
         return SequenceSearch(scene.vector(["x0", "v0"]), (), np.zeros(0), False, np.inf, np.inf, np.inf,
                               f"no proposal gave a motion ({len(tried)} tried); u is the scene's own (x0, v0)",
@@ -345,3 +316,58 @@ def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, ma
     best.tried, best.proposals, best.cap = tried, len(tried), int(max_proposals)
     best.message += f"; best of {len(tried)} proposals (cap {max_proposals})"
     return best
+
+
+def _search_loop(pending, solve, neighbours, possible, fault, make, ts, n_pts, t_end, max_proposals, accept_rms,
+                 label):
+    """The search of :func:`search_sequences` on any kind of sequence: ``solve(seq)`` → a result with
+    ``sequence, times, residual, objective, violation, success, errors``; ``neighbours(seq, t)`` the moves
+    nearest t first; ``possible(seq)``; ``fault(seq)`` the time of an impossible sequence's first fault;
+    ``make(key, times)`` the sequence a replay shows. Returns (best or None, rows of the solves)."""
+    seen, tried, best = set(), [], None
+
+    def done():
+        return best is not None and best.success and \
+            np.sqrt(2.0 * best.objective / max(n_pts, 1)) <= accept_rms
+
+    def consider(seq):
+        nonlocal best
+        seen.add(seq.key())
+        r = solve(seq)
+        tried.append({label: seq.key(), "origin": seq.origin, "residual": r.residual, "objective": r.objective,
+                      "violation": r.violation, "confirmed": r.sequence == seq.key(), "success": r.success,
+                      "replay": r.sequence})
+        better = np.isfinite(r.residual) and (best is None or r.residual < best.residual * (1 - 1e-9))
+        if better:
+            best = r
+        return better, r
+
+    while len(tried) < max_proposals and not done():
+        if pending:
+            seq = pending.pop(0)
+            if seq.key() not in seen and not possible(seq):
+                seen.add(seq.key())             # repaired, not solved: its possible neighbours, nearest the fault first
+                pending[:0] = [m for m in neighbours(seq, fault(seq)) if possible(m)][:4]
+            elif seq.key() not in seen:
+                _, r = consider(seq)
+                if r.sequence != seq.key() and np.isfinite(r.residual):
+                    pending.insert(0, make(r.sequence, r.times))
+            continue
+        if best is None:
+            break
+        moved = False
+        t_worst = float(ts[int(np.argmax(best.errors))]) if len(ts) else 0.5 * t_end
+        for m in neighbours(make(best.sequence, best.times), t_worst):
+            if len(tried) >= max_proposals:
+                break
+            if m.key() in seen or not possible(m):
+                continue
+            better, r = consider(m)
+            if r.sequence != m.key() and r.sequence not in seen and np.isfinite(r.residual):
+                pending.append(make(r.sequence, r.times))
+            if better or pending:
+                moved = True
+                break
+        if not moved:
+            break                                 # a local minimum of the residual over the moves
+    return best, tried
