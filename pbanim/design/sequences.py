@@ -319,11 +319,12 @@ def search_sequences(scene, goals, t_end, sketch, *, max_proposals: int = 40, ma
 
 
 def _search_loop(pending, solve, neighbours, possible, fault, make, ts, n_pts, t_end, max_proposals, accept_rms,
-                 label):
+                 label, replay_first=True):
     """The search of :func:`search_sequences` on any kind of sequence: ``solve(seq)`` → a result with
     ``sequence, times, residual, objective, violation, success, errors``; ``neighbours(seq, t)`` the moves
     nearest t first; ``possible(seq)``; ``fault(seq)`` the time of an impossible sequence's first fault;
-    ``make(key, times)`` the sequence a replay shows. Returns (best or None, rows of the solves)."""
+    ``make(key, times)`` the sequence a replay shows, proposed next (``replay_first``) or after the pending
+    proposals. Returns (best or None, rows of the solves)."""
     seen, tried, best = set(), [], None
 
     def done():
@@ -351,7 +352,7 @@ def _search_loop(pending, solve, neighbours, possible, fault, make, ts, n_pts, t
             elif seq.key() not in seen:
                 _, r = consider(seq)
                 if r.sequence != seq.key() and np.isfinite(r.residual):
-                    pending.insert(0, make(r.sequence, r.times))
+                    pending.insert(0 if replay_first else len(pending), make(r.sequence, r.times))
             continue
         if best is None:
             break
