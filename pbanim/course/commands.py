@@ -7,6 +7,8 @@
     pbanim grade … --format gradescope                   Gradescope's results.json instead (at --json)
     pbanim course student-edition OUT/ [--assignments A …]   a wheel without the solutions (pbanim.course.edition)
     pbanim course autograder NAME OUT.zip [--force]      Gradescope's autograder zip (pbanim.course.gradescope)
+    pbanim course export NAME OUT/ [--format nbgrader] [--force]   nbgrader's source notebook,
+                                                         OUT/source/NAME/NAME.ipynb (pbanim.course.nbgrader_export)
     pbanim notebook chNN DIR                             a chapter as a Jupyter notebook (chapters found
                                                          by the command line and handed in)
 
@@ -87,6 +89,15 @@ def _cmd_course(args) -> int:
         wheel = call_checked(build_edition, args.args[0], args.assignments)
         print(f"wrote {wheel}\nstudents install it with: pip install {wheel.name}")
         return 0
+    if args.action == "export":
+        if len(args.args) != 2:
+            raise InvalidInput("usage: pbanim course export NAME OUT/ [--format nbgrader] [--force]")
+        from .nbgrader_export import export_assignment
+
+        out = call_checked(export_assignment, args.args[0], args.args[1], args.format, overwrite=args.force)
+        print(f"wrote {out}: nbgrader's source notebook; in {args.args[1]} run "
+              f"`nbgrader generate_assignment {args.args[0]}` for the students' version")
+        return 0
     if len(args.args) != 2:
         raise InvalidInput("usage: pbanim course autograder NAME OUT.zip [--force]")
     from .gradescope import write_autograder
@@ -121,13 +132,17 @@ def add_course_commands(sub, chapter_files) -> None:
                    help="pbanim: report.json and report.md; gradescope: the platform's results.json (at --json)")
     g.set_defaults(func=_cmd_grade)
 
-    c = sub.add_parser("course", help="a student edition of pbanim, or an assignment's Gradescope autograder",
+    c = sub.add_parser("course", help="a student edition of pbanim, an assignment's Gradescope autograder or its "
+                                      "nbgrader notebook",
                        description="pbanim course student-edition OUT/ [--assignments NAMES] | "
-                                   "pbanim course autograder NAME OUT.zip [--force]")
-    c.add_argument("action", choices=["student-edition", "autograder"])
-    c.add_argument("args", nargs="*", help="student-edition: OUT/; autograder: NAME OUT.zip")
+                                   "pbanim course autograder NAME OUT.zip [--force] | "
+                                   "pbanim course export NAME OUT/ [--format nbgrader] [--force]")
+    c.add_argument("action", choices=["student-edition", "autograder", "export"])
+    c.add_argument("args", nargs="*", help="student-edition: OUT/; autograder: NAME OUT.zip; export: NAME OUT/")
     c.add_argument("--assignments", nargs="+", help="student-edition: the assignments to remove (default all)")
-    c.add_argument("--force", action="store_true", help="autograder: overwrite OUT.zip")
+    c.add_argument("--format", choices=["nbgrader"], default="nbgrader",
+                   help="export: the platform (nbgrader; otter-grader is not exported, see pbanim.course.nbgrader_export)")
+    c.add_argument("--force", action="store_true", help="autograder, export: overwrite the output")
     c.set_defaults(func=_cmd_course)
 
     n = sub.add_parser("notebook", help="write a chapter as a Jupyter notebook (.ipynb)")
