@@ -13,7 +13,9 @@ each with a time guess τ̂_k. The same four steps:
    i's sample times, linearly), each with an event at its local minima within reach and at its reversals
    (:func:`pbanim.design.sequences._gap_touches`), merged in time order;
 2. **moves** — insert any event (any body, any surface) between two events or at either end, delete one,
-   replace one by another, swap two neighbours, nearest the worst-fitted sketch time first. A body that hits
+   replace one by another, swap two neighbours, nearest the worst-fitted sketch time first; first of all the
+   inserts the sketch asks for (an element it touches more often than the sequence has events of it), and
+   every event's time guess moved to the sketch's touch of it within three samples. A body that hits
    a plane twice with no event of its own between, where gravity does not pull toward the plane, or a pair
    that collides twice with no event of either between (two free parabolas under one gravity: their
    separation moves on a straight line) is impossible: repaired, never solved;
@@ -26,7 +28,7 @@ each with a time guess τ̂_k. The same four steps:
    converged. The search loop is :func:`pbanim.design.sequences._search_loop`, the one-sphere search's, with
    one difference: the sequence a failed solve's replay shows is proposed after the sketches' own proposals
    (with several bodies a failed solve's replay strays far from the sketch: measured on the two-ball sketch of
-   ORACLES L5, four replays in a row, each a worse sequence, before the sketch's second proposal).
+   ORACLES L8, four replays in a row, each a worse sequence, before the sketch's second proposal).
 
 ==========  ====================  ==========================================================
 symbol      code                  meaning
@@ -273,6 +275,14 @@ def search_body_sequences(scene, goals, t_end, sketches, *, max_proposals: int =
         if not touches.get(e) or t - touches[e][-1] > near:
             touches.setdefault(e, []).append(t)
 
+    def aligned(seq):                   # each event at the sketch's touch of it within three samples, if any
+        t = seq.times.copy()
+        for k, e in enumerate(seq.events):
+            near3 = [x for x in touches.get(e, ()) if abs(x - t[k]) <= 2 * near]
+            if near3:
+                t[k] = min(near3, key=lambda x: abs(x - t[k]))
+        return BodySequence(seq.events, t if np.all(np.diff(t) >= 0) else seq.times, seq.origin)
+
     def fault(seq):
         k = _first_fault(scene, seq.events)
         return 0.5 * (seq.times[k - 1] + seq.times[k]) if k else float(seq.times[0])
@@ -280,7 +290,7 @@ def search_body_sequences(scene, goals, t_end, sketches, *, max_proposals: int =
     pending = list(propose_body_sequences(scene, sk) if proposals is None else proposals)
     best, tried = _search_loop(
         pending, lambda seq: solve_body_sequence(scene, goals, t_end, sk, seq, maxiter=maxiter, tol=tol),
-        lambda seq, t: _neighbours(seq, elements, t_end, t, touches), lambda seq: _first_fault(scene, seq.events) is None,
+        lambda seq, t: _neighbours(aligned(seq), elements, t_end, t, touches), lambda seq: _first_fault(scene, seq.events) is None,
         fault, lambda key, times: BodySequence(key, times, "replay"), ts, len(ts), t_end, max_proposals,
         accept_rms, "events", replay_first=False)
     if best is None:
