@@ -40,7 +40,7 @@ lists every sequence tried, its residual and whether the replay confirmed it.
 ==========  ===================  ==============================================================
 symbol      code                 meaning
 ==========  ===================  ==============================================================
-σ           ``Sequence.planes``  the planes hit, in order (body 0; one body per scene here)
+σ           ``Sequence.planes``  the planes hit, in order (body 0; several bodies: ``BodySequence``)
 τ_k         ``Sequence.times``   impact times (guesses in a proposal, solved in a result)
 a_k, b_k    ``z`` blocks         position at τ_k and velocity just after impact k (m, m/s)
 E           ``objective``        sketch distance of the replayed motion (m²)
@@ -53,7 +53,8 @@ Limiting cases: K = 0 is single shooting of one parabola; a sketch with three or
 gives the true sequence as its first proposal (ORACLES L4).
 
 Scope: one sphere with isotropic inertia on static planes (the exact flight applies, frictionless
-impacts); sequences of impacts between bodies are not searched.
+impacts). Several spheres, with impacts between them (which bodies, which surfaces, in which order):
+:mod:`pbanim.design.body_sequences`, on the same search loop (:func:`_search_loop`).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, "Motion sketching for control of rigid-body
 simulations", ACM TOG 22(4) 2003 (§4, and §7: the discrete structure of the impact sequence left open);
