@@ -109,7 +109,32 @@ def _bead(demo, omega_b, zeta, h=0.02, t_end=1.0, R=1.0):
     res = Scene(ps, [Gravity(), eff]).simulate(t_end, h, "rk4")
     x = res.y[:2]
     C = 0.5 * (np.sum(x * x, 0) - R * R)
-    return {"t": res.t, "x": x, "C": C, "C_exact": baumgarte_closed_form(res.t, C[0], 0.0, omega_b, zeta), "R": R}
+    return {"t": res.t, "x": x, "C": C, "C_exact": baumgarte_closed_form(res.t, C[0], 0.0, omega_b, zeta), "R": R,
+            "limits": _bead_limits(R, 1.1 * R, t_end)}
+
+
+ZETA_LOW = 0.1          # the ζ slider's low end: the deepest undershoot of C over the controls' range
+
+
+def _bead_limits(R, r0, t_end, pad=0.05):
+    """The bead's axes limits over the controls' whole range (ω_b, ζ ≥ ZETA_LOW), from B2's error equation
+    instead of the data, so that moving a slider keeps the axes: started at rest with C₀ = ½(r₀² − R²), the
+    damped error's energy ω_b²C² + Ċ² does not grow, so |C| ≤ C₀ and the bead stays within |x| ≤ r₀; C dips
+    below 0 only underdamped, at most to −C₀ exp(−πζ/√(1 − ζ²)) (its first undershoot), deepest at ζ's low
+    end. Returns ((xlim, ylim) of the bead, (xlim, ylim) of C(t)), each padded by ``pad`` of its span."""
+    C0 = 0.5 * (r0 * r0 - R * R)
+    c_lo = -C0 * np.exp(-np.pi * ZETA_LOW / np.sqrt(1.0 - ZETA_LOW**2))
+
+    def padded(lo, hi):
+        return (lo - pad * (hi - lo), hi + pad * (hi - lo))
+
+    return ((padded(-r0, r0), padded(-r0, r0)), (padded(0.0, t_end), padded(c_lo, C0)))
+
+
+def _set_limits(axes, limits):
+    for ax, (xl, yl) in zip(axes, limits):
+        ax.set_xlim(xl)
+        ax.set_ylim(yl)
 
 
 def _bead_draw(fig, d, p):
@@ -122,6 +147,7 @@ def _bead_draw(fig, d, p):
     (exact,) = b.plot(d["t"], d["C_exact"], "k--", lw=1, label="C̈ + 2ζω_b Ċ + ω_b² C = 0")
     b.set(xlabel="t (s)", ylabel="C (m²)", title=f"ω_b = {p['omega_b']:.3g} rad/s, ζ = {p['zeta']:.2f}")
     b.legend(fontsize=7)
+    _set_limits((a, b), d["limits"])
     return {"path": path, "C": C, "exact": exact, "axes": (a, b)}
 
 
@@ -130,12 +156,12 @@ def _bead_update(arts, d, p):
     arts["C"].set_data(d["t"], d["C"])
     arts["exact"].set_data(d["t"], d["C_exact"])
     arts["axes"][1].set_title(f"ω_b = {p['omega_b']:.3g} rad/s, ζ = {p['zeta']:.2f}")
-    _rescale(*arts["axes"])
+    _set_limits(arts["axes"], d["limits"])      # fixed over the sliders' range: the drawn axes are reused
 
 
 register_demo(LiveDemo(
     "ch03_baumgarte", "ch03_constraints", "drift", "Baumgarte gains pull a bead back onto its circle",
-    (Control("omega_b", "ω_b (rad/s)", "log", 10.0, 1.0, 20.0), Control("zeta", "ζ", "float", 1.0, 0.1, 2.0)),
+    (Control("omega_b", "ω_b (rad/s)", "log", 10.0, 1.0, 20.0), Control("zeta", "ζ", "float", 1.0, ZETA_LOW, 2.0)),
     _bead, _bead_draw, notes="k_s = ω_b², k_d = 2ζω_b; ζ = 1 is the critically damped return.", update=_bead_update))
 
 
@@ -339,9 +365,15 @@ def _drag_draw(fig, d, p):
     return {"path": path, "reached": reached, "target": target, "walls": walls, "axes": (ax,)}
 
 
+# what the drag shows whatever the ball does: the targets' range (the sliders': x ≥ −1, z ≤ 2), the floor z = 0,
+# the wall x = 2, and the apexes of the paths that reach them (up to 3.2 m when dragging z between its ends)
+DRAG_BOX = np.array([[-1.0, 0.0], [2.0, 3.5]])     # [[x_min, z_min], [x_max, z_max]]
+
+
 def _drag_limits(ax, d):
-    """The path, the ball and the target with 5 % margins (the walls, lines across the axes, left out)."""
-    pts = np.vstack([d["path"], d["reached"][[0, 2]], d["target"][[0, 2]]])
+    """DRAG_BOX, grown to hold the path, the ball and the target, with 5 % margins (the walls, lines across
+    the axes, left out): a drag whose ball stays in the box keeps the axes, so a redraw draws only the data."""
+    pts = np.vstack([d["path"], d["reached"][[0, 2]], d["target"][[0, 2]], DRAG_BOX])
     lo, hi = pts.min(0), pts.max(0)
     pad = 0.05 * np.maximum(hi - lo, 1e-9)
     ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
