@@ -7,7 +7,7 @@
 # %%
 """Chapter 10 — the discrete search over impact sequences and the sketching interface (issue 30).
 
-Figure ``sequence_search`` (ORACLES L4); :func:`sketch_editor` opens the editor (ORACLES L5). The chapter's
+Figures ``sequence_search`` (ORACLES L4) and ``two_ball_search`` (ORACLES L8); :func:`sketch_editor` opens the editor (ORACLES L5). The chapter's
 other figures are in :mod:`chapters.ch10_design`."""
 
 from __future__ import annotations
@@ -103,6 +103,84 @@ def sequence_search(ctx):
             "repair_success": fix.success, "repair_sequence_true": fix.sequence == hits, "repair_proposals": fix.proposals,
             "repair_origins": [row["origin"] for row in fix.tried], "coarse_proposal_true": gap.key() == hits,
             "repair_objective": fix.objective, "coarse_noise_E": 0.5 * len(coarse) * 3 * sigma ** 2}
+
+
+# %% [markdown]
+# ## Figure `ch10_two_ball_search` (issue 30, point 3, several bodies)
+#
+# Ball 0 thrown at ball 1, both in flight: two collisions, then bounces on the floor and a wall, twelve events
+# in 1.25 s, some 37 ms apart on a sketch every 50 ms. The sketch's first proposal misses a floor bounce; the
+# search over event sequences (which body, which surface — a plane or the other ball — in which order;
+# pbanim.design.body_sequences) finds the true sequence.
+
+# %%
+def two_ball_problem(dt: float = 0.05, sigma: float = 0.005, T: float = 1.25, seed: int = 1):
+    """Two 5 cm balls (unit mass, ε = 0.9, floor z ≥ 0, wall x ≤ 0.4): ball 0 from (−0.4, 0, 0.35) at
+    (3, 0, 1) m/s, ball 1 from (0.1, 0, 0.3) at (0, 0, 1.2) m/s. The sketches are their positions every
+    ``dt`` with noise ``sigma`` (seeded), the goals their true end positions, the guess slower throws."""
+    def balls(v0, v1):
+        return DesignScene([DesignBody(Sphere(0.05), position=[-0.4, 0.0, 0.35], velocity=v0),
+                            DesignBody(Sphere(0.05), position=[0.1, 0.0, 0.3], velocity=v1)],
+                           [Plane([0, 0, 1]), Plane([-1, 0, 0], offset=-0.4)], restitution=0.9)
+    true = balls([3.0, 0.0, 1.0], [0.0, 0.0, 1.2])
+    names = ["x0", "v0", "x1", "v1"]
+    ts = list(np.round(np.arange(0.0, T + 1e-9, dt), 10))
+    ref = simulate(true, T, names, times=ts, sensitivities=False, flight="exact")
+    rng = np.random.default_rng(seed)
+    sketches = [[(t, ref.position(b, t) + sigma * rng.normal(size=3)) for t in ts] for b in range(2)]
+    goals = [position_goal(b, T, ref.position(b, T)) for b in range(2)]
+    return true, ref, sketches, goals, balls([2.5, 0.0, 0.5], [0.0, 0.0, 0.8])
+
+
+def _event_label(e):
+    return f"{e[0]}{'FW'[e[2]]}" if e[1] == "plane" else "P"
+
+
+@figure("ch10", "two_ball_search", "Searching event sequences of two balls: which body, which surface, in which order",
+        cost=6.0)
+def two_ball_search(ctx):
+    """x–z paths of the two balls: the sketches, the motion of the search's best sequence with its events;
+    what the search tried (the sketch's first proposal misses a floor bounce 37 ms before the second
+    collision). ORACLES L8."""
+    from pbanim.design.body_sequences import propose_body_sequences, search_body_sequences
+
+    T, sigma = 1.25, 0.005
+    true, ref, sketches, goals, guess = two_ball_problem(sigma=sigma, T=T)
+    events = tuple((i.body, "plane", i.other) if i.kind == "plane" else (0, "body", 1) for i in ref.impacts)
+    first = propose_body_sequences(guess, sketches)[0]
+    res = search_body_sequences(guess, goals, T, sketches, max_proposals=4, maxiter=40)
+    tt = np.linspace(0.0, T, 501)
+    run = simulate(guess, T, ["x0", "v0", "x1", "v1"], res.u, times=sorted(set(tt[1:]) | set(res.times)),
+                   sensitivities=False, flight="exact")
+    fig, axs = ctx.subplots(1, 2, figsize=(12, 3.8), gridspec_kw={"width_ratios": [2, 1]})
+    ax = axs[0]
+    for b, c in ((0, "C0"), (1, "C3")):
+        P = np.array([x for _, x in sketches[b]])
+        ax.plot(P[:, 0], P[:, 2], ".", color=c, ms=4, label=f"sketch of ball {b} (every 50 ms)")
+        X = np.array([run.position(b, t) for t in tt[1:]])
+        ax.plot(X[:, 0], X[:, 2], "-", color=c, lw=1.0, label=f"ball {b}, the search's motion")
+    for i in run.impacts:                      # the events: × on a surface, * at the contact point of the pair
+        x = run.position(i.body, i.t) if i.kind == "plane" else 0.5 * (run.position(0, i.t) + run.position(1, i.t))
+        ax.plot(x[0], x[2], "k*" if i.kind == "pair" else "kx", ms=6)
+    ax.axhline(0.05, color="gray", lw=0.8), ax.axvline(0.35, color="gray", lw=0.8)
+    ax.set_xlabel("x (m)"), ax.set_ylabel("z (m)  (centres; floor and wall one radius away)")
+    ax.legend(fontsize=7, loc="upper left")
+    ax = axs[1]
+    ax.axis("off")
+    lines = [f"true:   {' '.join(_event_label(e) for e in events)}",
+             f"sketch: {' '.join(_event_label(e) for e in first.events)}  (first proposal)", "",
+             f"search (cap {res.cap}):"]
+    for row in res.tried:
+        lines.append(f"  {row['origin']:<9} {len(row['events'])} events, residual {row['residual']:.1e}, "
+                     f"{'confirmed' if row['confirmed'] else 'replay differs'}")
+    lines += ["", f"E = {res.objective:.2e} m², noise ½·2N·3σ² = {0.5 * 2 * len(sketches[0]) * 3 * sigma ** 2:.2e} m²",
+              "0F, 1W: ball 0 on the floor, ball 1 on the wall; P: the balls collide"]
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=7, transform=ax.transAxes)
+    ctx.save(fig)
+    return {"events": events, "first_proposal": first.events, "sequence": res.sequence, "success": res.success,
+            "u": res.u, "u_true": np.concatenate([true.nominal[k] for k in ("x0", "v0", "x1", "v1")]),
+            "objective": res.objective, "proposals": res.proposals, "cap": res.cap,
+            "tried": [(row["origin"], row["events"], row["confirmed"]) for row in res.tried]}
 
 
 # %% [markdown]

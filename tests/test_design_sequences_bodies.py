@@ -131,18 +131,22 @@ def test_event_jacobians_equal_central_differences(sketch):
         assert J.shape == F.shape and np.abs(J - F).max() <= 1e-6 * max(1.0, np.abs(F).max())
 
 
-def test_search_finds_two_balls_sequence_the_sketch_misses(sketch):
-    # ORACLES L8: the sketch's first proposal misses a floor bounce 37 ms before the second collision; the
-    # search's sequence is the true one (12 events), replayed independently: goals to 1e-8, E within the noise,
-    # at most 4 continuous solves.
+def test_search_finds_two_balls_sequence_the_sketch_misses(sketch, figure_data):
+    # ORACLES L8 (the chapter's figure ch10_two_ball_search runs the search on the same sketch): the sketch's
+    # first proposal misses a floor bounce 37 ms before the second collision; the search's sequence is the
+    # true one (12 events), replayed independently: goals to 1e-8, E within the noise, at most 4 solves.
     sk, goals, events, u, guess = sketch
+    d = figure_data("ch10_two_ball_search")
+    assert d["events"] == events and np.abs(d["u_true"] - u).max() == 0.0
     props = propose_body_sequences(guess, sk)
-    assert props[0].key() != events and len(props[0].key()) < len(events)
-    res = search_body_sequences(guess, goals, T, sk, max_proposals=4, maxiter=40)
-    assert res.success and res.sequence == events and 1 <= res.proposals <= 4 and res.cap == 4
-    assert not res.tried[0]["confirmed"] and res.tried[-1]["events"] == events
-    _check_motion(res, sk, goals, events)
-    assert np.abs(res.u - u).max() < 0.05
+    assert props[0].key() == d["first_proposal"] != events and len(props[0].key()) < len(events)
+
+    class Res:                                  # the figure's result, read as the search's
+        u, sequence, objective = d["u"], d["sequence"], d["objective"]
+    assert d["success"] and d["sequence"] == events and 1 <= d["proposals"] <= d["cap"] == 4
+    assert d["tried"][0][1] == props[0].key() and not d["tried"][0][2] and d["tried"][-1][1] == events
+    _check_motion(Res, sk, goals, events)
+    assert np.abs(d["u"] - u).max() < 0.05
 
 
 def test_an_insert_move_adds_a_missing_collision(sketch):
