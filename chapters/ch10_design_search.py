@@ -137,7 +137,7 @@ def _event_label(e):
 
 
 @figure("ch10", "two_ball_search", "Searching event sequences of two balls: which body, which surface, in which order",
-        cost=6.0)
+        cost=4.0)
 def two_ball_search(ctx):
     """x–z paths of the two balls: the sketches, the motion of the search's best sequence with its events;
     what the search tried (the sketch's first proposal misses a floor bounce 37 ms before the second
