@@ -253,7 +253,22 @@ def test_ch03_fixed_limits_hold_every_bead_the_sliders_can_show():
     assert abs(min(lows) - want) <= 0.02 * C0, (min(lows), want)
 
 
-@pytest.mark.parametrize("name", ["ch03_baumgarte", "ch10_drag"])
+def test_ch09_fixed_limits_hold_every_decay_the_slider_can_show():
+    # ORACLES E1: E/E₀ of the implicit step, (1 − νΔtλ)^(−2n), lies between e^(−4νt) and 1, so the axes fixed at
+    # ν's high end, [e^(−4 ν_max t_end), 1], hold every ν; tight: at ν_max the last point lies above it by the
+    # implicit step's lag, (1 − ν_maxΔtλ)^(−2n) against e^(−4ν_max t): 0.10 decade at Δt = 0.05
+    d = get_demo("ch09_viscosity")
+    (nu,) = d.controls
+    for v in (nu.lo, 0.01, nu.value, 0.3, nu.hi):
+        data = d.compute(d, nu=v)
+        (tx, ey) = data["limits"]
+        assert tx[0] <= data["t"].min() and data["t"].max() <= tx[1], v
+        assert ey[0] <= data["E"].min() and data["E"].max() <= ey[1], v
+        np.testing.assert_allclose(data["E"], data["E_step"], rtol=1e-10)
+    assert 0.0 < np.log10(data["E"][-1] / np.exp(-4 * nu.hi * data["t"][-1])) <= 0.15
+
+
+@pytest.mark.parametrize("name", ["ch03_baumgarte", "ch09_viscosity", "ch10_drag"])
 def test_moving_a_slider_over_its_range_keeps_the_drawn_axes(name):
     # the cause of the slowest redraws was new limits at each value (a full draw: tick labels rendered again);
     # with limits fixed over the controls' range the background drawn first is reused at every end and default

@@ -20,6 +20,9 @@ ch10_drag           10         target x, target z              a ball through tw
 
 Each ``compute(demo, **params)`` returns the data it draws (the tests check it against the closed form);
 the scenes are sized so that a redraw takes under 0.2 s (``python -m pbanim.course.widgets``).
+Axes fixed over the controls' whole range where a bound holds every value (ch03, ch09, ch10) let a redraw
+reuse the drawn axes (new limits cost a full Agg draw, tick labels and all); ch02, ch06 (flight time ×5 over
+ε) and ch08 (θ ∝ P/√k_p over six decades) follow their data.
 ``ch10_drag`` keeps the design parameters u between redraws in ``demo.state`` (a drag moves on from where
 the last frame left it); another target restarts nothing, one more redraw at the same target is one more
 Gauss–Newton step.
@@ -35,6 +38,8 @@ from .widgets import Control, LiveDemo, register_demo
 __all__: list[str] = []
 
 G = 9.81
+ZETA_LOW = 0.1          # the ζ slider's low end (ch03): the deepest undershoot of C over the controls' range
+NU_HIGH = 1.0           # the ν slider's high end (ch09): the fastest decay the axes must hold
 
 
 # -- chapter 02: step size and method on a Kepler orbit -------------------------------------------------
@@ -113,22 +118,15 @@ def _bead(demo, omega_b, zeta, h=0.02, t_end=1.0, R=1.0):
             "limits": _bead_limits(R, 1.1 * R, t_end)}
 
 
-ZETA_LOW = 0.1          # the ζ slider's low end: the deepest undershoot of C over the controls' range
-
-
 def _bead_limits(R, r0, t_end, pad=0.05):
-    """The bead's axes limits over the controls' whole range (ω_b, ζ ≥ ZETA_LOW), from B2's error equation
-    instead of the data, so that moving a slider keeps the axes: started at rest with C₀ = ½(r₀² − R²), the
-    damped error's energy ω_b²C² + Ċ² does not grow, so |C| ≤ C₀ and the bead stays within |x| ≤ r₀; C dips
-    below 0 only underdamped, at most to −C₀ exp(−πζ/√(1 − ζ²)) (its first undershoot), deepest at ζ's low
-    end. Returns ((xlim, ylim) of the bead, (xlim, ylim) of C(t)), each padded by ``pad`` of its span."""
+    """((xlim, ylim) of the bead, (xlim, ylim) of C(t)) for every ω_b and ζ ≥ ZETA_LOW (B2), padded: from rest at
+    C₀ = ½(r₀² − R²) the error's energy ω_b²C² + Ċ² never grows (|C| ≤ C₀, |x| ≤ r₀), and C undershoots only
+    underdamped, at most to −C₀ exp(−πζ/√(1 − ζ²)), deepest at ζ's low end."""
     C0 = 0.5 * (r0 * r0 - R * R)
     c_lo = -C0 * np.exp(-np.pi * ZETA_LOW / np.sqrt(1.0 - ZETA_LOW**2))
-
-    def padded(lo, hi):
-        return (lo - pad * (hi - lo), hi + pad * (hi - lo))
-
-    return ((padded(-r0, r0), padded(-r0, r0)), (padded(0.0, t_end), padded(c_lo, C0)))
+    lim = np.array([[-r0, r0], [-r0, r0], [0.0, t_end], [c_lo, C0]])
+    lim += pad * (lim[:, 1:] - lim[:, :1]) * [-1.0, 1.0]
+    return ((tuple(lim[0]), tuple(lim[1])), (tuple(lim[2]), tuple(lim[3])))
 
 
 def _set_limits(axes, limits):
@@ -295,7 +293,15 @@ def _tg(demo, nu, n=16, h=0.05, t_end=1.0):
     e = res.diagnostics["kinetic_energy"]
     lam = 2 * (2 * np.cos(g.dx) - 2) / g.dx**2
     steps = np.round(res.t / h)
-    return {"t": res.t, "E": e / e[0], "E_step": (1 - nu * h * lam) ** (-2 * steps), "E_exact": np.exp(-4 * nu * res.t)}
+    return {"t": res.t, "E": e / e[0], "E_step": (1 - nu * h * lam) ** (-2 * steps), "E_exact": np.exp(-4 * nu * res.t),
+            "limits": _tg_limits(t_end)}
+
+
+def _tg_limits(t_end, pad=0.05):
+    """(xlim, ylim) for every ν: E/E₀ in [e^(−4ν_max t_end), 1], padded (in decades): the energy never grows, and
+    the implicit step decays slower than e^(−4νt) (1/(1 + x) ≥ e^(−x), the grid's |λ| ≤ 2k²)."""
+    lo = -4.0 * NU_HIGH * t_end / np.log(10.0)          # log10 of the lowest E/E₀
+    return ((-pad * t_end, (1 + pad) * t_end), (10 ** (lo + pad * lo), 10 ** (-pad * lo)))
 
 
 def _tg_draw(fig, d, p):
@@ -304,6 +310,7 @@ def _tg_draw(fig, d, p):
     (exact,) = ax.semilogy(d["t"], d["E_exact"], "k--", lw=1, label="e^(−4νk²t)")
     ax.set(xlabel="t (s)", ylabel="E / E₀", title=f"Taylor–Green vortex, ν = {p['nu']:.3g} m²/s")
     ax.legend(fontsize=7)
+    _set_limits((ax,), (d["limits"],))
     return {"E": E, "exact": exact, "axes": (ax,)}
 
 
@@ -311,12 +318,12 @@ def _tg_update(arts, d, p):
     arts["E"].set_data(d["t"], d["E"])
     arts["exact"].set_data(d["t"], d["E_exact"])
     arts["axes"][0].set_title(f"Taylor–Green vortex, ν = {p['nu']:.3g} m²/s")
-    _rescale(*arts["axes"])
+    _set_limits(arts["axes"], (d["limits"],))  # fixed over the slider's range: the drawn axes are reused
 
 
 register_demo(LiveDemo(
     "ch09_viscosity", "ch09_fluids", "taylor_green_decay", "viscosity of a Taylor–Green vortex",
-    (Control("nu", "ν (m²/s)", "log", 0.05, 1e-3, 1.0),), _tg, _tg_draw, figsize=(6.0, 3.4),
+    (Control("nu", "ν (m²/s)", "log", 0.05, 1e-3, NU_HIGH),), _tg, _tg_draw, figsize=(6.0, 3.4),
     notes="Only viscosity acts: the energy decays as e^(−4νk²t).", update=_tg_update))
 
 
@@ -365,19 +372,16 @@ def _drag_draw(fig, d, p):
     return {"path": path, "reached": reached, "target": target, "walls": walls, "axes": (ax,)}
 
 
-# what the drag shows whatever the ball does: the targets' range (the sliders': x ≥ −1, z ≤ 2), the floor z = 0,
-# the wall x = 2, and the apexes of the paths that reach them (up to 3.2 m when dragging z between its ends)
-DRAG_BOX = np.array([[-1.0, 0.0], [2.0, 3.5]])     # [[x_min, z_min], [x_max, z_max]]
+# [[x_min, z_min], [x_max, z_max]]: the targets (x ≥ −1, z ≤ 2), floor, wall x = 2, the paths' apexes (≤ 3.2 m)
+DRAG_BOX = np.array([[-1.0, 0.0], [2.0, 3.5]])
 
 
 def _drag_limits(ax, d):
-    """DRAG_BOX, grown to hold the path, the ball and the target, with 5 % margins (the walls, lines across
-    the axes, left out): a drag whose ball stays in the box keeps the axes, so a redraw draws only the data."""
+    """DRAG_BOX grown to hold the path, the ball and the target, with 5 % margins (the walls left out)."""
     pts = np.vstack([d["path"], d["reached"][[0, 2]], d["target"][[0, 2]], DRAG_BOX])
     lo, hi = pts.min(0), pts.max(0)
     pad = 0.05 * np.maximum(hi - lo, 1e-9)
-    ax.set_xlim(lo[0] - pad[0], hi[0] + pad[0])
-    ax.set_ylim(lo[1] - pad[1], hi[1] + pad[1])
+    _set_limits((ax,), [((lo[0] - pad[0], hi[0] + pad[0]), (lo[1] - pad[1], hi[1] + pad[1]))])
 
 
 def _drag_update(arts, d, p):
