@@ -236,6 +236,16 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
     def partial(yy, s0=0.0):
         return lambda s: contacts.project(plain_step(model, yy, s0 + s))[0]
 
+    last = [None, None, None, None]      # (y₁, G, g(y₁), ġ(y₁)) of the last step tried: the next step's start
+
+    def _at_start(yy, G):
+        """(g, ġ) at the step's start: those of the last step's end when it is this state under the same
+        gravity (the same function of the same numbers), else computed."""
+        y_end, G_end, g_end, d_end = last
+        if y_end is not None and np.array_equal(y_end, yy) and np.array_equal(G_end, G):
+            return g_end, d_end
+        return gaps(feat, yy, N, nrm), gap_rates(feat, model, yy, nrm, G)[0]
+
     def gap_fn(k):
         return make_events([lambda tt, yv: float(gaps(feat, yv, N, nrm)[k])])
 
@@ -244,14 +254,15 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
         the tangent touches before it are recorded."""
         skip = contacts.mask()
         G = contacts.gravity()
-        g0, g1 = gaps(feat, yy, N, nrm), gaps(feat, y1, N, nrm)
+        g0, d0 = _at_start(yy, G)
+        g1, d1 = gaps(feat, y1, N, nrm), gap_rates(feat, model, y1, nrm, G)[0]
+        last[:] = [y1.copy(), G.copy(), g1, d1]
         found, touches = [], []
         hit = np.flatnonzero((g0 > tol0) & (g1 <= 0) & ~skip)
         if hit.size:
             evs = make_events([(lambda tt, yv, k=k: float(gaps(feat, yv, N, nrm)[k])) for k in hit])
             te, _, ev = crossings(evs, g0[hit], t, yy, t + hk, y1, hk, partial(yy))[0]
             found.append((te, int(hit[evs.index(ev)])))
-        d0, d1 = gap_rates(feat, model, yy, nrm, G)[0], gap_rates(feat, model, y1, nrm, G)[0]
         for k in hermite_dips(np.where(skip, -np.inf, g0), d0, g1, d1, hk, tol0):
             # the gap dips inside the step: a touch, or in and out; the true minimum along the partial step
             low = minimize_scalar(lambda s: float(gaps(feat, partial(yy)(s), N, nrm)[k]), bounds=(0.0, hk),

@@ -120,6 +120,8 @@ def quat_to_matrix(quat: np.ndarray) -> np.ndarray:
     """
     q = np.asarray(quat, dtype=float)
     n2 = np.einsum("...i,...i->...", q, q)          # (einsum raises no overflow warning)
+    if q.size == 4 and 1e-290 < n2.item() < 1e290:
+        return _matrix_of_one(q, n2.item())
     if not (n2.min() > 1e-290 and n2.max() < 1e290):     # also NaN: scale each q to max |qᵢ| = 1
         if (np.abs(q).max(axis=-1) == 0).any():
             raise InvalidInput(f"quat_to_matrix: quat must be non-zero quaternions (w, x, y, z), got a zero one "
@@ -133,6 +135,8 @@ def _matrices(q: np.ndarray) -> np.ndarray:
     """:func:`quat_to_matrix` for quaternions whose |q|² neither overflows nor underflows (the states of a
     run: unit up to drift): the formula alone, no range test — what the step loop calls."""
     n2 = np.einsum("...i,...i->...", q, q)
+    if q.size == 4:
+        return _matrix_of_one(q, n2.item())
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     s = 2.0 / n2
     xx, yy, zz = s * x * x, s * y * y, s * z * z
@@ -149,6 +153,18 @@ def _matrices(q: np.ndarray) -> np.ndarray:
     R[..., 2, 1] = yz + wx
     R[..., 2, 2] = 1.0 - xx - yy
     return R
+
+
+def _matrix_of_one(q: np.ndarray, n2: float) -> np.ndarray:
+    """:func:`_matrices` of one quaternion (shape (4,), (1, 4), ...) on Python floats: the same products in
+    the same order, so the same bits, at a quarter of the cost of nine array assignments (one body's step)."""
+    w, x, y, z = q.ravel().tolist()
+    s = 2.0 / n2
+    xx, yy, zz = s * x * x, s * y * y, s * z * z
+    xy, xz, yz = s * x * y, s * x * z, s * y * z
+    wx, wy, wz = s * w * x, s * w * y, s * w * z
+    return np.array([[1.0 - yy - zz, xy - wz, xz + wy], [xy + wz, 1.0 - xx - zz, yz - wx],
+                     [xz - wy, yz + wx, 1.0 - xx - yy]]).reshape(q.shape[:-1] + (3, 3))
 
 
 @contract(R=Rotation(batch="first"))
