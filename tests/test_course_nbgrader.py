@@ -1,9 +1,10 @@
 """An assignment as an nbgrader source notebook (pbanim.course.nbgrader_export, ``pbanim course export``).
 
 What the platform does is written here from nbgrader's documentation, not from the exporter: the cell
-metadata of schema version 3 ("JSON Metadata Format": ``grade``, ``solution``, ``locked`` on every nbgrader
-cell, ``grade_id`` when any of them is true, ``points`` on a grade cell, ids unique, a markdown cell graded
-only as a solution), ``generate_assignment`` replacing a line ``### BEGIN SOLUTION`` … ``### END SOLUTION``
+metadata of schema version 3 ("JSON Metadata Format" and its JSON schema: ``schema_version``, ``grade``,
+``solution``, ``locked`` required on every nbgrader cell, no keys beyond those and ``task``, ``grade_id``,
+``points``, ``checksum``, ``cell_type``; ``grade_id`` of letters, digits, _ and - when any flag is true and
+unique, ``points`` ≥ 0 on a grade cell, a markdown cell graded only as a solution), ``generate_assignment`` replacing a line ``### BEGIN SOLUTION`` … ``### END SOLUTION``
 by ``# YOUR CODE HERE`` / ``raise NotImplementedError()`` at the BEGIN line's indentation and deleting
 ``### BEGIN HIDDEN TESTS`` … ``### END HIDDEN TESTS``, and ``autograde`` giving a grade cell its points
 when it runs without an error. The notebook of the reference then scores 100 and the cleared one 0, as
@@ -14,6 +15,7 @@ cells run); a format or an overwrite it refuses is a named error (ORACLES G3).
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -67,16 +69,24 @@ def clear_hidden_tests(text: str) -> str:
     return "\n".join(out)
 
 
+NB_REQUIRED = {"schema_version", "grade", "locked", "solution"}
+NB_ALLOWED = NB_REQUIRED | {"task", "grade_id", "points", "checksum", "cell_type"}
+
+
 def _nbgrader_meta_problems(nb) -> list[str]:
     problems, ids = [], set()
     for cell in nb["cells"]:
         meta = cell["metadata"].get("nbgrader")
         if meta is None:
             continue
-        missing = {"grade", "solution", "locked", "schema_version"} - set(meta)
-        if missing:
-            problems.append(f"{cell['id']}: missing {sorted(missing)}")
+        missing, extra = NB_REQUIRED - set(meta), set(meta) - NB_ALLOWED
+        if missing or extra:
+            problems.append(f"{cell['id']}: missing {sorted(missing)}, not in the schema {sorted(extra)}")
             continue
+        if not all(isinstance(meta.get(k, False), bool) for k in ("grade", "locked", "solution", "task")):
+            problems.append(f"{cell['id']}: a flag that is not a boolean")
+        if not re.fullmatch(r"[a-zA-Z0-9_\-]*", meta.get("grade_id", "")):
+            problems.append(f"{cell['id']}: grade_id {meta['grade_id']!r} has characters the schema refuses")
         if meta["schema_version"] != 3:
             problems.append(f"{cell['id']}: schema_version {meta['schema_version']}")
         if meta["grade"] or meta["solution"] or meta["locked"]:
@@ -85,7 +95,7 @@ def _nbgrader_meta_problems(nb) -> list[str]:
             elif meta["grade_id"] in ids:
                 problems.append(f"duplicate grade_id {meta['grade_id']}")
             ids.add(meta.get("grade_id"))
-        if meta["grade"] and not isinstance(meta.get("points"), (int, float)):
+        if meta["grade"] and not (isinstance(meta.get("points"), (int, float)) and meta["points"] >= 0):
             problems.append(f"{cell['id']}: grade cell without points")
         if cell["cell_type"] == "markdown" and meta["grade"] != meta["solution"] and not meta.get("task"):
             problems.append(f"{cell['id']}: a markdown cell graded without being a solution (or the reverse)")
