@@ -161,3 +161,19 @@ def test_an_insert_move_adds_a_missing_collision(sketch):
     assert res.success and res.sequence == events and res.proposals <= 3
     assert res.tried[0]["objective"] > 100 * res.objective and res.tried[-1]["origin"] == "insert"
     _check_motion(res, sk, goals, events)
+
+
+def test_a_wall_bounce_where_the_sketch_shows_a_floor_bounce_is_replaced(sketch):
+    # ORACLES L8: a given sequence with ball 1 on the wall where the sketch shows it on the floor has one
+    # event too many of one element and one too few of another; the replace the sketch asks for is the
+    # true sequence (the given one is impossible, a wall twice in a row: never solved).
+    sk, goals, events, u, guess = sketch
+    tr = simulate(two_balls(), T, ["x0", "v0", "x1", "v1"], sensitivities=False, flight="exact")
+    k = 2
+    assert events[k] == (1, "plane", 0) and events[k - 1] == (1, "plane", 1)
+    given = BodySequence(events[:k] + ((1, "plane", 1),) + events[k + 1:], np.array([i.t for i in tr.impacts]),
+                         "given")
+    res = search_body_sequences(guess, goals, T, sk, proposals=[given], max_proposals=2, maxiter=100)
+    assert res.success and res.sequence == events and res.proposals <= 2
+    assert all(row["events"] != given.key() for row in res.tried) and res.tried[-1]["origin"] == "replace"
+    _check_motion(res, sk, goals, events)

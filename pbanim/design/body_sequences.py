@@ -12,10 +12,14 @@ each with a time guess τ̂_k. The same four steps:
    n_j·x̄_i − n_j·o_j − r_i, for every pair the gap |x̄_i − x̄_b| − r_i − r_b (body b's sketch read at body
    i's sample times, linearly), each with an event at its local minima within reach and at its reversals
    (:func:`pbanim.design.sequences._gap_touches`), merged in time order;
-2. **moves** — insert any event (any body, any surface) between two events or at either end, delete one,
-   replace one by another, swap two neighbours, nearest the worst-fitted sketch time first; first of all the
-   inserts the sketch asks for (an element it touches more often than the sequence has events of it), and
-   every event's time guess moved to the sketch's touch of it within three samples. A body that hits
+2. **moves** — first the moves the sketch asks for, counting per element (body and surface) the touches of
+   step 1 (a minimum and a reversal less than 1.5 samples apart are one touch) against the sequence's
+   events: an element touched more often is inserted at its touch farthest from its events, one with more
+   events loses the event farthest from its touches, and a pair of the two gives a replace; each proposal
+   is followed by these moves of its own, before the next proposal. Then the generic moves: insert any
+   event (any body, any surface) between two events or at either end, delete one, replace one by another,
+   swap two neighbours, nearest the worst-fitted sketch time first. Every event's time guess is moved to
+   the sketch's touch of it within three samples. A body that hits
    a plane twice with no event of its own between, where gravity does not pull toward the plane, or a pair
    that collides twice with no event of either between (two free parabolas under one gravity: their
    separation moves on a straight line) is impossible: repaired, never solved;
@@ -210,19 +214,42 @@ def solve_body_sequence(scene, goals, t_end, sketches, sequence, *, maxiter: int
     return SequenceSearch(u, events, imp_t, ok, E, viol, E + viol, msg, [], 1, 1, err)
 
 
+def _evidence(seq, touches):
+    """The moves the sketch asks for (``touches``: element → the times the sketch touches it): for an element
+    touched more often than the sequence has events of it, insert it at its touch farthest from the
+    sequence's events of it; for one with more events than touches, delete its event farthest from its
+    touches; for each such pair, both at once (a replace). [(time, sequence)]."""
+    def own(e):
+        return [k for k, f in enumerate(seq.events) if f == e]
+
+    def far(ts, ref):
+        return max(ts, key=lambda x: float(np.min(np.abs(np.asarray(ref) - x))) if len(ref) else 0.0)
+
+    def insert(sq, e, t, origin):
+        k = int(np.searchsorted(sq.times, t))
+        return BodySequence(sq.events[:k] + (e,) + sq.events[k:], np.insert(sq.times, k, t), origin)
+
+    short, extra = [], []
+    for e in set(touches) | set(seq.events):
+        te, mine = touches.get(e, []), own(e)
+        if len(te) > len(mine):
+            short.append((far(te, seq.times[mine]), e))
+        elif len(mine) > len(te):
+            extra.append(max(mine, key=lambda k: float(np.min(np.abs(np.asarray(te) - seq.times[k])))
+                             if len(te) else 0.0))
+    short.sort()
+    out = [(t, insert(seq, e, t, "insert")) for t, e in short]
+    for k in sorted(extra):
+        dropped = BodySequence(seq.events[:k] + seq.events[k + 1:], np.delete(seq.times, k), "delete")
+        out.append((float(seq.times[k]), dropped))
+        out += [(t, insert(dropped, e, t, "replace")) for t, e in short]
+    return out
+
+
 def _neighbours(seq, elements, t_end, t_worst, touches=None):
-    """First the sketch's evidence: for every element the sketch touches more often (``touches``: element →
-    its touch times) than the sequence has events of it, the sequence with that element inserted at its touch
-    farthest from the sequence's events of it; then insert (every element, every gap and both ends), delete,
-    replace, swap neighbours; nearest t_worst first."""
-    evidence = []
-    for e, te in (touches or {}).items():
-        own = seq.times[[k for k, f in enumerate(seq.events) if f == e]]
-        if len(te) > len(own):
-            t = max(te, key=lambda x: np.min(np.abs(own - x)) if len(own) else 0.0)
-            k = int(np.searchsorted(seq.times, t))
-            evidence.append((t, BodySequence(seq.events[:k] + (e,) + seq.events[k:], np.insert(seq.times, k, t),
-                                             "insert")))
+    """First the moves the sketch asks for (:func:`_evidence`), then insert (every element, every gap and both ends),
+    delete, replace, swap neighbours; each group nearest t_worst first."""
+    evidence = _evidence(seq, touches or {})
     P, T = list(seq.events), list(seq.times)
     edges = [0.0] + T + [t_end]
     out = []
@@ -287,7 +314,9 @@ def search_body_sequences(scene, goals, t_end, sketches, *, max_proposals: int =
         k = _first_fault(scene, seq.events)
         return 0.5 * (seq.times[k - 1] + seq.times[k]) if k else float(seq.times[0])
 
-    pending = list(propose_body_sequences(scene, sk) if proposals is None else proposals)
+    pending = []                        # each proposal, then the inserts the sketch asks of it
+    for p in (propose_body_sequences(scene, sk) if proposals is None else proposals):
+        pending += [p] + [m for _, m in _evidence(aligned(p), touches)]
     best, tried = _search_loop(
         pending, lambda seq: solve_body_sequence(scene, goals, t_end, sk, seq, maxiter=maxiter, tol=tol),
         lambda seq, t: _neighbours(aligned(seq), elements, t_end, t, touches), lambda seq: _first_fault(scene, seq.events) is None,
