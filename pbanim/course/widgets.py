@@ -6,7 +6,8 @@ gains and the push of chapter 08, the viscosity ν of chapter 09, the dragged ta
 demos are in :mod:`pbanim.course.live_demos`). ``demo.redraw(**params)`` computes the scene and shows it on
 the demo's matplotlib ``Figure`` (no pyplot state; an Agg canvas), built once by the demo's ``draw``; a later
 call sets the artists' data, texts and limits (the demo's ``update``: ``set_data``, titles, ``relim``)
-instead of building another, so a control change pays the compute and one draw. It returns the figure and
+instead of building another, so a control change pays the compute and one draw — of the data alone when
+the limits stay (ch03, ch09, ch10 fix theirs over the controls' range). It returns the figure and
 the computed data; that is the callback a control calls, and what the tests call without any widget library
 (an updated figure shows what a new one built from the same data shows, ``tests/test_course_live.py``).
 
