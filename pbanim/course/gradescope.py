@@ -23,9 +23,8 @@ or the environment variable ``PBANIM_AUTOGRADER_ROOT`` (a test lays the platform
 folder). The submission's module is found by name anywhere under ``submission/`` (one file of that
 name); none or several is a results.json with score 0 and the reason, never a crash.
 
-Other platforms: nbgrader grades notebooks whose cells carry solution markers, and otter-grader grades
-notebooks or scripts with its own test files; both would need the assignment rewritten as a notebook
-and the checks as their test cells, so neither is exported here.
+Other platforms: nbgrader's source notebook is written by :mod:`pbanim.course.nbgrader_export`
+(``pbanim course export NAME OUT/``; it says why nbgrader was chosen over otter-grader).
 """
 
 from __future__ import annotations
