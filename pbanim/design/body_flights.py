@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sequence_flights import _fit_flight
+from .sequence_flights import _end_row, _fit_flight
 
 __all__ = ["BodyFlights", "pair_impulse"]
 
@@ -208,11 +208,9 @@ class BodyFlights:
                 r[1, i0] = -1.0
             rows.append([app - v_min, dt - dt_min])
             J.append(r)
-        last = np.zeros((1, self.size))
-        if self.K:
-            last[0, self.base(self.K)[0]] = -1.0
-        rows.append([self.t_end - (self.tau(z)[-1] if self.K else 0.0) - (dt_min if self.K else -1.0)])
-        J.append(last)
+        r, Jr = _end_row(self, z, dt_min)
+        rows.append(r)
+        J.append(Jr)
         for k in range(self.K + 1):
             _, sa, _ = self.base(k)
             e = self.events[k - 1] if k else None

@@ -58,12 +58,12 @@ import numpy as np
 
 from ..collision import Sphere
 from ..contracts import Anything, Array, Int, Obj, Opt, Real, Seq, Text, contract
-from ..errors import InvalidInput, PbanimError
+from ..errors import InvalidInput
 from .body_flights import BodyFlights
 from .control import _GOALS, _check_goals
 from .scene import DesignScene
-from .sequences import SequenceSearch, _gap_touches, _search_loop
-from .shooting import _sketch, _slsqp
+from .sequences import SequenceSearch, _gap_touches, _judge, _search_loop, _solve_fixed, _two_proposals
+from .shooting import _sketch
 from .specs import SketchPoints
 
 __all__ = ["BodySequence", "propose_body_sequences", "solve_body_sequence", "search_body_sequences"]
@@ -140,13 +140,7 @@ def propose_body_sequences(scene, sketches, reach_samples: float = 1.5) -> list:
     reversals; at most two proposals, duplicates dropped."""
     _check(scene, sketches)
     minima, reversals = _touches(scene, sketches, reach_samples)
-    out = []
-    for origin, hits in (("sketch", minima), ("reversals", reversals)):
-        hits.sort()
-        seq = BodySequence(tuple(e for _, e in hits), np.array([t for t, _ in hits]), origin)
-        if all(s.key() != seq.key() for s in out):
-            out.append(seq)
-    return out
+    return _two_proposals(minima, reversals, BodySequence)
 
 
 def _names(scene):
@@ -183,34 +177,11 @@ def solve_body_sequence(scene, goals, t_end, sketches, sequence, *, maxiter: int
         raise InvalidInput(f"sequence: events of known bodies and planes, got {sequence.events} for {scene.N} "
                            f"bodies and {len(scene.planes)} planes")
     fl = BodyFlights(scene, sequence.events, t_end, sk, goals)
-    times = np.sort(np.clip(np.asarray(sequence.times, float), 1e-3 * t_end, (1 - 1e-3) * t_end))
-    z0 = fl.start(times)
-    cache = {}
-
-    def ev(z, which):
-        key = (z.tobytes(), which)
-        if key not in cache:
-            cache[key] = {"f": fl.objective, "c": fl.equalities, "h": fl.inequalities}[which](z)
-        return cache[key]
-
-    with np.errstate(all="ignore"):
-        res = _slsqp(lambda z: ev(z, "f")[0], lambda z: ev(z, "f")[1], lambda z: ev(z, "c")[0],
-                     lambda z: ev(z, "c")[1], lambda z: ev(z, "h")[0], lambda z: ev(z, "h")[1], z0, maxiter, ftol,
-                     [], [])
-    z = res.x if np.all(np.isfinite(res.x)) else z0
+    z, res = _solve_fixed(fl, sequence.times, t_end, maxiter, ftol)
     u = np.concatenate([np.concatenate([z[3 * i:3 * i + 3], z[3 * (scene.N + i):3 * (scene.N + i) + 3]])
                         for i in range(scene.N)])
-    try:
-        events, imp_t, E, viol, sound, err = _replay(scene, u, t_end, sk, goals)
-    except PbanimError as exc:    # a start inside a plane or a body, too many impacts: an honest miss
-        events, imp_t, E, viol, sound = (), np.zeros(0), np.inf, np.inf, False
-        err = np.full(sum(len(p) for p in sk), np.inf)
-        res.message = f"{res.message}; replay failed: {exc}"
-    confirmed = events == sequence.key() and sound
-    ok = bool(confirmed and res.success and viol <= tol)
-    msg = ("replay confirms the sequence; goals met" if ok else
-           f"replay {'confirms' if confirmed else 'shows ' + str(events) + ' instead of'} the sequence, goal "
-           f"residual {viol:.2e} (SLSQP: {res.message})")
+    events, imp_t, E, viol, err, ok, msg = _judge(lambda: _replay(scene, u, t_end, sk, goals), sequence.key(), res,
+                                                  tol, sum(len(p) for p in sk))
     return SequenceSearch(u, events, imp_t, ok, E, viol, E + viol, msg, [], 1, 1, err)
 
 

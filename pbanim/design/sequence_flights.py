@@ -65,6 +65,15 @@ def planes_of(scene):
     return n, np.einsum("ji,ji->j", n, scene.anchors) + scene.bodies[0].shape.radius
 
 
+def _end_row(fl, z, dt_min):
+    """The last event at least dt_min before t_end (t_end − τ_K − Δ_min ≥ 0; with no event, 1 ≥ 0): (row,
+    its Jacobian (1, size)), for a problem ``fl`` with ``K``, ``size``, ``t_end``, ``base`` and ``tau``."""
+    last = np.zeros((1, fl.size))
+    if fl.K:
+        last[0, fl.base(fl.K)[0]] = -1.0
+    return [fl.t_end - (fl.tau(z)[-1] if fl.K else 0.0) - (dt_min if fl.K else -1.0)], last
+
+
 class Flights:
     """The continuous problem of one sequence: unknowns z = [a₀, b₀, (τ_k, a_k, b_k) for k = 1..K]."""
 
@@ -152,11 +161,9 @@ class Flights:
                 r[0, i0], r[1, i0] = nj @ self.g, -1.0
             rows.append([-(nj @ (z[b0] + self.g * dt)) - v_min, dt - dt_min])
             J.append(r)
-        last = np.zeros((1, self.size))
-        if self.K:
-            last[0, self.base(self.K)[0]] = -1.0
-        rows.append([self.t_end - (self.tau(z)[-1] if self.K else 0.0) - (dt_min if self.K else -1.0)])
-        J.append(last)
+        r, Jr = _end_row(self, z, dt_min)
+        rows.append(r)
+        J.append(Jr)
         for k in range(self.K + 1):
             _, a, _ = self.base(k)
             others = [j for j in range(len(self.off)) if k == 0 or j != self.planes[k - 1]]

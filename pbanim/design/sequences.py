@@ -150,10 +150,16 @@ def propose_sequences(scene, sketch, reach_samples: float = 1.5) -> list:
         lo, rev = _gap_touches(ts, G[:, j], reach_samples)
         minima += [(t, j) for t in lo]
         reversals += [(t, j) for t in rev]
+    return _two_proposals(minima, reversals, Sequence)
+
+
+def _two_proposals(minima, reversals, make):
+    """The proposals of the touches [(time, surface)]: the minima's, then the reversals' (if another), each
+    ``make(surfaces in time order, times, origin)``."""
     out = []
     for origin, hits in (("sketch", minima), ("reversals", reversals)):
         hits.sort()
-        seq = Sequence(tuple(j for _, j in hits), np.array([t for t, _ in hits]), origin)
+        seq = make(tuple(j for _, j in hits), np.array([t for t, _ in hits]), origin)
         if all(s.key() != seq.key() for s in out):
             out.append(seq)
     return out
@@ -227,7 +233,17 @@ def solve_sequence(scene, goals, t_end, sketch, sequence, *, maxiter: int = 200,
         raise InvalidInput(f"sequence: one known plane per impact time, got planes {sequence.planes} and "
                            f"{len(sequence.times)} times for {len(scene.planes)} planes")
     fl = Flights(scene, sequence.planes, t_end, pts, goals)
-    times = np.sort(np.clip(np.asarray(sequence.times, float), 1e-3 * t_end, (1 - 1e-3) * t_end))
+    z, res = _solve_fixed(fl, sequence.times, t_end, maxiter, ftol)
+    u = z[:6].copy()
+    planes, imp_t, E, viol, err, ok, msg = _judge(lambda: _replay(scene, u, t_end, pts, goals), sequence.key(), res,
+                                                  tol, len(pts))
+    return SequenceSearch(u, planes, imp_t, ok, E, viol, E + viol, msg, [], 1, 1, err)
+
+
+def _solve_fixed(fl, times, t_end, maxiter, ftol):
+    """SLSQP on a fixed-sequence problem ``fl`` (objective, equalities, inequalities with their Jacobians,
+    each evaluated once per iterate) from ``fl.start`` at the time guesses: (z, SLSQP's result)."""
+    times = np.sort(np.clip(np.asarray(times, float), 1e-3 * t_end, (1 - 1e-3) * t_end))
     z0 = fl.start(times)
     cache = {}
 
@@ -241,19 +257,24 @@ def solve_sequence(scene, goals, t_end, sketch, sequence, *, maxiter: int = 200,
         res = _slsqp(lambda z: ev(z, "f")[0], lambda z: ev(z, "f")[1], lambda z: ev(z, "c")[0],
                      lambda z: ev(z, "c")[1], lambda z: ev(z, "h")[0], lambda z: ev(z, "h")[1], z0, maxiter, ftol,
                      [], [])
-    z = res.x if np.all(np.isfinite(res.x)) else z0
-    u = z[:6].copy()
+    return (res.x if np.all(np.isfinite(res.x)) else z0), res
+
+
+def _judge(replay, key, res, tol, n_pts):
+    """Step 4: ``replay()`` → (sequence, impact times, E, goal residual, sound, errors); a replay that fails (a
+    start inside an obstacle, too many impacts) is an honest miss said in the message. Returns (sequence,
+    times, E, goal residual, errors, success, message)."""
     try:
-        planes, imp_t, E, viol, sound, err = _replay(scene, u, t_end, pts, goals)
-    except PbanimError as exc:    # a start inside a plane, too many impacts: an honest miss, said in the message
-        planes, imp_t, E, viol, sound, err = (), np.zeros(0), np.inf, np.inf, False, np.full(len(pts), np.inf)
+        seq, imp_t, E, viol, sound, err = replay()
+    except PbanimError as exc:
+        seq, imp_t, E, viol, sound, err = (), np.zeros(0), np.inf, np.inf, False, np.full(n_pts, np.inf)
         res.message = f"{res.message}; replay failed: {exc}"
-    confirmed = planes == sequence.key() and sound
+    confirmed = seq == key and sound
     ok = bool(confirmed and res.success and viol <= tol)
     msg = ("replay confirms the sequence; goals met" if ok else
-           f"replay {'confirms' if confirmed else 'shows ' + str(planes) + ' instead of'} the sequence, goal residual "
+           f"replay {'confirms' if confirmed else 'shows ' + str(seq) + ' instead of'} the sequence, goal residual "
            f"{viol:.2e} (SLSQP: {res.message})")
-    return SequenceSearch(u, planes, imp_t, ok, E, viol, E + viol, msg, [], 1, 1, err)
+    return seq, imp_t, E, viol, err, ok, msg
 
 
 def _neighbours(seq, n_planes, t_end, t_worst):
