@@ -52,6 +52,7 @@ Tedrake, IJRR 2014; Bock & Plitt 1984.
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,10 +85,14 @@ class BodySequence:
     def __post_init__(self) -> None:
         ev = []
         for e in self.events:
-            if len(e) != 3 or e[1] not in ("plane", "body") or int(e[0]) < 0 or int(e[2]) < 0 or \
-                    (e[1] == "body" and int(e[0]) >= int(e[2])):
+            try:
+                a, kind, o = e
+                a, o = operator.index(a), operator.index(o)
+            except (TypeError, ValueError):
+                a, kind, o = -1, None, -1
+            if kind not in ("plane", "body") or a < 0 or o < 0 or (kind == "body" and a >= o):
                 raise InvalidInput(f"BodySequence: events are (a, 'plane', j) or (a, 'body', b) with a < b, got {e!r}")
-            ev.append((int(e[0]), str(e[1]), int(e[2])))
+            ev.append((int(a), str(kind), int(o)))
         self.events, self.times = tuple(ev), np.asarray(self.times, float).reshape(-1)
         if len(self.events) != self.times.size:
             raise InvalidInput(f"BodySequence: one time per event, got {len(self.events)} events and "
