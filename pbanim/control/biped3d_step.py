@@ -36,11 +36,12 @@ from ..articulated.fast import aba_fast
 from ..articulated.system import ArticulatedSystem
 from ..articulated.tree import ROTATING
 from ..articulated.specs import Tree
-from ..contracts import Anything, Array, Int, Opt, Real, contract, unchecked
+from ..contracts import Anything, Array, Flag, Int, Opt, Real, contract, unchecked
 from ..errors import InvalidInput
 from ..geometry import skew, tangent_basis
 from ..lcp import pgs_box_friction
 from ..rigid.quat import quat_to_matrix
+from . import biped3d_lean as _lean
 
 __all__ = ["WorldStep"]
 
@@ -65,13 +66,17 @@ class WorldStep:
     ``contact_points``: (link, point in the link frame) pairs; the ground is the plane z = ``offset`` (or
     ``terrain`` with ``gap_normal``); friction μ; erp, margin, cfm, max_iter, tol as the readable step's.
     ``last`` holds the impulses (3 per near point: normal, two tangents), the near points and the residual.
+    ``lean`` (default): the same step through :mod:`.biped3d_lean` (fewer, batched calls; equal to roundoff);
+    ``lean=False``: the methods below as written.
     """
 
     @contract(tree=Tree(), contact_points=Anything("(link, point) pairs, checked in the body"),
               friction=Real(ge=0), terrain=Anything("any object with gap_normal(P)"), erp=Real(ge=0, le=1),
-              margin=Real(ge=0), cfm=Real(ge=0, le=1e-2), max_iter=Int(ge=1, le=100_000), tol=Real(gt=0, lt=1))
+              margin=Real(ge=0), cfm=Real(ge=0, le=1e-2), max_iter=Int(ge=1, le=100_000), tol=Real(gt=0, lt=1),
+              lean=Flag())
     def __init__(self, tree, contact_points, *, friction: float = 0.9, terrain=None, erp: float = 0.2,
-                 margin: float = 0.02, cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-6) -> None:
+                 margin: float = 0.02, cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-6,
+                 lean: bool = True) -> None:
         self.tree = tree
         kinds = [j.kind for j in tree.joints]
         if kinds[0] != "floating" or any(k not in ROTATING + ("fixed",) for k in kinds[1:]):
@@ -101,11 +106,19 @@ class WorldStep:
         self.inertia = np.array([lk.inertia for lk in tree.links])
         self.last, self._warm = None, {}
         self._qdot = unchecked(ArticulatedSystem(tree).qdot)
+        self._aba = _aba
+        self.lean = bool(lean)
+        self._joint_link = np.zeros(nv, dtype=int)              # the link each velocity coordinate moves
+        for i in range(n):
+            self._joint_link[A["vi"][i]] = i
+        self._plan = _lean.LeanPlan(self)
 
     @contract(q=Array(("self.tree.nq",)))
     def kinematics(self, q) -> dict:
         """World orientation R (n, 3, 3), joint origins o (n, 3), centres of mass c (n, 3) and joint columns
         Sᵂ (6, nv): angular rows first, then the velocity of the point at the world origin."""
+        if self.lean:
+            return _lean.kinematics(self, q)
         tree = self.tree
         n, nv = tree.n, tree.nv
         R, o = np.zeros((n, 3, 3)), np.zeros((n, 3))
@@ -134,6 +147,8 @@ class WorldStep:
               points=Array(("m", 3)))
     def point_jacobians(self, kin, links, points) -> tuple[np.ndarray, np.ndarray]:
         """World positions (m, 3) and Jacobians (m, 3, nv) of link-frame ``points`` on ``links``."""
+        if self.lean:
+            return _lean.point_jacobians(self, kin, links, points)
         links = np.asarray(links).astype(int)
         P = kin["o"][links] + np.einsum("mij,mj->mi", kin["R"][links], points)
         S = kin["S"]
@@ -143,6 +158,8 @@ class WorldStep:
     @contract(kin=Anything("the dict of kinematics(q)"))
     def mass_matrix(self, kin) -> np.ndarray:
         """H = Σᵢ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i."""
+        if self.lean:
+            return _lean.mass_matrix(self, kin)
         n = self.tree.n
         _, Jc = self.point_jacobians(kin, np.arange(n), np.einsum("nji,nj->ni", kin["R"], kin["c"] - kin["o"]))
         Jw = kin["S"][None, :3, :] * self.mask[:, None, :]
@@ -154,6 +171,8 @@ class WorldStep:
               kin=Anything("the dict of kinematics(q), or None"))
     def step(self, q, qd, h: float, tau0, k=None, kin=None):
         """(q⁺, u⁺) after one step of length h under τ = τ₀ − k ⊙ q̇⁺ (k None or 0: explicit τ₀)."""
+        if self.lean:
+            return _lean.step(self, q, qd, h, tau0, k, kin)
         kin = self.kinematics(q) if kin is None else kin
         H = self.mass_matrix(kin)
         K = np.zeros(qd.size) if k is None else np.asarray(k, dtype=float)

@@ -1,0 +1,285 @@
+"""The lean twin of the 3-D biped's world-frame contact step (chapter 08): the same formulas, fewer calls.
+
+:class:`~pbanim.control.biped3d_step.WorldStep` reads as the lecture writes the step (one joint at a time,
+``np.cross``, ``np.linalg.solve`` twice, the library's PGS). At h = 2 ms its Python calls, not its
+arithmetic, set the cost (``pbanim bench control``), so ``WorldStep(lean=True)`` (the default) runs
+this module instead, computing the same quantities:
+
+1. **kinematics** level by level: the links at one depth of the tree (both legs at once) take one batched
+   product R_i = R_λ(i) ᴶR_i R_a(q_i) and o_i = o_λ + R_λ p_i; every joint's Rodrigues matrix R_a(q) is
+   built once per step for all joints; the world joint columns Sᵂ = (a, o × a) for all joints at once;
+2. **point Jacobians** J = v + a × P with the cross product written out on (m, nv) arrays; the centres of
+   mass' Jacobians J_c are computed once per state and kept (the mass matrix and the controller's centre of
+   mass velocity read the same ones);
+3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
+   H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
+4. **the contact solve** on the near points only; its projected Gauss–Seidel
+   (:func:`pbanim.lcp.pgs_box_friction`'s sweep, bounds, warm start and residual) on Python floats;
+5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
+
+``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
+"""
+
+from __future__ import annotations
+
+from math import sqrt
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from ..rigid.quat import quat_to_matrix
+
+__all__: list = []      # internal: reached through WorldStep(lean=True)
+
+
+class LeanPlan:
+    """What the lean step needs of a tree, built once: the links by depth, joint placements and axes."""
+
+    def __init__(self, ws) -> None:
+        tree = ws.tree
+        n = tree.n
+        depth = [0] * n
+        for i in range(1, n):
+            depth[i] = depth[tree.parent[i]] + 1
+        self.levels = []
+        for d in range(1, max(depth) + 1):
+            idx = np.array([i for i in range(n) if depth[i] == d])
+            par = np.array([tree.parent[i] for i in idx])
+            JR = np.array([tree.joints[i].R for i in idx])
+            self.levels.append((idx, par, None if np.all(JR == np.eye(3)) else JR,
+                                np.array([tree.joints[i].p for i in idx])))
+        rev = [i for i in range(1, n) if tree.joints[i].kind != "fixed"]
+        self.rev = np.array(rev)
+        self.rev_q = np.array([ws.qi[i] for i in rev])
+        self.rev_v = np.array([ws.vi[i] for i in rev])
+        self.axis = np.array([tree.joints[i].axis for i in rev], dtype=float)
+        self.n, self.nv = n, tree.nv
+        self.mass3 = np.repeat(ws.mass, 3)[:, None]
+        self.mask = ws.mask.astype(float)
+        self.gravity = np.asarray(tree.gravity, dtype=float)
+        self.damping = np.asarray(tree.arrays()["damping"], dtype=float)
+        self.cache = (None, None)           # (q's bytes, its kinematics): the last state's, read again
+
+
+def kinematics(ws, q) -> dict:
+    """The dict of :meth:`WorldStep.kinematics` (R, o, c, S) by levels (module docstring, 1); the last
+    state's dict is kept and returned again for the same q (the runner reads q⁺ twice: its fall test, then
+    the next step)."""
+    key = q.tobytes()
+    if ws._plan.cache[0] == key:
+        return ws._plan.cache[1]
+    kin = _kinematics(ws, q)
+    ws._plan.cache = (key, kin)
+    return kin
+
+
+def _kinematics(ws, q) -> dict:
+    P = ws._plan
+    n, nv = P.n, P.nv
+    nrm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if not nrm > 1e-9:
+        from ..errors import InvalidInput
+        raise InvalidInput(f"q[:4] must be the pelvis's (non-zero) quaternion, got {q[:4]}")
+    R0 = quat_to_matrix(q[:4] / nrm)
+    R, Rl = np.empty((n, 3, 3)), np.empty((n, 3, 3))
+    o = np.empty((n, 3))
+    R[0], o[0] = R0, q[4:7]
+    rot = np.zeros((n, 3, 3))
+    rot[:] = np.eye(3)
+    ang = q[P.rev_q]
+    c, s = np.cos(ang), np.sin(ang)
+    t = 1.0 - c
+    x, y, z = P.axis.T
+    rot[P.rev] = np.stack([t * x * x + c, t * x * y - s * z, t * x * z + s * y,
+                           t * x * y + s * z, t * y * y + c, t * y * z - s * x,
+                           t * x * z - s * y, t * y * z + s * x, t * z * z + c], axis=1).reshape(-1, 3, 3)
+    for idx, par, JR, p in P.levels:
+        Rp = R[par]
+        Rj = Rp if JR is None else Rp @ JR
+        Rl[idx] = Rj
+        o[idx] = o[par] + (Rp @ p[:, :, None])[:, :, 0]
+        R[idx] = Rj @ rot[idx]
+    S = np.zeros((6, nv))
+    S[:3, :3], S[3:, 3:6] = R0, R0
+    px, py, pz = q[4:7]
+    S[3][:3] = py * R0[2] - pz * R0[1]                        # p̂ R0, row by row
+    S[4][:3] = pz * R0[0] - px * R0[2]
+    S[5][:3] = px * R0[1] - py * R0[0]
+    a = (Rl[P.rev] @ P.axis[:, :, None])[:, :, 0]
+    oo = o[P.rev]
+    S[:3, P.rev_v] = a.T
+    S[3:, P.rev_v] = _cross(oo, a).T
+    cm = o + (R @ ws.com[:, :, None])[:, :, 0]
+    return {"R": R, "o": o, "c": cm, "S": S}
+
+
+def _cross(u, v):
+    """u × v row by row, the components in np.cross's order."""
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+
+
+def jacobians_at(S, P, mask):
+    """J (m, 3, nv) of world points P (m, 3): column v is (v_v + a_v × P) where the point moves with it."""
+    ax, ay, az = S[0], S[1], S[2]
+    Px, Py, Pz = P[:, 0:1], P[:, 1:2], P[:, 2:3]
+    J = np.stack([S[3] + (ay * Pz - az * Py), S[4] + (az * Px - ax * Pz), S[5] + (ax * Py - ay * Px)], axis=1)
+    J *= mask[:, None, :]
+    return J
+
+
+def point_jacobians(ws, kin, links, points):
+    """(P, J) of :meth:`WorldStep.point_jacobians`; the centres of mass' J_c once per state."""
+    if points is ws.com and len(links) == ws.tree.n:
+        return kin["c"], com_jacobians(ws, kin)
+    links = np.asarray(links).astype(int)
+    P = kin["o"][links] + (kin["R"][links] @ np.asarray(points, dtype=float)[:, :, None])[:, :, 0]
+    return P, jacobians_at(kin["S"], P, ws._plan.mask[links])
+
+
+def com_jacobians(ws, kin):
+    """J_c (n, 3, nv), computed once per kinematics dict."""
+    Jc = kin.get("Jc")
+    if Jc is None:
+        Jc = kin["Jc"] = jacobians_at(kin["S"], kin["c"], ws._plan.mask)
+    return Jc
+
+
+def mass_matrix(ws, kin):
+    """H = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two products of (3n × nv) blocks."""
+    P = ws._plan
+    n, nv = P.n, P.nv
+    Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
+    Jw = kin["S"][None, :3, :] * P.mask[:, None, :]
+    R = kin["R"]
+    IJ = R @ (ws.inertia @ (R.transpose(0, 2, 1) @ Jw))
+    return (P.mass3 * Jc).T @ Jc + Jw.reshape(3 * n, nv).T @ IJ.reshape(3 * n, nv)
+
+
+def bias(ws, kin, qd):
+    """C(q, q̇) − (the gravity's generalized force): the world-frame Newton–Euler sums over the links,
+
+        C = Σᵢ mᵢ J_c,iᵀ (a_c,i − g) + J_ω,iᵀ (Īᵂᵢ α_i + ω_i × Īᵂᵢ ω_i)    at q̈ = 0,
+
+    with (ω_i, v_O,i) = Σ_j Sᵂ_j q̇_j over link i's joints (v_O: the velocity of the point at the world
+    origin), the bias accelerations (α_i, a_O,i) = Σ_j V_j ×ₘ Sᵂ_j q̇_j (V_j the velocity of the joint's
+    link; ×ₘ the motion cross product) and a_c = a_O + α × c + ω × v_c, v_c = v_O + ω × c."""
+    P = ws._plan
+    n, nv = P.n, P.nv
+    S, Mk = kin["S"], P.mask
+    Sq = S * qd                                    # (6, nv): each joint's S_j q̇_j
+    V = Mk @ Sq.T                                  # (n, 6): each link's (ω, v_O)
+    Vj = V[ws._joint_link]                         # (nv, 6): the velocity of the link each joint moves
+    a, v = Sq[:3].T, Sq[3:].T
+    w, vo = Vj[:, :3], Vj[:, 3:]
+    X = np.concatenate([_cross(w, a), _cross(w, v) + _cross(vo, a)], axis=1)
+    A = Mk @ X                                     # (n, 6): (α, a_O) at q̈ = 0
+    c = kin["c"]
+    om = V[:, :3]
+    vc = V[:, 3:] + _cross(om, c)
+    ac = A[:, 3:] + _cross(A[:, :3], c) + _cross(om, vc) - P.gravity
+    R = kin["R"]
+    Iw = R @ ws.inertia @ R.transpose(0, 2, 1)
+    Iom = (Iw @ om[:, :, None])[:, :, 0]
+    tq = (Iw @ A[:, :3, None])[:, :, 0] + _cross(om, Iom)
+    Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
+    Jw = (S[None, :3, :] * Mk[:, None, :]).reshape(3 * n, nv)
+    return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
+
+
+def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
+    """:func:`pbanim.lcp.pgs_box_friction` (one μ) on Python floats: the same sweep, bounds, warm start and
+    residual; A symmetric (its row r is read for its column r). Returns (z, residual, sweeps)."""
+    n = len(b)
+    Al, w0 = A.tolist(), b.tolist()
+    diag = [Al[r][r] for r in range(n)]
+    z = warm.tolist()
+    for i in range(0, n, 3):
+        f = max(z[i], 0.0)
+        lim = mu * f
+        z[i], z[i + 1], z[i + 2] = f, min(max(z[i + 1], -lim), lim), min(max(z[i + 2], -lim), lim)
+    Az = (A @ np.array(z)).tolist()
+    w = [a + bb for a, bb in zip(Az, w0)]
+    scale = max(1.0, max(abs(v) for v in w0)) if n else 1.0
+    res = 0.0
+    for sweep in range(1, max_iter + 1):
+        for r in range(n):
+            kind = r % 3
+            if kind == 0:
+                new = max(z[r] - w[r] / diag[r], 0.0)
+            else:
+                lim = mu * z[r - kind]
+                new = min(max(z[r] - w[r] / diag[r], -lim), lim)
+            if new != z[r]:
+                d = new - z[r]
+                w = [wi + ai * d for wi, ai in zip(w, Al[r])]
+                z[r] = new
+        res = _residual(z, w, mu)
+        if res <= tol * scale:
+            return np.array(z), res, sweep
+    return np.array(z), res, max_iter
+
+
+def _residual(z, w, mu: float) -> float:
+    """The box residual of :func:`pbanim.lcp.pgs_box_friction` on floats."""
+    out = 0.0
+    for i in range(0, len(z), 3):
+        f = z[i]
+        out = max(out, abs(min(f, w[i])))
+        bound = mu * f * (1 - 1e-12)
+        for k in (1, 2):
+            if abs(z[i + k]) < bound:
+                out = max(out, abs(w[i + k]))
+    return out
+
+
+def step(ws, q, qd, h: float, tau0, k, kin):
+    """(q⁺, u⁺) of :meth:`WorldStep.step` (module docstring)."""
+    kin = kinematics(ws, q) if kin is None else kin
+    H = mass_matrix(ws, kin)
+    K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
+    cho = cho_factor(H if K is None else H + h * np.diag(K), check_finite=False)
+    f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
+    u = qd + h * cho_solve(cho, f, check_finite=False)         # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
+    P, Jp = point_jacobians(ws, kin, ws.links, ws.points)
+    gap, nrm = ws.terrain.gap_normal(P)
+    Ju = Jp @ u
+    speed = (Ju * nrm).sum(axis=1)
+    near = np.flatnonzero(gap < ws.margin + h * np.abs(speed))
+    ws.last = None
+    if near.size:
+        nn, JJ, g = nrm[near], Jp[near], gap[near]
+        ref = np.where(np.abs(nn[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+        t1 = ref - (ref * nn).sum(axis=1)[:, None] * nn
+        t1 /= np.sqrt((t1 * t1).sum(axis=1))[:, None]
+        t2 = _cross(nn, t1)
+        rows = (np.stack([nn, t1, t2], axis=1) @ JJ).reshape(3 * near.size, -1)
+        MinvJt = cho_solve(cho, rows.T, check_finite=False)
+        A = rows @ MinvJt
+        A += ws.cfm * max(float(A.diagonal().max()), 1e-300) * np.eye(A.shape[0])
+        b = rows @ u
+        b[0::3] += np.maximum(g, 0) / h + ws.erp * np.minimum(g, 0) / h
+        zero = np.zeros(3)
+        warm = np.concatenate([ws._warm.get(int(c), zero) for c in near])
+        z, res, sweeps = pgs_floats(A, b, ws.mu, ws.max_iter, ws.tol, warm)
+        u = u + MinvJt @ z
+        ws._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
+        ws.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
+    else:
+        ws._warm = {}
+    return integrate(q, u, h, kin["R"][0]), u
+
+
+def integrate(q, u, h: float, R0):
+    """q⁺ = q + h q̇(q, u) on floats: ½ q ⊗ (0, ω) for the pelvis's quaternion (renormalized), R₀ v for its
+    position (R₀ the kinematics' R of q/|q|), q̇ for the joints."""
+    a0, a1, a2, a3 = q[:4].tolist()
+    w1, w2, w3, v1, v2, v3 = u[:6].tolist()
+    dq = [0.5 * (a0 * 0.0 - a1 * w1 - a2 * w2 - a3 * w3), 0.5 * (a0 * w1 + a1 * 0.0 + a2 * w3 - a3 * w2),
+          0.5 * (a0 * w2 - a1 * w3 + a2 * 0.0 + a3 * w1), 0.5 * (a0 * w3 + a1 * w2 - a2 * w1 + a3 * 0.0)]
+    q1 = np.empty(q.size)
+    q1[:4] = q[:4] + h * np.array(dq)
+    q1[:4] /= sqrt(float(q1[:4] @ q1[:4]))
+    q1[4:7] = q[4:7] + h * (R0 @ np.array([v1, v2, v3]))
+    q1[7:] = q[7:] + h * u[6:]
+    return q1
