@@ -182,6 +182,42 @@ CALLS.update({
 })
 
 
+def _two_balls():
+    """Two balls head on in zero gravity (x = ∓0.5 at ±1 m/s, r = 0.1, ε = 1): one collision at t = 0.4."""
+    return DesignScene([DesignBody(Sphere(0.1), position=[-0.5, 0.0, 0.0], velocity=[1.0, 0.0, 0.0]),
+                        DesignBody(Sphere(0.1), position=[0.5, 0.0, 0.0], velocity=[-1.0, 0.0, 0.0])],
+                       [], gravity=[0.0, 0.0, 0.0], restitution=1.0)
+
+
+_TWO_SKETCHES = [[(0.2 * k, np.array([s * (-0.1 - abs(0.2 * k - 0.4)), 0.0, 0.0])) for k in range(1, 5)]
+                 for s in (1.0, -1.0)]
+
+
+def _two_goals():
+    from pbanim.design.control import position_goal
+
+    return [position_goal(0, 0.8, [-0.5, 0.0, 0.0]), position_goal(1, 0.8, [0.5, 0.0, 0.0])]
+
+
+def _body_sequence():
+    from pbanim.design.body_sequences import BodySequence
+
+    return BodySequence(((0, "body", 1),), np.array([0.4]), "given")
+
+
+CALLS.update({
+    "pbanim.design.body_sequences.BodySequence.__init__": lambda: {"events": [(0, "body", 1)], "times": np.array([0.4]),
+                                                                  "origin": "given"},
+    "pbanim.design.body_sequences.propose_body_sequences": lambda: {"scene": _two_balls(), "sketches": _TWO_SKETCHES},
+    "pbanim.design.body_sequences.solve_body_sequence": lambda: {"scene": _two_balls(), "goals": _two_goals(),
+                                                                 "t_end": 0.8, "sketches": _TWO_SKETCHES,
+                                                                 "sequence": _body_sequence(), "maxiter": 20},
+    "pbanim.design.body_sequences.search_body_sequences": lambda: {"scene": _two_balls(), "goals": _two_goals(),
+                                                                   "t_end": 0.8, "sketches": _TWO_SKETCHES,
+                                                                   "max_proposals": 2, "maxiter": 20},
+})
+
+
 def _sequence():
     from pbanim.design.sequences import Sequence
 
@@ -189,10 +225,11 @@ def _sequence():
 
 
 def _register():
+    from pbanim.design.body_sequences import BodySequence
     from pbanim.design.sequences import Sequence
     from pbanim.design.sketch_ui import SketchEditor
 
-    INSTANCES.update({Sequence: _sequence, SketchEditor: _editor})
+    INSTANCES.update({Sequence: _sequence, SketchEditor: _editor, BodySequence: _body_sequence})
 
 
 _register()
