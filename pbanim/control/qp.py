@@ -72,7 +72,7 @@ from ..errors import InvalidInput, NonFiniteResult, PbanimError
 from .biped import BIPED_JOINTS
 from .pd import InvalidGains, _per_joint
 from .qp_features import centroidal
-from .qp_solve import backends, check_backend, contact_rows, joint_limit_bounds, keep_level, solve_qp
+from .qp_solve import backends, check_backend, contact_rows, friction_pyramid, joint_limit_bounds, keep_level, solve_qp
 from .qp_tasks import TARGET, InvalidTask, Task, UnknownTask, check_tasks, task_rows
 from .specs import Count, KinematicsOf, Mapping, Mask, Pair, named
 
@@ -265,11 +265,7 @@ class QPController:
         Aeq[nv:, :nv] = Jnt[keep]
         beq = np.concatenate([-C, -bnt[keep]])
         mu = self.ground.mu
-        G = np.zeros((m2, N))                                   # fₜ − μ fₙ ≤ 0 and −fₜ − μ fₙ ≤ 0
-        for j in range(m2 // 2):
-            cn, ct = nv + na + 2 * j, nv + na + 2 * j + 1
-            G[2 * j, [cn, ct]] = -mu, 1.0
-            G[2 * j + 1, [cn, ct]] = -mu, -1.0
+        G = friction_pyramid(m2 // 2, 2, mu, nv + na, N)        # fₜ − μ fₙ ≤ 0 and −fₜ − μ fₙ ≤ 0
         lb = np.concatenate([np.full(nv, -np.inf), -self.torque_limits, np.tile([self.min_normal, -np.inf], m2 // 2)])
         ub = np.concatenate([np.full(nv, np.inf), self.torque_limits, np.full(m2, np.inf)])
         if self.limit_index.size:
@@ -363,7 +359,8 @@ class QPController:
         finite = np.all(np.isfinite(x))
         x = np.where(np.isfinite(x), x, 0.0)
         qdd, tau_a, f = x[:nv], x[nv:nv + na], x[nv + na:]
-        fn, ft = f[0::2], f[1::2]
+        F = f.reshape(-1, P.get("dirs", 2))                 # per point (fₙ, fₜ…): 2 entries planar, 3 in 3-D
+        fn, ft = F[:, 0], np.abs(F[:, 1:]).max(axis=1, initial=0.0)
         res = {"dynamics": float(np.abs(P["Aeq"][:nv] @ x - P["beq"][:nv]).max()),
                "contact": float(np.abs(P["Aeq"][nv:] @ x - P["beq"][nv:]).max(initial=0.0)),
                "cone": float(np.maximum(np.abs(ft) - self.ground.mu * fn, self.min_normal - fn).max(initial=0.0)),
@@ -377,8 +374,8 @@ class QPController:
         bad = [g for g in res if not res[g] <= tol[g]]
         tau = np.zeros(nv)
         tau[self.actuated] = tau_a
-        forces = np.zeros((self.links.size, 2))
-        forces[P["active"]] = f.reshape(-1, 2)
+        forces = np.zeros((self.links.size, F.shape[1]))
+        forces[P["active"]] = F
         if bad or not finite:
             status = "infeasible"
             what = "; ".join(f"{g} violated by {res[g]:.3g} (tolerance {tol[g]:.1e})" for g in bad) or "no finite answer"

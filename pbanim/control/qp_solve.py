@@ -12,6 +12,9 @@ at both points cannot absorb), so dependent rows are dropped rather than kept: Q
 of J_cᵀ ranks the rows, and the first rank(J_c) of them are kept (:func:`contact_rows`). The forces stay
 one (fₙ, fₜ) pair per point: the QP chooses how the load is shared.
 
+In 3-D a point has three rows (n, t₁, t₂) and the cone is the four-sided pyramid |fₜₖ| ≤ μ fₙ
+(:func:`friction_pyramid`, the planar cone's two rows per tangent).
+
 **Joint limits.** A coordinate θ with limits [θ_min, θ_max] must stay inside them: with the acceleration
 held for a horizon T (≥ the step), θ + T θ̇ + ½ T² θ̈ ∈ [θ_min, θ_max] gives box bounds on θ̈
 
@@ -53,7 +56,7 @@ from scipy.linalg.lapack import dgeqp3
 
 from ..errors import InvalidInput
 
-__all__ = ["backends", "check_backend", "contact_rows", "joint_limit_bounds", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
+__all__ = ["backends", "check_backend", "contact_rows", "friction_pyramid", "joint_limit_bounds", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
 
 # the option capping each backend's iterations (the controller's max_iter is passed to it: HiGHS's QP solver,
 # uncapped by default, ran for minutes on a prioritized level); a backend not listed keeps its own cap
@@ -95,21 +98,38 @@ def check_backend(backend: str, native: bool) -> str:
 def contact_rows(J: np.ndarray, Jb: np.ndarray, ground, rank_tol: float = 1e-9) -> tuple:
     """(J_c (2m, nv), J̇_c q̇ (2m,), kept rows) from the contact points' Jacobians J (m, 2, nv) and biases
     J̇q̇ (m, 2): rows n·Jⱼ and t·Jⱼ interleaved per point, and the sorted indices of a full-rank subset of
-    them (QR with column pivoting of J_cᵀ, LAPACK's dgeqp3; rank where |Rᵢᵢ| > rank_tol |R₀₀|)."""
+    them (QR with column pivoting of J_cᵀ, LAPACK's dgeqp3; rank where |Rᵢᵢ| > rank_tol |R₀₀|).
+    In 3-D (a ``ground`` with ``tangents`` t₁, t₂; J (m, 3, nv)): three rows n, t₁, t₂ per point (3m)."""
     m, nv = J.shape[0], J.shape[2]
+    dirs = (ground.normal,) + tuple(ground.tangents if hasattr(ground, "tangents") else (ground.tangent,))  # n, t…
+    d = len(dirs)
     if m == 0:
         return np.zeros((0, nv)), np.zeros(0), np.zeros(0, dtype=int)
-    Jnt = np.empty((2 * m, nv))
-    Jnt[0::2] = np.einsum("c,mcv->mv", ground.normal, J)
-    Jnt[1::2] = np.einsum("c,mcv->mv", ground.tangent, J)
-    bnt = np.empty(2 * m)
-    bnt[0::2], bnt[1::2] = Jb @ ground.normal, Jb @ ground.tangent
+    Jnt, bnt = np.empty((d * m, nv)), np.empty(d * m)
+    for k, a in enumerate(dirs):
+        Jnt[k::d] = np.einsum("c,mcv->mv", a, J)
+        bnt[k::d] = Jb @ a
     qr, jpvt, _, _, info = dgeqp3(np.asfortranarray(Jnt.T))
     if info != 0:                                                  # LAPACK refused the matrix: keep no row
         return Jnt, bnt, np.zeros(0, dtype=int)
     d = np.abs(np.diag(qr))
     rank = int(np.sum(d > rank_tol * max(d[0], 1e-300)))
     return Jnt, bnt, np.sort(jpvt[:rank] - 1)                      # LAPACK's pivots count from 1
+
+
+def friction_pyramid(m: int, dirs: int, mu: float, first: int, N: int) -> np.ndarray:
+    """The cone rows G x ≤ 0 of m points whose forces (fₙ, fₜ…) of ``dirs`` entries each start at column
+    ``first`` of x (N columns): ±fₜₖ − μ fₙ ≤ 0 per tangent k (exact in the plane, dirs = 2; the
+    four-sided pyramid |fₜ₁|, |fₜ₂| ≤ μ fₙ in 3-D, dirs = 3)."""
+    G = np.zeros((2 * (dirs - 1) * m, N))
+    r = 0
+    for j in range(m):
+        cn = first + dirs * j
+        for k in range(1, dirs):
+            G[r, [cn, cn + k]] = -mu, 1.0
+            G[r + 1, [cn, cn + k]] = -mu, -1.0
+            r += 2
+    return G
 
 
 def joint_limit_bounds(q: np.ndarray, qd: np.ndarray, index: np.ndarray, lo: np.ndarray, hi: np.ndarray,

@@ -15,6 +15,9 @@ kind           feature y                              target ȳ
 ``posture``    named joint coordinates θ              a dict name → angle [rad] (joint-space PD)
 =============  =====================================  ==================================================
 
+A 3-D character (:mod:`.qp_biped3d`) takes tasks with ``dim=3``: the centre of mass and points are 3-vectors,
+the angular momentum L a 3-vector (its target too).
+
 ``weight`` w ≥ 0 scales the task's term w‖e‖² of the weighted QP; ``priority`` 0, 1, 2, … orders the
 levels of the prioritized solve (0 first: it is never degraded by a later level). A task with k_p = k_d = 0
 and no reference acceleration asks its feature not to accelerate.
@@ -64,7 +67,7 @@ TARGET = Either(Array((None,)), Real(), Mapping(Text(), Real(), min_len=1))
 @contract(kind=named(UnknownTask, Choice(TASK_KINDS)), target=named(InvalidTask, Opt(TARGET)), kp=_TASK_GAIN,
           kd=_TASK_GAIN, weight=_TASK_GAIN, priority=named(InvalidTask, Int(ge=0)), name=Text(), link=Int(ge=-1),
           local=named(InvalidTask, Array((3,))), acceleration=named(InvalidTask, Opt(Array((None,)))),
-          velocity=named(InvalidTask, Opt(Array((None,)))))
+          velocity=named(InvalidTask, Opt(Array((None,)))), dim=named(InvalidTask, Int(ge=2, le=3)))
 @dataclass(frozen=True)
 class Task:
     """One objective of the QP controller (see the module docstring for the kinds and their targets).
@@ -88,6 +91,7 @@ class Task:
     local: tuple = (0.0, 0.0, 0.0)
     acceleration: object = None                      # ÿ_ref, feed-forward (same shape as the feature)
     velocity: object = None                          # ẏ_ref (default zero)
+    dim: int = 2                                     # the character's space: 2 (planar) or 3 (3-D, :mod:`.qp_biped3d`)
     _target: np.ndarray = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self):
@@ -95,7 +99,7 @@ class Task:
         # its callers' contracts); what a field must be given the kind is checked here
         set_ = lambda k, v: object.__setattr__(self, k, v)
         set_("name", self.name or self.kind)
-        set_("_target", _target_of(self.kind, self.target, self.name))
+        set_("_target", _target_of(self.kind, self.target, self.name, self.dim))
         size = self.size
         for ref in ("acceleration", "velocity"):
             v = getattr(self, ref)
@@ -109,7 +113,7 @@ class Task:
     @property
     def size(self) -> int:
         """Rows of the task (feature dimension)."""
-        return {"com": 2, "momentum": 1, "point": 2}.get(self.kind, len(self.target) if isinstance(self.target, dict) else 0)
+        return len(self.target) if self.kind == "posture" else self._target.size
 
     @contract(target=named(InvalidTask, Opt(TARGET)))
     def with_target(self, target) -> Task:
@@ -124,7 +128,7 @@ class Task:
         return replace(self, weight=weight)
 
 
-def _target_of(kind: str, target, name: str) -> np.ndarray:
+def _target_of(kind: str, target, name: str, dim: int = 2) -> np.ndarray:
     """ȳ as an array of the feature's size for a task of this kind, or :class:`InvalidTask` naming target."""
     if kind == "posture":
         if not isinstance(target, dict) or not target:
@@ -133,7 +137,13 @@ def _target_of(kind: str, target, name: str) -> np.ndarray:
         return np.array([float(v) for v in target.values()])
     if isinstance(target, dict):
         raise InvalidTask(f"task {name!r}: target of a {kind} task must be "
-                          f"{'a number' if kind == 'momentum' else 'a 2-vector'}, got a dict")
+                          f"{'a number' if kind == 'momentum' else f'a {dim}-vector'}, got a dict")
+    if kind == "momentum" and dim == 3:                # 3-D: L̄ a 3-vector (default zero)
+        t = np.zeros(3) if target is None else np.array(target, dtype=float).reshape(-1)
+        if t.shape != (3,):
+            raise InvalidTask(f"task {name!r}: target of a 3-D momentum task must be a 3-vector L̄ [kg m²/s], got "
+                              f"{target!r}")
+        return t
     if kind == "momentum":
         t = np.array([0.0 if target is None else target], dtype=float).reshape(-1)
         if t.shape != (1,):
@@ -141,14 +151,15 @@ def _target_of(kind: str, target, name: str) -> np.ndarray:
                               f"{target!r}")
         return t
     t = None if target is None else np.array(target, dtype=float)
-    if t is None or t.shape != (2,):
-        raise InvalidTask(f"task {name!r}: target of a {kind} task must be a finite 2-vector (x, y) [m], got "
-                          f"{target!r}")
+    if t is None or t.shape != (dim,):
+        raise InvalidTask(f"task {name!r}: target of a {kind} task must be a finite {dim}-vector "
+                          f"({'x, y' if dim == 2 else 'x, y, z'}) [m], got {target!r}")
     return t
 
 
-def check_tasks(tasks, kernel, joints: dict) -> list:
-    """The tasks as a list, names unique, links and posture joints known (:class:`UnknownJoint` otherwise)."""
+def check_tasks(tasks, kernel, joints: dict, dim: int = 2) -> list:
+    """The tasks as a list, names unique, of the character's space ``dim``, links and posture joints known
+    (:class:`UnknownJoint` otherwise)."""
     tasks = list(tasks)
     names = [t.name for t in tasks if isinstance(t, Task)]
     if len(names) != len(tasks):
@@ -158,6 +169,8 @@ def check_tasks(tasks, kernel, joints: dict) -> list:
     if dup:
         raise InvalidTask(f"task names must be unique; repeated: {dup} (give each a name=)")
     for t in tasks:
+        if t.dim != dim:
+            raise InvalidTask(f"task {t.name!r} is for a {t.dim}-D character (dim={t.dim}); this one is {dim}-D")
         if t.kind == "point" and not (0 <= t.link < kernel.n):
             raise InvalidTask(f"task {t.name!r}: link must be a link index in 0..{kernel.n - 1}, got {t.link}")
         if t.kind == "posture":
