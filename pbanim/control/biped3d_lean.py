@@ -25,8 +25,9 @@ from __future__ import annotations
 from math import sqrt
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg.lapack import dpotrf, dpotrs
 
+from ..errors import SimulationDiverged
 from ..rigid.quat import quat_to_matrix
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
@@ -54,6 +55,10 @@ class LeanPlan:
         self.rev_v = np.array([ws.vi[i] for i in rev])
         self.axis = np.array([tree.joints[i].axis for i in rev], dtype=float)
         self.n, self.nv = n, tree.nv
+        self.rot0 = np.tile(np.eye(3), (n, 1, 1))
+        self.eye = np.tile(np.eye(3), (len(rev), 1, 1))
+        self.ax = np.array([[[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]] for a in self.axis])
+        self.aa = np.einsum("ki,kj->kij", self.axis, self.axis)
         self.mass3 = np.repeat(ws.mass, 3)[:, None]
         self.mask = ws.mask.astype(float)
         self.gravity = np.asarray(tree.gravity, dtype=float)
@@ -84,15 +89,10 @@ def _kinematics(ws, q) -> dict:
     R, Rl = np.empty((n, 3, 3)), np.empty((n, 3, 3))
     o = np.empty((n, 3))
     R[0], o[0] = R0, q[4:7]
-    rot = np.zeros((n, 3, 3))
-    rot[:] = np.eye(3)
-    ang = q[P.rev_q]
-    c, s = np.cos(ang), np.sin(ang)
-    t = 1.0 - c
-    x, y, z = P.axis.T
-    rot[P.rev] = np.stack([t * x * x + c, t * x * y - s * z, t * x * z + s * y,
-                           t * x * y + s * z, t * y * y + c, t * y * z - s * x,
-                           t * x * z - s * y, t * y * z + s * x, t * z * z + c], axis=1).reshape(-1, 3, 3)
+    rot = P.rot0.copy()
+    ang = q[P.rev_q][:, None, None]
+    c = np.cos(ang)
+    rot[P.rev] = c * P.eye + np.sin(ang) * P.ax + (1.0 - c) * P.aa       # R_a(q) = c 1 + s [a]× + (1 − c) a aᵀ
     for idx, par, JR, p in P.levels:
         Rp = R[par]
         Rj = Rp if JR is None else Rp @ JR
@@ -113,10 +113,12 @@ def _kinematics(ws, q) -> dict:
     return {"R": R, "o": o, "c": cm, "S": S}
 
 
+_I1, _I2 = [1, 2, 0], [2, 0, 1]
+
+
 def _cross(u, v):
-    """u × v row by row, the components in np.cross's order."""
-    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1], u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
-                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
+    """u × v row by row: component k is u_{k+1} v_{k+2} − u_{k+2} v_{k+1}, np.cross's products."""
+    return u[:, _I1] * v[:, _I2] - u[:, _I2] * v[:, _I1]
 
 
 def jacobians_at(S, P, mask):
@@ -189,33 +191,43 @@ def bias(ws, kin, qd):
 
 def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
     """:func:`pbanim.lcp.pgs_box_friction` (one μ) on Python floats: the same sweep, bounds, warm start and
-    residual; A symmetric (its row r is read for its column r). Returns (z, residual, sweeps)."""
+    residual, so the same iterates bit for bit (w ← w + A₍:,ᵣ₎ Δzᵣ: column r, as there). Returns
+    (z, residual, sweeps)."""
     n = len(b)
-    Al, w0 = A.tolist(), b.tolist()
-    diag = [Al[r][r] for r in range(n)]
+    cols, w0 = A.T.tolist(), b.tolist()
+    diag = [cols[r][r] for r in range(n)]
     z = warm.tolist()
     for i in range(0, n, 3):
         f = max(z[i], 0.0)
         lim = mu * f
         z[i], z[i + 1], z[i + 2] = f, min(max(z[i + 1], -lim), lim), min(max(z[i + 2], -lim), lim)
-    Az = (A @ np.array(z)).tolist()
-    w = [a + bb for a, bb in zip(Az, w0)]
-    scale = max(1.0, max(abs(v) for v in w0)) if n else 1.0
+    w = [a + bb for a, bb in zip((A @ np.array(z)).tolist(), w0)]
+    thr = tol * (max(1.0, max(abs(v) for v in w0)) if n else 1.0)
     res = 0.0
     for sweep in range(1, max_iter + 1):
-        for r in range(n):
-            kind = r % 3
-            if kind == 0:
-                new = max(z[r] - w[r] / diag[r], 0.0)
-            else:
-                lim = mu * z[r - kind]
-                new = min(max(z[r] - w[r] / diag[r], -lim), lim)
-            if new != z[r]:
-                d = new - z[r]
-                w = [wi + ai * d for wi, ai in zip(w, Al[r])]
-                z[r] = new
+        for i in range(0, n, 3):
+            zr = z[i]
+            new = zr - w[i] / diag[i]
+            if new < 0.0:                                  # min(max(·, 0), ∞)
+                new = 0.0
+            if new != zr:
+                d = new - zr
+                w = [wi + ai * d for wi, ai in zip(w, cols[i])]
+                z[i] = new
+            lim = mu * z[i]
+            for r in (i + 1, i + 2):
+                zr = z[r]
+                new = zr - w[r] / diag[r]
+                if new < -lim:                             # min(max(·, −μf), μf)
+                    new = -lim
+                if new > lim:
+                    new = lim
+                if new != zr:
+                    d = new - zr
+                    w = [wi + ai * d for wi, ai in zip(w, cols[r])]
+                    z[r] = new
         res = _residual(z, w, mu)
-        if res <= tol * scale:
+        if res <= thr:
             return np.array(z), res, sweep
     return np.array(z), res, max_iter
 
@@ -233,14 +245,24 @@ def _residual(z, w, mu: float) -> float:
     return out
 
 
+def _cholesky(M):
+    """The upper Cholesky factor of M (LAPACK's potrf, as :func:`scipy.linalg.cho_factor` calls it, without
+    its wrapper's ~30 µs); a matrix that is not positive definite raises, as the readable solve would not."""
+    c, info = dpotrf(M, lower=False, clean=False)
+    if info != 0:
+        raise SimulationDiverged(float("nan"), -1, "the mass matrix H + hK", f"LAPACK potrf info {info}",
+                                 what="is not positive definite")
+    return c
+
+
 def step(ws, q, qd, h: float, tau0, k, kin):
     """(q⁺, u⁺) of :meth:`WorldStep.step` (module docstring)."""
     kin = kinematics(ws, q) if kin is None else kin
     H = mass_matrix(ws, kin)
     K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
-    cho = cho_factor(H if K is None else H + h * np.diag(K), check_finite=False)
+    cho = _cholesky(H if K is None else H + h * np.diag(K))
     f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
-    u = qd + h * cho_solve(cho, f, check_finite=False)         # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
+    u = qd + h * dpotrs(cho, f)[0]                             # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
     P, Jp = point_jacobians(ws, kin, ws.links, ws.points)
     gap, nrm = ws.terrain.gap_normal(P)
     Ju = Jp @ u
@@ -254,7 +276,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         t1 /= np.sqrt((t1 * t1).sum(axis=1))[:, None]
         t2 = _cross(nn, t1)
         rows = (np.stack([nn, t1, t2], axis=1) @ JJ).reshape(3 * near.size, -1)
-        MinvJt = cho_solve(cho, rows.T, check_finite=False)
+        MinvJt = dpotrs(cho, rows.T)[0]
         A = rows @ MinvJt
         A += ws.cfm * max(float(A.diagonal().max()), 1e-300) * np.eye(A.shape[0])
         b = rows @ u
