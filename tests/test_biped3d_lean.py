@@ -1,0 +1,121 @@
+"""The 3-D biped's lean contact step equals its readable step to roundoff (ORACLES F20).
+
+``WorldStep(lean=True)`` (:mod:`pbanim.control.biped3d_lean`) against ``WorldStep(lean=False)`` (the methods as
+the lecture writes them) and the library's pieces: kinematics, mass matrix, point Jacobians, the bias forces
+against the ABA, the float PGS against :func:`pbanim.lcp.pgs_box_friction` bit for bit, one contact step, and a
+short walk through the runner, step by step.
+"""
+
+import functools
+
+import numpy as np
+import pytest
+
+import pbanim.control.simbicon3d_walk as walk3d
+from pbanim.articulated.dynamics import aba, crba
+from pbanim.control import biped3d_lean as lean
+from pbanim.control.biped3d import biped3d, biped3d_contact_points, standing_state3d
+from pbanim.control.biped3d_step import WorldStep
+from pbanim.errors import SimulationDiverged
+from pbanim.lcp import pgs_box_friction
+
+TREE = biped3d()
+PTS = biped3d_contact_points(TREE)
+EPS = np.finfo(float).eps
+
+
+def _steps():
+    return WorldStep(TREE, PTS, tol=1e-5), WorldStep(TREE, PTS, tol=1e-5, lean=False)
+
+
+def _random_state(rng):
+    q, _ = standing_state3d()
+    quat = rng.normal(size=4)
+    q[:4] = quat / np.linalg.norm(quat)
+    q[4:7] = rng.normal(size=3)
+    q[7:] = rng.uniform(-0.8, 0.8, 12)
+    return q, rng.normal(size=18)
+
+
+def test_lean_kinematics_mass_matrix_and_jacobians_equal_the_readable_ones():
+    # ORACLES F20: the same formulas regrouped; measured 0 on R, o, c, S, 1.4e-14 on H (max|H| ~ 40)
+    fast, slow = _steps()
+    rng = np.random.default_rng(7)
+    for _ in range(4):
+        q, _ = _random_state(rng)
+        kf, ks = fast.kinematics(q), slow.kinematics(q)
+        for key in "RocS":
+            assert np.allclose(kf[key], ks[key], rtol=0, atol=8 * EPS * (1 + np.abs(ks[key]).max())), key
+        H = fast.mass_matrix(kf)
+        assert np.abs(H - slow.mass_matrix(ks)).max() <= 50 * EPS * np.abs(H).max()
+        assert np.abs(H - crba(TREE, q)).max() <= 50 * EPS * np.abs(H).max()
+        for links, pts in ((fast.links, fast.points), (np.arange(TREE.n), fast.com)):
+            (Pf, Jf), (Ps, Js) = fast.point_jacobians(kf, links, pts), slow.point_jacobians(ks, links, pts)
+            assert np.abs(Pf - Ps).max() <= 1e-14 and np.abs(Jf - Js).max() <= 1e-14
+    # the kept kinematics is the last state's only: another q gives its own frames
+    q1, _ = _random_state(rng)
+    assert not np.allclose(fast.kinematics(q1)["o"], fast.kinematics(q)["o"])
+    assert np.array_equal(fast.kinematics(q)["o"], slow.kinematics(q)["o"])
+
+
+def test_lean_bias_forces_give_the_aba_accelerations():
+    # ORACLES F20: H⁻¹ (τ − C) with C from the world-frame Newton–Euler sums equals the readable ABA;
+    # measured 1.2e-14 relative
+    fast, _ = _steps()
+    rng = np.random.default_rng(3)
+    for _ in range(4):
+        q, qd = _random_state(rng)
+        tau = 10 * rng.normal(size=18)
+        kin = fast.kinematics(q)
+        acc = np.linalg.solve(fast.mass_matrix(kin), tau - lean.bias(fast, kin, qd))
+        ref = aba(TREE, q, qd, tau)
+        assert np.abs(acc - ref).max() <= 1e-11 * (1 + np.abs(ref).max())
+
+
+def test_float_pgs_iterates_equal_the_library_pgs_bit_for_bit():
+    # ORACLES F20: the same sweep on Python floats; z and the sweep count identical, the residual to 1 ulp
+    rng = np.random.default_rng(11)
+    for m in (1, 3, 8):
+        J = rng.normal(size=(3 * m, 18))
+        X = rng.normal(size=(18, 18))
+        Minv = np.linalg.inv(X @ X.T + 18 * np.eye(18))
+        A = J @ Minv @ J.T
+        A += 1e-6 * A.diagonal().max() * np.eye(3 * m)
+        b = rng.normal(size=3 * m)
+        b[0::3] = -np.abs(b[0::3])                      # every contact pressed: the sweeps have work to do
+        warm = np.abs(rng.normal(size=3 * m)) * (rng.uniform(size=3 * m) < 0.5)
+        z, res, sweeps = lean.pgs_floats(A, b, 0.8, 300, 1e-9, warm)
+        z0, res0, sweeps0 = pgs_box_friction(A, b, 0.8, max_iter=300, tol=1e-9, warm_start=warm)
+        assert np.array_equal(z, z0) and sweeps == sweeps0 and sweeps > 1
+        assert res == pytest.approx(res0, rel=4 * EPS, abs=1e-300)
+
+
+def test_lean_contact_step_equals_the_readable_step():
+    # ORACLES F20: soles 1 mm into the ground, stable PD damping on the joints; measured 1e-18 in q, 6e-16 in q̇
+    fast, slow = _steps()
+    rng = np.random.default_rng(5)
+    q, qd = standing_state3d(height=-1e-3)
+    qd = qd + 0.3 * rng.normal(size=18)
+    tau = 20 * rng.normal(size=18)
+    k = np.r_[np.zeros(6), 30 * rng.uniform(size=12)]
+    for kk in (k, None):
+        (qf, uf), (qs, us) = fast.step(q, qd, 2e-3, tau, kk), slow.step(q, qd, 2e-3, tau, kk)
+        assert fast.last["sweeps"] == slow.last["sweeps"] and np.array_equal(fast.last["contacts"], slow.last["contacts"])
+        assert np.abs(qf - qs).max() <= 16 * EPS and np.abs(uf - us).max() <= 64 * EPS * (1 + np.abs(us).max())
+
+
+def test_lean_walk_follows_the_readable_walk_step_by_step(monkeypatch):
+    # ORACLES F20: 0.3 s of the 3-D walk (150 steps at h = 2 ms) through the runner, both paths; the states
+    # agree to a few ulps per step (bound 8 ε × steps; measured 1.3e-14 after 150 steps)
+    fast = walk3d.simulate_walk3d(t_end=0.3, h=2e-3, record_every=1)
+    monkeypatch.setattr(walk3d, "WorldStep", functools.partial(WorldStep, lean=False))
+    slow = walk3d.simulate_walk3d(t_end=0.3, h=2e-3, record_every=1)
+    assert fast.trace == slow.trace and fast.q.shape == slow.q.shape == (151, 19)
+    steps = np.arange(151)[:, None]
+    assert np.all(np.abs(fast.q - slow.q) <= 8 * EPS * np.maximum(steps, 1) * (1 + np.abs(slow.q)))
+    assert np.abs(fast.q[-1] - fast.q[0]).max() > 0.05          # it moved: the comparison is not of two rests
+
+
+def test_a_mass_matrix_that_is_not_positive_definite_is_named():
+    with pytest.raises(SimulationDiverged, match="not positive definite"):
+        lean._cholesky(-np.eye(18))
