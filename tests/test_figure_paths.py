@@ -38,3 +38,31 @@ def test_one_quaternion_out_of_range_or_zero_takes_the_guarded_path():
         assert np.abs(quat_to_matrix(q * s) - R).max() < 4 * EPS
     with pytest.raises(InvalidInput, match="quat"):
         quat_to_matrix(np.zeros(4))
+
+
+def test_red_black_sweeps_on_the_cached_masks_are_the_hand_written_sweeps():
+    # ORACLES E2's smoother: red–black Gauss–Seidel x_c ← x_c + (r − A x)_c / a_c, the cells with Σ indices
+    # even first; the masks are made once per shape (read-only) and the sweeps equal a loop written here
+    # with masks made anew, bit for bit (the same operations on the same numbers)
+    from pbanim.fluids import Grid
+    from pbanim.fluids.poisson import CellOperator, relax
+
+    rng = np.random.default_rng(3)
+    X, Y = Grid((12, 10), 0.1).positions()
+    grid = Grid((12, 10), 0.1, "walls", solid=(X - 0.6) ** 2 + (Y - 0.5) ** 2 < 0.2 ** 2)
+    A = CellOperator(grid, 0.0, 1.0)
+    r, x0 = rng.normal(size=grid.shape), rng.normal(size=grid.shape)
+    red = np.add.outer(np.arange(12), np.arange(10)) % 2 == 0
+    for reverse in (False, True):
+        x = x0.copy()
+        for _ in range(3):
+            for c in ((~red, red) if reverse else (red, ~red)):
+                x = np.where(c, x + (r - A(x)) / A.diag, x)
+        got, sweeps = relax(A, r, x0.copy(), "gauss_seidel", 3, reverse=reverse)
+        assert sweeps == 3 and np.array_equal(got, x)
+    from pbanim.fluids.multigrid import _colours
+
+    masks = _colours((12, 10))
+    assert np.array_equal(masks[0], red) and np.array_equal(masks[1], ~red)
+    with pytest.raises(ValueError):
+        masks[0][0, 0] = False

@@ -70,6 +70,19 @@ def levels(grid, alpha: float, beta: float) -> list:
     return cache[alpha, beta]
 
 
+_COLOURS: dict = {}
+
+
+def _colours(shape) -> tuple:
+    """(red, black) cell masks of a grid shape (red: Σ indices even) for red–black Gauss–Seidel, read-only,
+    made once per shape (a V-cycle relaxes on every level several times per CG iteration)."""
+    if shape not in _COLOURS:
+        red = np.indices(shape).sum(axis=0) % 2 == 0
+        _COLOURS[shape] = (red, ~red)
+        red.flags.writeable = _COLOURS[shape][1].flags.writeable = False
+    return _COLOURS[shape]
+
+
 def _restrict(r: np.ndarray, coarse_shape) -> np.ndarray:
     d = len(coarse_shape)
     return r.reshape([v for n in coarse_shape for v in (n, 2)]).mean(axis=tuple(range(1, 2 * d, 2)))

@@ -92,7 +92,8 @@ class CellOperator:
             return self.grid.laplacian(x)
         lap = np.zeros(x.shape)
         for _, lo, hi, w in self._lean:
-            flux = (x[hi] - x[lo]) * w
+            flux = np.subtract(x[hi], x[lo])
+            flux *= w                                      # in place: the same numbers, one array less
             lap[lo] += flux
             lap[hi] -= flux
         return lap
@@ -200,8 +201,9 @@ def relax(A, r, x, method: str, iterations: int, omega: float = 1.0, reverse: bo
         for _ in range(iterations):
             x = x + omega * (r - A(x)) / A.diag
         return x, iterations
-    colour = np.indices(x.shape).sum(axis=0) % 2 == 0
-    order = (~colour, colour) if reverse else (colour, ~colour)
+    from .multigrid import _colours
+
+    order = _colours(x.shape)[::-1] if reverse else _colours(x.shape)
     for _ in range(iterations):
         for c in order:
             x = np.where(c, x + (r - A(x)) / A.diag, x)
