@@ -17,12 +17,14 @@ this module instead, computing the same quantities:
    (:func:`pbanim.lcp.pgs_box_friction`'s sweep, bounds, warm start and residual) on Python floats;
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
-``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
+``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the seconds each part
+takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
 """
 
 from __future__ import annotations
 
 from math import sqrt
+from time import perf_counter
 
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
@@ -73,8 +75,12 @@ def kinematics(ws, q) -> dict:
     key = q.tobytes()
     if ws._plan.cache[0] == key:
         return ws._plan.cache[1]
+    clock = ws.clock
+    t0 = perf_counter() if clock is not None else 0.0
     kin = _kinematics(ws, q)
     ws._plan.cache = (key, kin)
+    if clock is not None:
+        clock["kinematics"] += perf_counter() - t0
     return kin
 
 
@@ -258,11 +264,15 @@ def _cholesky(M):
 def step(ws, q, qd, h: float, tau0, k, kin):
     """(q⁺, u⁺) of :meth:`WorldStep.step` (module docstring)."""
     kin = kinematics(ws, q) if kin is None else kin
+    clock = ws.clock
+    c0 = perf_counter() if clock is not None else 0.0
     H = mass_matrix(ws, kin)
+    c1 = perf_counter() if clock is not None else 0.0
     K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
     cho = _cholesky(H if K is None else H + h * np.diag(K))
     f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
     u = qd + h * dpotrs(cho, f)[0]                             # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
+    c2 = perf_counter() if clock is not None else 0.0
     P, Jp = point_jacobians(ws, kin, ws.links, ws.points)
     gap, nrm = ws.terrain.gap_normal(P)
     Ju = Jp @ u
@@ -289,7 +299,13 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         ws.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
     else:
         ws._warm = {}
-    return integrate(q, u, h, kin["R"][0]), u
+    q1 = integrate(q, u, h, kin["R"][0])
+    if clock is not None:                                      # pbanim bench control: the step's split
+        clock["H"] += c1 - c0
+        clock["dynamics"] += c2 - c1
+        clock["contact"] += perf_counter() - c2
+        clock["steps"] += 1
+    return q1, u
 
 
 def integrate(q, u, h: float, R0):

@@ -108,6 +108,7 @@ class WorldStep:
         self._qdot = unchecked(ArticulatedSystem(tree).qdot)
         self._aba = _aba
         self.lean = bool(lean)
+        self.clock = None                                       # the lean step's split, when a dict (bench)
         self._joint_link = np.zeros(nv, dtype=int)              # the link each velocity coordinate moves
         for i in range(n):
             self._joint_link[A["vi"][i]] = i
