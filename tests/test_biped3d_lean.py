@@ -18,6 +18,7 @@ from pbanim.control.biped3d import biped3d, biped3d_contact_points, standing_sta
 from pbanim.control.biped3d_step import WorldStep
 from pbanim.errors import SimulationDiverged
 from pbanim.lcp import pgs_box_friction
+from test_biped3d import _random_state          # a random pose and velocity of the biped (any orientation)
 
 TREE = biped3d()
 PTS = biped3d_contact_points(TREE)
@@ -26,15 +27,6 @@ EPS = np.finfo(float).eps
 
 def _steps():
     return WorldStep(TREE, PTS, tol=1e-5), WorldStep(TREE, PTS, tol=1e-5, lean=False)
-
-
-def _random_state(rng):
-    q, _ = standing_state3d()
-    quat = rng.normal(size=4)
-    q[:4] = quat / np.linalg.norm(quat)
-    q[4:7] = rng.normal(size=3)
-    q[7:] = rng.uniform(-0.8, 0.8, 12)
-    return q, rng.normal(size=18)
 
 
 def test_lean_kinematics_mass_matrix_and_jacobians_equal_the_readable_ones():
