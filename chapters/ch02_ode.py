@@ -181,7 +181,7 @@ def kepler_orbits(ctx):
 
 # %%
 @figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)",
-        cost=30.0)
+        cost=41.0)
 def work_precision(ctx):
     from pbanim.bench.ode import PROBLEMS, sweep_problem
 

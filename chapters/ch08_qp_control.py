@@ -50,7 +50,7 @@ def _summary(run) -> dict:
 
 # %%
 @figure("ch08", "qp_push_balance", "QP balance controller: a push recovered, a larger one not; forces in their cones",
-        cost=46.0)
+        cost=52.0)
 def qp_push_balance(ctx):
     t_end = 2.5
     small, large = simulate_balance(20.0, t_end), simulate_balance(30.0, t_end)

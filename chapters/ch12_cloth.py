@@ -40,7 +40,7 @@ from pbanim.plotting import figure
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=37.0)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=36.0)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
@@ -100,7 +100,7 @@ def drape(ctx):
 
 # %%
 @figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers",
-        cost=26.0)
+        cost=25.0)
 def work_precision_figure(ctx):
     n, budget = (8, 1.5) if ctx.quick else (16, 20.0)
     wp = work_precision(n, budget, ctx.quick)

@@ -264,11 +264,11 @@ def _run_group(specs: list, out_dir, quick: bool, fmt: str, dpi, style: str) -> 
 
 @contract(specs=Obj(dict, what="a dict {key: FigureSpec}"), out_dir=Opt(PathLike()), quick=Flag(), fmt=FORMAT,
           dpi=DPI_RANGE, style=STYLE_NAME, jobs=Opt(Int(ge=1, le=256)), progress=Opt(Func()),
-          initializer=Opt(Func()))
+          initializer=Opt(Func()), cpu=Opt(Obj(dict, what="a dict (it receives {key: CPU seconds})")))
 def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool = False, *, fmt: str = "png",
                 dpi: float | None = None, style: str = "paper", jobs: int | None = None,
                 progress: Callable[[str], Any] | None = None,
-                initializer: Callable[[], Any] | None = None) -> tuple[dict, dict, list]:
+                initializer: Callable[[], Any] | None = None, cpu: dict | None = None) -> tuple[dict, dict, list]:
     """Run several figures on ``jobs`` worker processes (None: one per core; 1: here, in the order given).
 
     Returns ({key: files}, {key: seconds}, issues), keys in the order of ``specs``. ``progress`` gets one line
@@ -279,6 +279,8 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
     ``initializer``: called once in each worker before its first figure (a module-level function: workers are
     fresh interpreters); the command line hands in one that limits BLAS to one thread, as in the benchmarks.
     A figure that fails stops the run: the figures not yet started are cancelled and its error is raised.
+    ``cpu``, when given, receives {key: CPU seconds of the figure in its process} (the numbers to put in the
+    ``cost`` hints).
     """
     import os
 
@@ -298,11 +300,13 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
     files, seconds, issues = {}, {}, {}
 
     def finished(results) -> None:
-        for key, written, secs, found, cpu in results:
+        for key, written, secs, found, cpu_s in results:
             files[key], seconds[key], issues[key] = written, secs, found
+            if cpu is not None:
+                cpu[key] = cpu_s
             if progress is not None:
                 names = ", ".join(p.name for p in written) or "(no file)"
-                progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s; cpu {cpu:.1f}s)")
+                progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s; cpu {cpu_s:.1f}s)")
 
     args = (None if out_dir is None else Path(out_dir), quick, fmt, dpi, style)
     if jobs <= 1:

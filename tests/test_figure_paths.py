@@ -66,3 +66,17 @@ def test_red_black_sweeps_on_the_cached_masks_are_the_hand_written_sweeps():
     assert np.array_equal(masks[0], red) and np.array_equal(masks[1], ~red)
     with pytest.raises(ValueError):
         masks[0][0, 0] = False
+
+
+def test_run_figures_hands_back_each_figures_cpu_seconds(tmp_path):
+    # the cost= hints schedule the run (longest first) and are set from these numbers: one entry per figure,
+    # the number its progress line prints
+    from pbanim.cli import load_chapters
+    from pbanim.plotting import run_figures
+
+    specs = {k: s for k, s in load_chapters(["ch01"]).items() if k == "ch01_projectile_drag"}
+    cpu, lines = {}, []
+    files, seconds, _ = run_figures(specs, tmp_path, quick=True, jobs=1, progress=lines.append, cpu=cpu)
+    assert list(cpu) == list(seconds) == list(specs) and all(np.isfinite(v) and v >= 0 for v in cpu.values())
+    assert lines == [f"[1/1] ch01_projectile_drag: {files['ch01_projectile_drag'][0].name} "
+                     f"({seconds['ch01_projectile_drag']:.1f}s; cpu {cpu['ch01_projectile_drag']:.1f}s)"]
