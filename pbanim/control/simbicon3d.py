@@ -28,7 +28,8 @@ inertia, ≈ 0.03 kg m², would otherwise bound the step at h < 2 I/k_v ≈ 2 ms
 −1.1/−0.05, swa 0.2/0.2, stk −0.05/−0.1, sta 0.2/0.2, c_d 0/2.2, c_v 0.2/0), the coronal ones ours
 (θ̄_cor,0 = 0, c_d,cor 0.5, c_v,cor 0.4: with c_v,cor 0.2 it fell after 7.7 s), and the gains Table 1's
 k_p = 300, k_v = 30 on every joint (hips and torso at 1000/100 fell within 0.4 s: the stance hip's yaw torque
-spun the stance foot). Measured in ORACLES F18 (walks 20 s at h = 2 ms, 0.79 m/s; falls at h ≤ 1.5 ms).
+spun the stance foot). Measured in ORACLES F18: from a 0.5 m/s start it walks 20 s
+at every h from 1 to 3.5 ms (0.82–0.83 m/s; falls at 4 ms), :mod:`.simbicon3d_walk`.
 
 Notation: ψ heading (yaw about z); d, v centre-of-mass offset and velocity in the heading frame; θ̄ targets;
 k_p, k_v gains; h the step; R_a(θ) the rotation by θ about axis a.

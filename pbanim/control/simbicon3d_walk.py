@@ -11,8 +11,15 @@ A push is an impulse P (N s, horizontal, world frame) on the torso's centre of m
 Δq̇ = H⁻¹ J_cᵀ P. A turn moves the controller's heading ψ̄ toward a new value from a given time, at 0.5 rad/s (a step change
 of 0.7 rad at once fell within 0.4 s: the stance hip's yaw torque spun the stance foot).
 
-Measured (h = 2 ms, :data:`~.simbicon3d.WALK3D`, start at 0.4 m/s): ORACLES F18 (what the tests hold, and
-what was measured once: pushes, turns, other steps).
+The start: standing straight, both soles on the ground, moving forward at ``speed`` (default
+:data:`START_SPEED` = 0.5 m/s). The walk's basin of starts is narrow, its lower edge between 0.38 and 0.45 m/s
+at the steps measured: at h = 1 ms starts of 0.45, 0.5 and 0.55 m/s walk, 0.3 and 0.4 m/s fall (3.39 s, 2.84
+s: the slow first steps collapse the stance leg), 0.7 m/s falls at 0.80 s (legs together, too fast to step);
+at h = 2 ms 0.38 m/s falls (2.67 s) and 0.40, 0.42 walk. A 0.4 m/s start (this runner's earlier default) sat
+on that edge, so whether it fell looked like a matter of h (fell at 1 and 1.5 ms, walked at 2–4 ms); from 0.5
+m/s the walk is converged in h: 20 s at h = 1, 1.5, 2, 3, 3.5 ms all walk, 62, 62, 62, 61, 61 strikes, 16.07,
+16.04, 16.02, 15.98, 15.99 m, 0.827–0.823 m/s over the last 5 s; h = 4 ms falls (3.43 s; it walked from 0.4
+m/s), 5 ms (2.31 s). The largest stable step measured is 3.5 ms. Pushes, turns: ORACLES F18.
 """
 
 from __future__ import annotations
@@ -31,6 +38,7 @@ from .simbicon3d import WALK3D, Gait3D, Simbicon3D
 __all__ = ["Walk3DResult", "simulate_walk3d"]
 
 
+START_SPEED = 0.5        # m/s: the start's forward speed, inside the walk's basin (see the module docstring)
 TURN_RATE = 0.5          # rad/s: how fast the heading target turns toward a new heading
 
 
@@ -75,7 +83,7 @@ class Walk3DResult:
 @contract(gait=Obj(Gait3D), t_end=Real(gt=0, le=600), h=Real(gt=0, le=0.01), speed=Real(ge=0, le=2),
           push=Opt(Array((3,))), turn=Opt(Array((2,))), friction=Real(ge=0), record_every=Int(ge=1),
           max_steps=Int(ge=1))
-def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3, *, speed: float = 0.4,
+def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3, *, speed: float = START_SPEED,
                     push=None, turn=None, friction: float = 0.9, record_every: int = 25,
                     max_steps: int = MAX_STEPS) -> Walk3DResult:
     """Walk the 3-D biped from a standing start moving at ``speed`` m/s. ``push``: (t_P, P_x, P_y), an
