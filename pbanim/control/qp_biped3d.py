@@ -14,8 +14,8 @@ columns), a joint's column is fixed in its link, so Ṡⱼ = Vⱼ × Sⱼ (spati
 
     Aᵢ = Σ_{j ⪯ i} Vⱼ × Sⱼ q̇ⱼ,          a_p = A_v + A_ω × p + ω × (v + ω × p)
 
-the spatial acceleration of link i and the acceleration of its point p when q̈ = 0 (:func:`link_motion`,
-:func:`point_bias`). The floating pelvis's six columns move with it (body-frame q̇): the same rule.
+the spatial acceleration of link i and the acceleration of its point p when q̈ = 0 (``_link_motion``,
+``_point_bias``). The floating pelvis's six columns move with it (body-frame q̇): the same rule.
 
 **Features** (de Lasa, Mordatch & Hertzmann 2010), each ÿ = J_y q̈ + J̇_y q̇:
 
@@ -31,7 +31,7 @@ The bias forces come from the same sums (the principle of virtual work over the 
     C = Σᵢ J_cᵢᵀ mᵢ (a_cᵢ − g) + J_ωᵢᵀ (Īᵢ Aᵢ,ω + ωᵢ × Īᵢ ωᵢ)      (equal to RNEA's ID(q, q̇, 0), tested)
 
 Newton and Euler for the whole body then say M c̈ = Σ fⱼ + M g and L̇ = Σ (pⱼ − c) × fⱼ for every QP
-answer (ORACLES F20, tested): a check of every bias above, with no finite difference.
+answer (ORACLES F21, tested): a check of every bias above, with no finite difference.
 
 Tasks are :class:`~pbanim.control.qp_tasks.Task` objects with ``dim=3``: ``com`` and ``point`` 3-vectors,
 ``momentum`` a 3-vector L̄, ``posture`` joint names of :data:`~pbanim.control.biped3d.BIPED3D_JOINTS` or the
@@ -61,20 +61,26 @@ from ..rigid.quat import quat_from_axis_angle, quat_multiply, quat_to_matrix
 from .biped3d import BIPED3D_JOINTS, biped3d, biped3d_contact_points
 from .biped3d_step import WorldStep
 from .pd import InvalidGains, _per_joint
-from .qp import _CONTACTS, _TOL, MODES, QPController, QPResult
+from .qp import _CONTACTS, _TOL, MODES, InfeasibleControl, QPController, QPResult
 from .qp_solve import backends, check_backend, contact_rows, friction_pyramid, joint_limit_bounds
 from .qp_tasks import Task, check_tasks
 from .simbicon3d import rotation_vector
 from .specs import Mapping, Pair, named
 
-__all__ = ["Centroidal3D", "Ground3D", "QPBiped3D", "QPResult3D", "TRUNK", "centroidal3d", "column_links", "link_motion",
-           "point_bias", "trunk_matrix"]
+__all__ = ["Centroidal3D", "Ground3D", "QPBiped3D", "QPResult3D", "TRUNK", "trunk_matrix"]
 
 TRUNK = ("trunk_roll", "trunk_pitch", "trunk_yaw")
+# ProxQP (dense) reports some feasible control QPs of the biped primal infeasible (measured at a landing: the same
+# problem solved by Clarabel, and by ProxQP at eps_abs × 10 or regularization × 10); the retries, in order:
+# (factor on eps_abs, factor on the regularization)
+# then, when it still fails, the first installed of FALLBACKS (an interior-point solver; through qpsolvers)
+RETRIES = ((10.0, 1.0), (1.0, 10.0))
+FALLBACKS = ("clarabel", "piqp", "cvxopt")
 _Q, _QD = Array((19,)), Array((18,))
 _KIN = Opt(Anything("the dict of the controller's kinematics(q), or None"))
 
 
+@contract(mu=Real(ge=0), height=Real(), normal=Array((3,)), tangents=Array((2, 3)))
 @dataclass(frozen=True)
 class Ground3D:
     """The plane z = ``height`` with friction ``mu``: normal ẑ, tangents x̂, ŷ (the pyramid's directions)."""
@@ -84,7 +90,9 @@ class Ground3D:
     normal: tuple = (0.0, 0.0, 1.0)
     tangents: tuple = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
 
+    @contract(P=Array(("m", 3)))
     def gap(self, P: np.ndarray) -> np.ndarray:
+        """Height of the points P (m, 3) above the plane (m)."""
         return P[:, 2] - self.height
 
 
@@ -94,17 +102,17 @@ def _cross6(V: np.ndarray, W: np.ndarray) -> np.ndarray:
     return np.concatenate([np.cross(w, w2), np.cross(w, v2) + np.cross(v, w2)], axis=-1)
 
 
-def link_motion(world: WorldStep, kin: dict, qd: np.ndarray, owner=None) -> tuple[np.ndarray, np.ndarray]:
+def _link_motion(world: WorldStep, kin: dict, qd: np.ndarray, owner=None) -> tuple[np.ndarray, np.ndarray]:
     """(V (n, 6), A (n, 6)): each link's spatial velocity and its acceleration at q̈ = 0 (module docstring);
-    ``owner``: the link of each column (:func:`column_links`, computed when not given)."""
-    owner = column_links(world) if owner is None else owner
+    ``owner``: the link of each column (``_column_links``, computed when not given)."""
+    owner = _column_links(world) if owner is None else owner
     mask = world.mask.astype(float)
     cols = kin["S"].T * qd[:, None]                           # Sⱼ q̇ⱼ (nv, 6)
     V = mask @ cols                                           # Vᵢ = Σ_{j ⪯ i} Sⱼ q̇ⱼ
     return V, mask @ _cross6(V[owner], cols)                  # Aᵢ = Σ_{j ⪯ i} Vⱼ × Sⱼ q̇ⱼ
 
 
-def column_links(world: WorldStep) -> np.ndarray:
+def _column_links(world: WorldStep) -> np.ndarray:
     """The link whose joint owns each velocity column (nv,): among the links a column moves, the one
     nearest the root (the fewest columns)."""
     moved = world.mask.sum(axis=1)                            # columns moving each link: more for deeper links
@@ -112,7 +120,7 @@ def column_links(world: WorldStep) -> np.ndarray:
                      for v in range(world.mask.shape[1])])
 
 
-def point_bias(kin: dict, V: np.ndarray, A: np.ndarray, links, P: np.ndarray) -> np.ndarray:
+def _point_bias(kin: dict, V: np.ndarray, A: np.ndarray, links, P: np.ndarray) -> np.ndarray:
     """a_p = A_v + A_ω × p + ω × (v + ω × p) (m, 3) of world points P (m, 3) on ``links`` at q̈ = 0."""
     links = np.asarray(links, dtype=int)
     w, v, aw, av = V[links, :3], V[links, 3:], A[links, :3], A[links, 3:]
@@ -134,16 +142,16 @@ class Centroidal3D:
     C: np.ndarray            # (nv,)  bias forces C(q, q̇) of H q̈ + C = τ (gravity in them)
 
 
-def centroidal3d(world: WorldStep, kin: dict, qd: np.ndarray, V: np.ndarray, A: np.ndarray) -> Centroidal3D:
+def _centroidal3d(world: WorldStep, kin: dict, qd: np.ndarray, V: np.ndarray, A: np.ndarray) -> Centroidal3D:
     """The centroidal features of the module docstring at (q, q̇) (``kin``: world.kinematics(q); V, A:
-    :func:`link_motion`)."""
+    ``_link_motion``)."""
     n = world.tree.n
     m, M = world.mass, float(world.mass.sum())
     c = kin["c"]
     local = np.einsum("nji,nj->ni", kin["R"], c - kin["o"])
     _, Jc = world.point_jacobians(kin, np.arange(n), local)             # (n, 3, nv)
     Jw = kin["S"][None, :3, :] * world.mask[:, None, :]
-    ac = point_bias(kin, V, A, np.arange(n), c)
+    ac = _point_bias(kin, V, A, np.arange(n), c)
     com = m @ c / M
     r = c - com
     Iw = kin["R"] @ world.inertia @ kin["R"].transpose(0, 2, 1)
@@ -160,6 +168,7 @@ def centroidal3d(world: WorldStep, kin: dict, qd: np.ndarray, V: np.ndarray, A: 
     return Centroidal3D(mass=M, com=com, vcom=J @ qd, J=J, bias=m @ ac / M, L=AL @ qd, A=AL, L_bias=Lb, C=C)
 
 
+@contract(roll=Real(), pitch=Real(), yaw=Real())
 def trunk_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
     """R̄ = R_z(yaw) R_y(pitch) R_x(roll)."""
     qz, qy, qx = (quat_from_axis_angle(np.eye(3)[k], a) for k, a in ((2, yaw), (1, pitch), (0, roll)))
@@ -170,7 +179,7 @@ def trunk_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 class QPResult3D(QPResult):
     """:class:`~pbanim.control.qp.QPResult` of the 3-D biped (forces (8, 3): fₙ, fₜ₁ along x̂, fₜ₂ along ŷ),
     with the centre of mass c, ċ and the Newton–Euler residuals (|M c̈ − Σ f − M g| N, |L̇ − Σ(p − c) × f| N m)
-    of the answer (ORACLES F20)."""
+    of the answer (ORACLES F21)."""
 
     com: np.ndarray = None
     vcom: np.ndarray = None
@@ -201,7 +210,7 @@ class QPBiped3D(QPController):
         pts = biped3d_contact_points(tree)
         self.kernel = tree                                     # n and nv, as the planar kernel's
         self.world = WorldStep(tree, pts, friction=friction)
-        self.owner = column_links(self.world)
+        self.owner = _column_links(self.world)
         self.links = np.array([lk for lk, _ in pts])
         self.local = np.array([p for _, p in pts])
         self.ground, self.mode = Ground3D(float(friction)), mode
@@ -246,7 +255,7 @@ class QPBiped3D(QPController):
 
     def _motion(self, kin: dict, qd: np.ndarray) -> tuple:
         if "V" not in kin:                                    # cached: one kinematics serves build and tasks
-            kin["V"], kin["A0"] = link_motion(self.world, kin, qd, self.owner)
+            kin["V"], kin["A0"] = _link_motion(self.world, kin, qd, self.owner)
         return kin["V"], kin["A0"]
 
     def _contacts(self, kin: dict, qd: np.ndarray) -> tuple:
@@ -255,7 +264,7 @@ class QPBiped3D(QPController):
         V, A = self._motion(kin, qd)
         vn = (J @ qd)[:, 2]
         active = (self.ground.gap(P) <= self.contact_tol) & (vn <= self.contact_speed)
-        return active, J, point_bias(kin, V, A, self.links, P)
+        return active, J, _point_bias(kin, V, A, self.links, P)
 
     @contract(q=_Q, qd=_QD, kin=_KIN)
     def active_contacts(self, q, qd, kin: dict | None = None) -> np.ndarray:
@@ -269,7 +278,7 @@ class QPBiped3D(QPController):
         q, qd = np.asarray(q, dtype=float), np.asarray(qd, dtype=float)
         kin = self.kinematics(q) if kin is None else kin
         V, A = self._motion(kin, qd)
-        cf = centroidal3d(self.world, kin, qd, V, A)
+        cf = _centroidal3d(self.world, kin, qd, V, A)
         H, C = self.world.mass_matrix(kin), cf.C
         if contacts is not None and np.asarray(contacts).dtype != bool:
             contacts = np.asarray(contacts, dtype=int)
@@ -312,7 +321,7 @@ class QPBiped3D(QPController):
             links = np.array([t.link])
             P, J = self.world.point_jacobians(kin, links, np.array([t.local]))
             V, A = self._motion(kin, qd)
-            y, J, bias = P[0], J[0], point_bias(kin, V, A, links, P)[0]
+            y, J, bias = P[0], J[0], _point_bias(kin, V, A, links, P)[0]
             yd = J @ qd
         elif set(t.target) == set(TRUNK):                      # the trunk's orientation: ω̇₀ = R₀ q̈₀:₃
             J = np.zeros((3, nv))
@@ -330,8 +339,28 @@ class QPBiped3D(QPController):
     @contract(q=_Q, qd=_QD, kin=_KIN, contacts=_CONTACTS, raise_on_failure=Flag())
     def solve(self, q, qd, kin: dict | None = None, contacts=None, *, raise_on_failure: bool = False):
         """Solve the control QP at (q, q̇) (:meth:`QPController.solve`; forces (8, 3): fₙ, fₜ₁, fₜ₂)."""
-        res = QPController.solve.__wrapped__(self, q, qd, kin, contacts, raise_on_failure=raise_on_failure)
-        return QPResult3D(**vars(res), **self._newton_euler(res))
+        solve, eps, reg, backend, native = QPController.solve.__wrapped__, self.eps_abs, self.eps, self.backend, self.native
+        res = solve(self, q, qd, kin, contacts)
+        try:                    # ProxQP can call a feasible problem infeasible (see _prioritized); every answer
+            for e, r in RETRIES:    # is judged by its residuals, so a retry's feasible answer is a true one
+                if res.success or self.backend != "proxqp":
+                    break
+                self.eps_abs, self.eps = eps * e, reg * r
+                res = solve(self, q, qd, kin, contacts)
+                res.solver_status.append(f"retried: eps_abs {self.eps_abs:.0e}, regularization {self.eps:.0e}")
+            backend, native = self.backend, self.native
+            for other in [b for b in FALLBACKS if b in backends()] if not res.success and backend == "proxqp" else []:
+                self.backend, self.native = other, False          # another solver of the same QP, judged alike
+                res = solve(self, q, qd, kin, contacts)
+                res.solver_status.append(f"solved by {other} after ProxQP")
+                if res.success:
+                    break
+        finally:
+            self.eps_abs, self.eps, self.backend, self.native = eps, reg, backend, native
+        res = QPResult3D(**vars(res), **self._newton_euler(res))
+        if raise_on_failure and not res.success:
+            raise InfeasibleControl(res)
+        return res
 
     def _newton_euler(self, res) -> dict:
         """The centre of mass and |M c̈ − Σ f − M g| (N), |L̇ − Σ (pⱼ − c) × fⱼ| (N m) at the answer."""

@@ -11,7 +11,7 @@ found by bisection as :func:`~pbanim.control.qp_balance.crouched_state` does in 
     posture            θ̈* = k_q (θ̄ − θ) − k_q' θ̇            (the standing pose; priority 2)
 
 At equilibrium (q̇ = 0, c = c̄) Newton's law leaves Σ f = −M g: the vertical contact force carries the
-weight M g, and the centre of the pressure lies under c, inside the support polygon (ORACLES F20).
+weight M g, and the centre of the pressure lies under c, inside the support polygon (ORACLES F21).
 A push P (N s, a horizontal 3-vector) at ``push_time`` hits the torso's centre: Δq̇ = H⁻¹ J_cᵀ P.
 
 **Stepping** (:func:`simulate_step`): the same tasks and a script of four phases of length T each,
@@ -39,21 +39,27 @@ the weight; ℓ the step length; z_c the swing clearance; T a phase's duration.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..contracts import Array, Choice, Int, Real, contract, unchecked
+from ..contracts import Array, Choice, Int, Obj, Real, Text, contract, unchecked
 from ..errors import SimulationDiverged, check_number
-from .biped3d import BIPED3D_JOINTS, FOOT, biped3d_contact_points, standing_state3d
+from .biped3d import BIPED3D_JOINTS, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
 from .qp import MODES, InfeasibleControl
 from .qp_biped3d import TRUNK, QPBiped3D
-from .qp_tasks import Task
+from .qp_tasks import InvalidTask, Task
+from .specs import Mapping, named
+
+_GAIN = named(InvalidTask, Real(ge=0))
+
+SIM_TOL = 1e-5           # the contact step's PGS tolerance (as the 3-D walk's; 1e-6 costs ~10x the sweeps standing)
 
 __all__ = ["Biped3DRun", "crouched_state3d", "simulate_stand3d", "simulate_step", "stand_tasks"]
 
 
+@contract(ctrl=Obj(QPBiped3D), knee=Real(ge=0, le=1.2))
 def crouched_state3d(ctrl: QPBiped3D, knee: float = 0.4) -> tuple[np.ndarray, np.ndarray]:
     """(q, q̇) at rest on both feet flat on z = 0, knees bent by ``knee`` rad, trunk upright, the centre of
     mass above the middle of the soles (the lean found by bisection, 60 halvings)."""
@@ -83,6 +89,9 @@ def crouched_state3d(ctrl: QPBiped3D, knee: float = 0.4) -> tuple[np.ndarray, np
     return pose(0.5 * (lo + hi))[0], np.zeros(18)
 
 
+@contract(com_target=Array((3,)), posture=Mapping(Text(), Real(), min_len=1), kp=_GAIN, kd=_GAIN, momentum=_GAIN,
+          trunk_kp=_GAIN, trunk_kd=_GAIN, posture_kp=_GAIN, posture_kd=_GAIN, heading=Real(ge=-10, le=10),
+          weights=Array((4,), ge=0))
 def stand_tasks(com_target, posture: dict, *, kp: float = 40.0, kd: float = 15.0, momentum: float = 2.0,
                 trunk_kp: float = 200.0, trunk_kd: float = 30.0, posture_kp: float = 100.0, posture_kd: float = 20.0,
                 heading: float = 0.0, weights=(1.0, 1e-2, 1e-1, 1e-3)) -> list:
@@ -122,14 +131,11 @@ class Biped3DRun:
     def ok(self) -> bool:
         return self.outcome in ("stood", "stepped")
 
+    @contract(last=Real(gt=0))
     def com_error(self, last: float = 0.3) -> float:
         """Largest horizontal |c − c̄| over the last ``last`` seconds (m)."""
         k = self.t >= self.t[-1] - last
         return float(np.linalg.norm((self.com[k] - self.com_target[k])[:, :2], axis=1).max())
-
-
-class _Stop(Exception):
-    """Ends a run at a fall or an infeasible QP."""
 
 
 def _run(ctrl: QPBiped3D, q, qd, t_end: float, h: float, control_every: int, script, push=None,
@@ -137,7 +143,7 @@ def _run(ctrl: QPBiped3D, q, qd, t_end: float, h: float, control_every: int, scr
     """The loop shared by standing and stepping: ``script(t, q, q̇, kin) -> contacts`` sets the tasks' targets
     and the contact mask of the coming QP (None: the active corners)."""
     tree = ctrl.kernel
-    stepper = WorldStep(tree, biped3d_contact_points(tree), friction=ctrl.ground.mu, tol=tol, max_iter=max_iter)
+    stepper = WorldStep(tree, biped3d_contact_points(tree), friction=ctrl.ground.mu, tol=SIM_TOL)
     step, solve = unchecked(stepper.step), unchecked(ctrl.solve)
     torso = [lk.name for lk in tree.links].index("torso")
     n = int(round(t_end / h))
@@ -212,3 +218,82 @@ def simulate_stand3d(push=(0.0, 0.0, 0.0), t_end: float = 1.0, h: float = 2e-3, 
     push = None if not np.any(push) else push
     rec, stop, wall = _run(ctrl, q, qd, t_end, h, control_every, lambda *a: None, push, push_time, record_every)
     return _result(rec, stop, wall, ctrl, h, "stood", t_end, {"push": push, "mode": mode, "start_com": com})
+
+
+def _ramp(s: float) -> np.ndarray:
+    """Minimum jerk r(s) = 10s³ − 15s⁴ + 6s⁵ and its first two derivatives in s (s clipped to [0, 1])."""
+    s = min(max(s, 0.0), 1.0)
+    return np.array([s**3 * (10 - 15 * s + 6 * s * s), 30 * s * s * (1 - s) ** 2, 60 * s * (1 - s) * (1 - 2 * s)])
+
+
+def _bump(s: float) -> np.ndarray:
+    """The lift b(s) = 16 s²(1 − s)² (1 at s = ½, flat at both ends) and its first two derivatives in s."""
+    s = min(max(s, 0.0), 1.0)
+    return 16.0 * np.array([s * s * (1 - s) ** 2, 2 * s * (1 - s) * (1 - 2 * s), 2 - 12 * s + 12 * s * s])
+
+
+def _along(a, b, r: np.ndarray, T: float) -> tuple:
+    """(position, velocity, acceleration) of a + r(s) (b − a) at the ramp values r (r, r', r'') of a phase T."""
+    d = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
+    return a + r[0] * d, r[1] / T * d, r[2] / (T * T) * d
+
+
+@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), inset=Real(ge=0, le=0.05), clearance=Real(ge=0, le=0.2), h=Real(gt=0, le=0.01),
+          mode=Choice(MODES), control_every=Int(ge=1, le=100), knee=Real(ge=0, le=1.2), friction=Real(ge=0),
+          swing_weight=Real(gt=0), swing_priority=Int(ge=0, le=10), record_every=Int(ge=1))
+def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: float = 0.05, h: float = 4e-3, *,
+                  inset: float = 0.02,
+                  mode: str = "weighted", control_every: int = 1, knee: float = 0.4, friction: float = 0.9,
+                  swing_weight: float = 1.0, swing_priority: int = 0, record_every: int = 5) -> Biped3DRun:
+    """One scripted step of the left foot, ``length`` m forward (module docstring: four phases of the
+    durations ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's centre). ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
+    ctrl, q, qd, com0 = _controller(mode, knee, friction)
+    kin = ctrl.world.kinematics(q)
+    P, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
+    left, right = P[:4].mean(axis=0), P[4:].mean(axis=0)
+    foot = int(ctrl.links[0])
+    ends = {"swing_heel": (P[:2].mean(axis=0), ctrl.local[:2].mean(axis=0)),
+            "swing_toe": (P[2:4].mean(axis=0), ctrl.local[2:4].mean(axis=0))}
+    over = np.array([right[0], right[1] + inset, com0[2]])                # the centre of mass above the stance sole
+    middle = com0 + np.array([0.5 * length, 0.0, 0.0])            # … and above the middle of the new support
+    for nm, (p0, loc) in ends.items():
+        ctrl.tasks.append(Task("point", name=nm, link=foot, local=loc, target=p0, kp=200.0, kd=30.0, weight=0.0,
+                               priority=swing_priority, dim=3))
+    ctrl.tasks = ctrl._checked(ctrl.tasks)
+    swing = {nm: ctrl.task(nm) for nm in ends}
+    com_task = ctrl.task("com")
+    stance = np.arange(4, 8)
+    Ts = np.asarray(phases, dtype=float)
+    starts = np.concatenate([[0.0], np.cumsum(Ts)])
+
+    def script(t, q, qd, kin):
+        k = min(int(np.searchsorted(starts, t, side="right")) - 1, 3)
+        T = Ts[k]
+        s = (t - starts[k]) / T
+        r = _ramp(s)
+        a, b = ((com0, over), (over, over), (over, middle), (middle, middle))[k]
+        c, v, acc = _along(a, b, r, T) if k in (0, 2) else (b, np.zeros(3), np.zeros(3))
+        ctrl._replace("com", replace(com_task, target=c, velocity=v, acceleration=acc))
+        for nm, (p0, _) in ends.items():
+            if k == 1:                                              # lift and swing: 2 mm into the ground at the end
+                bump = _bump(s)
+                x, vx, ax = _along(p0, p0 + np.array([length, 0.0, -0.002]), r, T)
+                lift = np.array([0.0, 0.0, clearance])
+                new = replace(swing[nm], weight=swing_weight, target=x + bump[0] * lift,
+                              velocity=vx + bump[1] / T * lift, acceleration=ax + bump[2] / (T * T) * lift)
+            else:
+                new = replace(swing[nm], weight=0.0)
+            ctrl._replace(nm, new)
+        return stance if k == 1 else None
+
+    rec, stop, wall = _run(ctrl, q, qd, starts[-1], h, control_every, script, record_every=record_every)
+    res = _result(rec, stop, wall, ctrl, h, "stepped", starts[-1], {})
+    if res.q.size:
+        kin = ctrl.world.kinematics(res.q[-1])
+        P1, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
+        res.extra = {"length": float(P1[:4, 0].mean() - left[0]), "drift": float(P1[:4, 1].mean() - left[1]),
+                     "corners": int(np.sum(np.abs(P1[:, 2]) <= ctrl.contact_tol)),
+                     "target_length": float(length), "mode": mode}
+        if res.ok and res.extra["corners"] < 8:
+            res.outcome, res.cause = "not on two feet", f"{res.extra['corners']} of 8 sole corners on the ground at the end"
+    return res

@@ -1,0 +1,124 @@
+"""The 3-D biped under the QP controller: biases, equilibrium, a push, a scripted step (ORACLES F21, F10, F15)."""
+
+import numpy as np
+import pytest
+
+from pbanim.articulated.dynamics import bias_forces, crba
+from pbanim.control.biped3d import BIPED3D_JOINTS, standing_state3d
+from pbanim.control.qp import QPController
+from pbanim.control.qp_biped3d import TRUNK, QPBiped3D, _centroidal3d, _link_motion, _point_bias
+from pbanim.control.qp_biped3d_run import crouched_state3d, simulate_stand3d, simulate_step, stand_tasks
+from pbanim.control.qp_tasks import InvalidTask, Task
+from pbanim.errors import InvalidInput
+
+pytest.importorskip("proxsuite")
+
+G = 9.81
+
+
+def _random_state(seed=0):
+    rng = np.random.default_rng(seed)
+    q, _ = standing_state3d()
+    q[7:] = 0.4 * rng.normal(size=12)
+    q[:4] = rng.normal(size=4)
+    q[:4] /= np.linalg.norm(q[:4])
+    return q, rng.normal(size=18)
+
+
+def test_biases_and_bias_forces_against_rnea_and_differences():
+    # ORACLES F21: the accelerations at q̈ = 0 (points, centre of mass, L̇) equal central differences of the
+    # velocities along the motion (error O(ε²): ε = 1e-5 gives ~1e-9), C equals RNEA's ID(q, q̇, 0) to roundoff
+    ctrl = QPBiped3D([])
+    w = ctrl.world
+    q, qd = _random_state()
+    kin = w.kinematics(q)
+    V, A = _link_motion(w, kin, qd, ctrl.owner)
+    cf = _centroidal3d(w, kin, qd, V, A)
+    C = bias_forces(ctrl.kernel, q, qd)
+    assert np.abs(cf.C - C).max() <= 1e-12 * np.abs(C).max()
+    assert np.abs(w.mass_matrix(kin) - crba(ctrl.kernel, q)).max() <= 1e-12 * np.abs(crba(ctrl.kernel, q)).max()
+    P, J = w.point_jacobians(kin, ctrl.links, ctrl.local)
+    a = _point_bias(kin, V, A, ctrl.links, P)
+
+    def along(qq):
+        k = w.kinematics(qq)
+        V2, A2 = _link_motion(w, k, qd, ctrl.owner)
+        c2 = _centroidal3d(w, k, qd, V2, A2)
+        return w.point_jacobians(k, ctrl.links, ctrl.local)[1] @ qd, c2.vcom, c2.L
+
+    eps = 1e-5
+    up, down = along(w.integrate(q, qd, eps)), along(w.integrate(q, -qd, eps))
+    for fd, an in zip([(u - d) / (2 * eps) for u, d in zip(up, down)], (a, cf.bias, cf.L_bias)):
+        assert np.abs(fd - an).max() <= 1e-6 * (1.0 + np.abs(an).max())
+    # L = A_L q̇ by its definition Σ mᵢ (cᵢ − c) × ċᵢ + Īᵢ ωᵢ
+    vc = (J_c := w.point_jacobians(kin, np.arange(w.tree.n), np.einsum("nji,nj->ni", kin["R"], kin["c"] - kin["o"]))[1]) @ qd
+    Iw = kin["R"] @ w.inertia @ kin["R"].transpose(0, 2, 1)
+    L = (w.mass[:, None] * np.cross(kin["c"] - cf.com, vc)).sum(0) + np.einsum("nij,nj->i", Iw, V[:, :3])
+    assert J_c.shape[0] == w.tree.n and np.allclose(cf.L, L, rtol=1e-12, atol=1e-12 * np.abs(L).max())
+
+
+@pytest.mark.parametrize("mode", ["weighted", "prioritized"])
+def test_one_qp_obeys_newton_euler_cones_and_limits(mode):
+    # ORACLES F10, F21: at a moving state on both feet, the answer keeps H q̈ + C = Sᵀτ + J_cᵀ f, the cones and
+    # the limits, and M c̈ = Σ f + M g, L̇ = Σ (p − c) × f for the whole body
+    ctrl = QPBiped3D([], mode=mode, torque_limits=300.0, joint_limits={"left_knee": (-2.0, -0.05)})
+    q, qd = crouched_state3d(ctrl)
+    kin = ctrl.world.kinematics(q)
+    com = ctrl.world.mass @ kin["c"] / ctrl.world.mass.sum()
+    posture = {nm: float(q[v + 1]) for nm, v in BIPED3D_JOINTS.items()}
+    ctrl.tasks = ctrl._checked(stand_tasks(com + np.array([0.02, 0.01, -0.01]), posture))
+    qd = 0.05 * np.random.default_rng(1).normal(size=18)
+    res = ctrl.solve(q, qd, raise_on_failure=True)
+    assert res.active.sum() == 8
+    for g in ("dynamics", "contact", "cone", "limits"):
+        assert res.residuals[g] <= res.tolerances[g]
+    assert res.newton_euler[0] <= 1e-6 * ctrl.f_scale and res.newton_euler[1] <= 1e-6 * ctrl.f_scale
+    assert np.all(res.forces[:, 0] >= -1e-6 * ctrl.f_scale)
+    assert np.all(np.abs(res.forces[:, 1:]) <= ctrl.ground.mu * res.forces[:, :1] + 1e-6 * ctrl.f_scale)
+
+
+def test_standing_carries_the_weight_and_keeps_still():
+    # ORACLES F21: at equilibrium Σ f_z = M g, the centre of mass still above the middle of the soles
+    r = simulate_stand3d(t_end=0.5, h=8e-3)
+    assert r.outcome == "stood"
+    Mg = r.mass * G
+    assert np.abs(r.forces[:, :, 0].sum(axis=1) - Mg).max() <= 1e-4 * Mg
+    assert r.com_error(0.5) <= 1e-5
+    assert np.abs(r.residuals).max() <= 1e-6 * Mg and np.abs(r.newton_euler).max() <= 1e-6 * Mg
+    soles = r.extra["start_com"]
+    assert np.abs(r.com[-1] - soles).max() <= 1e-5
+
+
+def test_push_forward_is_recovered():
+    # ORACLES F21: a forward push of 20 N s at the torso (measured limits in the oracle) is recovered
+    r = simulate_stand3d(push=(20.0, 0.0, 0.0), t_end=1.2, h=8e-3, push_time=0.1)
+    assert r.outcome == "stood", r.cause
+    assert r.com_error(0.2) <= 0.01
+    assert r.com[:, 0].max() - r.com[0, 0] >= 0.01          # the push moved it, the controller brought it back
+
+
+def test_scripted_step_lands_on_two_feet():
+    # ORACLES F21: shift, lift, swing 0.2 m, land, shift back: both soles flat at the end, length to 5 mm
+    r = simulate_step(length=0.2, h=8e-3)
+    assert r.outcome == "stepped", r.cause
+    assert r.extra["corners"] == 8
+    assert abs(r.extra["length"] - 0.2) <= 5e-3 and abs(r.extra["drift"]) <= 5e-3
+    assert r.com_error(0.2) <= 0.015
+    assert np.abs(r.newton_euler).max() <= 1e-6 * r.mass * G
+
+
+def test_tasks_of_the_other_dimension_are_refused():
+    # ORACLES F15: a 3-D task in the planar controller, a planar one in the 3-D controller, a bad trunk task
+    with pytest.raises(InvalidTask, match="3-vector"):
+        Task("com", target=(0.0, 1.0), dim=3)
+    with pytest.raises(InvalidTask, match="2-D"):
+        QPBiped3D([Task("com", target=(0.0, 1.0))])
+    with pytest.raises(InvalidInput, match="trunk"):
+        QPBiped3D([Task("posture", target={TRUNK[0]: 0.0, "left_knee": -0.3}, dim=3)])
+    with pytest.raises(InvalidInput, match="joint_limits"):
+        QPBiped3D([], joint_limits={"trunk_roll": (-0.1, 0.1)})
+    from pbanim.control.biped import planar_biped, biped_contact_points
+    from pbanim.articulated.planar import PlanarKernel
+    k = PlanarKernel(planar_biped())
+    with pytest.raises(InvalidTask, match="3-D"):
+        QPController(k, biped_contact_points(k.tree), tasks=[Task("com", target=(0.0, 1.0, 0.9), dim=3)])
