@@ -24,6 +24,7 @@ takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two p
 from __future__ import annotations
 
 from math import sqrt
+from operator import add
 from time import perf_counter
 
 import numpy as np
@@ -218,7 +219,7 @@ def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
                 new = 0.0
             if new != zr:
                 d = new - zr
-                w = [wi + ai * d for wi, ai in zip(w, cols[i])]
+                w = list(map(add, w, map(d.__mul__, cols[i])))     # w + A₍:,ᵢ₎ Δz
                 z[i] = new
             lim = mu * z[i]
             for r in (i + 1, i + 2):
@@ -230,7 +231,7 @@ def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
                     new = lim
                 if new != zr:
                     d = new - zr
-                    w = [wi + ai * d for wi, ai in zip(w, cols[r])]
+                    w = list(map(add, w, map(d.__mul__, cols[r])))
                     z[r] = new
         res = _residual(z, w, mu)
         if res <= thr:
@@ -239,15 +240,14 @@ def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
 
 
 def _residual(z, w, mu: float) -> float:
-    """The box residual of :func:`pbanim.lcp.pgs_box_friction` on floats."""
-    out = 0.0
-    for i in range(0, len(z), 3):
-        f = z[i]
-        out = max(out, abs(min(f, w[i])))
-        bound = mu * f * (1 - 1e-12)
-        for k in (1, 2):
-            if abs(z[i + k]) < bound:
-                out = max(out, abs(w[i + k]))
+    """The box residual of :func:`pbanim.lcp.pgs_box_friction` on floats: max |min(f, w_n)| and |w_t| of the
+    tangential impulses strictly inside their bounds."""
+    f = z[0::3]
+    out = max(0.0, max(map(abs, map(min, f, w[0::3])), default=0.0))
+    for k in (1, 2):
+        for t, wt, fi in zip(z[k::3], w[k::3], f):
+            if abs(t) < mu * fi * (1 - 1e-12):
+                out = max(out, abs(wt))
     return out
 
 
