@@ -57,7 +57,9 @@ dragging), :mod:`pbanim.design.shooting` (single shooting, clearance, state unkn
 :mod:`pbanim.design.articulated` (a chain thrown through flight: S(t, u) and ∂S/∂u of an articulated body
 from the derivatives of ABA, and a shooting design that puts its tip on a target; issue 31),
 :mod:`pbanim.design.sequences` and :mod:`pbanim.design.sequence_flights` (the discrete search over impact
-sequences, each solved with its impacts as the nodes of multiple shooting), :mod:`pbanim.design.sketch_ui`
+sequences, each solved with its impacts as the nodes of multiple shooting), :mod:`pbanim.design.body_sequences`
+and :mod:`pbanim.design.body_flights` (the same search over several spheres: which body hits which plane or
+which other body, in which order), :mod:`pbanim.design.sketch_ui`
 (the sketching interface: drag the motion, draw a sketch; matplotlib is imported when an editor is made).
 
 References: J. Popović, S. M. Seitz, M. Erdmann, Z. Popović, A. Witkin, "Interactive manipulation of rigid
@@ -82,6 +84,7 @@ from .stepped_run import ContactTrajectory, Switch, replay_chapter7, simulate_co
 from .stepped_design import ContactDesign, design_contact
 from .stepped_sketch import SketchFit, fit_sketch
 from .sequences import Sequence, SequenceSearch, search_sequences
+from .body_sequences import BodySequence, propose_body_sequences, search_body_sequences, solve_body_sequence
 from .sketch_ui import SketchEditor
 from .articulated import ChainAim, ChainFlight, aim_chain, simulate_chain, thrown_chain
 
@@ -91,4 +94,5 @@ __all__ = ["DesignBody", "DesignScene", "UnknownParameter", "UncertifiedTrajecto
            "simulate", "quat_log", "flight_map", "first_impact", "exact_applies", "ContactScene", "StaticBox",
            "ContactTrajectory", "Switch", "simulate_contact", "replay_chapter7", "ContactDesign", "design_contact",
            "SketchFit", "fit_sketch", "thrown_chain", "ChainFlight", "ChainAim", "simulate_chain", "aim_chain",
-           "Sequence", "SequenceSearch", "search_sequences", "SketchEditor"]
+           "Sequence", "SequenceSearch", "search_sequences", "BodySequence", "propose_body_sequences",
+           "solve_body_sequence", "search_body_sequences", "SketchEditor"]
