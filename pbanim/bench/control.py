@@ -9,13 +9,20 @@ Tables:
   wall time, real-time factor, mean speed;
 * the walk's lean step (:mod:`pbanim.control.walk_lean`, the default) against its readable step
   (``simulate_walk(lean=False)``) in alternating rounds: the same walk bit for bit, the real-time factors
-  and their ratio (median and quartiles).
+  and their ratio (median and quartiles);
+* the 3-D SIMBICON walk (:mod:`pbanim.control.simbicon3d_walk`) with the readable contact step
+  (``WorldStep(lean=False)``) and the lean one (:mod:`pbanim.control.biped3d_lean`, the default) in three
+  alternating rounds: real-time factors and their ratio (median, min–max), the lean step's cost split per
+  step (kinematics, H, dynamics, contact, controller, runner) and the interpreter's floor (the Python and
+  numpy calls one step makes, each at its bare dispatch cost; h / floor is the real-time factor a step
+  could reach if its calls did no arithmetic).
 
 Goals (issue 16): the SIMBICON biped simulates at least 5× faster than real time (Table 1's walk with
 stable PD servos at h = 2 ms, the chapter's step, where the walk's speed is within 0.5 % of its h = 1 ms
 value: measured 1.023 against 1.022 m/s; the paper's explicit PD with the paper's gains needs h ≤ 0.8 ms
 and is not robust there, see :mod:`pbanim.control.simbicon`); one QP control step of the planar biped
-solves in ≤ 1 ms with proxsuite.
+solves in ≤ 1 ms with proxsuite. Issue 31: the 3-D walk at h = 2 ms runs at ≥ 1× real time, its lean step
+≥ 4× the readable one's real-time factor.
 """
 
 from __future__ import annotations

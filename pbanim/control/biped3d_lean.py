@@ -181,16 +181,19 @@ def bias(ws, kin, qd):
     Vj = V[ws._joint_link]                         # (nv, 6): the velocity of the link each joint moves
     a, v = Sq[:3].T, Sq[3:].T
     w, vo = Vj[:, :3], Vj[:, 3:]
-    X = np.concatenate([_cross(w, a), _cross(w, v) + _cross(vo, a)], axis=1)
-    A = Mk @ X                                     # (n, 6): (α, a_O) at q̈ = 0
-    c = kin["c"]
-    om = V[:, :3]
-    vc = V[:, 3:] + _cross(om, c)
-    ac = A[:, 3:] + _cross(A[:, :3], c) + _cross(om, vc) - P.gravity
+    c, om = kin["c"], V[:, :3]
     R = kin["R"]
     Iw = R @ ws.inertia @ R.transpose(0, 2, 1)
     Iom = (Iw @ om[:, :, None])[:, :, 0]
-    tq = (Iw @ A[:, :3, None])[:, :, 0] + _cross(om, Iom)
+    # the five cross products that need only velocities, as one: w × a, w × v, v_O × a, ω × c, ω × Īω
+    X5 = _cross(np.concatenate([w, w, vo, om, om]), np.concatenate([a, v, a, c, Iom]))
+    wa, wv, va = X5[:nv], X5[nv:2 * nv], X5[2 * nv:3 * nv]
+    omc, omIom = X5[3 * nv:3 * nv + n], X5[3 * nv + n:]
+    A = Mk @ np.concatenate([wa, wv + va], axis=1)  # (n, 6): (α, a_O) at q̈ = 0
+    vc = V[:, 3:] + omc
+    X2 = _cross(np.concatenate([A[:, :3], om]), np.concatenate([c, vc]))      # α × c, ω × v_c
+    ac = A[:, 3:] + X2[:n] + X2[n:] - P.gravity
+    tq = (Iw @ A[:, :3, None])[:, :, 0] + omIom
     Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
     Jw = (S[None, :3, :] * Mk[:, None, :]).reshape(3 * n, nv)
     return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
