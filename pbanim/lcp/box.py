@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .box_lean import LEAN_ROWS, box_sweeps_floats
 from .pivoting import _check, _scale
 from .specs import LCP_ENTRIES
 from ..contracts import Array, Int, Opt, Real, contract
@@ -70,6 +71,15 @@ def pgs_box_friction(A: np.ndarray, b: np.ndarray, mu, *, max_iter: int = 300, t
         raise InvalidInput(f"pgs_box_friction: A must have a positive diagonal (add a little regularization), got "
                            f"min A_ii = {diag.min():.3g}")
     z = _warm_impulses(warm_start, n, mu)
+    if n <= LEAN_ROWS:                 # the same sweep on floats: the same iterates, bit for bit (box_lean)
+        return box_sweeps_floats(A, b, mu, diag, z, int(max_iter), tol * _scale(b))
+    return _box_sweeps(A, b, mu, diag, z, int(max_iter), tol)
+
+
+def _box_sweeps(A, b, mu, diag, z, max_iter: int, tol: float) -> tuple:
+    """The readable sweep of :func:`pgs_box_friction` from its first iterate z (the reference of
+    :func:`pbanim.lcp.box_lean.box_sweeps_floats`, which answers up to its ``LEAN_ROWS`` rows)."""
+    n = b.size
     w = A @ z + b
     for sweep in range(1, int(max_iter) + 1):
         for r in range(n):
