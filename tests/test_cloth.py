@@ -215,7 +215,7 @@ def test_multigrid_preconditioner_is_spd_with_bounded_spectrum(n, additive_top):
     # contractions summed), in (0, 2] — what CG needs; and damped Jacobi (ω = ⅔ on a_ii) would not be
     from pbanim.cloth.multigrid import Multigrid
     cloth, _, A = _falling_sheet_system(n)
-    mg = Multigrid(cloth.pattern, n, coarsest=16, additive_top=additive_top)
+    mg = Multigrid(cloth.pattern, n, coarsest=16, additive_top=additive_top, smoother="l1-jacobi")
     mg.setup(A.data)
     assert len(mg.levels) >= 2
     B = np.stack([mg(e) for e in np.eye(cloth.n)], axis=1)

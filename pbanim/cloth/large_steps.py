@@ -24,7 +24,8 @@ iterate there:
                        c = S(s + (δ/δ') c)
 
 with P = diag(A) (Jacobi), or P⁻¹ one V-cycle of aggregation multigrid (:mod:`pbanim.cloth.multigrid`,
-``large_step(..., precond="multigrid")``); the dot products avoid BLAS (a threaded BLAS dot of 10⁴ entries
+``large_step(..., precond="multigrid")``: line Gauss–Seidel smoothing, the pins' couplings dropped;
+``"multigrid-l1"``: ℓ1-Jacobi smoothing, the earlier default); the dot products avoid BLAS (a threaded BLAS dot of 10⁴ entries
 waits milliseconds for a busy core). :func:`modified_pcg` returns the iterate with its iterations, its relative
 preconditioned residual √(δ/δ₀) and whether it reached ε: a solve that stops at ``max_iter`` says so.
 
@@ -62,7 +63,7 @@ from ..errors import ConvergenceError, InvalidInput, SimulationDiverged
 
 __all__ = ["PCGResult", "modified_pcg", "large_step", "newton_step", "PRECONDITIONERS"]
 
-PRECONDITIONERS = ("jacobi", "multigrid")
+PRECONDITIONERS = ("jacobi", "multigrid", "multigrid-l1")
 
 _CLOTH = Obj("pbanim.cloth.model:Cloth")
 _STATE = Array(("cloth.n_state",))
@@ -196,13 +197,21 @@ def _system(cloth, kdata, ddata, h):
 
 
 def _preconditioner(cloth, A, precond):
-    """r ↦ P⁻¹r for the system A of the cloth: Jacobi, or a multigrid V-cycle (built once per cloth)."""
+    """r ↦ P⁻¹r for the system A of the cloth: Jacobi, or a multigrid V-cycle (hierarchy built once per cloth):
+    "multigrid" smooths by line Gauss–Seidel with the pins' couplings dropped, "multigrid-l1" by ℓ1-Jacobi
+    (additive on the finest level). A V-cycle whose line blocks are not positive definite (A not SPD) is
+    replaced by Jacobi: the CG then still runs with an SPD preconditioner."""
     if precond == "jacobi":
         return _jacobi(A)
-    mg = getattr(cloth, "_multigrid", None)
+    cache = cloth.__dict__.setdefault("_multigrid", {})
+    mg = cache.get(precond)
     if mg is None:
-        mg = cloth._multigrid = Multigrid(cloth.pattern, cloth.sheet.n)
-    mg.setup(A.data)
+        mg = cache[precond] = (Multigrid(cloth.pattern, cloth.sheet.n, pinned=cloth.pinned) if precond == "multigrid"
+                               else Multigrid(cloth.pattern, cloth.sheet.n, smoother="l1-jacobi"))
+    try:
+        mg.setup(A.data)
+    except np.linalg.LinAlgError:
+        return _jacobi(A)
     return mg
 
 
@@ -256,9 +265,10 @@ def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter):
 def large_step(cloth, y, h: float, tol: float = 1e-4, max_iter: int = 2000, precond: str = "jacobi"):
     """One Baraff–Witkin large step of the cloth from the full state y: (y₁, :class:`PCGResult`).
 
-    ``precond``: "jacobi" (B&W's P = diag A) or "multigrid" (a V-cycle of aggregation multigrid,
-    :mod:`pbanim.cloth.multigrid`: 3.5× fewer CG iterations at N = 64, 5.6× at N = 128; a step 1.7× and
-    3.3× faster there; the stopping test is then the residual in that P⁻¹-norm). Raises SimulationDiverged when y₁ is not finite; a
+    ``precond``: "jacobi" (B&W's P = diag A), "multigrid" (a V-cycle of aggregation multigrid smoothed by
+    line Gauss–Seidel, :mod:`pbanim.cloth.multigrid`: 2–4 CG iterations to 10⁻² at N = 16…64 on the
+    benchmark's sheet where Jacobi needs 46–300) or "multigrid-l1" (ℓ1-Jacobi smoothing: 22–47); with a
+    V-cycle the stopping test is the residual in its P⁻¹-norm. Raises SimulationDiverged when y₁ is not finite; a
     CG solve that stopped at ``max_iter`` is returned with ``converged`` False (the caller decides: the
     benchmark and chapter 12 count or report them).
     """

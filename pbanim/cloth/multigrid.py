@@ -10,40 +10,54 @@ multigrid is a preconditioner whose CG iteration count hardly grows with N:
 * **Galerkin coarse matrices** A_{ℓ+1} = Pᵀ A_ℓ P: entry (I r, J s) is the sum of the fine entries (i r, j s)
   over i ∈ I, j ∈ J, so the coarse CSR data is one fixed 0/1 sparse matrix times the fine data (computed once
   per pattern; each step costs one sparse product per level, no sparse-matrix product);
-* **the cycle** (symmetric, so CG may use it): pre-smooth x = D₁⁻¹ r, the residual r − A x restricted, the
-  coarse correction (recursively; the coarsest level, ≤ ``coarsest`` particles, by its inverse from a
-  dense Cholesky),
-  prolonged and scaled by ``boost``, post-smooth x += D₁⁻¹ (r − A x). D₁ is the ℓ1-Jacobi diagonal
-  d_i = Σ_j |a_ij|: plain damped Jacobi (ω = ⅔ on a_ii) diverges on the cloth (the shear and bend springs
-  make D⁻¹A reach past 3: measured eigenvalues of P⁻¹A down to −0.5 on a 12 × 12 sheet), while ℓ1-Jacobi
-  contracts in the A-norm for every SPD A (Baker, Falgout, Kolev & Yang 2011), so P⁻¹A has its spectrum in
-  (0, 1] (measured 0.018 … 1 on 12 × 12, 0.010 … 1 on 20 × 20). A boost above 1 (over-correction) widens
-  it (1.8: up to 5.8 on 20 × 20) and is left at 1.
+* **pins**: the couplings of pinned particles are dropped from the A the cycle is built from (the filter S
+  removes those rows and columns from the CG anyway); kept, they give B A eigenvalues up to ~8 on the free
+  coordinates (a 16 × 16 sheet: cond(B A) 114 → 12 with the line smoother below);
+* **the smoother** of the finest level: *line Gauss–Seidel*. A spring holds its two particles along its own
+  direction, so the x coordinates of a grid row are coupled ~10× more strongly along the row than across it
+  (the shear springs, 0.1 k, couple across), the y coordinates along the columns: the anisotropy that
+  point smoothers (Jacobi, ℓ1-Jacobi) leave to CG. The block of a grid line is all 3 coordinates of its
+  particles (banded: a row couples to the next two particles of its line, bandwidth 8), solved exactly by a
+  banded Cholesky factor. The lines of an axis are coloured by index mod (reach + 1) (reach = 2, the bend
+  springs), so the lines of one colour never couple and each colour is one block solve of its rows'
+  residual: a *block Gauss–Seidel* sweep over the colours, rows then columns. Block Gauss–Seidel with exact
+  blocks contracts in the A-norm for every SPD A, and the sweep after the coarse correction is the adjoint
+  of the one before (colours and axes in reverse), so the cycle B is symmetric with the spectrum of B A in
+  (0, 1] (measured 0.23 … 1 on 16 × 16): CG stays valid. A line block that is not positive definite (A not
+  SPD) fails its Cholesky: ``setup`` raises ``numpy.linalg.LinAlgError``. Coarser levels, where the cost is
+  the calls and not the flops, smooth by ℓ1-Jacobi, d_i = Σ_j |a_ij| (it contracts in the A-norm for every
+  SPD A, Baker, Falgout, Kolev & Yang 2011; plain damped Jacobi, ω = ⅔ on a_ii, diverges on the cloth);
+  the coarsest level (≤ ``coarsest`` particles) is solved by its inverse from a dense Cholesky.
 
-A V-cycle costs two products with the fine A besides the CG's own. The default (``additive_top``) drops
-them: on the finest level the two corrections are added instead of applied in turn, B = D₁⁻¹ + P B₁ Pᵀ
-with B₁ the V-cycle of level 1 — a sum of two SPD operators, each at most A⁻¹ in the A-norm, so the
-spectrum of B A lies in (0, 2] (measured 0.005 … 1.97 on 20 × 20). Measured on the benchmark's sheet at
-h = 1/60 s, six steps into the fall, CG to 10⁻³ (iterations; time per step, one BLAS thread, loaded machine):
+``smoother="l1-jacobi"`` is the cycle with ℓ1-Jacobi on every level and, by default, additive on the
+finest (B = D₁⁻¹ + P B₁ Pᵀ, spectrum of B A in (0, 2]), kept as the baseline the benchmark measures against.
+CG iterations to ε = 10⁻² on the benchmark's sheet at h = 1/60 s, six steps into the fall (to 10⁻⁶ in
+brackets):
 
-=======  ================  ================  ==================
-N        Jacobi            V-cycle           additive top
-=======  ================  ================  ==================
-16       70;  5 ms         29;  8 ms         47;  9 ms
-64       290; 204 ms       58;  143 ms       84;  123 ms
-128      554; 2.08 s       71;  1.08 s       99;  0.62 s
-=======  ================  ================  ==================
+=======  ==============  ======================  =====================
+N        Jacobi          ℓ1-Jacobi, additive     line Gauss–Seidel
+=======  ==============  ======================  =====================
+16       46  (166)       22  (130)               2  (8)
+32       89  (276)       37  (187)               3  (12)
+64                       47  (236)               4  (16)
+=======  ==============  ======================  =====================
+
+A line V-cycle costs ~4 products with the fine A (each sweep one, in row blocks) against none for the
+additive ℓ1 cycle, so at N = 64 the step gains less than the iteration counts say (the benchmark prints
+the parts); the point is that the count stays flat as N grows.
 
 It is applied inside B&W's modified PCG (:func:`pbanim.cloth.large_steps.modified_pcg` with
 ``precond="multigrid"``): the filter S stays outside (c = S P⁻¹ r), so the iterates stay in the constraint
 subspace as with Jacobi, and the stopping test is the residual in the P⁻¹-norm (with a good P, close to the
 A-norm of the error). Limiting cases: a grid of at most ``coarsest`` particles has one level (a direct solve);
-A SPD (M > 0, −K PSD on the CG path) keeps every Galerkin A_ℓ SPD, so the Cholesky never fails.
+A SPD (M > 0, −K PSD on the CG path) keeps every Galerkin A_ℓ and every line block SPD, so no Cholesky fails.
 
 Reference: P. Vaněk, J. Mandel, M. Brezina, "Algebraic multigrid by smoothed aggregation", Computing 56
 (1996) (aggregation, Galerkin coarse operators); A. H. Baker, R. D. Falgout, T. V. Kolev, U. M. Yang,
 "Multigrid smoothers for ultraparallel computing", SIAM J. Sci. Comput. 33 (2011) (ℓ1-Jacobi);
-W. L. Briggs, V. E. Henson, S. F. McCormick, *A Multigrid Tutorial* (2000), ch. 3–5 (the V-cycle).
+W. L. Briggs, V. E. Henson, S. F. McCormick, *A Multigrid Tutorial* (2000), ch. 3–5 (the V-cycle, line
+relaxation for anisotropic problems); U. Trottenberg, C. W. Oosterlee, A. Schüller, *Multigrid* (2001),
+§5.1 (alternating line Gauss–Seidel).
 """
 
 from __future__ import annotations
@@ -51,6 +65,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 __all__ = ["Multigrid"]
 
@@ -62,18 +77,61 @@ class _Level:
         self.diag = np.flatnonzero(rows == indices)
 
 
+class _LineColour:
+    """The lines of one colour along one grid axis on one level: the rows they own (CSR gather) and the band
+    of their block-diagonal part (upper form of ``cholesky_banded``), both positions into the level's data."""
+
+    def __init__(self, lv, dofs):
+        self.dofs = dofs
+        loc = np.full(lv.n, -1, np.int64)
+        loc[dofs] = np.arange(len(dofs))
+        counts = lv.indptr[dofs + 1] - lv.indptr[dofs]
+        self.sel = np.concatenate([np.arange(lv.indptr[d], lv.indptr[d + 1]) for d in dofs]) if len(dofs) else \
+            np.zeros(0, np.int64)
+        self.indices = lv.indices[self.sel].astype(np.int32)
+        self.indptr = np.concatenate([[0], np.cumsum(counts)]).astype(np.int32)
+        r, c = loc[lv.rows[self.sel]], loc[lv.indices[self.sel]]
+        up = c >= r                                         # c = −1: outside these lines
+        self.u = int((c[up] - r[up]).max())
+        self.bsel, self.flat = self.sel[up], (self.u + r[up] - c[up]) * len(dofs) + c[up]
+        self.shape = (len(dofs), lv.n)
+
+
+def _line_colours(lv, m):
+    """The line smoother's blocks of an m × m level: all three coordinates of a grid line (row, then column) in
+    one block, the lines of an axis coloured by index mod (reach + 1), reach = the farthest line a row couples
+    to, so that lines of one colour never couple: each colour is one exact (banded) block solve."""
+    dof = np.arange(lv.n)
+    i, j = np.divmod(dof // 3, m)
+    out = []
+    for line, along in ((i, j), (j, i)):
+        reach = int(np.abs(line[lv.rows] - line[lv.indices]).max())
+        order = np.lexsort((dof % 3, along, line))           # by line, position along it, coordinate
+        out.append([_LineColour(lv, order[line[order] % (reach + 1) == c]) for c in range(reach + 1)])
+    return out
+
+
 class Multigrid:
     """The aggregation hierarchy of an m × m particle grid with the CSR pattern of ``pattern`` (module docstring).
 
-    ``setup(data)`` takes the CSR data of A on the finest pattern; then ``__call__(r)`` applies one V-cycle."""
+    ``setup(data)`` takes the CSR data of A on the finest pattern; then ``__call__(r)`` applies one V-cycle.
+    ``smoother``: "line" (symmetric line Gauss–Seidel over coloured grid lines, both axes) or "l1-jacobi";
+    ``pinned``: particles whose couplings are dropped from the preconditioner's A (the filter removes them)."""
 
-    def __init__(self, pattern, m: int, coarsest: int = 64, boost: float = 1.0, additive_top: bool = True) -> None:
-        self.boost, self.additive_top = boost, additive_top
+    def __init__(self, pattern, m: int, coarsest: int = 64, boost: float = 1.0, additive_top: bool | None = None,
+                 smoother: str = "line", pinned=(), line_levels: int = 1) -> None:
+        self.boost, self.smoother = boost, smoother
+        self.additive_top = (smoother != "line") if additive_top is None else additive_top
         lv = _Level(pattern.n, pattern.rows.astype(np.int64), pattern.indices.astype(np.int64), pattern.indptr)
-        self.levels, self.P, self.R = [lv], [], []
+        pin = np.zeros(pattern.n, bool)
+        pin.reshape(-1, 3)[np.asarray(pinned, dtype=np.intp)] = True
+        self.pin_mask = np.flatnonzero((pin[lv.rows] | pin[lv.indices]) & (lv.rows != lv.indices))
+        self.levels, self.P, self.R, self.lines = [lv], [], [], []
         for _ in range(32):                                     # m halves each level: ≤ log₂ m + 1 levels
             if m * m <= coarsest:
                 break
+            if smoother == "line" and len(self.levels) <= line_levels:
+                self.lines.append(_line_colours(lv, m))
             mc = (m + 1) // 2
             i, j = np.divmod(np.arange(m * m), m)
             agg = (i // 2) * mc + j // 2
@@ -91,28 +149,55 @@ class Multigrid:
         self.Pt = [P.T.tocsr() for P in self.P]
 
     def setup(self, data) -> None:
-        """The matrices of every level from the finest CSR data (one sparse product per level) and the
-        coarsest level's Cholesky factor."""
-        self.A, self.dinv = [], []
+        """The matrices of every level from the finest CSR data (one sparse product per level), the line
+        blocks' banded Cholesky factors and the coarsest level's inverse. Raises ``numpy.linalg.LinAlgError``
+        when a block is not positive definite (A not SPD)."""
+        if len(self.pin_mask):
+            data = data.copy()
+            data[self.pin_mask] = 0.0
+        self.A, self.dinv, self.blocks = [], [], []
         for k, lv in enumerate(self.levels):
             if k:
                 data = self.R[k - 1] @ data
             self.A.append(sp.csr_matrix((data, lv.indices, lv.indptr), shape=(lv.n, lv.n)))
-            self.dinv.append(1.0 / np.bincount(lv.rows, np.abs(data), minlength=lv.n))
+            if k < len(self.lines):
+                self.blocks.append([[self._factor(data, lc) for lc in axis] for axis in self.lines[k]])
+                self.dinv.append(None)
+            else:
+                self.dinv.append(1.0 / np.bincount(lv.rows, np.abs(data), minlength=lv.n))
         c, low = sla.cho_factor(self.A[-1].toarray(), check_finite=False)
         self.coarse_inv = sla.cho_solve((c, low), np.eye(len(c)), check_finite=False)   # ≤ 192², applied by a product
 
+    @staticmethod
+    def _factor(data, lc):
+        ab = np.zeros((lc.u + 1) * lc.shape[0])
+        ab[lc.flat] = data[lc.bsel]
+        cb, info = dpbtrf(ab.reshape(lc.u + 1, -1), lower=0, overwrite_ab=1)
+        if info:
+            raise np.linalg.LinAlgError(f"a line block is not positive definite (LAPACK info {info})")
+        return lc.dofs, sp.csr_matrix((data[lc.sel], lc.indices, lc.indptr), shape=lc.shape), cb
+
     def __call__(self, r) -> np.ndarray:
-        if self.additive_top and len(self.levels) > 1:         # B = D₁⁻¹ + P B₁ Pᵀ: no product with the fine A
-            return self.dinv[0] * r + self.P[0] @ self._cycle(1, self.Pt[0] @ r)
+        if self.additive_top and len(self.levels) > 1 and self.smoother != "line":
+            return self.dinv[0] * r + self.P[0] @ self._cycle(1, self.Pt[0] @ r)   # D₁⁻¹ + P B₁ Pᵀ
         return self._cycle(0, r)
+
+    def _smooth(self, k, r, x, backward):
+        """Line Gauss–Seidel: each colour's lines solved exactly against the current residual of their rows;
+        forward: rows then columns, colours in order; backward: the reverse (its adjoint)."""
+        seq = [b for axis in self.blocks[k] for b in axis]
+        for dofs, Ar, cb in (seq[::-1] if backward else seq):
+            x[dofs] += dpbtrs(cb, r[dofs] - Ar @ x, lower=0, overwrite_b=1)[0]
+        return x
 
     def _cycle(self, k, r):
         if k == len(self.levels) - 1:
             return self.coarse_inv @ r
-        A, dinv = self.A[k], self.dinv[k]
-        x = dinv * r
+        A, line = self.A[k], k < len(self.blocks)
+        x = self._smooth(k, r, np.zeros_like(r), False) if line else self.dinv[k] * r
         xc = self._cycle(k + 1, self.Pt[k] @ (r - A @ x))
         x += self.boost * (self.P[k] @ xc)
-        x += dinv * (r - A @ x)
+        if line:
+            return self._smooth(k, r, x, True)
+        x += self.dinv[k] * (r - A @ x)
         return x
