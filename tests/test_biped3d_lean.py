@@ -111,3 +111,26 @@ def test_lean_walk_follows_the_readable_walk_step_by_step(monkeypatch):
 def test_a_mass_matrix_that_is_not_positive_definite_is_named():
     with pytest.raises(SimulationDiverged, match="not positive definite"):
         lean._cholesky(-np.eye(18))
+
+
+def test_lean_kinematics_of_a_tree_whose_levels_are_not_one_slice():
+    # ORACLES F20: a neck and head on the torso put a torso child among the hips' children (parents 2, 3, 1:
+    # not one slice in breadth-first order); frames equal the readable ones (measured 0), H equals CRBA
+    tree = biped3d()
+    torso = [lk.name for lk in tree.links].index("torso")
+    neck = tree.add("neck", torso, "revolute", axis=[0, 1, 0], p=[0, 0, 0.7], mass=1.0, com=[0, 0, 0.1],
+                    inertia=[0.01, 0.01, 0.01])
+    tree.add("head", neck, "revolute", axis=[1, 0, 0], mass=4.0, com=[0, 0, 0.1], inertia=[0.02, 0.02, 0.02])
+    pts = biped3d_contact_points(tree)
+    fast, slow = WorldStep(tree, pts), WorldStep(tree, pts, lean=False)
+    assert any(isinstance(level[1], np.ndarray) for level in fast._plan.levels)     # the fancy-index path runs
+    rng = np.random.default_rng(2)
+    q = np.zeros(tree.nq)
+    q[:4] = rng.normal(size=4)
+    q[:4] /= np.linalg.norm(q[:4])
+    q[4:7], q[7:] = rng.normal(size=3), rng.uniform(-1, 1, tree.nq - 7)
+    kf, ks = fast.kinematics(q), slow.kinematics(q)
+    for key in "RocS":
+        assert np.allclose(kf[key], ks[key], rtol=0, atol=8 * EPS * (1 + np.abs(ks[key]).max())), key
+    H = fast.mass_matrix(kf)
+    assert np.abs(H - crba(tree, q)).max() <= 50 * EPS * np.abs(H).max()

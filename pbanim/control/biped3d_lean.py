@@ -31,7 +31,10 @@ import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import SimulationDiverged
+from ..contracts import unchecked
 from ..rigid.quat import quat_to_matrix
+
+_quat_to_matrix = unchecked(quat_to_matrix)
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
 
@@ -45,13 +48,23 @@ class LeanPlan:
         depth = [0] * n
         for i in range(1, n):
             depth[i] = depth[tree.parent[i]] + 1
+        order = sorted(range(n), key=lambda i: depth[i])          # breadth first: each level one slice
+        pos = [0] * n
+        for k, i in enumerate(order):
+            pos[i] = k
+        self.inv = np.array(pos)                                  # tree order from breadth-first order
         self.levels = []
         for d in range(1, max(depth) + 1):
-            idx = np.array([i for i in range(n) if depth[i] == d])
-            par = np.array([tree.parent[i] for i in idx])
-            JR = np.array([tree.joints[i].R for i in idx])
-            self.levels.append((idx, par, None if np.all(JR == np.eye(3)) else JR,
-                                np.array([tree.joints[i].p for i in idx])))
+            lev = [i for i in order if depth[i] == d]
+            pp = [pos[tree.parent[i]] for i in lev]
+            if pp == list(range(pp[0], pp[0] + len(pp))) or pp == [pp[0]] * len(pp):
+                psl = slice(pp[0], pp[0] + (len(pp) if len(set(pp)) > 1 else 1))   # a view (or one parent)
+            else:
+                psl = np.array(pp)
+            JR = np.array([tree.joints[i].R for i in lev])
+            self.levels.append((slice(pos[lev[0]], pos[lev[0]] + len(lev)), psl,
+                                None if np.all(JR == np.eye(3)) else JR,
+                                np.array([tree.joints[i].p for i in lev], dtype=float)[:, :, None]))
         rev = [i for i in range(1, n) if tree.joints[i].kind != "fixed"]
         self.rev = np.array(rev)
         self.rev_q = np.array([ws.qi[i] for i in rev])
@@ -59,6 +72,10 @@ class LeanPlan:
         self.axis = np.array([tree.joints[i].axis for i in rev], dtype=float)
         self.n, self.nv = n, tree.nv
         self.rot0 = np.tile(np.eye(3), (n, 1, 1))
+        self.rev_b = np.array([pos[i] for i in rev])               # the revolute joints in breadth-first order
+        self.rev_par = np.array([tree.parent[i] for i in rev])
+        JRr = np.array([tree.joints[i].R for i in rev])
+        self.rev_JR = None if np.all(JRr == np.eye(3)) else JRr
         self.eye = np.tile(np.eye(3), (len(rev), 1, 1))
         self.ax = np.array([[[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]] for a in self.axis])
         self.aa = np.einsum("ki,kj->kij", self.axis, self.axis)
@@ -92,30 +109,26 @@ def _kinematics(ws, q) -> dict:
     if not nrm > 1e-9:
         from ..errors import InvalidInput
         raise InvalidInput(f"q[:4] must be the pelvis's (non-zero) quaternion, got {q[:4]}")
-    R0 = quat_to_matrix(q[:4] / nrm)
-    R, Rl = np.empty((n, 3, 3)), np.empty((n, 3, 3))
-    o = np.empty((n, 3))
-    R[0], o[0] = R0, q[4:7]
+    R0 = _quat_to_matrix(q[:4] / nrm)
+    Rb, ob = np.empty((n, 3, 3)), np.empty((n, 3))               # breadth-first order
+    Rb[0], ob[0] = R0, q[4:7]
     rot = P.rot0.copy()
     ang = q[P.rev_q][:, None, None]
     c = np.cos(ang)
-    rot[P.rev] = c * P.eye + np.sin(ang) * P.ax + (1.0 - c) * P.aa       # R_a(q) = c 1 + s [a]× + (1 − c) a aᵀ
-    for idx, par, JR, p in P.levels:
-        Rp = R[par]
-        Rj = Rp if JR is None else Rp @ JR
-        Rl[idx] = Rj
-        o[idx] = o[par] + (Rp @ p[:, :, None])[:, :, 0]
-        R[idx] = Rj @ rot[idx]
+    rot[P.rev_b] = c * P.eye + np.sin(ang) * P.ax + (1.0 - c) * P.aa     # R_a(q) = c 1 + s [a]× + (1 − c) a aᵀ
+    for sl, psl, JR, p in P.levels:                                # R_i = R_λ ᴶR_i R_a(q_i), o_i = o_λ + R_λ p_i
+        Rp = Rb[psl]
+        np.matmul(Rp if JR is None else Rp @ JR, rot[sl], out=Rb[sl])
+        np.add(ob[psl], np.matmul(Rp, p)[:, :, 0], out=ob[sl])
+    R, o = Rb[P.inv], ob[P.inv]
     S = np.zeros((6, nv))
+    px, py, pz = q[4:7].tolist()
     S[:3, :3], S[3:, 3:6] = R0, R0
-    px, py, pz = q[4:7]
-    S[3][:3] = py * R0[2] - pz * R0[1]                        # p̂ R0, row by row
-    S[4][:3] = pz * R0[0] - px * R0[2]
-    S[5][:3] = px * R0[1] - py * R0[0]
-    a = (Rl[P.rev] @ P.axis[:, :, None])[:, :, 0]
-    oo = o[P.rev]
+    S[3:, :3] = np.array([[0.0, -pz, py], [pz, 0.0, -px], [-py, px, 0.0]]) @ R0      # p̂ R0
+    Rl = R[P.rev_par] if P.rev_JR is None else R[P.rev_par] @ P.rev_JR          # the joint frames' R_λ ᴶR
+    a = (Rl @ P.axis[:, :, None])[:, :, 0]
     S[:3, P.rev_v] = a.T
-    S[3:, P.rev_v] = _cross(oo, a).T
+    S[3:, P.rev_v] = _cross(o[P.rev], a).T
     cm = o + (R @ ws.com[:, :, None])[:, :, 0]
     return {"R": R, "o": o, "c": cm, "S": S}
 
