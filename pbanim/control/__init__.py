@@ -12,6 +12,7 @@ module                 what it holds
                        with :mod:`.qp_tasks`, :mod:`.qp_features`, :mod:`.qp_solve`, :mod:`.qp_balance`
 :mod:`.biped3d`        the 3-D biped (SIMBICON's 3-D model, masses ours), its lean contact step :mod:`.biped3d_step`
 :mod:`.simbicon3d`     SIMBICON in 3-D (coronal feedback, heading); :mod:`.simbicon3d_walk` runs it
+:mod:`.qp_biped3d`     the QP controller of the 3-D biped; :mod:`.qp_biped3d_run` stands, pushes and steps it
 :mod:`.specs`          the argument specs the contracts of this chapter need beyond :mod:`pbanim.contracts`
 =====================  =====================================================================================
 
@@ -28,6 +29,8 @@ from .pd import (SERVOS, InvalidGains, PDServo, UnknownJoint, explicit_pd_stable
                  servo_track, stable_pd_acceleration, stable_pd_stable)
 from .qp import InfeasibleControl, InvalidTask, QPController, QPResult, Task, UnknownTask
 from .qp_balance import BalanceResult, simulate_balance
+from .qp_biped3d import QPBiped3D, QPResult3D
+from .qp_biped3d_run import Biped3DRun, simulate_stand3d, simulate_step
 from .simbicon import FAST_WALK, WALK, Gait, Phase, Simbicon
 from .simbicon3d import WALK3D, Gait3D, Phase3D, Simbicon3D
 from .simbicon3d_walk import Walk3DResult, simulate_walk3d
@@ -38,4 +41,5 @@ __all__ = ["PDServo", "InvalidGains", "UnknownJoint", "SERVOS", "pd_step", "expl
            "Gait", "Phase", "WALK", "FAST_WALK", "Simbicon", "Push", "WalkResult", "simulate_walk",
            "QPController", "QPResult", "Task", "InfeasibleControl", "InvalidTask", "UnknownTask", "BalanceResult",
            "simulate_balance",
-           "Gait3D", "Phase3D", "WALK3D", "Simbicon3D", "Walk3DResult", "simulate_walk3d"]
+           "Gait3D", "Phase3D", "WALK3D", "Simbicon3D", "Walk3DResult", "simulate_walk3d",
+           "QPBiped3D", "QPResult3D", "Biped3DRun", "simulate_stand3d", "simulate_step"]

@@ -68,11 +68,12 @@ import numpy as np
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarGround
 from ..contracts import Array, Choice, Either, Flag, Index, Indices, Int, Obj, Opt, Real, Seq, Text, contract
-from ..errors import InvalidInput, NonFiniteResult, PbanimError
+from ..errors import NonFiniteResult, PbanimError
 from .biped import BIPED_JOINTS
 from .pd import InvalidGains, _per_joint
 from .qp_features import centroidal
-from .qp_solve import backends, check_backend, contact_rows, friction_pyramid, joint_limit_bounds, keep_level, solve_qp
+from .qp_solve import (backends, contact_rows, friction_pyramid, joint_limit_bounds, keep_level, limit_settings, settings,
+                       solve_qp)
 from .qp_tasks import TARGET, InvalidTask, Task, UnknownTask, check_tasks, task_rows
 from .specs import Count, KinematicsOf, Mapping, Mask, Pair, named
 
@@ -175,20 +176,10 @@ class QPController:
             joints = dict(BIPED_JOINTS) if names[-1] == "right_foot" and nv == len(BIPED_JOINTS) else \
                 {nm: int(kernel.vidx[i]) for i, nm in enumerate(names) if kernel.vidx[i] >= 0}
         self.joints = dict(joints)
-        self.torque_limits = _per_joint(torque_limits, self.na)
-        self.min_normal, self.contact_tol, self.contact_speed = float(min_normal), float(contact_tol), float(contact_speed)
-        self.eps, self.task_tol = float(regularization), float(task_tol)
-        self.feasibility_tol, self.eps_abs, self.max_iter = float(feasibility_tol), float(eps_abs), int(max_iter)
-        self.native = bool(native)
-        self.backend = check_backend(backend, self.native)
+        settings(self, _per_joint(torque_limits, self.na), min_normal, contact_tol, contact_speed, regularization, task_tol,
+                 feasibility_tol, backend, native, eps_abs, max_iter)
         self.tasks = check_tasks(tasks, kernel, self.joints)
-        lim = dict(joint_limits or {})
-        unknown = sorted(set(lim) - set(self.joints))
-        if unknown or any(not lo <= hi for lo, hi in lim.values()):
-            raise InvalidInput(f"QPController: joint_limits must name joints of {sorted(self.joints)} with "
-                               f"θ_min ≤ θ_max; got unknown {unknown} in {lim}")
-        self.limit_index, self.limit_horizon = np.array([self.joints[nm] for nm in lim], dtype=int), float(limit_horizon)
-        self.limit_lo, self.limit_hi = (np.array([b[k] for b in lim.values()], dtype=float) for k in (0, 1))
+        limit_settings(self, joint_limits, limit_horizon, self.joints)
         M = float(kernel.mass.sum())
         self.f_scale = M * max(float(np.linalg.norm(kernel.g)), 1.0)
 

@@ -62,7 +62,7 @@ from .biped3d import BIPED3D_JOINTS, biped3d, biped3d_contact_points
 from .biped3d_step import WorldStep
 from .pd import InvalidGains, _per_joint
 from .qp import _CONTACTS, _TOL, MODES, InfeasibleControl, QPController, QPResult
-from .qp_solve import backends, check_backend, contact_rows, friction_pyramid, joint_limit_bounds
+from .qp_solve import backends, contact_rows, friction_pyramid, joint_limit_bounds, limit_settings, settings
 from .qp_tasks import Task, check_tasks
 from .simbicon3d import rotation_vector
 from .specs import Mapping, Pair, named
@@ -220,20 +220,10 @@ class QPBiped3D(QPController):
         self.S = np.zeros((self.na, nv))
         self.S[np.arange(self.na), self.actuated] = 1.0
         self.joints = dict(BIPED3D_JOINTS, **{nm: k for k, nm in enumerate(TRUNK)})
-        self.torque_limits = _per_joint(torque_limits, self.na)
-        self.min_normal, self.contact_tol, self.contact_speed = float(min_normal), float(contact_tol), float(contact_speed)
-        self.eps, self.task_tol = float(regularization), float(task_tol)
-        self.feasibility_tol, self.eps_abs, self.max_iter = float(feasibility_tol), float(eps_abs), int(max_iter)
-        self.native = bool(native)
-        self.backend = check_backend(backend, self.native)
+        settings(self, _per_joint(torque_limits, self.na), min_normal, contact_tol, contact_speed, regularization, task_tol,
+                 feasibility_tol, backend, native, eps_abs, max_iter)
         self.tasks = self._checked(tasks)
-        lim = dict(joint_limits or {})
-        unknown = sorted(set(lim) - set(BIPED3D_JOINTS))
-        if unknown or any(not lo <= hi for lo, hi in lim.values()):
-            raise InvalidInput(f"QPBiped3D: joint_limits must name joints of {sorted(BIPED3D_JOINTS)} with "
-                               f"θ_min ≤ θ_max; got unknown {unknown} in {lim}")
-        self.limit_index, self.limit_horizon = np.array([BIPED3D_JOINTS[nm] for nm in lim], dtype=int), float(limit_horizon)
-        self.limit_lo, self.limit_hi = (np.array([b[k] for b in lim.values()], dtype=float) for k in (0, 1))
+        limit_settings(self, joint_limits, limit_horizon, BIPED3D_JOINTS)
         self.f_scale = float(self.world.mass.sum()) * 9.81
 
     def _checked(self, tasks) -> list:

@@ -54,6 +54,11 @@ from .specs import Mapping, named
 
 _GAIN = named(InvalidTask, Real(ge=0))
 
+# joint ranges (rad, ours: a human's ranges rounded; the knee short of straight), inequalities of every QP: near a
+# limit they brake the joint (θ̇ ≤ (θ_max − θ)/T), which also keeps a prioritized level from whipping a free leg
+JOINT_LIMITS = {f"{s}_{j}": r for s in ("left", "right") for j, r in
+                (("hip_z", (-0.6, 0.6)), ("hip_x", (-0.6, 0.6)), ("hip_y", (-1.2, 1.8)), ("knee", (-2.2, -0.05)),
+                 ("ankle_y", (-0.8, 0.8)), ("ankle_x", (-0.5, 0.5)))}
 SIM_TOL = 1e-5           # the contact step's PGS tolerance (as the 3-D walk's; 1e-6 costs ~10x the sweeps standing)
 
 __all__ = ["Biped3DRun", "crouched_state3d", "simulate_stand3d", "simulate_step", "stand_tasks"]
@@ -197,8 +202,7 @@ def _result(rec, stop, wall, ctrl, h, ok, t_end, extra) -> Biped3DRun:
 
 
 def _controller(mode, knee, friction, heading=0.0, **kw) -> tuple:
-    ctrl = QPBiped3D([], mode=mode, friction=friction, torque_limits=300.0,
-                     joint_limits={f"{s}_knee": (-2.0, -0.05) for s in ("left", "right")})
+    ctrl = QPBiped3D([], mode=mode, friction=friction, torque_limits=300.0, joint_limits=JOINT_LIMITS)
     q, qd = crouched_state3d(ctrl, knee)
     kin = ctrl.world.kinematics(q)
     com = ctrl.world.mass @ kin["c"] / ctrl.world.mass.sum()
@@ -207,7 +211,7 @@ def _controller(mode, knee, friction, heading=0.0, **kw) -> tuple:
     return ctrl, q, qd, com
 
 
-@contract(push=Array((3,)), t_end=Real(gt=0, le=60), h=Real(gt=0, le=0.01), push_time=Real(ge=0),
+@contract(push=Array((3,)), t_end=Real(gt=0, le=5), h=Real(ge=1e-3, le=0.01), push_time=Real(ge=0),
           mode=Choice(MODES), control_every=Int(ge=1, le=100), knee=Real(ge=0, le=1.2), friction=Real(ge=0),
           record_every=Int(ge=1))
 def simulate_stand3d(push=(0.0, 0.0, 0.0), t_end: float = 1.0, h: float = 2e-3, *, push_time: float = 0.2,
@@ -238,7 +242,8 @@ def _along(a, b, r: np.ndarray, T: float) -> tuple:
     return a + r[0] * d, r[1] / T * d, r[2] / (T * T) * d
 
 
-@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), inset=Real(ge=0, le=0.05), clearance=Real(ge=0, le=0.2), h=Real(gt=0, le=0.01),
+@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), inset=Real(ge=0, le=0.05),
+          clearance=Real(ge=0, le=0.2), h=Real(ge=1e-3, le=0.01),
           mode=Choice(MODES), control_every=Int(ge=1, le=100), knee=Real(ge=0, le=1.2), friction=Real(ge=0),
           swing_weight=Real(gt=0), swing_priority=Int(ge=0, le=10), record_every=Int(ge=1))
 def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: float = 0.05, h: float = 4e-3, *,
@@ -246,7 +251,8 @@ def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: f
                   mode: str = "weighted", control_every: int = 1, knee: float = 0.4, friction: float = 0.9,
                   swing_weight: float = 1.0, swing_priority: int = 0, record_every: int = 5) -> Biped3DRun:
     """One scripted step of the left foot, ``length`` m forward (module docstring: four phases of the
-    durations ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's centre). ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
+    durations ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's centre).
+    ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
     ctrl, q, qd, com0 = _controller(mode, knee, friction)
     kin = ctrl.world.kinematics(q)
     P, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
@@ -293,7 +299,7 @@ def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: f
         P1, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
         res.extra = {"length": float(P1[:4, 0].mean() - left[0]), "drift": float(P1[:4, 1].mean() - left[1]),
                      "corners": int(np.sum(np.abs(P1[:, 2]) <= ctrl.contact_tol)),
-                     "target_length": float(length), "mode": mode}
+                     "target_length": float(length), "mode": mode, "start_com": com0}
         if res.ok and res.extra["corners"] < 8:
             res.outcome, res.cause = "not on two feet", f"{res.extra['corners']} of 8 sole corners on the ground at the end"
     return res

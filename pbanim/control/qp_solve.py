@@ -56,7 +56,7 @@ from scipy.linalg.lapack import dgeqp3
 
 from ..errors import InvalidInput
 
-__all__ = ["backends", "check_backend", "contact_rows", "friction_pyramid", "joint_limit_bounds", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
+__all__ = ["backends", "check_backend", "contact_rows", "friction_pyramid", "limit_settings", "settings", "joint_limit_bounds", "keep_level", "kkt_residual", "solve_qp", "MAX_DATUM"]
 
 # the option capping each backend's iterations (the controller's max_iter is passed to it: HiGHS's QP solver,
 # uncapped by default, ran for minutes on a prioritized level); a backend not listed keeps its own cap
@@ -130,6 +130,29 @@ def friction_pyramid(m: int, dirs: int, mu: float, first: int, N: int) -> np.nda
             G[r + 1, [cn, cn + k]] = -mu, -1.0
             r += 2
     return G
+
+
+def settings(ctrl, torque_limits: np.ndarray, min_normal, contact_tol, contact_speed, regularization, task_tol,
+             feasibility_tol, backend, native, eps_abs, max_iter) -> None:
+    """Set a controller's contact, regularization, tolerance and solver settings (the planar and the 3-D one)."""
+    ctrl.torque_limits = torque_limits
+    ctrl.min_normal, ctrl.contact_tol, ctrl.contact_speed = float(min_normal), float(contact_tol), float(contact_speed)
+    ctrl.eps, ctrl.task_tol = float(regularization), float(task_tol)
+    ctrl.feasibility_tol, ctrl.eps_abs, ctrl.max_iter = float(feasibility_tol), float(eps_abs), int(max_iter)
+    ctrl.native = bool(native)
+    ctrl.backend = check_backend(backend, ctrl.native)
+
+
+def limit_settings(ctrl, joint_limits, horizon: float, joints: dict) -> None:
+    """Set ``limit_index`` (velocity indices), ``limit_lo``, ``limit_hi`` and ``limit_horizon`` of a controller
+    from name → (θ_min, θ_max); :class:`InvalidInput` for a name not in ``joints`` or θ_min > θ_max."""
+    lim = dict(joint_limits or {})
+    unknown = sorted(set(lim) - set(joints))
+    if unknown or any(not lo <= hi for lo, hi in lim.values()):
+        raise InvalidInput(f"{type(ctrl).__name__}: joint_limits must name joints of {sorted(joints)} with "
+                           f"θ_min ≤ θ_max; got unknown {unknown} in {lim}")
+    ctrl.limit_index, ctrl.limit_horizon = np.array([joints[nm] for nm in lim], dtype=int), float(horizon)
+    ctrl.limit_lo, ctrl.limit_hi = (np.array([b[k] for b in lim.values()], dtype=float) for k in (0, 1))
 
 
 def joint_limit_bounds(q: np.ndarray, qd: np.ndarray, index: np.ndarray, lo: np.ndarray, hi: np.ndarray,

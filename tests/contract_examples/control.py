@@ -19,6 +19,8 @@ from pbanim.control.biped3d import biped3d, biped3d_contact_points, standing_sta
 from pbanim.control.biped3d_step import WorldStep
 from pbanim.control.simbicon3d import WALK3D, Gait3D, Phase3D, Simbicon3D
 from pbanim.control.simbicon3d_walk import Walk3DResult, simulate_walk3d
+from pbanim.control.qp_biped3d import Ground3D, QPBiped3D
+from pbanim.control.qp_biped3d_run import Biped3DRun, crouched_state3d, simulate_stand3d, stand_tasks
 
 
 @functools.lru_cache(maxsize=1)
@@ -72,6 +74,26 @@ def _qp_state(ctrl=None):
     return {"q": q, "qd": qd}
 
 
+def _qp3d():
+    return QPBiped3D([], torque_limits=300.0, joint_limits={"left_knee": (-2.0, -0.05)})
+
+
+@functools.lru_cache(maxsize=1)
+def _crouched3d():
+    return crouched_state3d(_qp3d(), 0.4)
+
+
+def _state3d(ctrl=None):
+    q, qd = _crouched3d()
+    return {"q": q.copy(), "qd": qd + 0.01}
+
+
+@functools.lru_cache(maxsize=1)
+def _short_stand3d():
+    """A result record (read only: com_error does not change it)."""
+    return simulate_stand3d(t_end=0.016, h=8e-3, record_every=1)
+
+
 @functools.lru_cache(maxsize=1)
 def _short_walk():
     """A result record (read only: speed does not change it)."""
@@ -100,9 +122,15 @@ INSTANCES = {
     Gait3D: lambda: WALK3D,
     Simbicon3D: lambda: Simbicon3D(_world_step()),
     Walk3DResult: lambda: simulate_walk3d(t_end=0.006, h=2e-3, record_every=1),
+    QPBiped3D: _qp3d,
+    Ground3D: Ground3D,
+    Biped3DRun: _short_stand3d,
 }
 
 SKIP_EDGES = {
+    "pbanim.control.qp_biped3d_run.simulate_stand3d": "t_end at its bound (5 s of standing at 1 ms steps) runs for "
+                                                      "minutes: the edges of t_end are what the step count's cap checks",
+    "pbanim.control.qp_biped3d_run.simulate_step": "phases at their bound (8 s of stepping) runs for minutes",
     "pbanim.control.simbicon3d_walk.simulate_walk3d": "t_end at its bound (600 s of walking) runs for an hour: the "
                                                       "edges of t_end are what the step grid's cap checks",
 }
@@ -161,6 +189,19 @@ CALLS = {
     "pbanim.control.simbicon3d.Simbicon3D.torques": lambda c: {"t": 0.1, "q": standing_state3d()[0],
                                                                "qd": np.zeros(18), "h": 2e-3},
     "pbanim.control.simbicon3d_walk.simulate_walk3d": lambda: {"t_end": 0.006, "h": 2e-3, "record_every": 1},
+    "pbanim.control.qp_biped3d.QPBiped3D.__init__": lambda: {"tasks": [], "joint_limits": {"left_knee": (-2.0, -0.05)}},
+    "pbanim.control.qp_biped3d.QPBiped3D.kinematics": lambda c: {"q": _crouched3d()[0].copy()},
+    "pbanim.control.qp_biped3d.QPBiped3D.active_contacts": _state3d,
+    "pbanim.control.qp_biped3d.QPBiped3D.build": _state3d,
+    "pbanim.control.qp_biped3d.QPBiped3D.solve": _state3d,
+    "pbanim.control.qp_biped3d.QPBiped3D.torques": _state3d,
+    "pbanim.control.qp_biped3d_run.crouched_state3d": lambda: {"ctrl": _qp3d()},
+    "pbanim.control.qp_biped3d_run.stand_tasks": lambda: {"com_target": np.array([0.05, 0.0, 0.85]),
+                                                         "posture": {"left_knee": -0.4}},
+    "pbanim.control.qp_biped3d_run.simulate_stand3d": lambda: {"t_end": 0.016, "h": 8e-3, "push_time": 0.008,
+                                                              "push": np.array([1.0, 0.0, 0.0]), "record_every": 1},
+    "pbanim.control.qp_biped3d_run.simulate_step": lambda: {"phases": np.array([0.06, 0.06, 0.06, 0.06]), "h": 0.01,
+                                                           "record_every": 1},
 }
 
 EXEMPT = {
@@ -168,4 +209,7 @@ EXEMPT = {
     "pbanim.control.qp.QPResult.__init__": "a result record QPController.solve builds; users read it",
     "pbanim.control.qp_balance.BalanceResult.__init__": "a result record simulate_balance builds; users read it",
     "pbanim.control.simbicon3d_walk.Walk3DResult.__init__": "a result record simulate_walk3d builds; users read it",
+    "pbanim.control.qp_biped3d.QPResult3D.__init__": "a result record QPBiped3D.solve builds; users read it",
+    "pbanim.control.qp_biped3d.Centroidal3D.__init__": "a record the controller builds from the model's sums",
+    "pbanim.control.qp_biped3d_run.Biped3DRun.__init__": "a result record simulate_stand3d / simulate_step build",
 }
