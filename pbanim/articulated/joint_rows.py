@@ -37,6 +37,28 @@ def _dot(a, b):
     return np.einsum("...i,...i->...", a, b)
 
 
+def _cx(a, b):
+    """a × b for float arrays (..., 3) of one shape, or broadcasting on the leading axes: the components of
+    :func:`pbanim.geometry.cross` in the same order (the same bits), without its conversions (hot path)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(a.shape if a.shape == b.shape else np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _cx_axes(r):
+    """The rows r × e_k, k = 1..3, of each r (m, 3), as (m, 3, 3): what ``cross(r[:, None, :], 1)`` gives,
+    each entry written out (r × e_x = (0, r_z, −r_y), …; the products by 0 and 1 dropped, equal values)."""
+    out = np.zeros(r.shape[:-1] + (3, 3))
+    out[..., 0, 1], out[..., 0, 2] = r[..., 2], -r[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = -r[..., 2], r[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = r[..., 1], -r[..., 0]
+    return out
+
+
 class JointRowPlan:
     """The layout of the rows of ``joints`` (a list of :class:`RigidJoint`) on ``N`` bodies, and their
     evaluation at a state (:meth:`evaluate`)."""
@@ -95,11 +117,11 @@ class JointRowPlan:
         Ga, Gb = np.zeros((k, 6)), np.zeros((k, 6))          # each row's 6-vectors on body a and on body b
         if self.ball.size:
             g, rows = self.ball, self.ball_rows
-            acc = cross(wa[g], cross(wa[g], ra[g])) - cross(wb[g], cross(wb[g], rb[g]))
+            acc = _cx(wa[g], _cx(wa[g], ra[g])) - _cx(wb[g], _cx(wb[g], rb[g]))
             Ga[rows, :3] = _EYE
             Gb[rows, :3] = _EYE
-            Ga[rows, 3:] = cross(ra[g][:, None, :], _EYE)
-            Gb[rows, 3:] = cross(rb[g][:, None, :], _EYE)
+            Ga[rows, 3:] = _cx_axes(ra[g])
+            Gb[rows, 3:] = _cx_axes(rb[g])
             C[rows], bias[rows] = (pa - pb)[g], acc
         if self.hinge.size:
             g, rows = self.hinge, self.hinge_rows
@@ -107,13 +129,13 @@ class JointRowPlan:
             ab = np.einsum("mij,mj->mi", RB[g], self.axis_b[g])[:, None, :]
             T = np.stack(tangent_basis(aa), axis=1)                        # (m, 2, 3)
             wag, wbg = wa[g][:, None, :], wb[g][:, None, :]
-            gab = cross(T, ab)
+            gab = _cx(T, ab)
             Ga[rows, 3:] = gab
             Gb[rows, 3:] = gab
-            wat = cross(wag, T)
+            wat = _cx(wag, T)
             C[rows] = _dot(T, ab)
-            bias[rows] = _dot(cross(wag, wat), ab) + 2 * _dot(wat, cross(wbg, ab)) \
-                + _dot(T, cross(wbg, cross(wbg, ab)))
+            bias[rows] = _dot(_cx(wag, wat), ab) + 2 * _dot(wat, _cx(wbg, ab)) \
+                + _dot(T, _cx(wbg, _cx(wbg, ab)))
         if self.rot.size:
             g, rows = self.rot, self.rot_rows
             qw = np.vstack([q, [1.0, 0, 0, 0]])
@@ -128,13 +150,13 @@ class JointRowPlan:
             T = np.stack(tangent_basis(ab), axis=1)                        # (m, 2, 3)
             rag, rbg, wag, wbg = ra[g][:, None, :], rb[g][:, None, :], wa[g], wb[g]
             d = (pa - pb)[g][:, None, :]
-            dd = ((vw[A] + cross(wa, ra)) - (vw[B] + cross(wb, rb)))[g][:, None, :]
-            acc = (cross(wag, cross(wag, ra[g])) - cross(wbg, cross(wbg, rb[g])))[:, None, :]
-            wbt = cross(wbg[:, None, :], T)
-            Ga[rows, :3], Ga[rows, 3:] = T, cross(rag, T)
-            Gb[rows, :3], Gb[rows, 3:] = T, cross(rbg, T) - cross(T, d)
+            dd = ((vw[A] + _cx(wa, ra)) - (vw[B] + _cx(wb, rb)))[g][:, None, :]
+            acc = (_cx(wag, _cx(wag, ra[g])) - _cx(wbg, _cx(wbg, rb[g])))[:, None, :]
+            wbt = _cx(wbg[:, None, :], T)
+            Ga[rows, :3], Ga[rows, 3:] = T, _cx(rag, T)
+            Gb[rows, :3], Gb[rows, 3:] = T, _cx(rbg, T) - _cx(T, d)
             C[rows] = _dot(T, d)
-            bias[rows] = _dot(T, acc) + 2 * _dot(wbt, dd) + _dot(cross(wbg[:, None, :], wbt), d)
+            bias[rows] = _dot(T, acc) + 2 * _dot(wbt, dd) + _dot(_cx(wbg[:, None, :], wbt), d)
         u = np.hstack([v, w]).ravel()
         if sparse:
             import scipy.sparse as sp
