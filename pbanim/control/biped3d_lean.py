@@ -13,8 +13,8 @@ this module instead, computing the same quantities:
    mass velocity read the same ones);
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
    H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
-4. **the contact solve** on the near points only; its projected Gauss–Seidel
-   (:func:`pbanim.lcp.pgs_box_friction`'s sweep, bounds, warm start and residual) on Python floats;
+4. **the contact solve** on the near points only, by the library's projected Gauss–Seidel
+   (:func:`pbanim.lcp.pgs_box_friction`, whose sweep runs on Python floats at this size);
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the seconds each part
@@ -24,7 +24,6 @@ takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two p
 from __future__ import annotations
 
 from math import sqrt
-from operator import add
 from time import perf_counter
 
 import numpy as np
@@ -32,9 +31,10 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import SimulationDiverged
 from ..contracts import unchecked
+from ..lcp import pgs_box_friction
 from ..rigid.quat import quat_to_matrix
 
-_quat_to_matrix = unchecked(quat_to_matrix)
+_quat_to_matrix, _pgs = unchecked(quat_to_matrix), unchecked(pgs_box_friction)
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
 
@@ -212,61 +212,6 @@ def bias(ws, kin, qd):
     return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
 
 
-def pgs_floats(A, b, mu: float, max_iter: int, tol: float, warm):
-    """:func:`pbanim.lcp.pgs_box_friction` (one μ) on Python floats: the same sweep, bounds, warm start and
-    residual, so the same iterates bit for bit (w ← w + A₍:,ᵣ₎ Δzᵣ: column r, as there). Returns
-    (z, residual, sweeps)."""
-    n = len(b)
-    cols, w0 = A.T.tolist(), b.tolist()
-    diag = [cols[r][r] for r in range(n)]
-    z = warm.tolist()
-    for i in range(0, n, 3):
-        f = max(z[i], 0.0)
-        lim = mu * f
-        z[i], z[i + 1], z[i + 2] = f, min(max(z[i + 1], -lim), lim), min(max(z[i + 2], -lim), lim)
-    w = [a + bb for a, bb in zip((A @ np.array(z)).tolist(), w0)]
-    thr = tol * (max(1.0, max(abs(v) for v in w0)) if n else 1.0)
-    res = 0.0
-    for sweep in range(1, max_iter + 1):
-        for i in range(0, n, 3):
-            zr = z[i]
-            new = zr - w[i] / diag[i]
-            if new < 0.0:                                  # min(max(·, 0), ∞)
-                new = 0.0
-            if new != zr:
-                d = new - zr
-                w = list(map(add, w, map(d.__mul__, cols[i])))     # w + A₍:,ᵢ₎ Δz
-                z[i] = new
-            lim = mu * z[i]
-            for r in (i + 1, i + 2):
-                zr = z[r]
-                new = zr - w[r] / diag[r]
-                if new < -lim:                             # min(max(·, −μf), μf)
-                    new = -lim
-                if new > lim:
-                    new = lim
-                if new != zr:
-                    d = new - zr
-                    w = list(map(add, w, map(d.__mul__, cols[r])))
-                    z[r] = new
-        res = _residual(z, w, mu)
-        if res <= thr:
-            return np.array(z), res, sweep
-    return np.array(z), res, max_iter
-
-
-def _residual(z, w, mu: float) -> float:
-    """The box residual of :func:`pbanim.lcp.pgs_box_friction` on floats: max |min(f, w_n)| and |w_t| of the
-    tangential impulses strictly inside their bounds."""
-    f = z[0::3]
-    out = max(0.0, max(map(abs, map(min, f, w[0::3])), default=0.0))
-    for k in (1, 2):
-        for t, wt, fi in zip(z[k::3], w[k::3], f):
-            if abs(t) < mu * fi * (1 - 1e-12):
-                out = max(out, abs(wt))
-    return out
-
-
 def _cholesky(M):
     """The upper Cholesky factor of M (LAPACK's potrf, as :func:`scipy.linalg.cho_factor` calls it, without
     its wrapper's ~30 µs); a matrix that is not positive definite raises, as the readable solve would not."""
@@ -309,7 +254,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         b[0::3] += np.maximum(g, 0) / h + ws.erp * np.minimum(g, 0) / h
         zero = np.zeros(3)
         warm = np.concatenate([ws._warm.get(int(c), zero) for c in near])
-        z, res, sweeps = pgs_floats(A, b, ws.mu, ws.max_iter, ws.tol, warm)
+        z, res, sweeps = _pgs(A, b, ws.mu, max_iter=ws.max_iter, tol=ws.tol, warm_start=warm)
         u = u + MinvJt @ z
         ws._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
         ws.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
