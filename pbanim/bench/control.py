@@ -48,16 +48,19 @@ _WALK3D_RT = [np.nan, np.nan]
 _SPLIT = ("kinematics", "H", "dynamics", "contact", "controller")
 
 
-def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, float]:
-    """(Python calls, C calls) per step of the lean walk, counted by the interpreter's profile hook
-    (operators on arrays, a + b, are not calls: the count is a lower bound of the numpy work)."""
+def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, float, float]:
+    """(Python calls, calls of Python's builtins, other C calls: numpy's) per step of the lean walk, counted
+    by the interpreter's profile hook (operators on arrays, a + b, are not calls: the count is a lower bound
+    of the numpy work)."""
     import sys
 
-    n = {"call": 0, "c_call": 0}
+    n = {"call": 0, "builtin": 0, "c_call": 0}
 
     def hook(frame, event, arg):
-        if event in n:
-            n[event] += 1
+        if event == "c_call":
+            n["builtin" if getattr(arg, "__module__", None) == "builtins" else "c_call"] += 1
+        elif event == "call":
+            n["call"] += 1
 
     sys.setprofile(hook)
     try:
@@ -65,19 +68,21 @@ def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, floa
     finally:
         sys.setprofile(None)
     steps = round(t_end / h)
-    return n["call"] / steps, n["c_call"] / steps
+    return n["call"] / steps, n["builtin"] / steps, n["c_call"] / steps
 
 
-def _call_costs(repeats: int) -> tuple[float, float]:
-    """(one Python function call, one numpy call on 3-vectors) [s]: the interpreter's per-call cost."""
+def _call_costs(repeats: int) -> tuple[float, float, float]:
+    """(one Python function call, one builtin (min of two floats), one numpy call on 3-vectors) [s]: the
+    interpreter's per-call cost."""
     a, b = np.ones(3), np.ones(3)
 
     def f():
         return None
 
     t_py = median_time(lambda: [f() for _ in range(1000)], repeats, min_time=0.02) / 1000
+    t_bi = median_time(lambda: [min(0.5, 1.5) for _ in range(1000)], repeats, min_time=0.02) / 1000
     t_np = median_time(lambda: [np.add(a, b) for _ in range(1000)], repeats, min_time=0.02) / 1000
-    return t_py, t_np
+    return t_py, t_bi, t_np
 
 
 def _walk3d_table(quick: bool, repeats: int) -> list:
@@ -125,11 +130,11 @@ def _walk3d_table(quick: bool, repeats: int) -> list:
                     per["runner"] = res.wall_time / clock["steps"] - sum(per.values())
                     split.append(per)
         W.WorldStep = lean_step
-        calls_py, calls_c = _calls_per_step(W)
+        calls_py, calls_bi, calls_c = _calls_per_step(W)
     finally:
         W.WorldStep, W.Simbicon3D = saved
-    t_py, t_np = _call_costs(repeats)
-    floor = calls_py * t_py + calls_c * t_np
+    t_py, t_bi, t_np = _call_costs(repeats)
+    floor = calls_py * t_py + calls_bi * t_bi + calls_c * t_np
     ratio = np.array(rt[True]) / np.array(rt[False])
     _WALK3D_RT[:] = [float(np.median(rt[True])), float(np.median(ratio))]
     spread = lambda x: f"{np.min(x):.3g}–{np.max(x):.3g}"  # noqa: E731
@@ -143,8 +148,9 @@ def _walk3d_table(quick: bool, repeats: int) -> list:
     rows = [[p, float(np.median([s[p] for s in split])) * 1e6, spread([s[p] * 1e6 for s in split])] for p in parts]
     total = [sum(s[p] for p in parts) for s in split]
     rows.append(["whole step", float(np.median(total)) * 1e6, spread(np.array(total) * 1e6)])
-    rows.append([f"floor: {calls_py:.0f} Python calls x {t_py * 1e9:.0f} ns + {calls_c:.0f} C calls x "
-                 f"{t_np * 1e9:.0f} ns", floor * 1e6, f"h / floor = {h / floor:.2f}x real time"])
+    rows.append([f"floor: {calls_py:.0f} Python calls x {t_py * 1e9:.0f} ns + {calls_bi:.0f} builtins x "
+                 f"{t_bi * 1e9:.0f} ns + {calls_c:.0f} numpy calls x {t_np * 1e9:.0f} ns", floor * 1e6,
+                 f"h / floor = {h / floor:.2f}x real time"])
     t2 = Table("the lean walk step's split [µs per step] (3 rounds: median, min–max) and the interpreter's floor "
                "(the calls one step makes, each at its bare cost: no arithmetic)", ["part", "µs", "spread"], rows)
     return [t1, t2]
