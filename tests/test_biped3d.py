@@ -218,8 +218,8 @@ def test_push_recovered_across_steps(h, push):
     # ORACLES F18: a push on the torso at t = 1.2 s of 15 N s forward or 5 N s to the left: no fall to 2.5 s,
     # ≥ 3 strikes after it and the walking speed kept (≥ 0.65 m/s over the last second; measured 0.73–0.74 with
     # the lateral push, 0.74 unpushed; a 20 N s lateral push slows the walk to 0.47 m/s by 2.7 s and falls at
-    # 2.77 s). Measured over longer runs: the lateral push recovered to 5 s at h = 1, 2, 3.5 ms (speed back to
-    # 0.80 m/s), the forward one to 6 s at 2 and 3.5 ms (15 strikes after it). The lateral push moves the path
+    # 2.77 s). Measured over longer runs: the lateral push recovered to 5 s at h = 1, 2, 3, 3.5 ms (speed back to
+    # 0.79–0.80 m/s), the forward one to 6 s at 1, 2 and 3.5 ms (15 strikes after it). The lateral push moves the path
     # left: y 0.26 m at 2.5 s at h = 2, 3, 3.5 ms (unpushed 0.18 m)
     from pbanim.control.simbicon3d_walk import simulate_walk3d
     r = simulate_walk3d(t_end=2.5, h=h, push=np.array([1.2, *push]))
