@@ -90,7 +90,7 @@ def test_standing_carries_the_weight_and_keeps_still():
 
 
 @pytest.mark.parametrize("mode, push", [("weighted", (10.0, 0.0, 0.0)), ("prioritized", (0.0, 10.0, 0.0))])
-def test_push_is_recovered(mode, push):
+def test_push_is_survived_and_the_com_returns(mode, push):
     # ORACLES F21: a forward push (weighted) and a lateral one (prioritized) of 10 N s at the torso are survived
     # (the largest pushes brought back within 1 cm by 1.5 s are measured in the oracle); here, 1 s: the push
     # moves the centre of mass ≥ 5 mm, and it is on its way back: down to half its excursion, still decreasing
