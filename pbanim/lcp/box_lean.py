@@ -15,7 +15,7 @@ from operator import add
 
 import numpy as np
 
-__all__ = ["LEAN_ROWS", "box_sweeps_floats"]
+__all__: list = []      # internal: reached through pgs_box_friction (up to LEAN_ROWS rows)
 
 LEAN_ROWS = 54          # rows up to which the float sweep is the faster one (measured: 2.7–3.5× at 6–12 rows,
                         # 2× at 30, even at 60, 0.65× at 96)
