@@ -55,4 +55,4 @@ def test_multigrid_needs_fewer_cg_iterations_than_jacobi_on_the_sheet():
     # ORACLES J6: the V-cycle preconditioner cuts the iterations of the cost rows (counts, not times)
     from pbanim.bench.cloth import step_costs
     jac, mg = step_costs((32,), 1, "jacobi")[32], step_costs((32,), 1, "multigrid")[32]
-    assert mg[1] < jac[1] / 2, (mg[1], jac[1])                     # measured 66 vs 141
+    assert mg[1] < jac[1] / 2, (mg[1], jac[1])                     # measured 5 vs 141 (l1-Jacobi smoothing: 67)
