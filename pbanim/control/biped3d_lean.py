@@ -13,8 +13,8 @@ this module instead, computing the same quantities:
    mass velocity read the same ones);
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
    H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
-4. **the contact solve** on the near points only, by the library's projected Gauss–Seidel
-   (:func:`pbanim.lcp.pgs_box_friction`, whose sweep runs on Python floats at this size);
+4. **the contact solve** on the near points only, by the readable step's contact law
+   (``WorldStep._impulses``: the library's projected Gauss–Seidel, whose sweep runs on floats at this size);
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the seconds each part
@@ -31,10 +31,9 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import SimulationDiverged
 from ..contracts import unchecked
-from ..lcp import pgs_box_friction
 from ..rigid.quat import quat_to_matrix
 
-_quat_to_matrix, _pgs = unchecked(quat_to_matrix), unchecked(pgs_box_friction)
+_quat_to_matrix = unchecked(quat_to_matrix)
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
 
@@ -249,15 +248,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         rows = (np.stack([nn, t1, t2], axis=1) @ JJ).reshape(3 * near.size, -1)
         MinvJt = dpotrs(cho, rows.T)[0]
         A = rows @ MinvJt
-        A += ws.cfm * max(float(A.diagonal().max()), 1e-300) * np.eye(A.shape[0])
-        b = rows @ u
-        b[0::3] += np.maximum(g, 0) / h + ws.erp * np.minimum(g, 0) / h
-        zero = np.zeros(3)
-        warm = np.concatenate([ws._warm.get(int(c), zero) for c in near])
-        z, res, sweeps = _pgs(A, b, ws.mu, max_iter=ws.max_iter, tol=ws.tol, warm_start=warm)
-        u = u + MinvJt @ z
-        ws._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
-        ws.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
+        u = ws._impulses(A, rows, MinvJt, u, g, near, h)             # the contact law: the readable step's
     else:
         ws._warm = {}
     q1 = integrate(q, u, h, kin["R"][0])

@@ -192,17 +192,22 @@ class WorldStep:
                              np.einsum("ki,kij->kj", t2, JJ)], axis=1).reshape(3 * near.size, -1)
             MinvJt = np.linalg.solve(Meff, rows.T)
             A = rows @ MinvJt
-            A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(A.shape[0])
-            b = rows @ u
-            b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
-            warm = np.concatenate([self._warm.get(int(c), np.zeros(3)) for c in near])
-            z, res, sweeps = _pgs(A, b, self.mu, max_iter=self.max_iter, tol=self.tol, warm_start=warm)
-            u = u + MinvJt @ z
-            self._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
-            self.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
+            u = self._impulses(A, rows, MinvJt, u, g, near, h)
         else:
             self._warm = {}
         return self.integrate(q, u, h), u
+
+    def _impulses(self, A, rows, MinvJt, u, g, near, h: float):
+        """The contact law, for both paths: u⁺ = u* + H⁻¹Jᵀz with z from PGS on A + cfm·max diag A, the normal
+        rows' bias max(g, 0)/h + erp·min(g, 0)/h, warm-started from the last step's impulses (``last``)."""
+        A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(A.shape[0])
+        b = rows @ u
+        b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
+        warm = np.concatenate([self._warm.get(int(c), np.zeros(3)) for c in near])
+        z, res, sweeps = _pgs(A, b, self.mu, max_iter=self.max_iter, tol=self.tol, warm_start=warm)
+        self._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
+        self.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
+        return u + MinvJt @ z
 
     @contract(q=Array(("self.tree.nq",)), u=Array(("self.tree.nv",)), h=Real(gt=0))
     def integrate(self, q, u, h: float) -> np.ndarray:
