@@ -95,6 +95,7 @@ class _LineColour:
         self.u = int((c[up] - r[up]).max())
         self.bsel, self.flat = self.sel[up], (self.u + r[up] - c[up]) * len(dofs) + c[up]
         self.shape = (len(dofs), lv.n)
+        self.band = np.zeros((self.u + 1, len(dofs)))
 
 
 def _line_colours(lv, m):
@@ -170,9 +171,9 @@ class Multigrid:
 
     @staticmethod
     def _factor(data, lc):
-        ab = np.zeros((lc.u + 1) * lc.shape[0])
-        ab[lc.flat] = data[lc.bsel]
-        cb, info = dpbtrf(ab.reshape(lc.u + 1, -1), lower=0, overwrite_ab=1)
+        ab = lc.band                                        # zero outside the band's entries, kept
+        ab.ravel()[lc.flat] = data[lc.bsel]
+        cb, info = dpbtrf(ab, lower=0)
         if info:
             raise np.linalg.LinAlgError(f"a line block is not positive definite (LAPACK info {info})")
         return lc.dofs, sp.csr_matrix((data[lc.sel], lc.indices, lc.indptr), shape=lc.shape), cb
@@ -186,7 +187,14 @@ class Multigrid:
         """Line Gauss–Seidel: each colour's lines solved exactly against the current residual of their rows;
         forward: rows then columns, colours in order; backward: the reverse (its adjoint)."""
         seq = [b for axis in self.blocks[k] for b in axis]
-        for dofs, Ar, cb in (seq[::-1] if backward else seq):
+        if backward:
+            seq = seq[::-1]
+        elif x is None:                                     # from x = 0: the first colour's residual is r
+            x = np.zeros_like(r)
+            dofs, _, cb = seq[0]
+            x[dofs] = dpbtrs(cb, r[dofs], lower=0, overwrite_b=1)[0]
+            seq = seq[1:]
+        for dofs, Ar, cb in seq:
             x[dofs] += dpbtrs(cb, r[dofs] - Ar @ x, lower=0, overwrite_b=1)[0]
         return x
 
@@ -194,7 +202,7 @@ class Multigrid:
         if k == len(self.levels) - 1:
             return self.coarse_inv @ r
         A, line = self.A[k], k < len(self.blocks)
-        x = self._smooth(k, r, np.zeros_like(r), False) if line else self.dinv[k] * r
+        x = self._smooth(k, r, None, False) if line else self.dinv[k] * r
         xc = self._cycle(k + 1, self.Pt[k] @ (r - A @ x))
         x += self.boost * (self.P[k] @ xc)
         if line:
