@@ -13,7 +13,9 @@ Figures:
 * ``biped3d_walk``: the 3-D biped (:mod:`pbanim.control.biped3d`) walking under the 3-D SIMBICON controller
   (:mod:`pbanim.control.simbicon3d`, gait ``WALK3D``, ours: Table 1's sagittal numbers, our coronal ones;
   ORACLES F18): an animation in two projections (side x–z, top x–y), a strip of key frames, and the centre
-  of mass's forward speed and the pelvis's heading ψ over time.
+  of mass's horizontal speed and the pelvis's heading ψ over time. Full run: 20 s at h = 2 ms with the heading
+  target turned to 0.5 rad from t = 8 s (measured: no fall, 62 strikes, 0.83 m/s over the last 5 s, ψ settling
+  about 0.5 ± 0.05 rad; 74 s of CPU); quick: 2.5 s at h = 3.5 ms.
 """
 
 from __future__ import annotations
@@ -75,7 +77,7 @@ def biped3d_walk(ctx):
     floor = side.plot([], [], color="0.5", lw=1)[0]
     path = top.plot([], [], color="C0", lw=1)[0]
     side.set(ylim=(-0.1, 1.8), aspect="equal", ylabel="z [m]")
-    top.set(aspect="equal", xlabel="x (or along the path) [m]", ylabel="y [m]")
+    top.set(aspect="equal", xlabel="x [m]", ylabel="y [m]")
 
     def draw(i):
         k = frames[i]
@@ -99,9 +101,9 @@ def biped3d_walk(ctx):
             a.plot(seg[:, 0], seg[:, 2], "-", lw=1.5, color="k", alpha=alpha)
     a.axhline(0, color="0.5", lw=1)
     a.set(aspect="equal", xlabel="x [m]", ylabel="z [m]", title="side view every 0.2 s over the last 2.4 s")
-    v = np.gradient(r.com[:, 0], r.t)
+    v = np.hypot(np.gradient(r.com[:, 0], r.t), np.gradient(r.com[:, 1], r.t))
     b.plot(r.t, v, lw=1, label=f"mean {r.speed(min(5.0, t_end / 2)):.2f} m/s over the last {min(5.0, t_end / 2):.1f} s")
-    b.set(ylabel="forward speed ẋ_c [m/s]")
+    b.set(ylabel="horizontal speed |ċ_xy| [m/s]")
     b.legend(fontsize=8, loc="lower right")
     c.plot(r.t, r.heading, lw=1, label="pelvis heading ψ")
     if turn is not None:
