@@ -177,9 +177,8 @@ def test_bad_input_is_named():
         Simbicon3D(WorldStep(TREE, PTS), heading=float("nan"))
 
 
-# ORACLES F18: the steps the walk's claims are tested at — 1 ms (the smallest measured), 2 ms (the runner's
-# default) and 3.5 ms (the largest stable: 4 ms falls at 3.43 s); 20 s walked at 1, 1.5, 2, 3 and 3.5 ms
-H_RANGE = (1e-3, 2e-3, 3.5e-3)
+# ORACLES F18: the steps the walk's claims are tested at — 2 ms (the runner's default), 3 ms and 3.5 ms (the
+# largest stable: 4 ms falls at 3.43 s); 20 s walked at 1, 1.5, 2, 3 and 3.5 ms (measured, not tested)
 CYCLE = ["R0", "R1", "L0", "L1"]
 
 
@@ -188,11 +187,11 @@ def _cycles(r):
     return all(b == CYCLE[(CYCLE.index(a) + 1) % 4] for a, b in zip(states, states[1:]))
 
 
-@pytest.mark.parametrize("h", H_RANGE[:2])
-def test_walks_on_flat_ground_two_seconds(h):
+def test_walks_on_flat_ground_two_seconds(h=2e-3):
     # ORACLES F18: the 3-D walk from the 0.5 m/s start: no fall in 2 s, the machine cycles R0 → R1 → L0 → L1
     # with ≥ 5 foot strikes (measured 6), forward at 0.5–1.0 m/s over the last second and within 0.3 m of its
-    # line (3.5 ms: the figure's run, test_the_chapter_figure_walks_at_the_largest_step)
+    # line (3.5 ms: the figure's run, test_the_chapter_figure_walks_at_the_largest_step; 1 ms is measured over
+    # 20 s in ORACLES F18, not tested: 2 s at 1 ms cost 2000 steps and the old start fell only after 2.8 s)
     from pbanim.control.simbicon3d_walk import simulate_walk3d
     r = simulate_walk3d(t_end=2.0, h=h)
     assert not r.fell and r.t[-1] == pytest.approx(2.0)
