@@ -42,9 +42,13 @@ N        Jacobi          ℓ1-Jacobi, additive     line Gauss–Seidel
 64                       47  (236)               4  (16)
 =======  ==============  ======================  =====================
 
-A line V-cycle costs ~4 products with the fine A (each sweep one, in row blocks) against none for the
-additive ℓ1 cycle, so at N = 64 the step gains less than the iteration counts say (the benchmark prints
-the parts); the point is that the count stays flat as N grows.
+A line V-cycle costs ~4 products with the fine A (each sweep one, in row blocks) and 12 banded solves,
+against none for the additive ℓ1 cycle: at N = 64 it costs 5.3 ms against 0.4 ms for a product with A,
+so the step does not get cheaper there (60 steps at h = 1/60 s, CG to 10⁻²: 4.45 CPU s against 4.41,
+spreads 4.29–4.77 and 3.68–4.96, alternating rounds); at N = 128 it does (a step at 10⁻³: 0.92 s against
+1.06 s, Jacobi 3.45 s). The count still grows with N, slower in absolute terms (to 10⁻³: 4, 5, 7, 11 at
+N = 16 … 128, against 46, 67, 88, 104): the piecewise-constant aggregates are the remaining weakness
+(line smoothing on the second level too: 11 → 9 at N = 128, no faster in time).
 
 It is applied inside B&W's modified PCG (:func:`pbanim.cloth.large_steps.modified_pcg` with
 ``precond="multigrid"``): the filter S stays outside (c = S P⁻¹ r), so the iterates stay in the constraint
