@@ -103,7 +103,13 @@ def test_push_is_survived_and_the_com_returns(mode, push):
 
 
 def test_scripted_step_lands_on_two_feet():
-    # ORACLES F21: shift, lift, swing 0.2 m, land, shift back: both soles flat at the end, length to 5 mm
+    # ORACLES F21: shift, lift, swing 0.2 m, land, shift back: both soles flat at the end, length to 5 mm.
+    # ProxQP alone calls one QP of this step infeasible (measured: still so with eps_abs and the regularization
+    # x100); the controller then takes an interior-point solver, so without one the step is not run here
+    from pbanim.control.qp_biped3d import FALLBACKS
+    from pbanim.control.qp_solve import backends
+    if not any(b in backends() for b in FALLBACKS):
+        pytest.skip(f"the scripted step needs one of {FALLBACKS} beside ProxQP (none installed)")
     r = simulate_step(length=0.2, h=8e-3)
     assert r.outcome == "stepped", r.cause
     assert r.extra["corners"] == 8
