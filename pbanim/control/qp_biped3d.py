@@ -104,20 +104,12 @@ def _cross6(V: np.ndarray, W: np.ndarray) -> np.ndarray:
 
 def _link_motion(world: WorldStep, kin: dict, qd: np.ndarray, owner=None) -> tuple[np.ndarray, np.ndarray]:
     """(V (n, 6), A (n, 6)): each link's spatial velocity and its acceleration at q̈ = 0 (module docstring);
-    ``owner``: the link of each column (``_column_links``, computed when not given)."""
-    owner = _column_links(world) if owner is None else owner
+    ``owner``: the link each velocity column moves (the step's own ``_joint_link`` when not given)."""
+    owner = world._joint_link if owner is None else owner
     mask = world.mask.astype(float)
     cols = kin["S"].T * qd[:, None]                           # Sⱼ q̇ⱼ (nv, 6)
     V = mask @ cols                                           # Vᵢ = Σ_{j ⪯ i} Sⱼ q̇ⱼ
     return V, mask @ _cross6(V[owner], cols)                  # Aᵢ = Σ_{j ⪯ i} Vⱼ × Sⱼ q̇ⱼ
-
-
-def _column_links(world: WorldStep) -> np.ndarray:
-    """The link whose joint owns each velocity column (nv,): among the links a column moves, the one
-    nearest the root (the fewest columns)."""
-    moved = world.mask.sum(axis=1)                            # columns moving each link: more for deeper links
-    return np.array([int(np.flatnonzero(world.mask[:, v])[np.argmin(moved[world.mask[:, v]])])
-                     for v in range(world.mask.shape[1])])
 
 
 def _point_bias(kin: dict, V: np.ndarray, A: np.ndarray, links, P: np.ndarray) -> np.ndarray:
@@ -210,7 +202,7 @@ class QPBiped3D(QPController):
         pts = biped3d_contact_points(tree)
         self.kernel = tree                                     # n and nv, as the planar kernel's
         self.world = WorldStep(tree, pts, friction=friction)
-        self.owner = _column_links(self.world)
+        self.owner = self.world._joint_link
         self.links = np.array([lk for lk, _ in pts])
         self.local = np.array([p for _, p in pts])
         self.ground, self.mode = Ground3D(float(friction)), mode
