@@ -126,3 +126,40 @@ def test_a_line_block_that_is_not_positive_definite_is_reported():
     mg = Multigrid(cloth.pattern, 10, coarsest=16, pinned=cloth.pinned)
     with pytest.raises(np.linalg.LinAlgError):
         mg.setup(-A.data)
+
+
+@pytest.mark.parametrize("damping", [0.0, 1e-3])
+def test_one_pass_spring_system_equals_the_readable_assembly(damping):
+    # ORACLES J10: A.data and f + K u of the large step from one pass over all springs (B_A = (α − γ)ŵŵᵀ + γ𝟙)
+    # equal the readable path (K.data, D.data on the pattern, A = M − hD − h²K, K u by a sparse product) to
+    # a few ulps of the largest entry; the state is perturbed so that some springs are compressed (s⁺ = 0)
+    from pbanim.cloth.step_system import spring_system
+    cloth = Cloth(Sheet(9, pins="corners"), stretch=1e3, shear=1e2, bend=0.1, damping=damping)
+    rng = np.random.default_rng(7)
+    n = cloth.n
+    x = cloth.sheet.x0 + 0.02 * rng.standard_normal((n // 3, 3))
+    v = rng.standard_normal((n // 3, 3))
+    u = 1e-2 * rng.standard_normal(n)
+    f, kd, dd = cloth._all(x, v, exact=False)
+    A0 = _system(cloth, kd, dd, H).data
+    b0 = f + cloth.pattern.matrix(kd) @ u
+    lengths = np.linalg.norm(x[cloth.conditions[0].elements[:, 0]] - x[cloth.conditions[0].elements[:, 1]], axis=1)
+    assert (lengths < cloth.sheet.spacing).any() and (lengths > cloth.sheet.spacing).any()
+    A1, b1 = spring_system(cloth).terms(x, v, u, H)
+    eps = np.finfo(float).eps
+    assert np.abs(A1 - A0).max() <= 16 * eps * np.abs(A0).max()          # measured 1.9 ε
+    assert np.abs(b1 - b0).max() <= 16 * eps * np.abs(b0).max()          # measured 1.9 ε
+
+
+def test_a_cloth_with_other_conditions_takes_the_readable_path():
+    # ORACLES J10: the one-pass system is for springs only; Baraff–Witkin triangles and hinges keep the
+    # readable assembly, and the step of either model is finite and keeps the pins
+    from pbanim.cloth.step_system import spring_system
+    bw = Cloth(Sheet(6, pins="corners"), model="bw", stretch=1e3, shear=1e2, bend=1e-3)
+    assert spring_system(bw) is None
+    springs = Cloth(Sheet(6, pins="corners"), stretch=1e3, shear=1e2, bend=0.1)
+    assert spring_system(springs) is not None
+    for cloth in (bw, springs):
+        y1 = large_step(cloth, cloth.state(), H, tol=1e-8)[0]
+        assert np.isfinite(y1).all()
+        assert np.array_equal(y1[:cloth.n].reshape(-1, 3)[cloth.pinned], cloth.sheet.x0[cloth.pinned])

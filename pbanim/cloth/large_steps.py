@@ -58,6 +58,7 @@ import numpy as np
 
 from .collide import contacts
 from .multigrid import Multigrid
+from .step_system import spring_system
 from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, SimulationDiverged
 
@@ -117,10 +118,15 @@ def _pcg(A, b, filt, z, tol, max_iter, prec=None):
     pinv = _jacobi(A) if prec is None else prec
     x = np.zeros_like(b) if z is None else z.copy()
     fb = filt(b.copy())
-    delta0 = _dot(fb, pinv(fb))
-    r = filt(b - A @ x)
-    c = filt(pinv(r))
-    delta = _dot(r, c)
+    if z is None or not z.any():                               # r = S(b): δ₀ = δ, one P⁻¹ fewer
+        r = fb.copy()
+        c = filt(pinv(r))
+        delta0 = delta = _dot(r, c)
+    else:
+        delta0 = _dot(fb, pinv(fb))
+        r = filt(b - A @ x)
+        c = filt(pinv(r))
+        delta = _dot(r, c)
     if delta0 == 0.0 or delta <= tol * tol * delta0:
         res = 0.0 if delta0 == 0.0 else float(np.sqrt(max(delta, 0.0) / delta0))
         return PCGResult(x, 0, res, True, tol)
@@ -220,11 +226,15 @@ def _large_step(cloth, y, h, tol, max_iter, precond="jacobi"):
     n = cloth.n
     x, v = y[:n].reshape(-1, 3), y[n:].reshape(-1, 3)
     with np.errstate(all="ignore"):
-        f, kdata, ddata = cloth._all(x, v, exact=False)
-        K = cloth.pattern.matrix(kdata)
-        A = _system(cloth, kdata, ddata, h)
         filt, z, ycorr, nc = _constraints(cloth, x, v)
-        b = h * (f + K @ (h * y[n:] + ycorr))
+        fast = spring_system(cloth)
+        if fast is not None:                                   # one pass over the springs (ORACLES J10)
+            data, g = fast.terms(x, v, h * y[n:] + ycorr, h)
+            A, b = cloth.pattern.matrix(data), h * g
+        else:
+            f, kdata, ddata = cloth._all(x, v, exact=False)
+            A = _system(cloth, kdata, ddata, h)
+            b = h * (f + cloth.pattern.matrix(kdata) @ (h * y[n:] + ycorr))
         sol = _pcg(A, b, filt, z, tol, max_iter, _preconditioner(cloth, A, precond))
         y1 = np.empty_like(y)
         y1[n:] = y[n:] + sol.x
@@ -241,12 +251,18 @@ def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter):
     with np.errstate(all="ignore"):
         filt, _, ycorr, _ = _constraints(cloth, x, v)
         dv = y1[n:] - y[n:]
+        fast, zero = spring_system(cloth), np.zeros(n)
         for it in range(1, max_iter + 1):
             v1 = y[n:] + dv
             x1 = y[:n] + h * v1 + ycorr
-            f, kdata, ddata = cloth._all(x1.reshape(-1, 3), v1.reshape(-1, 3), exact=False)
+            if fast is not None:
+                data, f = fast.terms(x1.reshape(-1, 3), v1.reshape(-1, 3), zero, h)
+                A = cloth.pattern.matrix(data)
+            else:
+                f, kdata, ddata = cloth._all(x1.reshape(-1, 3), v1.reshape(-1, 3), exact=False)
+                A = _system(cloth, kdata, ddata, h)
             g = filt(h * f - cloth.mass3 * dv)                  # −(residual) of M Δv = h f(x₁, v₁)
-            step = _pcg(_system(cloth, kdata, ddata, h), g, filt, None, cg_tol, cg_iter)
+            step = _pcg(A, g, filt, None, cg_tol, cg_iter)
             cg += step.iterations
             dv += step.x
             size = float(np.max(np.abs(step.x))) if len(step.x) else 0.0
