@@ -146,6 +146,8 @@ class QPController:
     ``limit_horizon`` T (s) as inequalities of every QP (:func:`~pbanim.control.qp_solve.joint_limit_bounds`).
     """
 
+    solver_options = {}      # more of solve_qp's options (the 3-D biped's: equilibrate, primal_inf)
+
     @contract(kernel=Obj(PlanarKernel), points=Seq(Pair(Index("kernel.n"), Array((3,)))),
               ground=Opt(Obj(PlanarGround)), tasks=Seq(Obj(Task)), mode=Choice(MODES),
               actuated=Opt(Indices("kernel.nv", empty=True, distinct=True)),
@@ -281,7 +283,8 @@ class QPController:
         t1 = time.perf_counter()
         N, R, statuses, iters = P["N"], P["R"], [], 0
         common = {"Aeq": P["Aeq"], "beq": P["beq"], "lb": P["lb"], "ub": P["ub"], "scale": R ** -0.5,
-                  "backend": self.backend, "native": self.native, "eps_abs": self.eps_abs, "max_iter": self.max_iter}
+                  "backend": self.backend, "native": self.native, "eps_abs": self.eps_abs, "max_iter": self.max_iter,
+                  **self.solver_options}
         live = [(t, A, b) for t, A, b in P["tasks"] if t.weight > 0]
         if self.mode == "weighted":
             Q = self.eps * np.diag(R)

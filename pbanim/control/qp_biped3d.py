@@ -33,6 +33,18 @@ The bias forces come from the same sums (the principle of virtual work over the 
 Newton and Euler for the whole body then say M c̈ = Σ fⱼ + M g and L̇ = Σ (pⱼ − c) × fⱼ for every QP
 answer (ORACLES F21, tested): a check of every bias above, with no finite difference.
 
+**The solver.** The equations of motion have entries of the body's weight M g (≈ 690 N in the force
+columns, after the solver's unit scaling) and the contact rows entries of 1; ProxQP's test for primal
+infeasibility (a relative threshold of 1e-4 by default) then fires on feasible QPs. Measured on the
+scripted step (:func:`~pbanim.control.qp_biped3d_run.simulate_step`, h = 8 ms): ProxQP alone stops with
+"PROXQP_PRIMAL_INFEASIBLE" at t = 0.064 s (both feet down, the centre of mass shifting); retried with
+eps_abs × 10 and the regularization × 10 it gets to t = 1.08 s (the landing) and fails there alike.
+An LP phase 1 (``scipy.optimize.linprog`` on the same equalities, cones and bounds) finds both QPs
+feasible with zero violation (the first strictly: every cone row, normal force and torque bound slack
+by 0.17 M g at once). Badly scaled, not infeasible: the QP goes to ProxQP with its rows equilibrated (each
+over its largest entry) and the certificate's threshold at 1e-8 (``solver_options``); the landing's QP
+is solved in 25 iterations, and the step runs on ProxQP alone (ORACLES F21).
+
 Tasks are :class:`~pbanim.control.qp_tasks.Task` objects with ``dim=3``: ``com`` and ``point`` 3-vectors,
 ``momentum`` a 3-vector L̄, ``posture`` joint names of :data:`~pbanim.control.biped3d.BIPED3D_JOINTS` or the
 trunk's three angles :data:`TRUNK` (a posture task names either kind, not both).
@@ -70,12 +82,6 @@ from .specs import Mapping, Pair, named
 __all__ = ["Centroidal3D", "Ground3D", "QPBiped3D", "QPResult3D", "TRUNK", "trunk_matrix"]
 
 TRUNK = ("trunk_roll", "trunk_pitch", "trunk_yaw")
-# ProxQP (dense) reports some feasible control QPs of the biped primal infeasible (measured at a landing: the same
-# problem solved by Clarabel, and by ProxQP at eps_abs × 10 or regularization × 10); the retries, in order:
-# (factor on eps_abs, factor on the regularization)
-# then, when it still fails, the first installed of FALLBACKS (an interior-point solver; through qpsolvers)
-RETRIES = ((10.0, 1.0), (1.0, 10.0))
-FALLBACKS = ("clarabel", "piqp", "cvxopt")
 _Q, _QD = Array((19,)), Array((18,))
 _KIN = Opt(Anything("the dict of the controller's kinematics(q), or None"))
 
@@ -185,7 +191,10 @@ class QPBiped3D(QPController):
     friction ``friction``; ``solve``, ``torques`` and ``active_contacts`` take (q (19,), q̇ (18,)) and
     ``contacts`` (a mask or indices of the eight sole corners, left foot first) as the planar one.
     Joint limits and posture tasks name joints of :data:`~pbanim.control.biped3d.BIPED3D_JOINTS`.
+    The QP goes to the solver with ``solver_options`` (module docstring, "The solver").
     """
+
+    solver_options = {"equilibrate": True, "primal_inf": 1e-8}
 
     @contract(tasks=Seq(Anything("Task objects with dim=3, checked in the body")), mode=Choice(MODES),
               torque_limits=named(InvalidGains, Array((12,), ge=0, finite=False, scalar=True)),
@@ -321,24 +330,7 @@ class QPBiped3D(QPController):
     @contract(q=_Q, qd=_QD, kin=_KIN, contacts=_CONTACTS, raise_on_failure=Flag())
     def solve(self, q, qd, kin: dict | None = None, contacts=None, *, raise_on_failure: bool = False):
         """Solve the control QP at (q, q̇) (:meth:`QPController.solve`; forces (8, 3): fₙ, fₜ₁, fₜ₂)."""
-        solve, eps, reg, backend, native = QPController.solve.__wrapped__, self.eps_abs, self.eps, self.backend, self.native
-        res = solve(self, q, qd, kin, contacts)
-        try:                    # ProxQP can call a feasible problem infeasible (see _prioritized); every answer
-            for e, r in RETRIES:    # is judged by its residuals, so a retry's feasible answer is a true one
-                if res.success or self.backend != "proxqp":
-                    break
-                self.eps_abs, self.eps = eps * e, reg * r
-                res = solve(self, q, qd, kin, contacts)
-                res.solver_status.append(f"retried: eps_abs {self.eps_abs:.0e}, regularization {self.eps:.0e}")
-            backend, native = self.backend, self.native
-            for other in [b for b in FALLBACKS if b in backends()] if not res.success and backend == "proxqp" else []:
-                self.backend, self.native = other, False          # another solver of the same QP, judged alike
-                res = solve(self, q, qd, kin, contacts)
-                res.solver_status.append(f"solved by {other} after ProxQP")
-                if res.success:
-                    break
-        finally:
-            self.eps_abs, self.eps, self.backend, self.native = eps, reg, backend, native
+        res = QPController.solve.__wrapped__(self, q, qd, kin, contacts)
         res = QPResult3D(**vars(res), **self._newton_euler(res))
         if raise_on_failure and not res.success:
             raise InfeasibleControl(res)

@@ -22,10 +22,21 @@ A push P (N s, a horizontal 3-vector) at ``push_time`` hits the torso's centre: 
    b(t) (0, 0, z_c), s the minimum-jerk ramp 10s³ − 15s⁴ + 6s⁵, b = 16 s²(1 − s)² the lift;
    they end 2 mm into the ground (a contact is taken, not hovered over);
 3. land and shift back: every corner whose gap is within ``contact_tol`` is a contact again; c̄ moves to
-   the middle of the new support polygon;
+   the middle of the new support polygon; the heel and toe tasks stay on, holding their end point 2 mm into
+   the ground (``press``: without it a sole landed on two corners is held by nothing on its free side, and the
+   prioritized step's left foot tipped up 3.5 cm and slid back to 0.187 m and 2.3 cm sideways);
 4. hold: double support, the step's length is the left sole's displacement (ℓ to a stated tolerance).
 
 Trajectories feed their velocity and acceleration forward (the tasks' ``velocity``, ``acceleration``).
+
+**Levels of the prioritized step** (de Lasa, Mordatch & Hertzmann 2010: constraints, then balance, then the
+end effectors, then the rest): the contacts and the equations of motion are the QP's equalities; level 0 the
+centre of mass; level 1 the swing foot's heel and toe and the trunk's orientation; level 2 the damping of L
+and the posture (:data:`STEP_LEVELS`). Measured at h = 8 ms (swing foot at level 1; the levels of c, L,
+trunk, posture): (0, 2, 1, 2) lands 0.1966 m, 8 corners; (0, 0, 2, 2), the momentum with the centre of mass,
+lands on 6 corners only (L̇ = −k L leaves the leg too little freedom to swing); (0, 2, 2, 2) lands 0.2165 m
+with QP residuals of 2e-4 M g. The weighted step uses the same tasks with weights (``weights`` of
+:func:`stand_tasks`, ``swing_weight``).
 
 The simulation is the 3-D contact step of chapter 08 (:class:`~pbanim.control.biped3d_step.WorldStep`:
 Coulomb friction, four sole corners a foot), the QP's torques held for ``control_every`` steps. A fall (the
@@ -43,7 +54,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..contracts import Array, Choice, Int, Obj, Real, Text, contract, unchecked
+from ..contracts import Array, Choice, Flag, Int, Obj, Real, Text, contract, unchecked
 from ..errors import SimulationDiverged, check_number
 from .biped3d import BIPED3D_JOINTS, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
@@ -59,6 +70,9 @@ _GAIN = named(InvalidTask, Real(ge=0))
 JOINT_LIMITS = {f"{s}_{j}": r for s in ("left", "right") for j, r in
                 (("hip_z", (-0.6, 0.6)), ("hip_x", (-0.6, 0.6)), ("hip_y", (-1.2, 1.8)), ("knee", (-2.2, -0.05)),
                  ("ankle_y", (-0.8, 0.8)), ("ankle_x", (-0.5, 0.5)))}
+# the prioritized step's levels of (centre of mass, momentum, trunk, posture), the swing foot at level 1: balance
+# first, then the swing foot and the trunk, then momentum damping and posture (module docstring, measured there)
+STEP_LEVELS = (0, 2, 1, 2)
 SIM_TOL = 1e-5           # the contact step's PGS tolerance (as the 3-D walk's; 1e-6 costs ~10x the sweeps standing)
 
 __all__ = ["Biped3DRun", "crouched_state3d", "simulate_stand3d", "simulate_step", "stand_tasks"]
@@ -96,18 +110,18 @@ def crouched_state3d(ctrl: QPBiped3D, knee: float = 0.4) -> tuple[np.ndarray, np
 
 @contract(com_target=Array((3,)), posture=Mapping(Text(), Real(), min_len=1), kp=_GAIN, kd=_GAIN, momentum=_GAIN,
           trunk_kp=_GAIN, trunk_kd=_GAIN, posture_kp=_GAIN, posture_kd=_GAIN, heading=Real(ge=-10, le=10),
-          weights=Array((4,), ge=0))
+          weights=Array((4,), ge=0), priorities=Array((4,), ge=0, le=10))
 def stand_tasks(com_target, posture: dict, *, kp: float = 40.0, kd: float = 15.0, momentum: float = 2.0,
                 trunk_kp: float = 200.0, trunk_kd: float = 30.0, posture_kp: float = 100.0, posture_kd: float = 20.0,
-                heading: float = 0.0, weights=(1.0, 1e-2, 1e-1, 1e-3)) -> list:
-    """The four tasks of the module docstring (centre of mass, momentum, trunk, posture), ``weights`` in
-    that order (they also weigh a task inside its level of the prioritized solve)."""
-    w = weights
-    return [Task("com", target=com_target, kp=kp, kd=kd, weight=w[0], priority=0, dim=3),
-            Task("momentum", kd=momentum, weight=w[1], priority=1, dim=3),
+                heading: float = 0.0, weights=(1.0, 1e-2, 1e-1, 1e-3), priorities=(0, 1, 1, 2)) -> list:
+    """The four tasks of the module docstring (centre of mass, momentum, trunk, posture), ``weights`` and
+    ``priorities`` in that order (a weight also weighs a task inside its level of the prioritized solve)."""
+    w, p = weights, [int(k) for k in priorities]
+    return [Task("com", target=com_target, kp=kp, kd=kd, weight=w[0], priority=p[0], dim=3),
+            Task("momentum", kd=momentum, weight=w[1], priority=p[1], dim=3),
             Task("posture", name="trunk", target=dict(zip(TRUNK, (0.0, 0.0, heading))), kp=trunk_kp, kd=trunk_kd,
-                 weight=w[2], priority=1, dim=3),
-            Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=w[3], priority=2, dim=3)]
+                 weight=w[2], priority=p[2], dim=3),
+            Task("posture", target=dict(posture), kp=posture_kp, kd=posture_kd, weight=w[3], priority=p[3], dim=3)]
 
 
 @dataclass
@@ -245,15 +259,17 @@ def _along(a, b, r: np.ndarray, T: float) -> tuple:
 @contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), inset=Real(ge=0, le=0.05),
           clearance=Real(ge=0, le=0.2), h=Real(ge=1e-3, le=0.01),
           mode=Choice(MODES), control_every=Int(ge=1, le=100), knee=Real(ge=0, le=1.2), friction=Real(ge=0),
-          swing_weight=Real(gt=0), swing_priority=Int(ge=0, le=10), record_every=Int(ge=1))
+          swing_weight=Real(gt=0), swing_priority=Int(ge=0, le=10), record_every=Int(ge=1),
+          priorities=Array((4,), ge=0, le=10), press=Flag())
 def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: float = 0.05, h: float = 4e-3, *,
                   inset: float = 0.02,
                   mode: str = "weighted", control_every: int = 1, knee: float = 0.4, friction: float = 0.9,
-                  swing_weight: float = 1.0, swing_priority: int = 0, record_every: int = 5) -> Biped3DRun:
+                  swing_weight: float = 1.0, swing_priority: int = 1, record_every: int = 5,
+                  priorities=STEP_LEVELS, press: bool = True) -> Biped3DRun:
     """One scripted step of the left foot, ``length`` m forward (module docstring: four phases of the
     durations ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's centre).
     ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
-    ctrl, q, qd, com0 = _controller(mode, knee, friction)
+    ctrl, q, qd, com0 = _controller(mode, knee, friction, priorities=priorities)
     kin = ctrl.world.kinematics(q)
     P, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
     left, right = P[:4].mean(axis=0), P[4:].mean(axis=0)
@@ -287,6 +303,9 @@ def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: f
                 lift = np.array([0.0, 0.0, clearance])
                 new = replace(swing[nm], weight=swing_weight, target=x + bump[0] * lift,
                               velocity=vx + bump[1] / T * lift, acceleration=ax + bump[2] / (T * T) * lift)
+            elif k >= 2 and press:                                  # landed: the sole pressed flat at its end
+                new = replace(swing[nm], weight=swing_weight, target=p0 + np.array([length, 0.0, -0.002]),
+                              velocity=np.zeros(3), acceleration=np.zeros(3))
             else:
                 new = replace(swing[nm], weight=0.0)
             ctrl._replace(nm, new)

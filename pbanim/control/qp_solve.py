@@ -186,7 +186,8 @@ def keep_level(Aeq: np.ndarray, beq: np.ndarray, Ak: np.ndarray, x: np.ndarray,
 
 
 def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: str = "proxqp", native: bool = True,
-             eps_abs: float = 1e-9, max_iter: int = 2000) -> tuple[np.ndarray, str, int, float]:
+             eps_abs: float = 1e-9, max_iter: int = 2000, equilibrate: bool = False,
+             primal_inf: float | None = None) -> tuple[np.ndarray, str, int, float]:
     """(x, solver status, iterations, KKT residual) of the QP above; x may be non-finite when the solver gives
     up. The KKT residual (:func:`kkt_residual`, from the solver's multipliers, in the scaled variables) says
     how far x is from the optimum; inf when the backend gives no multipliers or fails.
@@ -198,6 +199,14 @@ def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: s
     ``scale``: D > 0 per unknown; the solver sees x̃ = D⁻¹x (torques and forces of hundreds of newtons
     next to accelerations of a few m/s² otherwise mislead ProxQP's infeasibility test). ``x0``: a
     starting point (a feasible one, e.g. the level above's answer, is used as a warm start).
+
+    ``equilibrate``: each row of A_eq and of C divided by its largest |entry| (after ``scale``), its sides
+    alike: the same constraints, rows of one size. Equations of motion of entries ~M g next to contact rows
+    of entries ~1 otherwise make ProxQP call a feasible problem primal infeasible (measured on the 3-D
+    biped's landing, :mod:`pbanim.control.qp_biped3d`: an LP phase 1 finds it feasible with zero violation).
+    ``primal_inf``: ProxQP's threshold of its primal-infeasibility certificate (``eps_primal_inf``, 1e-4 by
+    default: a relative size of Aᵀδy + Cᵀδz to the multipliers' step δy, δz below which it stops and calls the
+    problem infeasible); None keeps ProxQP's default and its one-call ``dense.solve``.
     """
     big = max(_largest(a) for a in (Q, g, Aeq, beq, C, l, u, lb, ub))
     if not big <= MAX_DATUM:
@@ -205,7 +214,11 @@ def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: s
                 f"squares overflow double precision and the solver stalls; lower the gains, weights or targets)", 0,
                 np.inf)
     try:
-        return _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter)
+        if equilibrate:
+            D = np.ones(Q.shape[0]) if scale is None else np.asarray(scale, dtype=float)
+            (sa, beq), (sc, l, u) = _row_scales(Aeq * D, beq), _row_scales(C * D, l, u)
+            Aeq, C = sa[:, None] * Aeq, sc[:, None] * C
+        return _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter, primal_inf)
     except Exception as exc:  # noqa: BLE001 - any backend failure is an answer the caller flags by residuals
         return np.full(Q.shape[0], np.nan), f"backend {backend} failed: {type(exc).__name__}: {str(exc)[:200]}", 0, \
             np.inf
@@ -238,6 +251,13 @@ def kkt_residual(Q, g, A, b, x, y, rows) -> float:
     return out if out == out else np.inf
 
 
+def _row_scales(A: np.ndarray, *sides) -> tuple:
+    """(s, sides…): s = 1 / the largest |entry| of each row of A (1 for an all-zero row), the sides times s."""
+    big = np.abs(A).max(axis=1, initial=0.0)
+    s = 1.0 / np.where(big > 0, big, 1.0)
+    return (s,) + tuple(s * np.asarray(b, dtype=float) for b in sides)
+
+
 def _largest(a: np.ndarray) -> float:
     """The largest finite |entry| of a (infinite bounds are no data), NaN when an entry is NaN."""
     a = np.asarray(a, dtype=float)
@@ -247,7 +267,7 @@ def _largest(a: np.ndarray) -> float:
     return float(m.max()) if m.size else 0.0
 
 
-def _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter):
+def _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs, max_iter, primal_inf=None):
     """The backend call of :func:`solve_qp` (which turns its exceptions into a flagged answer)."""
     D = np.ones(Q.shape[0]) if scale is None else np.asarray(scale, dtype=float)
     Qs, gs, As, Cs = D[:, None] * Q * D, D * g, Aeq * D, C * D
@@ -256,9 +276,19 @@ def _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs,
     if backend == "proxqp" and native:
         import proxsuite  # lazy: only a controller that solves loads it
 
-        kw = {} if xs0 is None else {"x": xs0, "initial_guess": proxsuite.proxqp.InitialGuess.WARM_START}
-        r = proxsuite.proxqp.dense.solve(Qs, gs, As, beq, Cs, l, u, l_box=lbs, u_box=ubs, eps_abs=eps_abs, eps_rel=0.0,
-                                         max_iter=max_iter, **kw)
+        if primal_inf is None:
+            kw = {} if xs0 is None else {"x": xs0, "initial_guess": proxsuite.proxqp.InitialGuess.WARM_START}
+            r = proxsuite.proxqp.dense.solve(Qs, gs, As, beq, Cs, l, u, l_box=lbs, u_box=ubs, eps_abs=eps_abs,
+                                             eps_rel=0.0, max_iter=max_iter, **kw)
+        else:                                      # the QP object: its settings hold eps_primal_inf
+            qp = proxsuite.proxqp.dense.QP(Qs.shape[0], As.shape[0], Cs.shape[0], True)
+            st = qp.settings
+            st.eps_abs, st.eps_rel, st.max_iter, st.eps_primal_inf = eps_abs, 0.0, max_iter, primal_inf
+            if xs0 is not None:
+                st.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START
+            qp.init(Qs, gs, As, beq, Cs, l, u, lbs, ubs)
+            qp.solve() if xs0 is None else qp.solve(xs0, None, None)
+            r = qp.results
         xs, z, m = np.array(r.x, dtype=float), np.array(r.z, dtype=float), Cs.shape[0]
         kkt = kkt_residual(Qs, gs, As, beq, xs, r.y, [(Cs, l, u, z[:m]), (np.eye(xs.size), lbs, ubs, z[m:])])
         return D * xs, str(r.info.status).split(".")[-1], int(r.info.iter), kkt
