@@ -28,7 +28,10 @@ the spatial acceleration of link i and the acceleration of its point p when q̈ 
 
 The bias forces come from the same sums (the principle of virtual work over the links, at q̈ = 0):
 
-    C = Σᵢ J_cᵢᵀ mᵢ (a_cᵢ − g) + J_ωᵢᵀ (Īᵢ Aᵢ,ω + ωᵢ × Īᵢ ωᵢ)      (equal to RNEA's ID(q, q̇, 0), tested)
+    C = Σᵢ J_cᵢᵀ mᵢ (a_cᵢ − g) + J_ωᵢᵀ (Īᵢ Aᵢ,ω + ωᵢ × Īᵢ ωᵢ) + b q̇   (equal to RNEA's ID(q, q̇, 0), tested)
+
+computed once, by the 3-D contact step's :func:`~pbanim.control.biped3d_lean.bias` (b the joint damping,
+which the step's dynamics include; zero on this biped).
 
 Newton and Euler for the whole body then say M c̈ = Σ fⱼ + M g and L̇ = Σ (pⱼ − c) × fⱼ for every QP
 answer (ORACLES F21, tested): a check of every bias above, with no finite difference.
@@ -71,6 +74,7 @@ from ..contracts import Anything, Array, Choice, Flag, Int, Opt, Real, Seq, Text
 from ..errors import InvalidInput, NonFiniteResult
 from ..rigid.quat import quat_from_axis_angle, quat_multiply, quat_to_matrix
 from .biped3d import BIPED3D_JOINTS, biped3d, biped3d_contact_points
+from .biped3d_lean import bias as _bias
 from .biped3d_step import WorldStep
 from .pd import InvalidGains, _per_joint
 from .qp import _CONTACTS, _TOL, MODES, InfeasibleControl, QPController, QPResult
@@ -161,8 +165,7 @@ def _centroidal3d(world: WorldStep, kin: dict, qd: np.ndarray, V: np.ndarray, A:
     tq = np.einsum("nij,nj->ni", Iw, A[:, :3]) + np.cross(w, Iww)       # Īᵢ αᵢ + ωᵢ × Īᵢ ωᵢ
     Lb = m @ np.cross(r, ac) + tq.sum(axis=0)
     J = np.einsum("n,niv->iv", m, Jc) / M
-    g = np.asarray(world.tree.gravity, dtype=float)
-    C = np.einsum("niv,ni->v", Jc, m[:, None] * (ac - g)) + np.einsum("niv,ni->v", Jw, tq)
+    C = _bias(world, kin, qd)                  # the same link sums, written once (the 3-D step's lean C)
     return Centroidal3D(mass=M, com=com, vcom=J @ qd, J=J, bias=m @ ac / M, L=AL @ qd, A=AL, L_bias=Lb, C=C)
 
 
