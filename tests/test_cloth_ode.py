@@ -11,7 +11,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from pbanim.cloth import Cloth, Sheet
-from pbanim.cloth.ode_blocks import second_order_jac
+from pbanim.cloth.assembly import second_order_jac
 from pbanim.errors import InvalidInput
 from pbanim.ode import solve
 from pbanim.ode.radau import radau5_step

@@ -43,8 +43,8 @@ from ._cloth_realtime import (CG_TOL, WARM, cg_error_vs_truncation, floor_per_st
                               wall_per_simulated_second)
 from ..cloth import Cloth, Sheet, large_step, newton_step, xpbd_step
 from ..cloth.large_steps import PRECONDITIONERS
-from ..cloth.ode_blocks import second_order_jac
-from ..contracts import Choice, Flag, Int, Real, contract, unchecked
+from ..cloth.assembly import second_order_jac
+from ..contracts import Choice, Flag, Int, Real, Seq, contract, unchecked
 from ..errors import PbanimError
 
 # the solvers, bound once past their argument checks (the benchmark's own calls are valid)
@@ -61,6 +61,8 @@ ERRORS = (1e-2, 1e-3, 1e-4, 1e-5, 1e-6)
 REF_RTOL = 1e-7          # at N = 16 scipy Radau at rtol 1e-6 is within 3e-11 m of rtol 1e-8 (measured)
 PB_REF_RTOL = 1e-5       # N > 16: pbanim RODAS4 and Radau IIA agree to the gap each run prints (N = 16: 6e-10 m
                          # from scipy Radau at 1e-7); errors from 1e-6 m up are resolved
+WP_CG_TOL = 1e-6         # CG of the work-precision large steps (multigrid): the solve's error ≪ the step's
+RICHARDSON = (24, 48, 96)   # N > 64: the reference extrapolated from large steps of T/24, T/48, T/96
 RT_TOLS = (1e-2, 1e-3)   # CG tolerances of the N = 64 real-time row (the first is the goal's, _cloth_realtime)
 
 
@@ -117,11 +119,12 @@ def _run(cloth, method, setting, t_end, budget):
     n = cloth.nf
     y0 = cloth.free_state(cloth.state())
     rhs, jac = unchecked(cloth.rhs), unchecked(cloth.jac)
-    if method == "large steps":
-        return _steps(cloth, lambda y, h: _large_step(cloth, y, h, 1e-8, 20000)[0], setting, t_end, budget)
+    if method == "large steps":                         # CG to 1e-6: the solve's error ≪ the step's (J6)
+        return _steps(cloth, lambda y, h: _large_step(cloth, y, h, WP_CG_TOL, 20000, "multigrid")[0], setting,
+                      t_end, budget)
     if method == "Newton":
-        return _steps(cloth, lambda y, h: _newton_step(cloth, y, h, 1e-9, 30, 1e-10, 20000)[0], setting, t_end,
-                      budget)
+        return _steps(cloth, lambda y, h: _newton_step(cloth, y, h, 1e-8, 30, 1e-9, 20000, "multigrid")[0],
+                      setting, t_end, budget)
     if method == "XPBD":
         return _steps(cloth, lambda y, h: _xpbd_step(cloth, y, h, setting, 1), 1.0 / 60.0, t_end, budget)
     f = _budgeted(rhs, budget)
@@ -156,6 +159,9 @@ def _run(cloth, method, setting, t_end, budget):
 
 def _settings(method, quick, n=16):
     """The settings swept per method: the same rtol grid for pbanim's and scipy's ODE solvers."""
+    if n > 64 and not quick:                             # N = 128: the ODE solvers' LU alone is over budget
+        return {"large steps": [T_END / k for k in (3, 12, 48)], "Newton": [T_END / 3],
+                "XPBD": (4, 32)}.get(method, (1e-2,))
     if n > 16 and not quick:                             # larger sheets: fewer settings per method
         return {"large steps": [T_END / k for k in (3, 12, 48)], "Newton": [T_END / k for k in (3, 12)],
                 "XPBD": (4, 32)}.get(method, (1e-2, 1e-3, 1e-4, 1e-5))
@@ -178,6 +184,11 @@ def _reference(cloth, budget):
     from ..ode import solve
     y0 = cloth.free_state(cloth.state())
     f, start = _budgeted(unchecked(cloth.rhs), budget), _clock()
+    if cloth.sheet.n > 64:
+        ref, gap = richardson(cloth, RICHARDSON, budget)
+        return ref, _clock() - start, (f"Richardson extrapolation (two levels) of large steps of T/{RICHARDSON[0]}, "
+                                       f"T/{RICHARDSON[1]}, T/{RICHARDSON[2]} (CG to 1e-9): its last correction "
+                                       f"{gap:.1e} m")
     if cloth.sheet.n <= 16:
         import scipy.integrate as si
         r = si.solve_ivp(f, (0.0, T_END), y0, method="Radau", rtol=REF_RTOL, atol=REF_RTOL * 1e-2,
@@ -191,19 +202,39 @@ def _reference(cloth, budget):
                                             f"the same rtol: they agree to {gap:.1e} m")
 
 
-@contract(n=Int(ge=2, le=256), budget=Real(gt=0, le=3600), quick=Flag())
-def work_precision(n: int, budget: float = 20.0, quick: bool = False) -> dict:
+def richardson(cloth, ks=RICHARDSON, budget: float = float("inf")):
+    """(final free positions, |R₂ − R₁|) by Richardson extrapolation of large steps of T/k for the three k of
+    ``ks`` (each twice the last): the large step is first order with an expansion e = c₁h + c₂h² + …
+    (linearly implicit Euler, CG to 1e-9), so R₁(h) = 2y(h/2) − y(h) and R₂ = (4R₁(h/2) − R₁(h))/3 cancel the
+    first two terms. Measured against the ODE reference (CG to 1e-10): R₂ of T/24, T/48, T/96 is within
+    1.3e-6 m of it at N = 16 and 6.9e-6 m at N = 32, its last correction |R₂ − R₁| 2e-5 m at N = 32; each
+    full run prints the check at N = 32."""
+    y = [_steps(cloth, lambda z, h: _large_step(cloth, z, h, 1e-9, 20000, "multigrid")[0], T_END / k, T_END,
+                budget) for k in ks]
+    r1a, r1b = 2 * y[1] - y[0], 2 * y[2] - y[1]
+    r2 = (4 * r1b - r1a) / 3
+    return r2, float(np.abs(r2 - r1b).max())
+
+
+@contract(n=Int(ge=2, le=256), budget=Real(gt=0, le=3600), quick=Flag(), skip=Seq(Choice(METHODS), max_len=8))
+def work_precision(n: int, budget: float = 20.0, quick: bool = False, skip=()) -> dict:
     """{method: [(setting, error m, wall s) or (setting, None, "over budget")]} at N = n, plus "reference"
-    (its wall time, or "over budget") and "reference_kind" (:func:`_reference`)."""
+    (its wall time, or "over budget") and "reference_kind" (:func:`_reference`). Methods in ``skip`` are not
+    run: their row is "over budget" (the caller passes those over budget at a smaller N: a run's cost grows
+    with N)."""
     cloth = sheet(n)
     out: dict = {}
     try:
-        ref, out["reference"], out["reference_kind"] = _reference(cloth, 6 * budget)
+        out["reference_x"], out["reference"], out["reference_kind"] = _reference(cloth, 6 * budget)
+        ref = out["reference_x"]
     except OverBudget:
         out["reference"] = "over budget"
         return out
     for m in METHODS:
         rows = []
+        if m in skip:
+            out[m] = [(_settings(m, quick, n)[0], None, "over budget (at a smaller N: not run)")]
+            continue
         for s in _settings(m, quick, n):
             t0 = _clock()
             try:
@@ -272,11 +303,17 @@ def largest_stable_step(method: str, stretch: float = 1e3, n: int = 8) -> float:
 
 def run(quick: bool = False) -> Report:
     rep = Report("cloth")
-    sizes = (16,) if quick else (16, 32, 64)
+    sizes = (16,) if quick else (16, 32, 64, 128)
     budget = 4.0 if quick else 15.0
-    ratios = []
+    ratios, over, sections, t0 = [], set(), [], _clock()
     for n in sizes:
-        wp = work_precision(n, budget, quick)
+        wp = work_precision(n, budget, quick, sorted(over, key=METHODS.index))
+        over |= {m for m in METHODS if any(isinstance(t, str) for _, _, t in wp.get(m, []))}
+        if n == 32 and not quick and not isinstance(wp["reference"], str):
+            check, gap = richardson(sheet(32))
+            rep.notes.append(f"the N = 128 reference (Richardson of large steps of T/k, k = {RICHARDSON}) checked at "
+                             f"N = 32: last correction {gap:.1e} m, off the ODE reference by "
+                             f"{np.abs(check - wp['reference_x']).max():.1e} m")
         ref = wp["reference"]
         ref = ref if isinstance(ref, str) else f"{ref:.1f} s"
         tab = Table(f"work-precision at N = {n} ({3 * n * n} unknowns), T = {T_END} s; reference "
@@ -284,6 +321,8 @@ def run(quick: bool = False) -> Report:
                     ["method", "setting", "error (m)", "CPU (s)"])
         if isinstance(wp["reference"], str):
             rep.tables.append(tab)
+            sections.append(f"work-precision N = {n} {_clock() - t0:.0f} s")
+            t0 = _clock()
             continue
         for m in METHODS:
             for s, err, t in wp[m]:
@@ -298,6 +337,8 @@ def run(quick: bool = False) -> Report:
                     pairs[key] = _alternating(sheet(n), pb[1:], sc[1:], 2 if quick else 3, 3 * budget)
                 med, q1, q3 = pairs[key]
                 ratios.append((med, n, e, f"{pb[1]} {pb[2]:.3g} / {sc[1]} {sc[2]:.3g}: {med:.2f} ({q1:.2f}–{q3:.2f})"))
+        sections.append(f"work-precision N = {n} {_clock() - t0:.0f} s")
+        t0 = _clock()
     if ratios:
         worst = max(ratios)
         rep.notes.append("pbanim best / scipy best at equal error, median of alternating rounds (quartiles): "
@@ -343,6 +384,8 @@ def run(quick: bool = False) -> Report:
                           f"{span}, {best} (slope of CG iterations {s_n[best]:.2f}, of the cost per iteration "
                           f"{s_it[best]:.2f}: a sparse product of ~115 N² entries grows past the cache)"))
     rep.goals.append(Goal("xpbd_cost_slope_vs_N2", s_x, 1.1, "<=", "", span))
+    sections.append(f"cost per step and CG checks {_clock() - t0:.0f} s")
+    t0 = _clock()
     if 64 in cost_sizes:
         cloth64 = sheet(64)
         rt = wall_per_simulated_second(cloth64, RT_TOLS, 3, baseline=[(RT_TOLS[0], "multigrid-l1")])
@@ -365,11 +408,15 @@ def run(quick: bool = False) -> Report:
     else:
         rep.goals.append(Goal("large_steps_N64_wall_per_simulated_s", float("nan"), 1.0, "<=", " s",
                               skipped="--quick: N = 64 runs in the full benchmark"))
+    sections.append(f"real-time row {_clock() - t0:.0f} s")
+    t0 = _clock()
     stiff = (1e3,) if quick else (1e2, 1e3, 1e4)
     st = Table("largest stable step (s) on an 8 × 8 sheet, 0.2 s", ["method"] + [f"k = {k:g}" for k in stiff])
     for m in ("symplectic Euler", "XPBD", "large steps"):
         st.rows.append([m] + [largest_stable_step(m, k) for k in stiff])
     rep.tables.append(st)
+    sections.append(f"largest stable step {_clock() - t0:.0f} s")
+    rep.notes.append("CPU time of this run by section: " + "; ".join(sections))
     rep.notes.append("runs past their budget print 'over budget' (budget per run "
                      f"{budget:g} CPU s, the reference 6× that): a result, not a gap; work-precision times are CPU seconds of "
                      "this process (one BLAS thread: the wall time of an idle machine), the real-time row "

@@ -21,10 +21,23 @@ Jacobian is J = [[0, I], [W K_FF, W D_FF]] (W = M⁻¹): :class:`FreeJacobian` p
 the gather that fills it from K.data and D.data, so ``jac(t, y)`` for pbanim's and scipy's stiff solvers is
 one ``take`` and two scalings.
 
-Notation: n = 3N coordinates; q = 3 nv per element; ``maps[c]`` (E_c·q²,) data positions of kind c.
+The same gather gives the two blocks alone for the stiff solvers' half-size stage systems: a stage system
+(σI − J)(p, u) = (r₁, r₂) of RODAS4 or Radau IIA reduces to (σ²I − σ W D_FF − W K_FF) u = σ r₂ + W K_FF r₁
+(:mod:`pbanim.ode.second_order`), M times it σ²M − σD − K, Baraff & Witkin's A = M − hD − h²K with h = 1/σ,
+divided by h². :func:`second_order_jac` hands the blocks (W K_FF, W D_FF) to :func:`pbanim.ode.solve` as a
+:class:`~pbanim.ode.second_order.SecondOrderJacobian`; they equal the full J of :meth:`Cloth.jac` entry for
+entry (ORACLES J1, J7).
+
+Notation: n = 3N coordinates; q = 3 nv per element; ``maps[c]`` (E_c·q²,) data positions of kind c; n_F free
+coordinates (3 × free particles), W = M⁻¹ of each entry's row.
 
 Limiting cases: a kind with no elements adds nothing (its map is empty); the diagonal is always in the
-pattern, so M − hD − h²K has a place for every mass even where no element reaches (an isolated particle).
+pattern, so M − hD − h²K has a place for every mass even where no element reaches (an isolated particle);
+no pins (n_F = 3N) keeps the whole pattern; undamped (D = 0) gives W D_FF with the pattern of W K_FF and zero
+entries, so the stage matrix is σ²I − W K_FF.
+
+References: Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998, §3; Hairer & Wanner,
+*Solving ODEs II*, §IV.8 (the stage systems).
 """
 
 from __future__ import annotations
@@ -32,7 +45,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["Pattern", "FreeJacobian"]
+from ..contracts import Obj, contract
+from ..ode.second_order import SecondOrderJacobian
+
+__all__ = ["Pattern", "FreeJacobian", "second_order_jac"]
 
 _CC = np.array([[1.0, -1.0], [-1.0, 1.0]])                 # c cᵀ of a pair element, c = (1, −1)
 
@@ -154,6 +170,8 @@ class FreeJacobian:
         kpos, dpos = base + offset, base + count[r] + offset
         indices[kpos], indices[dpos] = c, c + nf
         self.kpos, self.dpos = kpos, dpos
+        self.ff_indices = c                                     # K_FF alone (CSR), for :meth:`blocks`
+        self.ff_indptr = np.concatenate([[0], np.cumsum(count)]).astype(np.int32)
         self.indices = indices
         self.indptr = np.concatenate([np.arange(nf + 1), nf + 2 * np.cumsum(count)]).astype(np.int32)
         self.w = winv[free][r]                                  # W of each entry's row
@@ -166,3 +184,31 @@ class FreeJacobian:
         data[self.kpos] = self.w * kdata[self.sub]
         data[self.dpos] = 0.0 if ddata is None else self.w * ddata[self.sub]
         return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+
+    def blocks(self, kdata, ddata) -> tuple[sp.csc_matrix, sp.csc_matrix]:
+        """(W K_FF, W D_FF) (n_F × n_F, CSC) from the full K.data and D.data (D None: undamped, zeros)."""
+        def block(data):
+            return sp.csr_matrix((self.w * data[self.sub], self.ff_indices, self.ff_indptr),
+                                 shape=(self.nf, self.nf)).tocsc()
+        return block(kdata), block(np.zeros_like(kdata) if ddata is None else ddata)
+
+
+@contract(cloth=Obj("pbanim.cloth.model:Cloth"))
+def second_order_jac(cloth):
+    """``jac(t, y_F)`` → :class:`SecondOrderJacobian` (W K_FF, W D_FF) of the cloth's free ODE (module docstring).
+
+    >>> from pbanim.cloth import Cloth, Sheet
+    >>> cloth = Cloth(Sheet(4), stretch=1e3, damping=1e-3)
+    >>> yf = cloth.free_state(cloth.state())
+    >>> J = second_order_jac(cloth)(0.0, yf)
+    >>> float(abs(J.tocsr() - cloth.jac(0.0, yf)).max())
+    0.0
+    """
+    blocks = cloth._jac_free.blocks
+
+    def jac(t, yf):
+        x, v = cloth._split(yf)
+        with np.errstate(all="ignore"):
+            _, kd, dd = cloth._all(x, v)
+        return SecondOrderJacobian(*blocks(kd, dd))
+    return jac

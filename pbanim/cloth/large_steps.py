@@ -242,10 +242,10 @@ def _large_step(cloth, y, h, tol, max_iter, precond="jacobi"):
     return y1, sol, nc
 
 
-def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter):
+def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter, precond="jacobi"):
     """Implicit Euler by Newton from the large step: (y₁, Newton iterations, CG iterations)."""
     n = cloth.n
-    y1, sol, _ = _large_step(cloth, y, h, cg_tol, cg_iter)
+    y1, sol, _ = _large_step(cloth, y, h, cg_tol, cg_iter, precond)
     cg = sol.iterations
     x, v = y[:n].reshape(-1, 3), y[n:].reshape(-1, 3)
     with np.errstate(all="ignore"):
@@ -262,7 +262,7 @@ def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter):
                 f, kdata, ddata = cloth._all(x1.reshape(-1, 3), v1.reshape(-1, 3), exact=False)
                 A = _system(cloth, kdata, ddata, h)
             g = filt(h * f - cloth.mass3 * dv)                  # −(residual) of M Δv = h f(x₁, v₁)
-            step = _pcg(A, g, filt, None, cg_tol, cg_iter)
+            step = _pcg(A, g, filt, None, cg_tol, cg_iter, _preconditioner(cloth, A, precond))
             cg += step.iterations
             dv += step.x
             size = float(np.max(np.abs(step.x))) if len(step.x) else 0.0
@@ -295,11 +295,12 @@ def large_step(cloth, y, h: float, tol: float = 1e-4, max_iter: int = 2000, prec
 
 
 @contract(cloth=_CLOTH, y=_STATE, h=_H, tol=_TOL, max_iter=Int(ge=1, le=200), cg_tol=_TOL,
-          cg_iter=Int(ge=1, le=100_000))
+          cg_iter=Int(ge=1, le=100_000), precond=Choice(PRECONDITIONERS))
 def newton_step(cloth, y, h: float, tol: float = 1e-9, max_iter: int = 30, cg_tol: float = 1e-10,
-                cg_iter: int = 5000):
-    """One implicit Euler step solved by Newton (ConvergenceError past ``max_iter``): (y₁, Newton iterations)."""
-    y1, it, _ = _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter)
+                cg_iter: int = 5000, precond: str = "jacobi"):
+    """One implicit Euler step solved by Newton (ConvergenceError past ``max_iter``): (y₁, Newton iterations);
+    every CG solve preconditioned by ``precond`` (as in :func:`large_step`)."""
+    y1, it, _ = _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter, precond)
     if not np.isfinite(y1).all():
         raise SimulationDiverged(0.0, 0, "cloth state", f"the Newton step at h = {h:g} overflowed")
     return y1, it
