@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pbanim.control.qp_balance import simulate_balance
+from pbanim.control.qp_balance import simulate_balance_pushes
 from pbanim.models.biped import planar_biped
 from pbanim.plotting import figure
 
@@ -53,7 +53,13 @@ def _summary(run) -> dict:
         cost=52.0)
 def qp_push_balance(ctx):
     t_end = 2.5
-    small, large = simulate_balance(20.0, t_end), simulate_balance(30.0, t_end)
+    impulses = np.arange(-32.0, 33.0, 4.0)
+    # every run is the same stance until its push lands at 0.5 s: that stance is simulated once and each push
+    # continues from it (simulate_balance_pushes: the runs of simulate_balance(P) one by one); the run at
+    # 20 N s is the recovered one drawn and also a point of the envelope (full mode), not run twice
+    pushes = [20.0, 30.0] + ([] if ctx.quick else [float(p) for p in impulses if p != 20.0])
+    runs = dict(zip(pushes, simulate_balance_pushes(pushes, t_end)))
+    small, large = runs[20.0], runs[30.0]
     mu = small.mu
     f = small.forces.reshape(-1, 2)
     loaded = f[:, 0] > 1.0
@@ -63,11 +69,7 @@ def qp_push_balance(ctx):
     sim_ratio = float(np.max(np.abs(fs[sim_loaded, 1]) / fs[sim_loaded, 0])) if sim_loaded.any() else 0.0
     envelope = None
     if not ctx.quick:
-        impulses = np.arange(-32.0, 33.0, 4.0)
-        # the run at 20 N s is the recovered one above (same call, same numbers): not run twice
-        envelope = {"impulse": impulses,
-                    "recovered": np.array([(small if p == small.push else simulate_balance(p, t_end)).recovered
-                                           for p in impulses])}
+        envelope = {"impulse": impulses, "recovered": np.array([runs[float(p)].recovered for p in impulses])}
     ncols = 3 if ctx.quick else 4
     fig, axs = ctx.subplots(1, ncols, figsize=(4.2 * ncols, 3.8))
     a, b, c = axs[:3]
@@ -106,6 +108,106 @@ def qp_push_balance(ctx):
     return {"recovered": _summary(small), "fallen": _summary(large), "mu": mu, "max_cone_ratio": ratio,
             "max_sim_cone_ratio": sim_ratio, "capture_impulse": capture_impulse(small), "support": small.support,
             "envelope": envelope}
+
+
+# %% [markdown]
+# ## Figure `ch08_qp_biped3d_step`
+#
+# The 3-D biped takes one scripted step of 0.2 m under the QP controller (:func:`pbanim.control.qp_biped3d_run.
+# simulate_step`, h = 8 ms, ProxQP alone; ORACLES F21): shift over the right sole, lift and swing the left foot,
+# land, shift to the middle. A strip of side (x–z) and front (y–z) views at key times with the centre of mass
+# (its ground projection marked) and the support polygon (the sole corners on the ground, its extent in each
+# view); a top view of the support polygons and the centre of mass's path. Quick: the weighted controller; full:
+# also the prioritized one (its path in the top view) and a GIF.
+
+# %%
+def _support(ctrl, q, tol: float) -> np.ndarray:
+    """(k, 2) the x, y of the sole corners on the ground (z ≤ tol) at q, ordered round their hull."""
+    from scipy.spatial import ConvexHull
+
+    kin = ctrl.world.kinematics(q)
+    P = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)[0]
+    xy = P[P[:, 2] <= tol, :2]
+    return xy[ConvexHull(xy).vertices] if len(xy) >= 3 else xy
+
+
+@figure("ch08", "qp_biped3d_step", "3-D biped stepping under the QP controller: side and front views, COM, support",
+        cost=12.0)
+def qp_biped3d_step(ctx):
+    from chapters.ch08_biped3d import _bones, _points
+    from pbanim.control.qp_biped3d import QPBiped3D
+    from pbanim.control.qp_biped3d_run import simulate_step
+
+    from matplotlib.collections import LineCollection
+
+    h = 1e-2 if ctx.quick else 8e-3
+    runs = {"weighted": simulate_step(length=0.2, h=h, mode="weighted")}
+    if not ctx.quick:
+        runs["prioritized"] = simulate_step(length=0.2, h=h, mode="prioritized")
+    r = runs["weighted"]
+    ctrl = QPBiped3D([])
+    bones = _bones(ctrl.kernel)
+    keys = (0.0, 0.6, 0.72, 0.8, 0.88, 1.0, 1.3, 1.8)
+    frames = [int(np.argmin(np.abs(r.t - t))) for t in keys]
+    fig, (side, front, top) = ctx.subplots(3, 1, figsize=(11, 10), gridspec_kw={"height_ratios": [2, 2, 1.5],
+                                                                                       "hspace": 0.35})
+    gap = 0.55
+    for j, k in enumerate(frames):
+        P = _points(ctrl.world, r.q[k], bones)
+        sup = _support(ctrl, r.q[k], ctrl.contact_tol)
+        c = r.com[k]
+        for ax, axis in ((side, 0), (front, 1)):
+            off = j * gap
+            ax.add_collection(LineCollection(P[:, :, [axis, 2]] + [off, 0.0], colors="k", linewidths=1.5))
+            ax.plot([sup[:, axis].min() + off, sup[:, axis].max() + off], [0.0, 0.0], "-", lw=5, color="C2",
+                    alpha=0.6, label="support polygon (its extent)" if j == 0 else None)
+            ax.plot([c[axis] + off] * 2, [c[2], 0.0], ":", color="C3", lw=0.8)
+            ax.plot([c[axis] + off] * 2, [c[2], 0.0], "o", color="C3", ms=4,
+                    label="centre of mass and its ground point" if j == 0 else None)
+        side.text(j * gap, -0.14, f"t = {r.t[k]:.2f} s", ha="center", fontsize=7)
+    for ax, label, title in ((side, "x [m], each frame shifted 0.55 m", "side view (x forward)"),
+                             (front, "y [m], each frame shifted 0.55 m", "front view (y to the biped's left)")):
+        ax.axhline(0, color="0.5", lw=0.8)
+        ax.set(aspect="equal", xlim=(-0.35, (len(frames) - 1) * gap + 0.45), ylim=(-0.2, 2.0), ylabel="z [m]",
+               xlabel=label, title=title)
+        ax.legend(fontsize=7, loc="upper right", ncol=2)
+    for k, col, lab in ((frames[0], "C2", "double support"), (frames[3], "C1", "single support (right sole)"),
+                        (frames[-1], "C4", "double support after the step")):
+        sup = _support(ctrl, r.q[k], ctrl.contact_tol)
+        top.fill(sup[:, 0], sup[:, 1], facecolor=col, alpha=0.2, edgecolor=col, lw=1.2,
+                 label=f"{lab}, t = {r.t[k]:.2f} s")
+    for (name, run), col in zip(runs.items(), ("C3", "C0")):
+        top.plot(run.com[:, 0], run.com[:, 1], "-", color=col, lw=1.2,
+                 label=f"centre of mass, {name}: step {run.extra['length']:.4f} m")
+    top.plot(r.com_target[:, 0], r.com_target[:, 1], "--", color="0.4", lw=0.8, label="its target c̄")
+    top.set(aspect="equal", xlabel="x [m]", ylabel="y [m]", xlim=(-0.2, 0.75),
+            title=f"top view: support polygons and the centre of mass (h = {h * 1e3:g} ms)")
+    top.legend(fontsize=7, loc="center right")
+    ctx.save(fig)
+    if not ctx.quick:
+        gfig, (gs, gf) = ctx.subplots(1, 2, figsize=(7, 4))
+        lines = [(gs.plot([], [], "-", lw=2, color="k")[0], gf.plot([], [], "-", lw=2, color="k")[0]) for _ in bones]
+        dots = (gs.plot([], [], "o", color="C3")[0], gf.plot([], [], "o", color="C3")[0])
+        for ax, lab, lim in ((gs, "x [m]", (-0.5, 0.8)), (gf, "y [m]", (-0.6, 0.6))):
+            ax.axhline(0, color="0.5", lw=0.8)
+            ax.set(aspect="equal", xlim=lim, ylim=(-0.05, 1.5), xlabel=lab, ylabel="z [m]")
+
+        def draw(i):
+            k = i * 2
+            for (a, b), seg in zip(lines, _points(ctrl.world, r.q[k], bones)):
+                a.set_data(seg[:, 0], seg[:, 2])
+                b.set_data(seg[:, 1], seg[:, 2])
+            dots[0].set_data([r.com[k, 0]], [r.com[k, 2]])
+            dots[1].set_data([r.com[k, 1]], [r.com[k, 2]])
+            gs.set_title(f"t = {r.t[k]:.2f} s (side, front)")
+
+        ctx.save_gif(gfig, draw, len(r.t) // 2, fps=12)
+    out = {"h": h, "frames_t": r.t[frames]}
+    for name, run in runs.items():
+        out[name] = {"outcome": run.outcome, "cause": run.cause, "t": run.t, "com": run.com, "com_target": run.com_target,
+                     "residuals": run.residuals, "newton_euler": run.newton_euler, "mass": run.mass,
+                     "com_error": run.com_error(0.1), **{k: v for k, v in run.extra.items() if k != "mode"}}
+    return out
 
 
 # %% [markdown]
