@@ -133,6 +133,20 @@ def test_figure_qp_biped3d_step(figure_data):
     assert np.all(np.diff(d["frames_t"]) > 0) and d["frames_t"][-1] <= w["t"][-1] + 1e-12
 
 
+@pytest.mark.parametrize("options", [{}, {"equilibrate": True}, {"primal_inf": 1e-8},
+                                     {"equilibrate": True, "primal_inf": 1e-8}])
+def test_solver_options_keep_the_closed_form_answer(options):
+    # ORACLES F21: equilibrated rows and ProxQP's tighter infeasibility threshold solve the same problem:
+    # min ½|x|² s.t. 1000 x₁ + 2000 x₂ = 1000, x₃ = 0.5, x₁ + x₂ + x₃ ≤ 10, x₁ ≥ −1 gives x = (0.2, 0.4, 0.5)
+    from pbanim.control.qp_solve import solve_qp
+    x, status, _, kkt = solve_qp(np.eye(3), np.zeros(3), Aeq=np.array([[1e3, 2e3, 0.0], [0.0, 0.0, 1.0]]),
+                                 beq=np.array([1e3, 0.5]), C=np.ones((1, 3)), l=np.array([-np.inf]), u=np.array([10.0]),
+                                 lb=np.array([-1.0, -np.inf, -np.inf]), ub=np.full(3, np.inf),
+                                 scale=np.array([1.0, 2.0, 1.0]), **options)
+    assert "SOLVED" in status and kkt <= 1e-8
+    assert np.abs(x - [0.2, 0.4, 0.5]).max() <= 1e-9
+
+
 def test_tasks_of_the_other_dimension_are_refused():
     # ORACLES F15: a 3-D task in the planar controller, a planar one in the 3-D controller, a bad trunk task
     with pytest.raises(InvalidTask, match="3-vector"):
