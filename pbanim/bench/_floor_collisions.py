@@ -20,13 +20,16 @@ a run of one step spread over the row's steps.
 Newton's cradle (ORACLES D2): three balls in a row, the last two touching, the first arriving at 1 m/s,
 ε = 1, run by ``Scene.simulate`` with the ``Collisions`` post-step effect (fixed-step detection, Baraff's
 sequential impulses, the projection), symplectic Euler; the hand loop is that law for balls on a line (see
-:func:`_cradle_hand`). The touching pair is a contact at every step. The whole step runs on Python floats: the float
-plan of :mod:`pbanim.particles.lean` (kick and drift) hands the list it leaves to the float response of
-:mod:`pbanim.collision.lean_spheres` (contacts from the pairs bound once, the impulse loop and its certificate
-only at the impact, the projection), one conversion of the state in and out per step (before it: the float
-response after the kick–drift on arrays, 6.9x; before that the general response at every step, about 270x).
-The row prints its floor, measured in the run: the same three balls without the effect (the float plan's
-kick and drift, the two conversions and the driver: what any response adds to), and the response's own share.
+:func:`_cradle_hand`). The touching pair is a contact at every step. The whole run is one loop on Python floats,
+chosen at ``simulate`` (:mod:`pbanim.particles.lean_run`): the state converted once at each end, the kick and
+drift of :mod:`pbanim.particles.lean` in place, the float response of :mod:`pbanim.collision.lean_spheres`
+(contacts from the pairs bound once; where none approaches, the projection alone; the impulse loop and its
+certificate only at the impact), the record filled at the sample times (before it: a float step per step
+through the driver, 3.1–3.5x; before that the float response after the kick–drift on arrays, 6.9x; the
+general response at every step, about 270x). The row prints what bounds it now, measured in the run: the
+run's fixed cost (a run of one step: the call's contract check, the grid, the plan, the result record)
+spread over the row's steps, and the same three balls without the effect (the fused kick and drift and that
+fixed cost: what any response adds to).
 """
 
 from __future__ import annotations
@@ -172,24 +175,29 @@ def newtons_cradle() -> Floor:
 
     fl = Floor("collisions", "Newton's cradle, 3 balls on a line (2-D, ε = 1)", "symplectic_euler", CR_STEPS,
                pbanim, hand)
-    bare, ratio = _scene_floor(fl.steps)
-    fl.notes.append(f"collisions (cradle): the scene's float step without the collision effect (kick and drift on "
-                    f"floats, the state's conversions, the driver) costs {bare:.1f} µs per step, {ratio:.1f}x the "
-                    "hand loop in the same rounds: the floor of this plan; the float response (contacts, approach "
-                    "speeds, the projection of the touching pair and its record, every step) is the rest")
+    bare, ratio, fixed = _scene_floor(fl.steps)
+    fl.notes.append(f"collisions (cradle): the fused float run without the collision effect (kick and drift in "
+                    f"place, the run's fixed cost) costs {bare:.1f} µs per step, {ratio:.2f}x the hand loop in the "
+                    f"same rounds, of which the run's fixed cost (a run of one step with the effect) is "
+                    f"{fixed / fl.steps:.2f} µs per step of {fl.steps}: the floor of this plan; the float "
+                    "response (contacts, approach speeds, the projection of the touching pair) is the rest")
     return fl
 
 
-def _scene_floor(steps: int) -> tuple[float, float]:
-    """(µs per step, ratio to the hand loop) of the cradle's three balls with no effect (the float plan alone),
-    both timed in alternating rounds (medians of 7)."""
+def _scene_floor(steps: int) -> tuple[float, float, float]:
+    """(µs per step, ratio to the hand loop) of the cradle's three balls with no effect (the fused float run
+    alone), both timed in alternating rounds (medians of 7), and the µs of a run of one step of the cradle."""
     import time
 
+    from ..collision.scene import Collisions
     from ..particles import ParticleSystem
     from ..scene import Scene
 
-    scene = Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]), [])
-    tp, th = [], []
+    def balls(*effects):
+        return Scene(ParticleSystem([[x, 0.0] for x in CR_X], [[v, 0.0] for v in CR_V]), list(effects))
+
+    scene, full = balls(), balls(Collisions(radius=CR_R, restitution=1.0, gravity=0.0))
+    tp, th, tf = [], [], []
     for _ in range(7):
         start = time.perf_counter()
         scene.simulate(steps * CR_H, CR_H, "symplectic_euler", diagnostics=False)
@@ -197,7 +205,11 @@ def _scene_floor(steps: int) -> tuple[float, float]:
         start = time.perf_counter()
         _cradle_hand(steps)
         th.append(time.perf_counter() - start)
-    return float(np.median(tp)) / steps * 1e6, float(np.median(np.array(tp) / np.array(th)))
+        start = time.perf_counter()
+        full.simulate(CR_H, CR_H, "symplectic_euler", diagnostics=False)
+        tf.append(time.perf_counter() - start)
+    return (float(np.median(tp)) / steps * 1e6, float(np.median(np.array(tp) / np.array(th))),
+            float(np.median(tf)) * 1e6)
 
 
 FLOORS = [bouncing_ball_event, newtons_cradle]

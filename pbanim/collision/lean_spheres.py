@@ -134,13 +134,19 @@ class LeanSpheres:
                     depth = r[i] - ((flat[k] * n0 + flat[k + 1] * n1) - off)
                     if depth >= -margin:
                         out.append((i, -1, n, depth if depth > 0.0 else 0.0))
+            lo = -margin
             for a, b, rr, ka, kb, rf in self.pairs:
-                d0, d1 = flat[ka] - flat[kb], flat[ka + 1] - flat[kb + 1]
-                if rf - (d0 if d0 >= 0.0 else -d0) < -margin or rf - (d1 if d1 >= 0.0 else -d1) < -margin:
+                d0 = flat[ka] - flat[kb]
+                # rf − |d₀| < −margin, written as rf − d₀ or rf + d₀ (= rf − (−d₀) exactly; the smaller of the two
+                # is rf − |d₀|, and rounding is monotone)
+                if rf - d0 < lo or rf + d0 < lo:
                     continue            # |d| ≥ |dₖ| in floats too: the depth below is below −margin as well
+                d1 = flat[ka + 1] - flat[kb + 1]
+                if rf - d1 < lo or rf + d1 < lo:
+                    continue
                 dist = sqrt(d0 * d0 + d1 * d1)
                 depth = rr - dist
-                if depth >= -margin:
+                if depth >= lo:
                     out.append((a, b, (d0 / dist, d1 / dist, 0.0) if dist > 0 else (0.0, 0.0, 1.0),
                                 depth if depth > 0.0 else 0.0))
             return out
@@ -209,23 +215,28 @@ class LeanSpheres:
         out = self.floats(t, flat, h, margin, plastic)
         return out if out is None else y if out is flat else np.array(out)
 
-    def floats(self, t: float, flat: list, h: float, margin: float, plastic: bool):
+    def floats(self, t: float, flat: list, h: float, margin: float, plastic: bool, record: bool = True):
         """:meth:`respond` on the flat state as a list of floats: a new list, ``flat`` itself when nothing
         changes, or None (the readable response answers); the float plan of :mod:`pbanim.particles.lean` calls
-        it after its own kick and drift, so a step makes no numpy call between its two conversions."""
+        it after its own kick and drift, so a step makes no numpy call between its two conversions.
+        ``record=False`` (a fused run's steps before its last, :mod:`pbanim.particles.lean_run`): a step with
+        no impulse leaves ``col.last`` as it is (the run's last step sets it; a step with an impulse always
+        sets it and logs it)."""
         col = self.col
         c = self.contacts(flat, margin)
         if not c:
-            col._last = None                # (Collisions.last's own slot: the property reads it)
+            if record:
+                col._last = None            # (Collisions.last's own slot: the property reads it)
             return flat
         u0n, speed = self.approach(flat, c)
         if not speed < inf:
             return None
         tol_s = _TOL * speed
-        rest = self.threshold(h)
         if min(u0n) >= -tol_s:          # nothing approaches: no impulse, the certificate holds as it stands
-            col._last = _Pending(self, flat, c, None, u0n, 1, 0, speed, rest, None)
+            if record:
+                col._last = _Pending(self, flat, c, None, u0n, 1, 0, speed, self.threshold(h), None)
             return self._finish(flat, c, None)
+        rest = self.threshold(h)
         v = self.velocities(flat)
         eps = 0.0 if plastic else col.restitution
         out = self._sequential(v, c, eps, max(rest, tol_s), speed, col.max_iter)
@@ -319,22 +330,22 @@ class LeanSpheres:
         if col.project:
             # each body moved along its deepest contact's normal by its share of the depth: the last of the
             # largest moves in the readable order (a's, then b's), found in one pass
-            Wp, best, dx = self.Wp, self.zeros[:], None
+            Wp, dx = self.Wp, None
             for side, sign in ((0, 1.0), (1, -1.0)):
                 for cc in c:
                     dep = cc[3]
                     if dep > 0:
+                        if dx is None:
+                            dx, best = {}, self.zeros[:]
                         a, b = cc[0], cc[1]
                         wsum = Wp[a] + Wp[b]
                         body = cc[side]
                         m = (dep / wsum if wsum > 0 else 0.0) * Wp[body]
                         if m > 0 and m >= best[body]:
                             best[body] = m
-                            if dx is None:
-                                dx = {}
                             n = cc[2]
                             dx[body] = (sign * m * n[0], sign * m * n[1], sign * m * n[2])
-            if dx is not None:
+            if dx:
                 if out is None:
                     out = list(flat)
                 for body, move in dx.items():

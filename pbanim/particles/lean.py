@@ -130,13 +130,18 @@ class FloatParticles:
             # once per step size with the readable rounding
             kick = [0.0, None]
 
+            def kicks(h: float) -> list:
+                """The kick h (Qₖ Wₖ) of every velocity component, with the readable rounding."""
+                return [h * (q * w) for q, w in zip(Q0, W)]
+
             def step(y: list, h: float) -> list:
                 if kick[1] != h:
-                    kick[:] = [[h * (q * w) for q, w in zip(Q0, W)], h]
+                    kick[:] = [kicks(h), h]
                 v1 = [v + dv for v, dv in zip(y[n:], kick[0])]
                 y1 = [x + h * u for x, u in zip(y, v1)]
                 y1 += v1
                 return y1
+            step.kicks = kicks          # constant forces: the fused run (pbanim.particles.lean_run) kicks in place
             return step
 
         def step(y: list, h: float) -> list:
@@ -160,6 +165,8 @@ class FloatParticles:
         ``counter[0]``; ``readable`` (the readable kick–drift) takes a step this one hands off, and ``post``
         (the post-step stages' ``post_step``, in order) the state a float response hands off (from that stage
         on), or the state after a handed-off kick–drift."""
+        from .lean_run import fused_run
+
         step, array = self.stepper(), np.array
         if not post:
             def advance(t, y, h):
@@ -169,6 +176,7 @@ class FloatParticles:
                     return readable(t, y, h)
                 counter[0] += 1
                 return y1
+            advance.run = fused_run(step, None, readable, None, counter)
         else:
             floats, post = self.responses(), tuple(post)
             # the response a float one hands its state to: the effect's readable one (not its post_step, which
@@ -205,6 +213,8 @@ class FloatParticles:
                     counter[0] += 1
                     out = respond(t + h, y1, h, 0.0, False)
                     return handoff(t + h, y1, h, 0) if out is None else array(out)
+                advance.run = fused_run(step, respond, handed,
+                                        lambda t, y, h: handoff(t, y, h, 0), counter)
             else:
                 def advance(t, y, h):
                     try:

@@ -341,7 +341,9 @@ class Scene:
         if during is None:      # nothing to read during the run: the states go straight into one array
             # a plan that cannot raise on a non-finite state is checked once per block (the first bad step named)
             check = None if r == 1 and getattr(advance, "nan_safe", False) else check_every
-            Y = drive_lean(advance, grid, y, "state", record_every=r, check_every=check)
+            run = getattr(advance, "run", None)     # a fused float run (pbanim.particles.lean_run): the whole run
+            Y = run(grid, y, r, check) if run is not None else drive_lean(advance, grid, y, "state", record_every=r,
+                                                                           check_every=check)
             diags: list = []
         else:
             Y = np.empty((len(ts), len(y)))
