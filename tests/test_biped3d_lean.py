@@ -114,3 +114,25 @@ def test_lean_kinematics_of_a_tree_whose_levels_are_not_one_slice():
         assert np.allclose(kf[key], ks[key], rtol=0, atol=8 * EPS * (1 + np.abs(ks[key]).max())), key
     H = fast.mass_matrix(kf)
     assert np.abs(H - crba(tree, q)).max() <= 50 * EPS * np.abs(H).max()
+
+
+def test_rotation_vector_on_floats_is_the_quaternion_route_bit_for_bit():
+    # ORACLES F20: rotation_vector_floats (the controller's servos) against quat_log(matrix_to_quat(R)), exactly
+    # equal, on random rotations and on ones near 0 and near π (each of Shepperd's four branches taken)
+    from pbanim.design.simulate import quat_log
+    from pbanim.rigid.quat import matrix_to_quat, quat_to_matrix
+
+    rng = np.random.default_rng(11)
+    branches = set()
+    for i in range(400):
+        q = rng.normal(size=4)
+        if i % 4 == 1:
+            q[1:] *= 10.0 ** rng.uniform(-14, -3)            # near the identity
+        elif i % 4 == 2:
+            q[0] *= 10.0 ** rng.uniform(-14, -3)             # near a half turn
+        R = quat_to_matrix(q / np.linalg.norm(q))
+        r = lean.rotation_vector_floats(R)
+        assert np.array_equal(r, quat_log(matrix_to_quat(R)))
+        branches.add(int(np.argmax([np.trace(R), *(2 * np.diag(R) - np.trace(R))])))
+        assert abs(np.linalg.norm(r) - 2 * np.arctan2(np.linalg.norm(q[1:]), abs(q[0]))) <= 1e-12
+    assert branches == {0, 1, 2, 3}

@@ -23,7 +23,7 @@ takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two p
 
 from __future__ import annotations
 
-from math import sqrt
+from math import atan2, sqrt
 from time import perf_counter
 
 import numpy as np
@@ -209,6 +209,32 @@ def bias(ws, kin, qd):
     Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
     Jw = (S[None, :3, :] * Mk[:, None, :]).reshape(3 * n, nv)
     return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
+
+
+def rotation_vector_floats(R) -> np.ndarray:
+    """log(R) (3,) of a rotation matrix (3, 3): :func:`pbanim.rigid.matrix_to_quat` (Shepperd: the largest of
+    4w², 4x², 4y², 4z² under the square root, w ≥ 0), then :func:`pbanim.design.simulate.quat_log`
+    (2 atan2(|v|, w) v / |v|; 2v / w below |v| = 1e-12) — their arithmetic in their order on nine floats, so
+    their bits (``tests/test_biped3d_lean.py``), without the two calls' array work (the controller's two
+    servos call it every step)."""
+    (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
+    tr = r00 + r11 + r22
+    cand = [1 + tr, 1 + 2 * r00 - tr, 1 + 2 * r11 - tr, 1 + 2 * r22 - tr]      # 4w², 4x², 4y², 4z²
+    k = cand.index(max(cand))
+    d21, d02, d10 = r21 - r12, r02 - r20, r10 - r01                            # 4w·(x, y, z)
+    s01, s02, s12 = r01 + r10, r02 + r20, r12 + r21                            # 4xy, 4xz, 4yz
+    row = ((cand[0], d21, d02, d10), (d21, cand[1], s01, s02), (d02, s01, cand[2], s12),
+           (d10, s02, s12, cand[3]))[k]
+    den = 2.0 * sqrt(max(cand[k], _TINY))
+    w, x, y, z = row[0] / den, row[1] / den, row[2] / den, row[3] / den
+    if w < 0:
+        w, x, y, z = -w, -x, -y, -z
+    s = sqrt(x * x + y * y + z * z)
+    scale = 2.0 * atan2(s, w) / s if s > 1e-12 else 2.0 / max(w, 1e-300)
+    return np.array([scale * x, scale * y, scale * z])
+
+
+_TINY = float(np.finfo(float).tiny)
 
 
 def _cholesky(M):

@@ -200,7 +200,7 @@ class WorldStep:
     def _impulses(self, A, rows, MinvJt, u, g, near, h: float):
         """The contact law, for both paths: u⁺ = u* + H⁻¹Jᵀz with z from PGS on A + cfm·max diag A, the normal
         rows' bias max(g, 0)/h + erp·min(g, 0)/h, warm-started from the last step's impulses (``last``)."""
-        A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(A.shape[0])
+        A.flat[::A.shape[0] + 1] += self.cfm * max(float(A.diagonal().max()), 1e-300)      # A + cfm·max diag A·𝟙
         b = rows @ u
         b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
         warm = np.concatenate([self._warm.get(int(c), np.zeros(3)) for c in near])
