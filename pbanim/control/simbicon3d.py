@@ -41,13 +41,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contracts import Anything, Array, Choice, Obj, Real, Text, contract
+from ..contracts import Anything, Array, Choice, Obj, Real, Text, contract, unchecked
 from .specs import Mapping, Names, NotBefore, Pair
 from .biped3d import BIPED3D_JOINTS as JI
+from .biped3d_lean import rotation_vector_floats
 from .biped3d_step import WorldStep, _rot
 from .fsm import StateMachine, Transition
-from ..design.simulate import quat_log
-from ..rigid.quat import matrix_to_quat
 
 __all__ = ["Phase3D", "Gait3D", "WALK3D", "Simbicon3D", "rotation_vector"]
 
@@ -105,8 +104,9 @@ WALK3D = Gait3D("3-D walk (ours: Table 1's sagittal numbers, our coronal ones)",
 @contract(R=Array((3, 3)))
 def rotation_vector(R: np.ndarray) -> np.ndarray:
     """log(R): the axis times the angle (|angle| ≤ π) of the rotation matrix R — through its quaternion
-    (:func:`pbanim.rigid.matrix_to_quat`, :func:`pbanim.design.simulate.quat_log`), well conditioned at 0 and π."""
-    return quat_log(matrix_to_quat(R))
+    (:func:`pbanim.rigid.matrix_to_quat`, :func:`pbanim.design.simulate.quat_log`), well conditioned at 0 and π;
+    their arithmetic on floats, bit for bit (:func:`pbanim.control.biped3d_lean.rotation_vector_floats`)."""
+    return rotation_vector_floats(R)
 
 
 class Simbicon3D:
@@ -140,7 +140,7 @@ class Simbicon3D:
         """(d, v, ψ): the centre of mass's offset from the stance ankle and its velocity in the heading frame
         (x forward, y left; 2-vectors), and the pelvis's heading ψ."""
         st = self.step
-        _, Jc = st.point_jacobians(kin, np.arange(st.tree.n), st.com)
+        _, Jc = unchecked(st.point_jacobians)(kin, np.arange(st.tree.n), st.com)
         com = self.mass @ kin["c"] / self.M
         vcom = np.einsum("n,nij,j->i", self.mass, Jc, qd) / self.M
         R0 = kin["R"][self.link["pelvis"]]
