@@ -26,7 +26,8 @@ The same gather gives the two blocks alone for the stiff solvers' half-size stag
 (:mod:`pbanim.ode.second_order`), M times it σ²M − σD − K, Baraff & Witkin's A = M − hD − h²K with h = 1/σ,
 divided by h². :func:`second_order_jac` hands the blocks (W K_FF, W D_FF) to :func:`pbanim.ode.solve` as a
 :class:`~pbanim.ode.second_order.SecondOrderJacobian`; they equal the full J of :meth:`Cloth.jac` entry for
-entry (ORACLES J1, J7).
+entry (ORACLES J1, J7). In the grid order the free coordinates' S is banded (half-bandwidth ≈ 6N, the bend
+springs two rows apart): up to ``BANDED_LU_MAX`` it is factored by LAPACK's banded LU.
 
 Notation: n = 3N coordinates; q = 3 nv per element; ``maps[c]`` (E_c·q²,) data positions of kind c; n_F free
 coordinates (3 × free particles), W = M⁻¹ of each entry's row.
@@ -49,6 +50,10 @@ from ..contracts import Obj, contract
 from ..ode.second_order import SecondOrderJacobian
 
 __all__ = ["Pattern", "FreeJacobian", "second_order_jac"]
+
+BANDED_LU_MAX = 200      # stage systems with a half-bandwidth up to this use a banded LU (measured, one factor
+                         # of the falling sheet's S, CPU: N = 16, b = 98: 6.2 ms vs SuperLU 6.4; N = 24, b = 146:
+                         # 17 vs 35 ms; N = 32, b = 194: ~3× faster); wider bands keep SuperLU
 
 _CC = np.array([[1.0, -1.0], [-1.0, 1.0]])                 # c cᵀ of a pair element, c = (1, −1)
 
@@ -204,11 +209,15 @@ def second_order_jac(cloth):
     >>> float(abs(J.tocsr() - cloth.jac(0.0, yf)).max())
     0.0
     """
-    blocks = cloth._jac_free.blocks
+    fj = cloth._jac_free
+    blocks = fj.blocks
+    rows = np.repeat(np.arange(fj.nf), np.diff(fj.ff_indptr))
+    half = int(np.abs(rows - fj.ff_indices).max()) if len(rows) else 0
+    band = half if half <= BANDED_LU_MAX else None              # grid order: the band of the bend springs
 
     def jac(t, yf):
         x, v = cloth._split(yf)
         with np.errstate(all="ignore"):
             _, kd, dd = cloth._all(x, v)
-        return SecondOrderJacobian(*blocks(kd, dd))
+        return SecondOrderJacobian(*blocks(kd, dd), band=band)
     return jac
