@@ -4,15 +4,20 @@ The sheet (:func:`sheet`): structural, shear and bend springs (k = 10³, 10², 0
 pinned at the two top corners, Rayleigh damping β = 10⁻³ s, falling from flat rest under gravity for
 T = 0.05 s. Its stiffest mode has ω ≈ 140 N rad/s, so h = 1/60 s is h ω ≈ 40 at N = 16.
 
-* **Work-precision** per N: the final positions of the free particles against a converged reference
-  (N = 16: scipy Radau, rtol 10⁻⁷, the sparse Jacobian; at N = 16 rtol 10⁻⁶ is within 3·10⁻¹¹ m of rtol 10⁻⁸;
-  larger N, where that run is over budget: pbanim's RODAS4 at rtol 10⁻⁵ checked by pbanim's Radau IIA, the
-  gap printed), max-norm error in m (the sheet is 1 m), versus wall time,
+* **Work-precision** per N = 16, 32, 64, 128: the final positions of the free particles against a converged
+  reference (N = 16: scipy Radau, rtol 10⁻⁷, the sparse Jacobian; at N = 16 rtol 10⁻⁶ is within 3·10⁻¹¹ m of
+  rtol 10⁻⁸; N = 32 and 64, where that run is over budget: pbanim's RODAS4 at rtol 10⁻⁵ checked by pbanim's
+  Radau IIA, the gap printed; N = 128, where one LU of a stage system alone costs seconds: two-level
+  Richardson extrapolation of large steps of T/24, T/48, T/96 (:func:`richardson`), checked in each full run
+  at N = 32 against the ODE reference, its last correction printed), max-norm error in m (the sheet is
+  1 m), versus CPU time,
   for pbanim's large steps (Baraff & Witkin), Newton (implicit Euler), XPBD with substeps, pbanim's RODAS4
   and Radau IIA (the Jacobian in blocks, stage systems at half size: :mod:`pbanim.ode.second_order`),
   and scipy's ``solve_ivp`` BDF and Radau (sparse Jacobian) and ``odeint``
-  (LSODA, banded: the state interleaved particle by particle, bandwidth given). Every run has a wall-time
-  budget; a run past it prints "over budget" (a result: that method does not reach the row at that N here).
+  (LSODA, banded: the state interleaved particle by particle, bandwidth given). Every run has a CPU-time
+  budget; a run past it prints "over budget" (a result: that method does not reach the row at that N here),
+  and a method over budget at one N is not run at the larger ones (its cost grows with N; printed
+  "over budget (at a smaller N: not run)").
 * **Large steps at h = 1/60 s** on N = 64: wall time of one simulated second, with the CG iterations and the
   floor of the design (:mod:`pbanim.bench._cloth_realtime`).
 * **Cost per step vs N** (large steps at h = 1/60 s, XPBD 1 × 10 sweeps): the fitted slope of log t against
