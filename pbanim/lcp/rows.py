@@ -38,6 +38,11 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
+try:                                    # scipy's sparse kernels, called without the operator's dispatch (_product)
+    from scipy.sparse import _sparsetools
+except ImportError:                     # pragma: no cover - an older or newer layout: the operator is used
+    _sparsetools = None
+
 from .box import _box_residual, _scale, _warm_impulses
 from ..contracts import Array, Int, Opt, Real, Seq, contract
 from ..errors import InvalidInput
@@ -126,14 +131,15 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     if np.any(zp):
         u += _transpose_product(dataM, cols, ptr, zp, nb * d)
     # per color, its slices of the contact arrays, as views bound once (the sweep below only reads them)
-    views = [(JK, MK, beta[s:e], z3[s:e], inv[s:e, 0], inv[s:e, 1], inv[s:e, 2], mup[s:e], c10[s:e], c20[s:e],
-              c21[s:e], np.empty((e - s, 3))) for (s, e, JK, MK) in plan]
+    views = [(JK, MK, np.empty(3 * (e - s)), beta[s:e], z3[s:e], inv[s:e, 0], inv[s:e, 1],
+              inv[s:e, 2], mup[s:e], c10[s:e], c20[s:e], c21[s:e], np.empty((e - s, 3))) for (s, e, JK, MK) in plan]
+    du = np.empty(nb * d)
     sweeps, res = 0, np.inf
     for sweeps in range(1, int(max_iter) + 1):
-        for JK, MK, bK, old, i0, i1, i2, muK, k10, k20, k21, dz in views:
+        for JK, MK, wK, bK, old, i0, i1, i2, muK, k10, k20, k21, dz in views:
             # w of the color's rows from u; then normal, t₁, t₂ in turn, each w moved by the updates before it
             # through A's diagonal block (the rows of one contact share its two bodies): the row-by-row sweep
-            w = (JK @ u).reshape(-1, 3)
+            w = JK(u, wK).reshape(-1, 3)
             w += bK
             f = np.maximum(old[:, 0] - w[:, 0] * i0, 0.0)
             d0 = np.subtract(f, old[:, 0], out=dz[:, 0])
@@ -143,7 +149,7 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
             t2 = np.minimum(np.maximum(old[:, 2] - (w[:, 2] + k20 * d0 + k21 * d1) * i2, -lim), lim)
             np.subtract(t2, old[:, 2], out=dz[:, 2])
             old += dz
-            u += MK @ dz.ravel()
+            u += MK(dz.ravel(), du)
         res = _box_residual(zp, J @ u + betaf, mup)
         if res <= thresh:
             break
@@ -189,15 +195,17 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
         raise InvalidInput("pgs_normal_rows needs rows with a positive diagonal J W Jᵀ (a moving body)")
     J, plan, _ = _color_matrices(a[perm], b[perm], ga, gb, wga, wgb, spans, nb, d)
     inv, bp, pp = 1.0 / diag, beta[perm], np.zeros(m)
-    views = [(JK, MK, bp[s:e], pp[s:e], inv[s:e], np.empty(e - s)) for (s, e, JK, MK) in plan]
+    views = [(JK, MK, np.empty(e - s), bp[s:e], pp[s:e], inv[s:e], np.empty(e - s))
+             for (s, e, JK, MK) in plan]
+    dv = np.empty(nb * d)
     sweeps, res = 0, np.inf
     for sweeps in range(1, int(max_iter) + 1):
-        for JK, MK, bK, pK, iK, dp in views:
-            w = JK @ v
+        for JK, MK, wK, bK, pK, iK, dp in views:
+            w = JK(v, wK)
             w += bK
             np.subtract(np.maximum(pK - w * iK, 0.0), pK, out=dp)
             pK += dp
-            v += MK @ dp
+            v += MK(dp, dv)
         res = float(np.max(np.abs(np.minimum(pp, J @ v + bp)), initial=0.0))
         if res <= tol:
             break
@@ -209,7 +217,8 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
 def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     """J and W Jᵀ as sparse matrices on u (nb·d,), the contacts in color order with k rows each (ga, gb, wga,
     wgb of shape (m, k, d)): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's. Returns J, per color
-    (start, end, J_K (CSR), (W Jᵀ)_K (CSC)), and the arrays of W Jᵀ (for the warm start's product)."""
+    (start, end, x ↦ J_K x, x ↦ (W Jᵀ)_K x: :func:`_product` of the color's CSR and CSC slices), and the
+    arrays of W Jᵀ (for the warm start's product)."""
     m, k = ga.shape[:2]
     w2 = 2 * d
     cols = np.repeat(np.concatenate([ac[:, None] * d + np.arange(d), bc[:, None] * d + np.arange(d)], axis=1), k, axis=0)
@@ -221,10 +230,34 @@ def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     plan = []
     for s, e in spans:
         lo, hi, loc = k * s * w2, k * e * w2, ptr[:k * (e - s) + 1]
-        JK = sparse.csr_matrix((dataJ[lo:hi], cols[lo:hi], loc), shape=(k * (e - s), nb * d))
-        MK = sparse.csc_matrix((dataM[lo:hi], cols[lo:hi], loc), shape=(nb * d, k * (e - s)))
+        JK = _product("csr", (dataJ[lo:hi], cols[lo:hi], loc), (k * (e - s), nb * d))
+        MK = _product("csc", (dataM[lo:hi], cols[lo:hi], loc), (nb * d, k * (e - s)))
         plan.append((s, e, JK, MK))
     return J, plan, (dataM, cols, ptr)
+
+
+def _product(fmt: str, arrays: tuple, shape: tuple):
+    """``(x, out) -> out = A x`` of the CSR or CSC matrix A = (data, indices, indptr) of ``shape`` (float64 data,
+    scipy's index type), bound once: scipy's own kernel (``csr_matvec`` or ``csc_matvec``) into ``out`` zeroed
+    first — what ``A @ x`` computes, bit for bit (scipy's product is that kernel into a zeroed result), without
+    building a matrix object per color and step or the operator's dispatch and checks on every call (the
+    sweeps call it twice per color per sweep); the matrix and its operator where that kernel is not found."""
+    kernel = getattr(_sparsetools, f"{fmt}_matvec", None) if _sparsetools is not None else None
+    if kernel is None:
+        A = (sparse.csr_matrix if fmt == "csr" else sparse.csc_matrix)(arrays, shape=shape)
+
+        def product(x, out):
+            out[:] = A @ x
+            return out
+        return product
+    M, N = shape
+    data, idx, ptr = arrays
+
+    def product(x, out):
+        out.fill(0.0)
+        kernel(M, N, ptr, idx, data, x, out)
+        return out
+    return product
 
 
 def _transpose_product(dataM, cols, ptr, z, size):
