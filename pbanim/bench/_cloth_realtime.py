@@ -21,12 +21,20 @@ The cost per step against N (:func:`step_costs`, one step ``WARM`` steps into th
 preconditioners, XPBD 1 × 10 beside it) and the check of the benchmark's CG tolerance
 (:func:`cg_error_vs_truncation`) live here too; :mod:`pbanim.bench.cloth` re-exports them.
 
-The floor of this design at N = 64, printed by each run: the assembly of f, K, D, the V-cycle's setup
-(the Galerkin products, 6 banded Cholesky factors of the line colours), and per CG iteration one product
-with A (~470 000 stored entries) and one V-cycle (~4 fine products in row blocks, 12 banded solves).
-Measured on a quiet machine: 12.3 ms + 12.1 ms + 6 × (0.38 + 5.25) ms = 55 ms a step (3.3 s per simulated
-second; the 60-step run 4.45 s): the ≤ 1 s goal needs the whole step under 16.7 ms, about the assembly
-alone (numpy's passes over ~24 000 springs' 3 × 3 blocks and one gather of the 470 000 entries per matrix).
+The floor of this design at N = 64, printed by each run: the assembly of A and f + K u (one pass over the
+springs, :mod:`pbanim.cloth.step_system`), the V-cycle's setup (the Galerkin products, 6 banded Cholesky
+factors of the line colours: LAPACK's unblocked band factor costs ~0.7 ms per colour here, a call per
+row), and per CG iteration one product with A (~470 000 stored entries) and one V-cycle (~4.7 fine
+products in row blocks, 12 banded solves). Measured in CPU time at N = 64, 30 steps into the fall, the
+earlier design against this one in alternating processes (load 13 on 2 cores): assembly 15.4–17.5 →
+4.4–5.5 ms, setup 14.4–18.4 → 13.6–19.1 ms, V-cycle 6.3–7.6 → 5.9–7.6 ms, 4.9 CG iterations, a step
+93–102 → 65–74 ms. The V-cycles (iterations + 1 for the start) are ~2/3 of a step: per iteration ~6
+products with A (~0.4 ms each on a quiet machine) and 12 banded solves (~0.13 ms each), ~4 ms; at 5
+iterations that is ~24 ms a step before the assembly (~4 ms) and the setup (~12 ms), so the ≤ 16.7 ms a
+step of the 1 s goal is out of reach with this CG and V-cycle (it needs ≤ 1 iteration's work per step).
+
+Tried and measured, not kept: the line factors and coarse levels reused for 2 (4) steps with the finest
+level's A exact: 7 (18) of 60 CG solves broke down (the stale V-cycle no longer SPD).
 """
 
 from __future__ import annotations

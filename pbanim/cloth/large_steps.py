@@ -12,7 +12,9 @@ ORACLES A1). On the nonlinear cloth the one iteration is only as good as the lin
 no transverse stiffness, so at h = 0.1 s and k = 10⁶ one step lets gravity stretch its springs far beyond
 what K predicted (the energy grows); :func:`newton_step` solves the step itself. K here is the symmetric
 part B&W use (without the damping term k_d G(Hv)ᵀ), a compressed spring's −H left out so that A is positive
-definite (:func:`pbanim.cloth.conditions.element_terms`).
+definite (:func:`pbanim.cloth.conditions.element_terms`). For a cloth of springs, A.data and f + K(h v₀ + y)
+come from one pass over the springs without K or D (:mod:`pbanim.cloth.step_system`, equal to this
+assembly to roundoff, ORACLES J10; at N = 64 ~4 ms against ~14 ms); other models take the readable path.
 
 Constraints enter through B&W's *filter*: each particle's Δv lies in the subspace of its 3 × 3 projection
 S_i (I: free, I − nnᵀ: in contact with normal n, 0: pinned) plus a prescribed part z_i (the velocity change
