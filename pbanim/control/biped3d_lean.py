@@ -14,7 +14,8 @@ this module instead, computing the same quantities:
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
    H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
 4. **the contact solve** on the near points only, by the readable step's contact law
-   (``WorldStep._impulses``: the library's projected Gauss–Seidel, whose sweep runs on floats at this size);
+   (``WorldStep._impulses``: the library's projected Gauss–Seidel, whose sweep runs on floats at this size,
+   called through :func:`pgs` without the library's argument checks: the same iterates);
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the seconds each part
@@ -31,6 +32,10 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import SimulationDiverged
 from ..contracts import unchecked
+from ..lcp import pgs_box_friction
+from ..lcp.box import _warm_impulses
+from ..lcp.box_lean import LEAN_ROWS, box_sweeps_floats
+from ..lcp.pivoting import _scale
 from ..rigid.quat import quat_to_matrix
 
 _quat_to_matrix = unchecked(quat_to_matrix)
@@ -235,6 +240,20 @@ def rotation_vector_floats(R) -> np.ndarray:
 
 
 _TINY = float(np.finfo(float).tiny)
+_pgs = unchecked(pgs_box_friction)
+
+
+def pgs(A, b, mu: float, *, max_iter: int, tol: float, warm_start):
+    """:func:`pbanim.lcp.pgs_box_friction`'s answer (z, residual, sweeps) without its argument checks, for the
+    step's own A = J(H + hK)⁻¹Jᵀ + cfm·max diag A·𝟙 (finite, diagonal > 0) and b: its first iterate
+    (the warm start projected on the bounds), its threshold tol·max(1, ‖b‖∞) and its float sweep
+    (:mod:`pbanim.lcp.box_lean`), so its bits; above LEAN_ROWS rows the library's call itself."""
+    n = b.size
+    if n > LEAN_ROWS:
+        return _pgs(A, b, mu, max_iter=max_iter, tol=tol, warm_start=warm_start)
+    mus = np.full(n // 3, mu)
+    return box_sweeps_floats(A, b, mus, A.diagonal().copy(), _warm_impulses(warm_start, n, mus), int(max_iter),
+                             tol * _scale(b))
 
 
 def _cholesky(M):
@@ -254,8 +273,11 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     c0 = perf_counter() if clock is not None else 0.0
     H = mass_matrix(ws, kin)
     c1 = perf_counter() if clock is not None else 0.0
+    nv1 = H.shape[0] + 1
     K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
-    cho = _cholesky(H if K is None else H + h * np.diag(K))
+    if K is not None:
+        H.flat[::nv1] += h * K                                 # H + hK (H is this step's own array)
+    cho = _cholesky(H)
     f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
     u = qd + h * dpotrs(cho, f)[0]                             # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
     c2 = perf_counter() if clock is not None else 0.0

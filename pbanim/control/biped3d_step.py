@@ -204,7 +204,8 @@ class WorldStep:
         b = rows @ u
         b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
         warm = np.concatenate([self._warm.get(int(c), np.zeros(3)) for c in near])
-        z, res, sweeps = _pgs(A, b, self.mu, max_iter=self.max_iter, tol=self.tol, warm_start=warm)
+        z, res, sweeps = (_lean.pgs if self.lean else _pgs)(A, b, self.mu, max_iter=self.max_iter, tol=self.tol,
+                                                              warm_start=warm)
         self._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
         self.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
         return u + MinvJt @ z
