@@ -243,11 +243,27 @@ def _slope(counts, costs) -> float:
     return float(np.polyfit(np.log([n for n, _ in ok]), np.log([c for _, c in ok]), 1)[0])
 
 
-def run(quick: bool = False) -> Report:
-    """Run the large-scene benchmark (``quick``: small piles, short runs, one setting per engine: a smoke run)."""
+def _wall(quick: bool, t_end: float, rep: Report, printed: set) -> tuple:
+    """The wall's comparison: its table and goal appended to ``rep``; (its box count, its table)."""
+    nw = 20 if quick else 50
+    wt = Table(f"a running-bond wall of {nw} boxes dropped from 1 mm, {t_end} s, the same method", HEADER)
+    wall = _compare("wall", nw, t_end, quick, rep, wt, printed)
+    rep.tables.append(wt)
+    rep.goals.append(_goal(f"contact-large-wall-{nw}-vs-peers", wall,
+                           f"{nw}-box wall: pbanim's cheapest cost per simulated second at {ACCURACY:g} m / the "
+                           "faster peer's"))
+    return nw, wt
+
+
+def run(quick: bool = False, only: str | None = None) -> Report:
+    """Run the large-scene benchmark (``quick``: small piles, short runs, one setting per engine: a smoke run;
+    ``only="wall"``: the wall's comparison and goal alone, ``python -m pbanim.bench.contact_large --only wall``)."""
     rep = Report("contact_large")
     counts, t_end = (QUICK_COUNTS, QUICK_T_END) if quick else (COUNTS, T_END)
     printed: set = set()
+    if only == "wall":
+        _wall(quick, t_end, rep, printed)
+        return rep
     tab = Table(f"spheres poured into a box (about four layers deep), {t_end} s: each engine's settings in order "
                 f"of work until one reaches penetration ≤ {ACCURACY:g} m (last third of the run)", HEADER)
     piles = {}
@@ -279,13 +295,7 @@ def run(quick: bool = False) -> Report:
     rep.goals.append(_goal(f"contact-large-{n}-spheres-vs-peers", piles[n],
                            f"{n} spheres: pbanim's cheapest cost per simulated second at {ACCURACY:g} m / the faster "
                            "peer's (MuJoCo, PyBullet), same scene, same run"))
-    nw = 20 if quick else 50
-    wt = Table(f"a running-bond wall of {nw} boxes dropped from 1 mm, {t_end} s, the same method", HEADER)
-    wall = _compare("wall", nw, t_end, quick, rep, wt, printed)
-    rep.tables.append(wt)
-    rep.goals.append(_goal(f"contact-large-wall-{nw}-vs-peers", wall,
-                           f"{nw}-box wall: pbanim's cheapest cost per simulated second at {ACCURACY:g} m / the "
-                           "faster peer's"))
+    nw, wt = _wall(quick, t_end, rep, printed)
     if not quick:
         _before(n, nw, t_end, tab, wt, printed)
     rep.notes.append(f"peers: MuJoCo ({MJ_SOLVER.upper()} solver, pyramidal cones; its soft contacts stiffened "
@@ -296,3 +306,16 @@ def run(quick: bool = False) -> Report:
                      f"per scene {budget('pile', counts[0], quick):.0f}–{budget('pile', counts[-1], quick):.0f} s "
                      f"of stepping (the wall {budget('wall', nw, quick):.0f} s)")
     return rep
+
+
+if __name__ == "__main__":              # one scene of this family alone: python -m pbanim.bench.contact_large --only wall
+    import argparse
+
+    from . import format_report, one_blas_thread
+
+    cli = argparse.ArgumentParser(prog="python -m pbanim.bench.contact_large")
+    cli.add_argument("--only", choices=["wall"], default=None, help="run only this scene's comparison")
+    cli.add_argument("--quick", action="store_true")
+    args = cli.parse_args()
+    with one_blas_thread():
+        print(format_report(run(quick=args.quick, only=args.only)))

@@ -97,6 +97,8 @@ def obstacles_apart(col, y, margin: float) -> bool:
 class LeanSpheres:
     """The float response of the module docstring, bound to one effect and its particle system."""
 
+    tol = _TOL                  # the certificate's relative tolerance (a fused run's own test of no approach)
+
     def __init__(self, col, system) -> None:
         from ..contracts import unchecked
 
@@ -137,8 +139,7 @@ class LeanSpheres:
             lo = -margin
             for a, b, rr, ka, kb, rf in self.pairs:
                 d0 = flat[ka] - flat[kb]
-                # rf − |d₀| < −margin, written as rf − d₀ or rf + d₀ (= rf − (−d₀) exactly; the smaller of the two
-                # is rf − |d₀|, and rounding is monotone)
+                # rf − |d₀| < −margin: the smaller of rf − d₀ and rf + d₀ (= rf − (−d₀) exactly) is below it
                 if rf - d0 < lo or rf + d0 < lo:
                     continue            # |d| ≥ |dₖ| in floats too: the depth below is below −margin as well
                 d1 = flat[ka + 1] - flat[kb + 1]

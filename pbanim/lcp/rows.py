@@ -127,7 +127,8 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
     beta = np.reshape(bias, (m, 3))[perm]
     betaf = beta.ravel()
     u = np.array(u_free, dtype=float).ravel()
-    thresh = tol * _scale(J @ u + betaf)
+    Ju = np.empty(n)
+    thresh = tol * _scale(J(u, Ju) + betaf)
     if np.any(zp):
         u += _transpose_product(dataM, cols, ptr, zp, nb * d)
     # per color, its slices of the contact arrays, as views bound once (the sweep below only reads them)
@@ -150,7 +151,7 @@ def pgs_box_friction_rows(a, b, Ga, Gb, Wb, u_free, bias, mu, colors, *, max_ite
             np.subtract(t2, old[:, 2], out=dz[:, 2])
             old += dz
             u += MK(dz.ravel(), du)
-        res = _box_residual(zp, J @ u + betaf, mup)
+        res = _box_residual(zp, J(u, Ju) + betaf, mup)
         if res <= thresh:
             break
     z = np.empty(n)
@@ -194,7 +195,7 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
     if np.any(diag <= 0):
         raise InvalidInput("pgs_normal_rows needs rows with a positive diagonal J W Jᵀ (a moving body)")
     J, plan, _ = _color_matrices(a[perm], b[perm], ga, gb, wga, wgb, spans, nb, d)
-    inv, bp, pp = 1.0 / diag, beta[perm], np.zeros(m)
+    inv, bp, pp, Jv = 1.0 / diag, beta[perm], np.zeros(m), np.empty(m)
     views = [(JK, MK, np.empty(e - s), bp[s:e], pp[s:e], inv[s:e], np.empty(e - s))
              for (s, e, JK, MK) in plan]
     dv = np.empty(nb * d)
@@ -206,7 +207,7 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
             np.subtract(np.maximum(pK - w * iK, 0.0), pK, out=dp)
             pK += dp
             v += MK(dp, dv)
-        res = float(np.max(np.abs(np.minimum(pp, J @ v + bp)), initial=0.0))
+        res = float(np.max(np.abs(np.minimum(pp, J(v, Jv) + bp)), initial=0.0))
         if res <= tol:
             break
     p = np.empty(m)
@@ -216,8 +217,8 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
 
 def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     """J and W Jᵀ as sparse matrices on u (nb·d,), the contacts in color order with k rows each (ga, gb, wga,
-    wgb of shape (m, k, d)): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's. Returns J, per color
-    (start, end, x ↦ J_K x, x ↦ (W Jᵀ)_K x: :func:`_product` of the color's CSR and CSC slices), and the
+    wgb of shape (m, k, d)): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's. Returns x ↦ J x,
+    per color (start, end, x ↦ J_K x, x ↦ (W Jᵀ)_K x: :func:`_product` of the color's CSR and CSC slices), and the
     arrays of W Jᵀ (for the warm start's product)."""
     m, k = ga.shape[:2]
     w2 = 2 * d
@@ -226,7 +227,7 @@ def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     dataM = np.concatenate([wga, -wgb], axis=2).reshape(-1)
     itype = np.int32 if max(nb * d, k * m * w2) < 2 ** 31 else np.int64      # scipy's own index type: no copies
     cols, ptr = cols.reshape(-1).astype(itype), np.arange(0, k * m * w2 + 1, w2, dtype=itype)
-    J = sparse.csr_matrix((dataJ, cols, ptr), shape=(k * m, nb * d))
+    J = _product("csr", (dataJ, cols, ptr), (k * m, nb * d))
     plan = []
     for s, e in spans:
         lo, hi, loc = k * s * w2, k * e * w2, ptr[:k * (e - s) + 1]

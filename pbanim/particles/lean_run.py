@@ -33,8 +33,6 @@ import numpy as np
 
 __all__: list = []
 
-_BLOCK = 4096              # recorded states checked per block (one sum of squares per state)
-_TOL = 1e-12               # the response's certificate tolerance (pbanim.collision.lean_spheres)
 
 
 def fused_run(step, respond, handed, handoff, counter: list):
@@ -95,18 +93,16 @@ def _quiet(run):
 
 
 def _checked(rows, grid, c) -> np.ndarray:
-    """The recorded states as one array, every state checked once per block when every state is recorded
-    (``c`` None: the first bad step named, as :func:`pbanim.ode.drive_lean` names it)."""
-    from ..ode.driver import _finite_rows, _raise_first_bad
+    """The recorded states as one array; when every state is recorded (``c`` None) each is checked as
+    :func:`pbanim.ode.drive_lean` checks them (|y|² finite) and the first bad step is named as it names it."""
+    from ..ode.driver import check_finite
 
     Y = np.array(rows)
     flat = Y.reshape(-1)
     if c is None and not isfinite(flat @ flat):      # Σ|y|² over the run: finite when every |y|² is (else look)
-        n = grid.n_steps
-        for k0 in range(0, n, _BLOCK):
-            k1 = min(n, k0 + _BLOCK)
-            if not _finite_rows(Y[k0 + 1:k1 + 1]).all():
-                _raise_first_bad(Y, k0, k1, grid, "state")
+        bad = np.flatnonzero(~np.isfinite(np.einsum("ij,ij->i", Y, Y)))
+        k = int(bad[0]) - 1 if bad.size else grid.n_steps - 1      # the step that went from Y[k] to Y[k + 1]
+        check_finite(Y[k + 1], grid.time(k), k, "state")
     return Y
 
 
@@ -119,7 +115,7 @@ def _spheres_run(kicks, lean, handoff, counter: list):
     ``col.last`` to the run's last step; any other step (an impact, the last step) is
     :meth:`~pbanim.collision.lean_spheres.LeanSpheres.floats` itself."""
     contacts, approach, finish, floats = lean.contacts, lean.approach, lean._finish, lean.floats
-    tol = _TOL
+    tol = lean.tol
 
     @_quiet
     def run(grid, y0: np.ndarray, record_every: int, check_every: int | None) -> np.ndarray:
