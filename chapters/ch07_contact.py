@@ -229,7 +229,7 @@ def stack_settling(ctx):
 
 # %%
 @figure("ch07", "sphere_pile", "Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps)",
-        cost=18.0)
+        cost=21.0)
 def sphere_pile(ctx):
     n, T, h = (20, 0.4, 4e-3) if ctx.quick else (100, 1.2, 4e-3)
     sc = sphere_pour(n)
@@ -241,18 +241,21 @@ def sphere_pile(ctx):
     fig, ax = ctx.subplots(figsize=(4, 4))
     from matplotlib.patches import Circle
 
+    # the axes, the box and the n discs are made once; a frame moves the discs and retitles (clearing the
+    # axes and adding n patches per frame was 60 % of the figure's time; the frames are the same pixels)
+    discs = [ax.add_patch(Circle((0.0, 0.0), r, alpha=0.5)) for _ in range(n)]
+    ax.plot([-L, -L, L, L], [0.6, 0, 0, 0.6], "k-")
+    ax.set_xlim(-L - 0.05, L + 0.05)
+    ax.set_ylim(-0.05, 0.7)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+
     def draw(j):
-        ax.clear()
         i = frames[j]
         x = res.y[:3 * n, i].reshape(n, 3)
-        for p in x:
-            ax.add_patch(Circle((p[0], p[2]), r, alpha=0.5))
-        ax.plot([-L, -L, L, L], [0.6, 0, 0, 0.6], "k-")
-        ax.set_xlim(-L - 0.05, L + 0.05)
-        ax.set_ylim(-0.05, 0.7)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("z (m)")
+        for disc, p in zip(discs, x):
+            disc.set_center((p[0], p[2]))
         ax.set_title(f"t = {res.t[i]:.2f} s")
 
     ctx.save_gif(fig, draw, len(frames), fps=10)
