@@ -47,13 +47,13 @@ References: de Lasa, Mordatch & Hertzmann 2010; B. Stephens, "Humanoid push reco
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..articulated.planar import PlanarKernel
 from ..articulated.planar_step import PlanarContactStep, PlanarGround
-from ..contracts import Array, Choice, Int, Opt, Real, Text, contract
+from ..contracts import Array, Choice, Int, Opt, Real, Seq, Text, contract
 from ..errors import check_number
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped import BIPED_JOINTS as JI
@@ -65,7 +65,7 @@ from .qp_tasks import InvalidTask, Task
 from .specs import Mapping, Pair, named
 from .walk import fall_cause
 
-__all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance"]
+__all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance", "simulate_balance_pushes"]
 
 
 class _Stop(Exception):
@@ -158,11 +158,15 @@ class BalanceResult:
         return self.outcome == "balanced"
 
 
-@contract(push=Real(ge=-1e4, le=1e4), t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MODES),
-          control_every=Int(ge=1), friction=Real(ge=0), knee=Real(ge=0, le=1.2),
-          torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
-          backend=Choice(backends), max_steps=Int(ge=1), joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))),
-          **_TASK_GAINS)
+_RUN = dict(t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MODES), control_every=Int(ge=1),
+            friction=Real(ge=0), knee=Real(ge=0, le=1.2),
+            torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
+            backend=Choice(backends), max_steps=Int(ge=1), joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))),
+            **_TASK_GAINS)
+_PUSH = Real(ge=-1e4, le=1e4)
+
+
+@contract(push=_PUSH, **_RUN)
 def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, push_time: float = 0.5,
                      mode: str = "weighted", control_every: int = 1, friction: float = 0.9, knee: float = 0.3,
                      torque_limits=300.0, record_every: int = 5, backend: str = "proxqp",
@@ -174,31 +178,78 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
 
     ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`.
     """
-    task_options = dict(kp=kp, kd=kd, momentum=momentum, posture_kp=posture_kp, posture_kd=posture_kd,
-                        posture_weight=posture_weight, momentum_weight=momentum_weight,
-                        momentum_priority=momentum_priority, posture_priority=posture_priority)
-    every = int(control_every)
+    options = {k: v for k, v in locals().items() if k not in ("push", "t_end", "h")}
+    return _balance(push, t_end, h, options)
+
+
+@contract(pushes=Seq(_PUSH), **_RUN)
+def simulate_balance_pushes(pushes=(), t_end: float = 2.5, h: float = 2e-3, *, push_time: float = 0.5,
+                            mode: str = "weighted", control_every: int = 1, friction: float = 0.9, knee: float = 0.3,
+                            torque_limits=300.0, record_every: int = 5, backend: str = "proxqp",
+                            max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
+                            posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
+                            momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
+                            joint_limits: dict | None = None) -> list[BalanceResult]:
+    """``[simulate_balance(P, t_end, h, …) for P in pushes]``, equal bit for bit, with the stance before
+    ``push_time`` simulated once: every run is the unpushed one until the step its push lands in, so that
+    run stops there (kept: the state, the held torques and QP answer, the contact modes, the records) and
+    each push continues from it. A run that ends before the push (t_end ≤ push_time, a fall) is every run."""
+    options = {k: v for k, v in locals().items() if k not in ("pushes", "t_end", "h")}
+    pushes = [float(p) for p in pushes]
+    shared = _balance(0.0, t_end, h, options, watch=True)
+    if isinstance(shared, BalanceResult):                  # no push lands: every run is this one
+        return [replace(shared, push=p) for p in pushes]
+    return [_balance(p, t_end, h, options, branch=shared) for p in pushes]
+
+
+class _Branch(Exception):
+    """Stops the unpushed run of :func:`simulate_balance_pushes` before the step its pushes land in."""
+
+
+def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = False, branch: tuple | None = None):
+    """The run of :func:`simulate_balance` (options ``o``). ``watch``: stop before the push's step and return
+    the snapshot (step index, state, loop bookkeeping, contact modes, records, wall time) instead of a result,
+    or the result when the run ends first; ``branch``: such a snapshot, continued with ``push`` (the steps
+    before it neither taken nor recorded)."""
+    task_options = {k: o[k] for k in _TASK_GAINS}
+    every, push_time = int(o["control_every"]), o["push_time"]
     tree = planar_biped()
     kernel = PlanarKernel(tree)
-    ground = PlanarGround(0.0, friction)
+    ground = PlanarGround(0.0, o["friction"])
     pts = biped_contact_points(tree)
     stepper = PlanarContactStep(kernel, pts, ground)
-    q0, qd0 = crouched_state(kernel, knee)
+    q0, qd0 = crouched_state(kernel, o["knee"])
     soles = kernel.points(q0, [lk for lk, _ in pts], [p for _, p in pts])
     support = (float(soles[:, 0].min()), float(soles[:, 0].max()))
     target = kernel.centre_of_mass(q0)                       # above the middle of the feet
     names = [lk.name for lk in tree.links]
     torso = np.array([names.index("torso")])
     posture = {nm: float(q0[i]) for nm, i in JI.items() if i >= 2}
-    ctrl = QPController(kernel, pts, ground, balance_tasks(target, posture, **task_options), mode=mode,
-                        torque_limits=torque_limits, backend=backend, joint_limits=joint_limits)
-    grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
-    m = len(pts)
+    ctrl = QPController(kernel, pts, ground, balance_tasks(target, posture, **task_options), mode=o["mode"],
+                        torque_limits=o["torque_limits"], backend=o["backend"], joint_limits=o["joint_limits"])
+    record_every = o["record_every"]
+    grid = step_grid(0.0, t_end, h, max_steps=o["max_steps"], record_every=record_every)
+    m, nv = len(pts), kernel.nv
     rec = {k: [] for k in ("t", "q", "com", "vcom", "f", "fs", "status", "res")}
-    state = {"tau": np.zeros(kernel.nv), "last": None, "k": 0, "pushed": False, "qp": 0.0, "stop": None}
+    state = {"tau": np.zeros(nv), "last": None, "k": 0, "pushed": False, "qp": 0.0, "stop": None, "wall": 0.0}
+    k0, y0 = 0, np.concatenate([q0, qd0])
+    if branch is not None:
+        k0, y0, saved, modes, records = branch
+        state.update(saved)
+        stepper.modes[:] = modes
+        rec = {k: list(v) for k, v in records.items()}
+    counter = [0]
 
     def advance(t, y, hh):
-        q, qd = y[:kernel.nv], y[kernel.nv:]
+        k = counter[0]
+        counter[0] = k + 1
+        if k < k0:                                   # a step of the shared run before the branch point
+            return y0
+        q, qd = y[:nv], y[nv:]
+        if watch and t >= push_time - 1e-12:            # the shared run reached the push's step: keep it, stop
+            state["snapshot"] = (k, y, {g: state[g] for g in ("tau", "last", "k", "qp")}, stepper.modes.copy(),
+                                 {g: list(v) for g, v in rec.items()})
+            raise _Branch
         kin = kernel.kinematics(q)
         if not state["pushed"] and push != 0.0 and t >= push_time - 1e-12:
             H, _, kin = kernel.dynamics(q, qd, kin)
@@ -223,8 +274,10 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
         return np.concatenate([q1, u1])
 
     def record(t1, y1):
-        q1 = y1[:kernel.nv]
-        c, v = kernel.centre_of_mass(q1, y1[kernel.nv:])
+        if counter[0] <= k0:
+            return
+        q1 = y1[:nv]
+        c, v = kernel.centre_of_mass(q1, y1[nv:])
         res = state["last"]
         fs = np.zeros((m, 2))
         near = stepper.last.get("near")
@@ -237,12 +290,16 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
     start = time.perf_counter()
     outcome, end, cause = "balanced", float(t_end), ""
     try:
-        drive(advance, grid, np.concatenate([q0, qd0]), record=record, record_every=record_every)
+        drive(advance, grid, y0, record=record, record_every=record_every)
     except _Stop:
         outcome, end, cause = state["stop"]
-    wall = time.perf_counter() - start
-    arr = lambda key, shape: np.array(rec[key]).reshape((-1,) + shape)
-    return BalanceResult(t=np.array(rec["t"]), q=arr("q", (kernel.nv,)), com=arr("com", (2,)), vcom=arr("vcom", (2,)),
+    except _Branch:
+        k, y, saved, modes, records = state["snapshot"]
+        saved["wall"] = state["wall"] + time.perf_counter() - start
+        return k, y, saved, modes, records
+    wall = state["wall"] + time.perf_counter() - start
+    arr = lambda key, shape: np.array(rec[key]).reshape((-1,) + shape)  # noqa: E731
+    return BalanceResult(t=np.array(rec["t"]), q=arr("q", (nv,)), com=arr("com", (2,)), vcom=arr("vcom", (2,)),
                          com_target=target, forces=arr("f", (m, 2)), sim_forces=arr("fs", (m, 2)),
                          status=rec["status"], residuals=arr("res", (4,)), outcome=outcome, end_time=float(end),
                          cause=cause, push_time=push_time, push=push, support=support, mu=ground.mu, h=h,
