@@ -1,6 +1,7 @@
-"""The QP balance's pushes branched from one stance (ORACLES F22).
+"""The QP balance's fast paths: pushes branched from one stance, the lean contact step (ORACLES F22).
 
-``simulate_balance_pushes`` equals the runs of ``simulate_balance`` one by one. The arithmetic is the same;
+``simulate_balance_pushes`` equals the runs of ``simulate_balance`` one by one, and ``lean=True`` (the lean
+planar contact step) equals ``lean=False`` (the readable one). The arithmetic is the same;
 the tolerance is the run-to-run spread of the QP runs themselves (the same run in two processes differs by
 ~1e-7 m in c: ProxQP's and BLAS's results depend on memory alignment), far below a push's effect (a 1 N s
 difference moves the centre of mass by millimetres).
@@ -22,6 +23,14 @@ def _close(a, b, tol=1e-9):
     assert np.abs(a.q - b.q).max() <= tol                       # m and rad
     assert np.abs(a.forces - b.forces).max() <= 1e3 * tol * a.forces.max()   # N, relative to the weight
     assert np.abs(a.sim_forces - b.sim_forces).max() <= 1e3 * tol * a.forces.max()
+
+
+def test_lean_step_equals_the_readable_step():
+    # ORACLES F22: the lean contact step takes the readable step's operations (the same run to the QP's spread)
+    lean = simulate_balance(15.0, T_END, push_time=PUSH_TIME)
+    readable = simulate_balance(15.0, T_END, push_time=PUSH_TIME, lean=False)
+    _close(lean, readable)
+    assert np.abs(lean.q[-1] - lean.q[0]).max() > 1e-3         # the push moved the biped (not a trivial run)
 
 
 def test_branched_pushes_equal_the_runs_one_by_one():

@@ -52,8 +52,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..articulated.planar import PlanarKernel
+from ..articulated.planar_lean import LeanPlanarStep
 from ..articulated.planar_step import PlanarContactStep, PlanarGround
-from ..contracts import Array, Choice, Int, Opt, Real, Seq, Text, contract
+from ..contracts import Array, Choice, Flag, Int, Opt, Real, Seq, Text, contract, unchecked
 from ..errors import check_number
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped import BIPED_JOINTS as JI
@@ -162,7 +163,7 @@ _RUN = dict(t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MO
             friction=Real(ge=0), knee=Real(ge=0, le=1.2),
             torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
             backend=Choice(backends), max_steps=Int(ge=1), joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))),
-            **_TASK_GAINS)
+            lean=Flag(), **_TASK_GAINS)
 _PUSH = Real(ge=-1e4, le=1e4)
 
 
@@ -173,10 +174,13 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
                      max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                      posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
                      momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
-                     joint_limits: dict | None = None) -> BalanceResult:
+                     joint_limits: dict | None = None, lean: bool = True) -> BalanceResult:
     """Stand the planar biped with the QP controller and push it (``push`` N s at ``push_time`` s).
 
-    ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`.
+    ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`. ``lean`` (default): the
+    simulation's contact step is :class:`~pbanim.articulated.planar_lean.LeanPlanarStep` (the readable step's
+    operations in their order) and the kinematics of the fall detector serve the next step; ``lean=False``
+    runs :class:`PlanarContactStep` itself (ORACLES F22: the same run to the QP runs' own spread).
     """
     options = {k: v for k, v in locals().items() if k not in ("push", "t_end", "h")}
     return _balance(push, t_end, h, options)
@@ -189,7 +193,7 @@ def simulate_balance_pushes(pushes=(), t_end: float = 2.5, h: float = 2e-3, *, p
                             max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                             posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
                             momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
-                            joint_limits: dict | None = None) -> list[BalanceResult]:
+                            joint_limits: dict | None = None, lean: bool = True) -> list[BalanceResult]:
     """``[simulate_balance(P, t_end, h, …) for P in pushes]``, equal bit for bit, with the stance before
     ``push_time`` simulated once: every run is the unpushed one until the step its push lands in, so that
     run stops there (kept: the state, the held torques and QP answer, the contact modes, the records) and
@@ -231,13 +235,18 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
     grid = step_grid(0.0, t_end, h, max_steps=o["max_steps"], record_every=record_every)
     m, nv = len(pts), kernel.nv
     rec = {k: [] for k in ("t", "q", "com", "vcom", "f", "fs", "status", "res")}
-    state = {"tau": np.zeros(nv), "last": None, "k": 0, "pushed": False, "qp": 0.0, "stop": None, "wall": 0.0}
+    state = {"tau": np.zeros(nv), "last": None, "k": 0, "pushed": False, "qp": 0.0, "stop": None, "near": None,
+             "z": None, "wall": 0.0}
     k0, y0 = 0, np.concatenate([q0, qd0])
     if branch is not None:
         k0, y0, saved, modes, records = branch
         state.update(saved)
         stepper.modes[:] = modes
         rec = {k: list(v) for k, v in records.items()}
+    solve = unchecked(ctrl.solve)
+    kinematics, com = unchecked(kernel.kinematics), unchecked(kernel.centre_of_mass)
+    lean = LeanPlanarStep(stepper) if o["lean"] else None
+    readable = unchecked(stepper.step)
     counter = [0]
 
     def advance(t, y, hh):
@@ -250,7 +259,7 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
             state["snapshot"] = (k, y, {g: state[g] for g in ("tau", "last", "k", "qp")}, stepper.modes.copy(),
                                  {g: list(v) for g, v in rec.items()})
             raise _Branch
-        kin = kernel.kinematics(q)
+        kin = state.pop("kin", None) or kinematics(q)
         if not state["pushed"] and push != 0.0 and t >= push_time - 1e-12:
             H, _, kin = kernel.dynamics(q, qd, kin)
             Jc = kernel.jacobians(kin, torso, kin["c"][torso])[0]
@@ -259,15 +268,22 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
         if state["k"] % every == 0:
             start = time.perf_counter()
             try:
-                res = ctrl.solve(q, qd, kin, raise_on_failure=True)
+                res = solve(q, qd, kin, raise_on_failure=True)
             except InfeasibleControl as exc:
                 state["stop"] = ("infeasible", t, str(exc))
                 raise _Stop from None
             state["qp"] += time.perf_counter() - start
             state["tau"], state["last"] = res.tau, res
         state["k"] += 1
-        q1, u1 = stepper.step(q, qd, hh, state["tau"], None, kin)
-        cause = fall_cause(kernel, kernel.kinematics(q1), q1, ground)
+        if lean is not None:
+            lk = lean.kinematics(q)
+            q1, u1, state["near"], state["z"] = lean.step(q, qd, hh, state["tau"], None, lk,
+                                                          lean.com_jacobians(lk[2], lk[3]))
+        else:
+            q1, u1 = readable(q, qd, hh, state["tau"], None, kin)
+            state["near"], state["z"] = stepper.last["near"], stepper.last["impulses"]
+        state["kin"] = kin1 = kinematics(q1)                   # the next step's kinematics (the same q)
+        cause = fall_cause(kernel, kin1, q1, ground)
         if cause:
             state["stop"] = ("fell", t + hh, cause)
             raise _Stop
@@ -277,12 +293,12 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
         if counter[0] <= k0:
             return
         q1 = y1[:nv]
-        c, v = kernel.centre_of_mass(q1, y1[nv:])
+        c, v = com(q1, y1[nv:])
         res = state["last"]
         fs = np.zeros((m, 2))
-        near = stepper.last.get("near")
+        near = state["near"]
         if near is not None and near.size:
-            fs[near] = stepper.last["impulses"].reshape(-1, 2) / h
+            fs[near] = state["z"].reshape(-1, 2) / h
         rec["t"].append(t1), rec["q"].append(q1.copy()), rec["com"].append(c), rec["vcom"].append(v)
         rec["f"].append(res.forces), rec["fs"].append(fs), rec["status"].append(res.status)
         rec["res"].append([res.residuals[g] for g in ("dynamics", "contact", "cone", "limits")])
