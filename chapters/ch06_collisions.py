@@ -216,18 +216,20 @@ def boxes_tumbling(ctx):
     fig.subplots_adjust(left=0.16, bottom=0.2, right=0.97, top=0.9)
     frames = np.linspace(0, Y.shape[1] - 1, 8 if ctx.quick else 60).astype(int)
 
+    # the axes and the n outlines are made once; a frame moves the outlines (the same pixels as clearing the
+    # axes and filling anew, in a fraction of the time)
+    ax.axhline(0, color="k")
+    outlines = [ax.fill([0.0, 1.0, 0.0], [0.0, 0.0, 1.0], alpha=0.6)[0] for _ in range(n)]
+    ax.set_xlim(-1.6, 1.6)
+    ax.set_ylim(-0.1, 2.2)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+
     def update(f):
-        ax.clear()
-        ax.axhline(0, color="k")
         for i in range(n):
             P = verts[frames[f], i][:, [0, 2]]
-            hull = P[ConvexHull(P).vertices]
-            ax.fill(hull[:, 0], hull[:, 1], alpha=0.6)
-        ax.set_xlim(-1.6, 1.6)
-        ax.set_ylim(-0.1, 2.2)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("z (m)")
+            outlines[i].set_xy(P[ConvexHull(P).vertices])
         ax.set_title(f"t = {res.t[frames[f]]:.2f} s")
 
     ctx.save_gif(fig, update, frames=len(frames), fps=8)

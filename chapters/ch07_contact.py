@@ -192,20 +192,24 @@ def stack_settling(ctx):
     hext = sc.half_extents
     fig, ax = ctx.subplots(figsize=(4, 4))
 
+    # the axes and the n outlines are made once; a frame moves the outlines (the same pixels as clearing the
+    # axes and filling anew, in a fraction of the time)
+    outlines = [ax.fill(*_box_outline(np.zeros(3), np.eye(3), hext), alpha=0.6, color=f"C{k % 10}")[0]
+                for k in range(n)]
+    ax.axhline(0, color="k")
+    ax.set_xlim(-1.2, 1.2)
+    ax.set_ylim(-0.1, 2 * hext[2] * n + 0.3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+
     def draw(j):
-        ax.clear()
         i = frames[j]
         yy = res.y[:, i]
         x = bodies.unpack(yy)[0]
         R = bodies.rotations(yy)
         for k in range(n):
-            ax.fill(*_box_outline(x[k], R[k], hext), alpha=0.6, color=f"C{k % 10}")
-        ax.axhline(0, color="k")
-        ax.set_xlim(-1.2, 1.2)
-        ax.set_ylim(-0.1, 2 * hext[2] * n + 0.3)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("z (m)")
+            outlines[k].set_xy(np.column_stack(_box_outline(x[k], R[k], hext)))
         ax.set_title(f"t = {res.t[i]:.3f} s")
 
     ctx.save_gif(fig, draw, len(frames), fps=10)
