@@ -7,22 +7,7 @@ from hypothesis import strategies as st
 
 from pbanim.lcp import rows
 from pbanim.lcp.colored import colors_by_bodies
-
-
-def _problem(seed, bodies, contacts):
-    """Random contact rows (3 per contact) between bodies and the world (index ``bodies``, zero W block)."""
-    rng = np.random.default_rng(seed)
-    a = rng.integers(0, bodies, size=contacts)
-    b = rng.integers(0, bodies + 1, size=contacts)
-    b = np.where(b == a, bodies, b)
-    Ga, Gb = rng.normal(size=(3 * contacts, 6)), rng.normal(size=(3 * contacts, 6))
-    Wb = np.zeros((bodies + 1, 6, 6))
-    for k in range(bodies):
-        B = rng.normal(size=(6, 6))
-        Wb[k] = B @ B.T / 6 + 0.2 * np.eye(6)
-    u = np.vstack([rng.normal(size=(bodies, 6)), np.zeros((1, 6))])
-    bias = rng.normal(size=3 * contacts)
-    return np.repeat(a, 3), np.repeat(b, 3), Ga, Gb, Wb, u, bias, rng.uniform(0.1, 1.0, size=contacts), (a, b)
+from test_lcp_rows import _rows_problem as _problem     # random rows (3 per contact) between bodies and the world
 
 
 def _both(monkeypatch, call):

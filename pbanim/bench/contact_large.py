@@ -308,7 +308,7 @@ def run(quick: bool = False, only: str | None = None) -> Report:
     return rep
 
 
-if __name__ == "__main__":              # one scene of this family alone: python -m pbanim.bench.contact_large --only wall
+if __name__ == "__main__":              # one scene alone: python -m pbanim.bench.contact_large --only wall
     import argparse
 
     from . import format_report, one_blas_thread

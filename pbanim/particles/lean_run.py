@@ -13,15 +13,17 @@ the state converted once at the start and once at the end, and per step
 
 with the recorded states kept at the sample times only (every ``record_every``-th step and the last), as
 :func:`pbanim.ode.drive_lean` keeps them. The arithmetic is the plan's and the response's, call for call: the
-fused run equals the step-by-step run bit for bit, and the readable step to roundoff
+fused run equals the step-by-step run bit for bit (up to the sign of a zero velocity, where a kick of zero is
+left out), and the readable step to roundoff
 (``tests/test_particles_lean.py``, ORACLES D17). What the stepped plan hands to the readable step (a spring of
 zero length, a response the floats cannot answer: resting contact, a failed certificate) is handed over here
 in the same way, for that step only.
 
 Non-finite states. Float arithmetic raises on none; the states are checked as :func:`~pbanim.ode.drive_lean`
-checks them: every recorded state once per block when every state is recorded (the first bad step named),
-else |y|² every ``check_every`` steps and after the last. The loop's cap is the grid's step count, known
-before it starts (``max_steps`` checked by :func:`~pbanim.ode.step_grid`).
+checks them: every recorded state at the end of the run when every state is recorded (one sum of squares
+over the record; the first bad step named), else |y|² every ``check_every`` steps and after the last. The
+loop's cap is the grid's step count, known before it starts (``max_steps`` checked by
+:func:`~pbanim.ode.step_grid`).
 """
 
 from __future__ import annotations
@@ -34,13 +36,12 @@ import numpy as np
 __all__: list = []
 
 
-
 def fused_run(step, respond, handed, handoff, counter: list):
     """``run(grid, y0, record_every, check_every) -> Y`` (Y as :func:`pbanim.ode.drive_lean` returns it) of a
     float plan: ``step(y, h) -> y₁`` on lists (raising the plan's hand-over exception for the readable step),
-    ``respond(t₁, y₁, h, margin, plastic, record) -> list | None`` the one post-step stage's float response or None for a scene with no
-    post-step stage, ``handed(t, y, h)`` the readable kick–drift and its post-step stages (arrays),
-    ``handoff(t₁, y₁, h)`` the readable response of a state the float one does not answer."""
+    ``respond(t₁, y₁, h, margin, plastic, record) -> list | None`` the one post-step stage's float response
+    (None for a scene with no post-step stage), ``handed(t, y, h)`` the readable kick–drift and its post-step
+    stages (arrays), ``handoff(t₁, y₁, h)`` the readable response of a state the float one does not answer."""
     from .lean import _Handoff
 
     lean = getattr(respond, "__self__", None)
