@@ -181,21 +181,23 @@ def kepler_orbits(ctx):
 
 # %%
 @figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)",
-        cost=41.0)
+        cost=15.0)
 def work_precision(ctx):
     from pbanim.bench.ode import PROBLEMS, sweep_problem
 
     quick = ctx.quick
     keys = ["kepler", "robertson"] if quick else ["kepler", "pleiades", "van_der_pol", "robertson"]
-    # full: one tolerance per decade (the curves are straight in log-log between them), runs past 1.5 s end a
-    # variant's sweep; a point is the best of 3 runs below 0.05 s (their spread under load: median 1.7x,
-    # up to 14x), of 1 above (before: half decades, 5 s, 3 runs below 0.5 s: 165 s -> about 30 s)
+    # full: one tolerance per decade (the curves are straight in log-log between them), runs past 0.5 s end a
+    # variant's sweep; a point is the best of 2 runs below 0.05 s, of 1 above (before: half decades, 5 s, 3
+    # runs below 0.5 s: 165 s; then 1.5 s and 3 runs below 0.05 s: 57 s CPU; the runs themselves are the cost,
+    # each a decade tighter costs 1.5-2x more, so the budget sets it: the slowest variants now stop about one
+    # decade of error earlier, the ordering and the slopes of the curves are those of the longer sweep)
     tols = [1e-3, 1e-5, 1e-7] if quick else [10.0 ** -k for k in range(3, 13)]
     fig, axes = ctx.subplots(1, len(keys), figsize=(5.2 * len(keys), 4.4))
     out = {}
     for ax, key in zip(np.atleast_1d(axes), keys):
         title = PROBLEMS[key][0]
-        sweeps = sweep_problem(key, tols, repeats=1 if quick else 3, budget=0.3 if quick else 1.5, repeat_below=0.05)
+        sweeps = sweep_problem(key, tols, repeats=1 if quick else 2, budget=0.3 if quick else 0.5, repeat_below=0.05)
         out[title] = sweeps
         for v, pts in sweeps.items():
             style = "o-" if v.startswith("pbanim") else ("k:" if v == "odeint" else "s--")
