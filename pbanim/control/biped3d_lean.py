@@ -18,14 +18,14 @@ this module instead, computing the same quantities:
    called through :func:`pgs` without the library's argument checks: the same iterates);
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
-``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the seconds each part
-takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
+``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the CPU seconds (process
+time: on a shared machine the wall clock measures the load) each part takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
 """
 
 from __future__ import annotations
 
 from math import atan2, sqrt
-from time import perf_counter
+from time import process_time
 
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
@@ -96,11 +96,11 @@ def kinematics(ws, q) -> dict:
     if ws._plan.cache[0] == key:
         return ws._plan.cache[1]
     clock = ws.clock
-    t0 = perf_counter() if clock is not None else 0.0
+    t0 = process_time() if clock is not None else 0.0
     kin = _kinematics(ws, q)
     ws._plan.cache = (key, kin)
     if clock is not None:
-        clock["kinematics"] += perf_counter() - t0
+        clock["kinematics"] += process_time() - t0
     return kin
 
 
@@ -271,9 +271,9 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     """(q⁺, u⁺) of :meth:`WorldStep.step` (module docstring)."""
     kin = kinematics(ws, q) if kin is None else kin
     clock = ws.clock
-    c0 = perf_counter() if clock is not None else 0.0
+    c0 = process_time() if clock is not None else 0.0
     H = mass_matrix(ws, kin)
-    c1 = perf_counter() if clock is not None else 0.0
+    c1 = process_time() if clock is not None else 0.0
     nv1 = H.shape[0] + 1
     K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
     if K is not None:
@@ -281,7 +281,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     cho = _cholesky(H)
     f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
     u = qd + h * dpotrs(cho, f)[0]                             # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
-    c2 = perf_counter() if clock is not None else 0.0
+    c2 = process_time() if clock is not None else 0.0
     P, Jp = point_jacobians(ws, kin, ws.links, ws.points)
     gap, nrm = ws.terrain.gap_normal(P)
     Ju = Jp @ u
@@ -304,7 +304,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     if clock is not None:                                      # pbanim bench control: the step's split
         clock["H"] += c1 - c0
         clock["dynamics"] += c2 - c1
-        clock["contact"] += perf_counter() - c2
+        clock["contact"] += process_time() - c2
         clock["steps"] += 1
     return q1, u
 
