@@ -147,6 +147,25 @@ def test_solver_options_keep_the_closed_form_answer(options):
     assert np.abs(x - [0.2, 0.4, 0.5]).max() <= 1e-9
 
 
+def test_walk_plan_alternates_and_ends_above_the_middle():
+    # ORACLES F21: the walk's segments (no simulation): feet alternate left first, the first and last steps half a
+    # stride, c̄ moves above each stance sole (inset toward the other foot) and ends above the final middle
+    from pbanim.control.qp_biped3d_walk import _segments
+    soles = {"left": np.array([0.0, 0.09, 0.0]), "right": np.array([0.0, -0.09, 0.0])}
+    com0 = np.array([0.0, 0.0, 0.9])
+    plan = [("left", 0.1), ("right", 0.2), ("left", 0.2), ("right", 0.1)]
+    segs = _segments(plan, soles, com0, 0.02, (0.6, 0.4, 0.6, 0.6, 0.2))
+    assert [sg[0] for sg in segs] == [0.6, 0.4, 0.6, 0.4, 0.6, 0.4, 0.6, 0.4, 0.6, 0.2]
+    assert [sg[3] for sg in segs[1:8:2]] == plan
+    # above the right sole (y −0.09 + 0.02), then the left one moved 0.1 (y 0.09 − 0.02), then the right moved 0.2 …
+    assert np.allclose(segs[0][2], [0.0, -0.07, 0.9]) and np.allclose(segs[2][2], [0.1, 0.07, 0.9])
+    assert np.allclose(segs[4][2], [0.2, -0.07, 0.9]) and np.allclose(segs[6][2], [0.3, 0.07, 0.9])
+    assert np.allclose(segs[-1][1], [0.3, 0.0, 0.9]) and np.allclose(segs[-1][2], segs[-1][1])
+    # every segment starts where the one before ended; a swing holds c̄
+    assert all(np.array_equal(a[2], b[1]) for a, b in zip(segs, segs[1:]))
+    assert all(np.array_equal(sg[1], sg[2]) for sg in segs[1:8:2])
+
+
 def test_tasks_of_the_other_dimension_are_refused():
     # ORACLES F15: a 3-D task in the planar controller, a planar one in the 3-D controller, a bad trunk task
     with pytest.raises(InvalidTask, match="3-vector"):

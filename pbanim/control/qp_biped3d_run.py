@@ -14,17 +14,17 @@ At equilibrium (q̇ = 0, c = c̄) Newton's law leaves Σ f = −M g: the vertica
 weight M g, and the centre of the pressure lies under c, inside the support polygon (ORACLES F21).
 A push P (N s, a horizontal 3-vector) at ``push_time`` hits the torso's centre: Δq̇ = H⁻¹ J_cᵀ P.
 
-**Stepping** (:func:`simulate_step`): the same tasks and a script of four phases of length T each,
+**Stepping** (:func:`~pbanim.control.qp_biped3d_walk.simulate_step`, written in :mod:`.qp_biped3d_walk` with the
+walk of a few steps): the same tasks and a script of four phases of length T each,
 
 1. shift: c̄(t) moves from the middle of the feet to above the stance (right) foot's sole centre;
 2. lift and swing: the left foot's four contact rows are released (``contacts=``: the right foot's only),
-   two point tasks (the left sole's heel and toe centres, priority 0) follow p̄(t) = p₀ + s(t) (ℓ, 0, 0) +
+   two point tasks (the left sole's heel and toe centres) follow p̄(t) = p₀ + s(t) (ℓ, 0, 0) +
    b(t) (0, 0, z_c), s the minimum-jerk ramp 10s³ − 15s⁴ + 6s⁵, b = 16 s²(1 − s)² the lift;
    they end 2 mm into the ground (a contact is taken, not hovered over);
 3. land and shift back: every corner whose gap is within ``contact_tol`` is a contact again; c̄ moves to
-   the middle of the new support polygon; the heel and toe tasks stay on, holding their end point 2 mm into
-   the ground (``press``: without it a sole landed on two corners is held by nothing on its free side, and the
-   prioritized step's left foot tipped up 3.5 cm and slid back to 0.187 m and 2.3 cm sideways);
+   the middle of the new support polygon; each sole on the ground is held flat where it came down by its
+   heel and toe tasks (``press``, :mod:`.qp_biped3d_walk`);
 4. hold: double support, the step's length is the left sole's displacement (ℓ to a stated tolerance).
 
 Trajectories feed their velocity and acceleration forward (the tasks' ``velocity``, ``acceleration``).
@@ -33,7 +33,7 @@ Trajectories feed their velocity and acceleration forward (the tasks' ``velocity
 end effectors, then the rest): the contacts and the equations of motion are the QP's equalities; level 0 the
 centre of mass; level 1 the swing foot's heel and toe and the trunk's orientation; level 2 the damping of L
 and the posture (:data:`STEP_LEVELS`). Measured at h = 8 ms (swing foot at level 1; the levels of c, L,
-trunk, posture): (0, 2, 1, 2) lands 0.1966 m, 8 corners; (0, 0, 2, 2), the momentum with the centre of mass,
+trunk, posture; the landed sole held at its planned place): (0, 2, 1, 2) lands 0.1966 m, 8 corners; (0, 0, 2, 2), the momentum with the centre of mass,
 lands on 6 corners only (L̇ = −k L leaves the leg too little freedom to swing); (0, 2, 2, 2) lands 0.2165 m
 with QP residuals of 2e-4 M g. The weighted step uses the same tasks with weights (``weights`` of
 :func:`stand_tasks`, ``swing_weight``).
@@ -50,11 +50,11 @@ the weight; ℓ the step length; z_c the swing clearance; T a phase's duration.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..contracts import Array, Choice, Flag, Int, Obj, Real, Text, contract, unchecked
+from ..contracts import Array, Choice, Int, Obj, Real, Text, contract, unchecked
 from ..errors import SimulationDiverged, check_number
 from .biped3d import BIPED3D_JOINTS, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
@@ -75,7 +75,7 @@ JOINT_LIMITS = {f"{s}_{j}": r for s in ("left", "right") for j, r in
 STEP_LEVELS = (0, 2, 1, 2)
 SIM_TOL = 1e-5           # the contact step's PGS tolerance (as the 3-D walk's; 1e-6 costs ~10x the sweeps standing)
 
-__all__ = ["Biped3DRun", "crouched_state3d", "simulate_stand3d", "simulate_step", "stand_tasks"]
+__all__ = ["Biped3DRun", "crouched_state3d", "simulate_stand3d", "stand_tasks"]
 
 
 @contract(ctrl=Obj(QPBiped3D), knee=Real(ge=0, le=1.2))
@@ -148,7 +148,7 @@ class Biped3DRun:
 
     @property
     def ok(self) -> bool:
-        return self.outcome in ("stood", "stepped")
+        return self.outcome in ("stood", "stepped", "walked")
 
     @contract(last=Real(gt=0))
     def com_error(self, last: float = 0.3) -> float:
@@ -238,87 +238,4 @@ def simulate_stand3d(push=(0.0, 0.0, 0.0), t_end: float = 1.0, h: float = 2e-3, 
     return _result(rec, stop, wall, ctrl, h, "stood", t_end, {"push": push, "mode": mode, "start_com": com})
 
 
-def _ramp(s: float) -> np.ndarray:
-    """Minimum jerk r(s) = 10s³ − 15s⁴ + 6s⁵ and its first two derivatives in s (s clipped to [0, 1])."""
-    s = min(max(s, 0.0), 1.0)
-    return np.array([s**3 * (10 - 15 * s + 6 * s * s), 30 * s * s * (1 - s) ** 2, 60 * s * (1 - s) * (1 - 2 * s)])
-
-
-def _bump(s: float) -> np.ndarray:
-    """The lift b(s) = 16 s²(1 − s)² (1 at s = ½, flat at both ends) and its first two derivatives in s."""
-    s = min(max(s, 0.0), 1.0)
-    return 16.0 * np.array([s * s * (1 - s) ** 2, 2 * s * (1 - s) * (1 - 2 * s), 2 - 12 * s + 12 * s * s])
-
-
-def _along(a, b, r: np.ndarray, T: float) -> tuple:
-    """(position, velocity, acceleration) of a + r(s) (b − a) at the ramp values r (r, r', r'') of a phase T."""
-    d = np.asarray(b, dtype=float) - np.asarray(a, dtype=float)
-    return a + r[0] * d, r[1] / T * d, r[2] / (T * T) * d
-
-
-@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), inset=Real(ge=0, le=0.05),
-          clearance=Real(ge=0, le=0.2), h=Real(ge=1e-3, le=0.01),
-          mode=Choice(MODES), control_every=Int(ge=1, le=100), knee=Real(ge=0, le=1.2), friction=Real(ge=0),
-          swing_weight=Real(gt=0), swing_priority=Int(ge=0, le=10), record_every=Int(ge=1),
-          priorities=Array((4,), ge=0, le=10), press=Flag())
-def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: float = 0.05, h: float = 4e-3, *,
-                  inset: float = 0.02,
-                  mode: str = "weighted", control_every: int = 1, knee: float = 0.4, friction: float = 0.9,
-                  swing_weight: float = 1.0, swing_priority: int = 1, record_every: int = 5,
-                  priorities=STEP_LEVELS, press: bool = True) -> Biped3DRun:
-    """One scripted step of the left foot, ``length`` m forward (module docstring: four phases of the
-    durations ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's centre).
-    ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
-    ctrl, q, qd, com0 = _controller(mode, knee, friction, priorities=priorities)
-    kin = ctrl.world.kinematics(q)
-    P, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
-    left, right = P[:4].mean(axis=0), P[4:].mean(axis=0)
-    foot = int(ctrl.links[0])
-    ends = {"swing_heel": (P[:2].mean(axis=0), ctrl.local[:2].mean(axis=0)),
-            "swing_toe": (P[2:4].mean(axis=0), ctrl.local[2:4].mean(axis=0))}
-    over = np.array([right[0], right[1] + inset, com0[2]])                # the centre of mass above the stance sole
-    middle = com0 + np.array([0.5 * length, 0.0, 0.0])            # … and above the middle of the new support
-    for nm, (p0, loc) in ends.items():
-        ctrl.tasks.append(Task("point", name=nm, link=foot, local=loc, target=p0, kp=200.0, kd=30.0, weight=0.0,
-                               priority=swing_priority, dim=3))
-    ctrl.tasks = ctrl._checked(ctrl.tasks)
-    swing = {nm: ctrl.task(nm) for nm in ends}
-    com_task = ctrl.task("com")
-    stance = np.arange(4, 8)
-    Ts = np.asarray(phases, dtype=float)
-    starts = np.concatenate([[0.0], np.cumsum(Ts)])
-
-    def script(t, q, qd, kin):
-        k = min(int(np.searchsorted(starts, t, side="right")) - 1, 3)
-        T = Ts[k]
-        s = (t - starts[k]) / T
-        r = _ramp(s)
-        a, b = ((com0, over), (over, over), (over, middle), (middle, middle))[k]
-        c, v, acc = _along(a, b, r, T) if k in (0, 2) else (b, np.zeros(3), np.zeros(3))
-        ctrl._replace("com", replace(com_task, target=c, velocity=v, acceleration=acc))
-        for nm, (p0, _) in ends.items():
-            if k == 1:                                              # lift and swing: 2 mm into the ground at the end
-                bump = _bump(s)
-                x, vx, ax = _along(p0, p0 + np.array([length, 0.0, -0.002]), r, T)
-                lift = np.array([0.0, 0.0, clearance])
-                new = replace(swing[nm], weight=swing_weight, target=x + bump[0] * lift,
-                              velocity=vx + bump[1] / T * lift, acceleration=ax + bump[2] / (T * T) * lift)
-            elif k >= 2 and press:                                  # landed: the sole pressed flat at its end
-                new = replace(swing[nm], weight=swing_weight, target=p0 + np.array([length, 0.0, -0.002]),
-                              velocity=np.zeros(3), acceleration=np.zeros(3))
-            else:
-                new = replace(swing[nm], weight=0.0)
-            ctrl._replace(nm, new)
-        return stance if k == 1 else None
-
-    rec, stop, wall = _run(ctrl, q, qd, starts[-1], h, control_every, script, record_every=record_every)
-    res = _result(rec, stop, wall, ctrl, h, "stepped", starts[-1], {})
-    if res.q.size:
-        kin = ctrl.world.kinematics(res.q[-1])
-        P1, _ = ctrl.world.point_jacobians(kin, ctrl.links, ctrl.local)
-        res.extra = {"length": float(P1[:4, 0].mean() - left[0]), "drift": float(P1[:4, 1].mean() - left[1]),
-                     "corners": int(np.sum(np.abs(P1[:, 2]) <= ctrl.contact_tol)),
-                     "target_length": float(length), "mode": mode, "start_com": com0}
-        if res.ok and res.extra["corners"] < 8:
-            res.outcome, res.cause = "not on two feet", f"{res.extra['corners']} of 8 sole corners on the ground at the end"
-    return res
+from .qp_biped3d_walk import simulate_step  # noqa: E402  (its public path here kept; the footsteps live there)

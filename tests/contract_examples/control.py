@@ -130,7 +130,7 @@ INSTANCES = {
 SKIP_EDGES = {
     "pbanim.control.qp_biped3d_run.simulate_stand3d": "t_end at its bound (5 s of standing at 1 ms steps) runs for "
                                                       "minutes: the edges of t_end are what the step count's cap checks",
-    "pbanim.control.qp_biped3d_run.simulate_step": "phases at their bound (8 s of stepping) runs for minutes",
+    "pbanim.control.qp_biped3d_walk.simulate_step": "phases at their bound (8 s of stepping) runs for minutes",
     "pbanim.control.simbicon3d_walk.simulate_walk3d": "t_end at its bound (600 s of walking) runs for an hour: the "
                                                       "edges of t_end are what the step grid's cap checks",
 }
@@ -170,8 +170,6 @@ CALLS = {
     "pbanim.control.qp.QPController.solve": _qp_state,
     "pbanim.control.qp.QPController.torques": _qp_state,
     "pbanim.control.qp_balance.simulate_balance": lambda: {"t_end": 0.004, "h": 2e-3, "push_time": 0.002},
-    "pbanim.control.qp_balance.simulate_balance_pushes": lambda: {"pushes": [5.0, 0.0], "t_end": 0.004, "h": 2e-3,
-                                                                  "push_time": 0.002},
     "pbanim.control.biped3d.biped3d_contact_points": lambda: {"tree": _biped3d()},
     "pbanim.control.biped3d_step.WorldStep.__init__": lambda: {"tree": _biped3d(),
                                                                "contact_points": biped3d_contact_points(_biped3d())},
@@ -202,8 +200,8 @@ CALLS = {
                                                          "posture": {"left_knee": -0.4}},
     "pbanim.control.qp_biped3d_run.simulate_stand3d": lambda: {"t_end": 0.016, "h": 8e-3, "push_time": 0.008,
                                                               "push": np.array([1.0, 0.0, 0.0]), "record_every": 1},
-    "pbanim.control.qp_biped3d_run.simulate_step": lambda: {"phases": np.array([0.06, 0.06, 0.06, 0.06]), "h": 0.01,
-                                                           "record_every": 1},
+    "pbanim.control.qp_biped3d_walk.simulate_step": lambda: {"phases": np.array([0.06, 0.06, 0.06, 0.06]), "h": 0.01,
+                                                            "record_every": 1},
 }
 
 EXEMPT = {
