@@ -123,10 +123,10 @@ def _one_blas_thread_for_life() -> None:
 def _figures(args, run_figures, write_index) -> int:
     specs = select_figures(args.chapters or None)
     out = Path(args.out) if args.out else _default_out()
-    total, cpu = time.perf_counter(), {}
+    total, cpu, timeline = time.perf_counter(), {}, {}
     files, seconds, issues = call_checked(run_figures, specs, out, quick=args.quick, fmt=args.format, dpi=args.dpi,
                                           style=args.style, jobs=args.jobs, progress=lambda line: print(line, flush=True),
-                                          initializer=_one_blas_thread_for_life, cpu=cpu)
+                                          initializer=_one_blas_thread_for_life, cpu=cpu, timeline=timeline)
     for line in issues:
         print(f"warning: {line}")
     if not args.chapters:
@@ -140,7 +140,34 @@ def _figures(args, run_figures, write_index) -> int:
         # CPU seconds: what a loaded machine inflates least, the numbers for the figures' cost= hints
         print("slowest by CPU: " + ", ".join(f"{k} {cpu[k]:.1f}s (hint {specs[k].cost:g})"
                                              for k in sorted(cpu, key=lambda k: -cpu[k])[:10]))
+        line = workers_line(timeline)
+        if line:
+            print(line)
     return 0
+
+
+def workers_line(timeline: dict) -> str:
+    """How the figures shared the workers, from ``{key: (process id, start, end)}`` (wall clock): each worker's
+    busy seconds, and the idle tail — how long the last worker ran alone after the others had finished (its
+    last figure named). "" with one worker. When the longest figure exceeds an even share of the work, the
+    tail cannot be balanced away and the line says so."""
+    busy: dict = {}
+    last: dict = {}
+    for key, (pid, start, end) in timeline.items():
+        busy[pid] = busy.get(pid, 0.0) + (end - start)
+        if pid not in last or end > last[pid][0]:
+            last[pid] = (end, key, end - start)
+    if len(last) < 2:
+        return ""
+    order = sorted(last, key=lambda p: last[p][0])
+    end, key, secs = last[order[-1]]
+    tail = end - last[order[-2]][0]
+    longest = max(b - a for _, a, b in timeline.values())
+    share = sum(busy.values()) / len(busy)
+    note = (f"; the longest figure ({longest:.0f}s) exceeds an even share ({share:.0f}s): no schedule balances it"
+            if longest > share else "")
+    return (f"workers: busy {', '.join(f'{busy[p]:.0f}s' for p in order)}; the last ran alone for the final "
+            f"{tail:.1f}s (its last figure: {key}, {secs:.1f}s){note}")
 
 
 def cmd_bench(args) -> int:

@@ -35,6 +35,7 @@ parentheses or brackets (``"t (s)"``, ``"E [J]"``; dimensionless axes say ``"(1)
 
 from __future__ import annotations
 
+import os as _os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -248,27 +249,29 @@ def run_figure(spec: FigureSpec, out_dir: Path | None, quick: bool = False, *, f
 
 
 def _run_group(specs: list, out_dir, quick: bool, fmt: str, dpi, style: str) -> list:
-    """Run the figures of one group in this process, in order: [(key, files, seconds, issues, cpu seconds)]."""
+    """Run one group's figures here, in order: [(key, files, seconds, issues, CPU s, (pid, wall start, end))]."""
     done = []
     for spec in specs:
         issues: list[str] = []
-        start, cpu = time.perf_counter(), time.process_time()
+        start, cpu, began = time.perf_counter(), time.process_time(), time.time()
         try:
             _, files = run_figure(spec, out_dir, quick, fmt=fmt, dpi=dpi, style=style, issues=issues)
         except Exception as exc:
             exc.add_note(f"(while drawing the figure {spec.key})")
             raise
-        done.append((spec.key, files, time.perf_counter() - start, issues, time.process_time() - cpu))
+        done.append((spec.key, files, time.perf_counter() - start, issues, time.process_time() - cpu,
+                     (_os.getpid(), began, time.time())))
     return done
 
 
 @contract(specs=Obj(dict, what="a dict {key: FigureSpec}"), out_dir=Opt(PathLike()), quick=Flag(), fmt=FORMAT,
           dpi=DPI_RANGE, style=STYLE_NAME, jobs=Opt(Int(ge=1, le=256)), progress=Opt(Func()),
-          initializer=Opt(Func()), cpu=Opt(Obj(dict, what="a dict (it receives {key: CPU seconds})")))
+          initializer=Opt(Func()), cpu=Opt(Obj(dict, what="a dict (it receives {key: CPU seconds})")),
+          timeline=Opt(Obj(dict, what="a dict (it receives {key: (process id, start, end)})")))
 def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool = False, *, fmt: str = "png",
                 dpi: float | None = None, style: str = "paper", jobs: int | None = None,
-                progress: Callable[[str], Any] | None = None,
-                initializer: Callable[[], Any] | None = None, cpu: dict | None = None) -> tuple[dict, dict, list]:
+                progress: Callable[[str], Any] | None = None, initializer: Callable[[], Any] | None = None,
+                cpu: dict | None = None, timeline: dict | None = None) -> tuple[dict, dict, list]:
     """Run several figures on ``jobs`` worker processes (None: one per core; 1: here, in the order given).
 
     Returns ({key: files}, {key: seconds}, issues), keys in the order of ``specs``. ``progress`` gets one line
@@ -279,11 +282,9 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
     ``initializer``: called once in each worker before its first figure (a module-level function: workers are
     fresh interpreters); the command line hands in one that limits BLAS to one thread, as in the benchmarks.
     A figure that fails stops the run: the figures not yet started are cancelled and its error is raised.
-    ``cpu``, when given, receives {key: CPU seconds of the figure in its process} (the numbers to put in the
-    ``cost`` hints).
+    ``cpu`` receives {key: CPU seconds in its process} (for the ``cost`` hints); ``timeline`` {key: (process id,
+    start, end)} on the wall clock.
     """
-    import os
-
     from .errors import InvalidInput
 
     for key, spec in specs.items():
@@ -295,15 +296,14 @@ def run_figures(specs: dict[str, FigureSpec], out_dir: Path | None, quick: bool 
         groups.setdefault(spec.group or key, []).append(spec)
     order = sorted(groups.values(), key=lambda g: (-sum(s.cost for s in g), g[0].key))
     if jobs is None:
-        jobs = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        jobs = len(_os.sched_getaffinity(0)) if hasattr(_os, "sched_getaffinity") else (_os.cpu_count() or 1)
     jobs = min(jobs, len(order))
-    files, seconds, issues = {}, {}, {}
+    files, seconds, issues, cpu, timeline = {}, {}, {}, ({} if cpu is None else cpu), {} if timeline is None else timeline
 
     def finished(results) -> None:
-        for key, written, secs, found, cpu_s in results:
+        for key, written, secs, found, cpu_s, when in results:
             files[key], seconds[key], issues[key] = written, secs, found
-            if cpu is not None:
-                cpu[key] = cpu_s
+            cpu[key], timeline[key] = cpu_s, when
             if progress is not None:
                 names = ", ".join(p.name for p in written) or "(no file)"
                 progress(f"[{len(files)}/{len(specs)}] {key}: {names} ({secs:.1f}s; cpu {cpu_s:.1f}s)")
