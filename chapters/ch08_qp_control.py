@@ -50,7 +50,7 @@ def _summary(run) -> dict:
 
 # %%
 @figure("ch08", "qp_push_balance", "QP balance controller: a push recovered, a larger one not; forces in their cones",
-        cost=52.0)
+        cost=27.0)
 def qp_push_balance(ctx):
     t_end = 2.5
     impulses = np.arange(-32.0, 33.0, 4.0)
