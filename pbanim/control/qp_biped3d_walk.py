@@ -23,7 +23,11 @@ The step of :func:`simulate_step` is the plan [("left", ℓ)] with the phases (T
 step half a stride, the feet side by side at the end. Everything else (tasks, levels, contact step, fall test)
 is :mod:`.qp_biped3d_run`'s.
 
-**Measured** (ORACLES F21). The single step: see :mod:`.qp_biped3d_run`. The walk (defaults: 4 steps, ℓ = 0.1 m,
+**Measured** (ORACLES F21). The single step: see :mod:`.qp_biped3d_run`. Pushes in its last double support (h = 8 ms,
+phases (0.6, 0.4, 0.6, 1.2) s, P at the torso at 1.2 s, mid-shift; recovered: up, 8 corners, c within 1 cm of c̄
+over the last 0.3 s): weighted forward 20 N s (1.8 mm; 30: up, 25 mm off), lateral 20 N s (2.4 mm; 30: a sole
+tipped, 6 corners); prioritized forward 20 N s (0.8 mm; 30: 3 corners), lateral not even 10 N s (c back to
+0.2 mm, but a sole tipped: 6 corners). Prioritized stepping balances worse sideways than weighted here. The walk (defaults: 4 steps, ℓ = 0.1 m,
 strides 0.2 m, phases (0.6, 0.4, 0.6, 0.6, 0.2) s), weighted, walks at h = 4, 8 and 10 ms: the soles 0.2957–0.2996 m
 ahead (0.3 planned), lateral drift ≤ 8 mm, 8 of 8 corners at the end, 0.0896–0.0898 m/s from the first lift to
 the last landing, QP residuals ≤ 7e-7 M g (CPU 17, 9.4 and 7.6 s for the 4.8 s). Longer steps fail: ℓ = 0.15
@@ -98,7 +102,7 @@ def _segments(plan, soles: dict, com0, inset: float, T) -> list:
 
 
 def _footsteps(plan, T, *, h, clearance, inset, mode, control_every, knee, friction, swing_weight, swing_priority,
-               record_every, priorities, press, ok: str) -> tuple:
+               record_every, priorities, press, ok: str, push=None, push_time: float = 0.0) -> tuple:
     """Run the plan (module docstring): (the run, the controller, the soles' centres at the start)."""
     ctrl, q, qd, com0 = _controller(mode, knee, friction, priorities=priorities)
     kin = ctrl.world.kinematics(q)
@@ -142,7 +146,8 @@ def _footsteps(plan, T, *, h, clearance, inset, mode, control_every, knee, frict
             ctrl._replace(nm, new)
         return np.arange(8)[_SIDES["right" if swing[0] == "left" else "left"]] if swing is not None else None
 
-    rec, stop, wall = _run(ctrl, q, qd, starts[-1], h, control_every, script, record_every=record_every)
+    push = None if push is None or not np.any(push) else np.asarray(push, dtype=float)
+    rec, stop, wall = _run(ctrl, q, qd, starts[-1], h, control_every, script, push, push_time, record_every)
     res = _result(rec, stop, wall, ctrl, h, ok, starts[-1], {})
     res.extra = {"mode": mode, "start_com": com0, "plan": list(plan)}
     if res.q.size:
@@ -160,19 +165,21 @@ _COMMON = dict(clearance=Real(ge=0, le=0.2), h=Real(ge=1e-3, le=0.01), inset=Rea
                press=Flag())
 
 
-@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), **_COMMON)
+@contract(length=Real(ge=0, le=0.5), phases=Array((4,), gt=0.05, le=2), push=Array((3,)), push_time=Real(ge=0),
+          **_COMMON)
 def simulate_step(length: float = 0.2, phases=(0.6, 0.4, 0.6, 0.2), clearance: float = 0.05, h: float = 4e-3, *,
                   inset: float = 0.02, mode: str = "weighted", control_every: int = 1, knee: float = 0.4,
                   friction: float = 0.9, swing_weight: float = 1.0, swing_priority: int = 1, record_every: int = 5,
-                  priorities=STEP_LEVELS, press: bool = True) -> Biped3DRun:
+                  priorities=STEP_LEVELS, press: bool = True, push=(0.0, 0.0, 0.0), push_time: float = 0.0) -> Biped3DRun:
     """One scripted step of the left foot, ``length`` m forward (module docstring: the plan [("left", ℓ)] in
     phases (T₀, T_w, T_f, T_h) = ``phases`` s; the centre of mass shifts to ``inset`` m inside the stance sole's
-    centre). ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
+    centre; ``push`` N s at the torso at ``push_time`` s, as in :func:`~.qp_biped3d_run.simulate_stand3d`).
+    ``extra``: the step length reached, the left sole's lateral drift, the corners in contact at the end."""
     T0, Tw, Tf, Th = (float(p) for p in phases)
     res = _footsteps([("left", length)], (T0, Tw, Tw, Tf, Th), h=h, clearance=clearance, inset=inset, mode=mode,
                      control_every=control_every, knee=knee, friction=friction, swing_weight=swing_weight,
                      swing_priority=swing_priority, record_every=record_every, priorities=priorities, press=press,
-                     ok="stepped")
+                     ok="stepped", push=push, push_time=push_time)
     if "moved" in res.extra:
         res.extra.update(length=float(res.extra["moved"]["left"][0]), drift=float(res.extra["moved"]["left"][1]),
                          target_length=float(length))
