@@ -10,7 +10,10 @@ agree to roundoff: equal work). Goal per row: pbanim ≤ 2× the hand loop; for 
 
 Rows are :class:`Floor` records gathered from the modules ``pbanim/bench/_floor_*.py`` (one per chapter);
 each module defines ``FLOORS``, a list of zero-argument functions returning a :class:`Floor`. Timing:
-both sides in alternating rounds (the machine's load drifts), medians per step.
+both sides in alternating rounds (the machine's load drifts), medians per step, in the process's CPU time
+(``time.process_time``: on a shared machine a run of a millisecond or two timed by the wall clock takes
+whatever other processes' time slices fell inside it; measured at load 15 on two cores, the cradle's quartiles
+spanned 1.2–6.9x by the wall clock).
 
 The interpreter's floor. What a small step costs is mostly calls: each side's function calls per step are
 counted by ``sys.setprofile`` (Python functions; C functions and methods called by name — ``np.sqrt``,
@@ -73,9 +76,9 @@ def time_floor(fl: Floor, rounds: int = 7) -> dict:
     tp, th = [], []
     for _ in range(rounds):
         for fn, out in ((fl.pbanim, tp), (fl.hand, th)):
-            start = time.perf_counter()
+            start = time.process_time()
             fn()
-            out.append((time.perf_counter() - start) / fl.steps * 1e6)
+            out.append((time.process_time() - start) / fl.steps * 1e6)
     ratios = np.array(tp) / np.array(th)
     return {"pbanim_us": float(np.median(tp)), "hand_us": float(np.median(th)), "ratio": float(np.median(ratios)),
             "q1": float(np.percentile(ratios, 25)), "q3": float(np.percentile(ratios, 75)), "diff": diff}
@@ -109,18 +112,18 @@ def call_costs(repeats: int = 5, number: int = 20000) -> tuple[float, float]:
     mul = np.multiply
     tp, tc = [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = time.process_time()
         for _ in range(number):
             empty()
-        tp.append(time.perf_counter() - start)
-        start = time.perf_counter()
+        tp.append(time.process_time() - start)
+        start = time.process_time()
         for _ in range(number):
             mul(a, b)
-        tc.append(time.perf_counter() - start)
-        start = time.perf_counter()
+        tc.append(time.process_time() - start)
+        start = time.process_time()
         for _ in range(number):
             pass
-        loop = time.perf_counter() - start
+        loop = time.process_time() - start
         tp[-1] -= loop
         tc[-1] -= loop
     return float(np.median(tp)) / number * 1e6, float(np.median(tc)) / number * 1e6
