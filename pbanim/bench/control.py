@@ -23,6 +23,19 @@ value: measured 1.023 against 1.022 m/s; the paper's explicit PD with the paper'
 and is not robust there, see :mod:`pbanim.control.simbicon`); one QP control step of the planar biped
 solves in ≤ 1 ms with proxsuite. Issue 31: the 3-D walk at h = 2 ms runs at ≥ 1× real time, its lean step
 ≥ 4× the readable one's real-time factor.
+
+Measured for issue 31 on a shared 2-core machine (load 11–16), 3 runs of ``--quick`` (medians of the runs'
+medians, min–max): the lean walk 0.75× real time per CPU second (0.69–0.81) and 0.15× on the wall clock
+(0.13–0.16: the wall factor measures the load), lean / readable 2.9× (2.4–3.1) on the wall, 2.6× (2.2–2.7) in
+CPU. The CPU split per step, 2.66 ms (2.48–2.92): contact 1.27 (Jacobians, rows, A = J(H + hK)⁻¹Jᵀ, the PGS
+sweep on floats: ~12 sweeps a step on ~17 rows, 46 % of all sweeps in 3 % of the steps, five steps in 500 at
+the 300-sweep cap), controller 0.43, kinematics 0.33, dynamics 0.31, runner 0.29, H 0.08. The floor: 185
+Python calls, 1971 builtins (most of them the sweep's min, max, divmod and abs) and 175 numpy calls a step,
+1.5–5.5 ms at the per-call costs measured in the same runs (h / floor 0.37–1.3×): with the contact law as it
+is (the library's sweep, row by row), the interpreter's calls bound the step near 1× real time even with no
+arithmetic. The cuts of issue 31 (the controller's rotation vectors on floats, the sweep called without its
+argument checks, H + hK in place) took the walk from 3.52 to 2.86 ms CPU a step (medians of 6 alternating
+rounds of a 2 s walk against the previous code, per-round ratio 1.25×, 1.00–1.29×), bit for bit the same walk.
 """
 
 from __future__ import annotations
