@@ -100,10 +100,11 @@ def _call_costs(repeats: int) -> tuple[float, float, float]:
 
 def _walk3d_table(quick: bool, repeats: int) -> list:
     """The 3-D walk (1 s; full: 2 s) through the runner with the readable step (``lean=False``) and the lean
-    one (the default), in alternating rounds: real-time factors, their ratio, the lean step's split per step
-    (kinematics, H, dynamics = C(q, q̇) and the Cholesky solve, contact = Jacobians, rows, PGS and the update,
-    controller = :meth:`Simbicon3D.torques`, runner = the rest of the round's CPU time; all in process CPU seconds) and the interpreter's floor
-    (the Python and numpy calls one step makes, each at its bare dispatch cost)."""
+    one (the default), in alternating rounds: real-time factors (wall and process CPU), their ratios, the lean
+    step's split per step in CPU seconds (kinematics, H, dynamics = C(q, q̇) and the Cholesky solve, contact =
+    Jacobians, rows, PGS and the update, controller = :meth:`Simbicon3D.torques`, runner = the rest of the
+    round's CPU time) and the interpreter's floor (the Python and numpy calls one step makes, each at its bare
+    dispatch cost)."""
     import functools
     from time import process_time
 
@@ -173,8 +174,8 @@ def _walk3d_table(quick: bool, repeats: int) -> list:
     rows.append([f"floor: {calls_py:.0f} Python calls x {t_py * 1e9:.0f} ns + {calls_bi:.0f} builtins x "
                  f"{t_bi * 1e9:.0f} ns + {calls_c:.0f} numpy calls x {t_np * 1e9:.0f} ns", floor * 1e6,
                  f"h / floor = {h / floor:.2f}x real time"])
-    t2 = Table("the lean walk step's split [CPU µs per step] (3 rounds: median, min–max) and the interpreter's floor "
-               "(the calls one step makes, each at its bare cost: no arithmetic; timed on the wall clock)",
+    t2 = Table("the lean walk step's split [CPU µs per step] (3 rounds: median, min–max) and the interpreter's "
+               "floor (the calls one step makes, each at its bare cost: no arithmetic; timed on the wall clock)",
                ["part", "µs", "spread"], rows)
     return [t1, t2]
 
