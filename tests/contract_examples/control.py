@@ -170,6 +170,8 @@ CALLS = {
     "pbanim.control.qp.QPController.solve": _qp_state,
     "pbanim.control.qp.QPController.torques": _qp_state,
     "pbanim.control.qp_balance.simulate_balance": lambda: {"t_end": 0.004, "h": 2e-3, "push_time": 0.002},
+    "pbanim.control.qp_balance.simulate_balance_pushes": lambda: {"pushes": [5.0, 0.0], "t_end": 0.004, "h": 2e-3,
+                                                                  "push_time": 0.002},
     "pbanim.control.biped3d.biped3d_contact_points": lambda: {"tree": _biped3d()},
     "pbanim.control.biped3d_step.WorldStep.__init__": lambda: {"tree": _biped3d(),
                                                                "contact_points": biped3d_contact_points(_biped3d())},
