@@ -16,7 +16,11 @@ van de Panne (SIGGRAPH 2007, section 5) describe it:
    the link's, the world torque is τ = k_p log(R̄ Rᵀ) − k_v ω (log: the rotation vector). The torso's
    target is R_z(ψ̄) R_−y(θ̄_tor) (ψ̄ the heading), the swing thigh's R_z(ψ̄) R_x(θ̄_cor) R_−y(θ̄_sag).
    Only the hips can act on the trunk, so the stance hip supplies what the swing hip does not:
-   τ_stance = −τ_torso − τ_swing. A hip is three revolutes with world axes aⱼ: the world torque τ on the
+   τ_stance = −τ_torso − τ_swing. The stance leg's yaw has almost no inertia and, while the foot lands on
+   one heel corner, no friction torque to hold it: this rule's yaw part then spins the stance foot (measured
+   without a damper: 0.75 rad in the first 0.1 s of a stance, unpushed; a whole turn after a 20 N s lateral
+   push, the rotated sole then failing the ankle's roll support). A stable damper −k_v,yaw q̇⁺ on the stance
+   hip's yaw joint (``Gait3D.stance_yaw_kv``) holds it. A hip is three revolutes with world axes aⱼ: the world torque τ on the
    thigh (−τ on the pelvis) is the joint torques τⱼ = aⱼ·τ (the same power τ·ω_rel = Σ τⱼ q̇ⱼ).
 4. **Turning**: the heading ψ̄ is a target; changing it yaws the trunk and the swing thigh toward it.
 
@@ -26,10 +30,28 @@ inertia, ≈ 0.03 kg m², would otherwise bound the step at h < 2 I/k_v ≈ 2 ms
 
 :data:`WALK3D` is **ours**: the sagittal numbers are Table 1's planar walk (δt 0.3 s; swh 0.4/−0.7, swk
 −1.1/−0.05, swa 0.2/0.2, stk −0.05/−0.1, sta 0.2/0.2, c_d 0/2.2, c_v 0.2/0), the coronal ones ours
-(θ̄_cor,0 = 0, c_d,cor 0.5, c_v,cor 0.4: with c_v,cor 0.2 it fell after 7.7 s), and the gains Table 1's
-k_p = 300, k_v = 30 on every joint (hips and torso at 1000/100 fell within 0.4 s: the stance hip's yaw torque
-spun the stance foot). Measured in ORACLES F18: from a 0.5 m/s start it walks 20 s
-at every h from 1 to 3.5 ms (0.82–0.83 m/s; falls at 4 ms), :mod:`.simbicon3d_walk`.
+(θ̄_cor,0 = 0, c_d,cor 0.5, c_v,cor 0.4: with c_v,cor 0.2 it fell after 7.7 s), Table 1's k_p = 300, k_v = 30
+on the knees, ankles and torso, and ours on the swing hip, 600/60, with the stance-hip yaw damper
+k_v,yaw = 30 N m s/rad. Why (lateral pushes; the push: P to the side on the torso, over 0.1 s from 0.1 s
+after the first right (R0) or left (L0) strike after t = 1 s, :mod:`.simbicon3d_walk`; "recovered": no fall
+to t = 4 s): with Table 1's 300/30 and no damper 20 N s fell at h = 2 ms (and 10 N s at t = 1.2 s fell at 2
+and 3.5 ms) — the stance foot spun (above) and a late push left the 300/30 swing hip too slow to move the
+foot to its coronal target before the strike (commanded 0.24 rad, landed at ≈ 0.1). Measured at h = 2 ms,
+± 20 N s in R0 (+: to the left): 300/30 with k_v,yaw 0 / 30: + falls / falls, − falls / holds; 600/60 with
+k_v,yaw 30: both hold; 1000/100 with 30: + falls; 1000/100 with 100: falls unpushed (1.75 s). Shipped,
+600/60 with 30, measured at h = 2, 3, 3.5 ms (ORACLES F18):
+
+=========  ======  ======  ======  ======  ======  ======  ======  ======
+P (N s)    +20 R0  −20 R0  +20 L0  −20 L0  +30 R0  −30 R0  +30 L0  −30 L0
+=========  ======  ======  ======  ======  ======  ======  ======  ======
+h = 2 ms   holds   holds   holds   holds   falls   holds   holds   holds
+h = 3 ms   holds   holds   holds   holds   falls   holds   holds   holds
+h = 3.5 ms holds   holds   holds   holds   falls   holds   holds   holds
+=========  ======  ======  ======  ======  ======  ======  ======  ======
+
+(+30 R0 falls at 2.98, 3.38, 3.35 s: pushed toward the swing side late in the step.) The largest push
+recovered in every case measured is 20 N s (0.29 m/s for 70 kg); 30 N s holds in 3 of the 4 cases.
+The unpushed walk and the other claims: ORACLES F18, :mod:`.simbicon3d_walk`.
 
 Notation: ψ heading (yaw about z); d, v centre-of-mass offset and velocity in the heading frame; θ̄ targets;
 k_p, k_v gains; h the step; R_a(θ) the rotation by θ about axis a.
@@ -81,10 +103,11 @@ _GAINS = Mapping(Choice(("hip", "torso", "knee", "ankle")), Real(ge=0), keys=("h
 
 
 @contract(name=Text(), dt=Real(gt=0, le=5), phases=Pair(Obj(Phase3D), Obj(Phase3D)), kp=_GAINS, kv=_GAINS,
-          limit=Real(gt=0))
+          limit=Real(gt=0), stance_yaw_kv=Real(ge=0))
 @dataclass(frozen=True)
 class Gait3D:
-    """δt, the two phases (timed, then until foot strike), gains (k_p, k_v) per joint kind, torque limit."""
+    """δt, the two phases (timed, then until foot strike), gains (k_p, k_v) per joint kind, torque limit, and the
+    stance hip's yaw damper k_v,yaw (N m s/rad; module docstring, item 3)."""
 
     name: str
     dt: float
@@ -92,13 +115,16 @@ class Gait3D:
     kp: dict = field(default_factory=lambda: {"hip": 300.0, "torso": 300.0, "knee": 300.0, "ankle": 300.0})
     kv: dict = field(default_factory=lambda: {"hip": 30.0, "torso": 30.0, "knee": 30.0, "ankle": 30.0})
     limit: float = 600.0
+    stance_yaw_kv: float = 0.0
 
 
 WALK3D = Gait3D("3-D walk (ours: Table 1's sagittal numbers, our coronal ones)", 0.3,
                 (Phase3D(swh=0.4, swk=-1.1, swa=0.2, stk=-0.05, sta=0.2, cd=0.0, cv=0.2, cor=0.0, cd_cor=0.5,
                          cv_cor=0.4),
                  Phase3D(swh=-0.7, swk=-0.05, swa=0.2, stk=-0.1, sta=0.2, cd=2.2, cv=0.0, cor=0.0, cd_cor=0.5,
-                         cv_cor=0.4)))
+                         cv_cor=0.4)),
+                kp={"hip": 600.0, "torso": 300.0, "knee": 300.0, "ankle": 300.0},
+                kv={"hip": 60.0, "torso": 30.0, "knee": 30.0, "ankle": 30.0}, stance_yaw_kv=30.0)
 
 
 @contract(R=Array((3, 3)))
@@ -192,6 +218,7 @@ class Simbicon3D:
         for a in "zxy":
             j = JI[f"{stance}_hip_{a}"]
             tau[j] = S[:3, j] @ tau_stance
+        k[JI[f"{stance}_hip_z"]] = g.stance_yaw_kv                 # the stance leg's spin damped, at q̇⁺
         np.clip(tau, -g.limit, g.limit, out=tau)
         self.history.append((t, self.fsm.state, d, v, psi))
         return tau, k

@@ -8,7 +8,10 @@ past 1 rad) stops the run and is reported with its time and cause. Runs go throu
 driver (:mod:`pbanim.ode.driver`: its grid, its cap, its finiteness check → ``SimulationDiverged``).
 
 A push is an impulse P (N s, horizontal, world frame) on the torso's centre of mass at time t_P:
-Δq̇ = H⁻¹ J_cᵀ P. A turn moves the controller's heading ψ̄ toward a new value from a given time, at 0.5 rad/s (a step change
+Δq̇ = H⁻¹ J_cᵀ P; or, with ``push_phase`` = (state, delay, duration), the force P / duration (generalized
+force J_cᵀ P / duration added to τ₀) over ``duration`` seconds from ``delay`` after the first entry into
+``state`` at or after t_P (e.g. ("R0", 0.1, 0.1): 0.1 s after a right-foot strike, for 0.1 s; each step
+receives its share of the window, so Σ h F = P; a delay of at least h). A turn moves the controller's heading ψ̄ toward a new value from a given time, at 0.5 rad/s (a step change
 of 0.7 rad at once fell within 0.4 s: the stance hip's yaw torque spun the stance foot).
 
 The start: standing straight, both soles on the ground, moving forward at ``speed`` (default
@@ -29,7 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contracts import Array, Int, Obj, Opt, Real, contract, unchecked
+from ..contracts import Anything, Array, Int, Obj, Opt, Real, contract, unchecked
+from ..errors import InvalidInput
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped3d import biped3d, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
@@ -82,12 +86,18 @@ class Walk3DResult:
 
 @contract(gait=Obj(Gait3D), t_end=Real(gt=0, le=600), h=Real(gt=0, le=0.01), speed=Real(ge=0, le=2),
           push=Opt(Array((3,))), turn=Opt(Array((2,))), friction=Real(ge=0), record_every=Int(ge=1),
-          max_steps=Int(ge=1))
+          max_steps=Int(ge=1), push_phase=Opt(Anything("(state, delay s, duration s)")))
 def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3, *, speed: float = START_SPEED,
                     push=None, turn=None, friction: float = 0.9, record_every: int = 25,
-                    max_steps: int = MAX_STEPS) -> Walk3DResult:
+                    max_steps: int = MAX_STEPS, push_phase=None) -> Walk3DResult:
     """Walk the 3-D biped from a standing start moving at ``speed`` m/s. ``push``: (t_P, P_x, P_y), an
-    impulse (N s, world) on the torso at time t_P; ``turn``: (t, ψ̄), the heading target from time t."""
+    impulse (N s, world) on the torso at time t_P (spread over a phase with ``push_phase``: module docstring);
+    ``turn``: (t, ψ̄), the heading target from time t."""
+    if push_phase is not None:
+        phase, delay, duration = push_phase
+        if phase not in ("R0", "R1", "L0", "L1") or not 0 <= float(delay) <= 5 or not 0 < float(duration) <= 5:
+            raise InvalidInput(f"push_phase: (state in R0/R1/L0/L1, delay in [0, 5] s, duration in (0, 5] s), "
+                               f"got {push_phase!r}")
     tree = biped3d()
     ws = WorldStep(tree, biped3d_contact_points(tree), friction=friction, tol=1e-5)
     ctrl = Simbicon3D(ws, gait)
@@ -96,7 +106,7 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
     nq = tree.nq
     torso = [lk.name for lk in tree.links].index("torso")
     M = float(ws.mass.sum())
-    state = {"events": (), "pushed": False}
+    state = {"events": (), "pushed": False, "window": None}
     ts, qs, coms, heads = [], [], [], []
 
     def record(t1, y1):
@@ -109,11 +119,22 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
         if turn is not None and t >= turn[0]:                   # ψ̄ moves toward the new heading at TURN_RATE
             ctrl.heading += float(np.clip(turn[1] - ctrl.heading, -TURN_RATE * hh, TURN_RATE * hh))
         kin = kinematics(q)
-        if push is not None and not state["pushed"] and t >= push[0]:
+        force = None
+        if push is not None and push_phase is None and not state["pushed"] and t >= push[0]:
             _, Jc = ws.point_jacobians(kin, np.array([torso]), ws.com[[torso]])
             qd = qd + np.linalg.solve(ws.mass_matrix(kin), Jc[0].T @ np.array([push[1], push[2], 0.0]))
             state["pushed"] = True
+        elif push is not None and push_phase is not None:
+            w = state["window"]
+            if w is None and ctrl.fsm.state == phase and ctrl.fsm.entered >= push[0]:
+                w = state["window"] = (ctrl.fsm.entered + delay, ctrl.fsm.entered + delay + duration)
+            overlap = 0.0 if w is None else min(t + hh, w[1]) - max(t, w[0])
+            if overlap > 0:                                  # the step's share of the window: Σ h F = P exactly
+                _, Jc = ws.point_jacobians(kin, np.array([torso]), ws.com[[torso]])
+                force = Jc[0].T @ np.array([push[1], push[2], 0.0]) * (overlap / (duration * hh))
         tau, k = torques(t, q, qd, state["events"], kin, hh)
+        if force is not None:
+            tau = tau + force
         q1, u1 = stepf(q, qd, hh, tau, k, kin)
         ev = []
         if ws.last is not None:
