@@ -22,7 +22,9 @@ at h = 2 ms 0.38 m/s falls (2.67 s) and 0.40, 0.42 walk. A 0.4 m/s start (this r
 on that edge, so whether it fell looked like a matter of h (fell at 1 and 1.5 ms, walked at 2–4 ms); from 0.5
 m/s the walk is converged in h: 20 s at h = 1, 1.5, 2, 3, 3.5 ms all walk, 62, 62, 62, 61, 61 strikes, 16.07,
 16.04, 16.02, 15.98, 15.99 m, 0.827–0.823 m/s over the last 5 s; h = 4 ms falls (3.43 s; it walked from 0.4
-m/s), 5 ms (2.31 s). The largest stable step measured is 3.5 ms. Pushes, turns: ORACLES F18.
+m/s), 5 ms (2.31 s) — those with the earlier gains (300/30 swing hip, no stance-hip yaw damper); with
+:data:`.simbicon3d.WALK3D`'s: 20 s at 2 and 3.5 ms (65 strikes, 0.89 and 0.90 m/s), 6 s at 1 and 4 ms.
+Pushes, turns: ORACLES F18.
 """
 
 from __future__ import annotations
