@@ -48,6 +48,7 @@ from ..errors import InvalidInput, NonFiniteResult, SingularConstraintError
 from ..geometry import cross
 from ..rigid.quat import quat_conjugate, quat_multiply, quat_to_matrix
 from ..lcp import pgs_bounded, solve_lcp
+from scipy.linalg.lapack import dpotrf as _potrf, dpotrs as _potrs
 from ..scene import Effect
 from ..rigid.domain import RigidState
 from .joint_rows import ROWS_PER_JOINT, JointRowPlan
@@ -103,6 +104,20 @@ class RigidJoint:
             object.__setattr__(self, name, ax / max(float(np.linalg.norm(ax)), 1e-300))
 
 
+def _spd_solve(A: np.ndarray, rhs: np.ndarray):
+    """λ = A⁻¹ rhs by a Cholesky factor of the symmetric A = J W Jᵀ when it is well conditioned (LAPACK potrf,
+    potrs: a tenth of the SVD least squares' cost at 5–30 rows, equal to it to roundoff for independent rows);
+    None when the factorization fails or A is near singular (κ estimated from the factor's diagonal above
+    10¹⁰), where the caller's least squares decides."""
+    c, info = _potrf(A, lower=False, clean=False)
+    if info != 0:
+        return None
+    d = np.abs(np.diag(c))
+    if not d.min() > 1e-5 * d.max():              # κ(A) ≳ (max/min)²: leave it to the least squares
+        return None
+    return _potrs(c, rhs)[0]
+
+
 class RigidJoints(Effect):
     """The joint constraints of a :class:`~pbanim.rigid.RigidScene` (phase "constraint").
 
@@ -127,6 +142,10 @@ class RigidJoints(Effect):
             raise InvalidInput("RigidJoints: solver='linear' handles equality joints only; limits and velocity "
                                "motors need solver='dense'")
         self.solver = solver
+        # which joints have motors, limits or velocity motors: fixed here, so a step of joints without them
+        # skips the loops over the joints that would find none
+        self._motored = any(j.motor for j in self.joints)
+        self._unilateral = any(j.limits is not None or j.motor_speed is not None for j in self.joints)
         self.projection = bool(projection)
         self._projection_args = (float(projection_tol), int(projection_max_iter))
         self._order = None
@@ -169,6 +188,8 @@ class RigidJoints(Effect):
         # the relative orientation at rest: the weld/slider rotation rows hold q_b⁻¹ q_a = q_rel0
         self._qrel0 = [quat_multiply(quat_conjugate(qw[j.b]), qw[j.a]) for j in self.joints]
         self._plan = JointRowPlan(self.joints, system.N, self._qrel0)
+        self._motored = any(j.motor for j in self.joints)
+        self._unilateral = any(j.limits is not None or j.motor_speed is not None for j in self.joints)
 
     # -- rows -----------------------------------------------------------------------------------
     @contract(y=_Y, sparse=Flag(), returns=finite_result)
@@ -239,7 +260,8 @@ class RigidJoints(Effect):
     @contract(t=_T, y=_Y, Q=Array(("self.system.N", 6)), returns=finite_result)
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         s = self.system
-        Q = self._motors(y, Q)
+        if self._motored:
+            Q = self._motors(y, Q)
         if self.solver == "linear":
             return self._constrain_linear(y, Q)
         vel = s.velocities(y)
@@ -250,12 +272,16 @@ class RigidJoints(Effect):
         rhs = -jdot - J @ WQ - self.ks * C - self.kd * Cdot
         if not (np.all(np.isfinite(A)) and np.all(np.isfinite(rhs))):
             raise NonFiniteResult("the joint system J W Jᵀ λ = b", "the state or the bodies are too large")
-        lam, res, rank, _ = np.linalg.lstsq(A, rhs, rcond=1e-12)
-        if rank < len(C) and np.linalg.norm(A @ lam - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
-            raise SingularConstraintError(range(len(C)), float(np.linalg.norm(A @ lam - rhs)),
-                                          "joint rows are dependent and inconsistent")
-        bu0, Ju, lo, hi = self._limit_rows(y)
-        if bu0.size:
+        lam = _spd_solve(A, rhs)                  # independent rows (a tree): A = J W Jᵀ is SPD, Cholesky
+        if lam is None:                           # dependent rows (a loop): the least-squares multipliers
+            lam, res, rank, _ = np.linalg.lstsq(A, rhs, rcond=1e-12)
+            if rank < len(C) and np.linalg.norm(A @ lam - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
+                raise SingularConstraintError(range(len(C)), float(np.linalg.norm(A @ lam - rhs)),
+                                              "joint rows are dependent and inconsistent")
+        bu0 = ()
+        if self._unilateral:
+            bu0, Ju, lo, hi = self._limit_rows(y)
+        if len(bu0):
             # joint limits: unilateral rows with λ_u ≥ 0 ⊥ w_u ≥ 0 (w_u = J_u u̇ + k_s C + k_d Ċ); the equality
             # multipliers are eliminated exactly (Schur complement), the rest is an LCP for the one core
             k = bu0.size
