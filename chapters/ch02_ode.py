@@ -42,7 +42,7 @@ N_H_BY_NAME = {"implicit_euler": 4}
 
 # %%
 @figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6; order 12: t = 8): slopes = orders",
-        cost=12.0)
+        cost=16.0)
 def convergence(ctx):
     kp = kepler(0.3)
     n_h = 3 if ctx.quick else 6
@@ -181,7 +181,7 @@ def kepler_orbits(ctx):
 
 # %%
 @figure("ch02", "work_precision", "Work-precision: error vs wall time, pbanim (solid) vs scipy solve_ivp (dashed) and odeint (dotted)",
-        cost=15.0)
+        cost=27.0)
 def work_precision(ctx):
     from pbanim.bench.ode import PROBLEMS, sweep_problem
 

@@ -123,7 +123,7 @@ def _plane_outcome(method, wh, zeta, steps, h=0.01, C0=1e-3):
 
 # %%
 @figure("ch03", "baumgarte_stability", "Baumgarte feedback's own stability: ρ of the discrete map vs simulation",
-        cost=7.0)
+        cost=9.0)
 def baumgarte_stability(ctx):
     nw, nz = (40, 25) if ctx.quick else (90, 50)
     sims = (5, 3, 150) if ctx.quick else (9, 5, 400)
@@ -236,7 +236,7 @@ def swinging_chain(ctx):
 # A cloth patch of rods pinned at two corners, falling under gravity.
 
 # %%
-@figure("ch03", "cloth", "A cloth patch of rods pinned at two corners", cost=8.0)
+@figure("ch03", "cloth", "A cloth patch of rods pinned at two corners", cost=11.0)
 def cloth(ctx):
     nx, t_end, h = (7, 0.4, 4e-3) if ctx.quick else (12, 1.0, 2e-3)
     mod = cloth_patch(nx, nx, spacing=1.0 / (nx - 1), mass=0.01)
@@ -268,7 +268,7 @@ def cloth(ctx):
 # Per-step cost (assembly + λ) vs n for every solver, log-log (Baraff 1996).
 
 # %%
-@figure("ch03", "solver_cost", "Per-step cost of λ vs chain length for every solver (log-log)", cost=16.0)
+@figure("ch03", "solver_cost", "Per-step cost of λ vs chain length for every solver (log-log)", cost=21.0)
 def solver_cost(ctx):
     ns = [10, 100, 1000] if ctx.quick else [10, 100, 1000, 10_000, 100_000]
     solvers = ["linear", "witkin-sparse", "kkt", "witkin-dense"] if ctx.quick else SOLVER_LIST
@@ -294,7 +294,7 @@ def solver_cost(ctx):
 # Drift and energy error vs wall time for none / Baumgarte / projection.
 
 # %%
-@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=15.0)
+@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=17.0)
 def work_precision_fig(ctx):
     wp = work_precision(ctx.quick)
     rows = wp["rows"]

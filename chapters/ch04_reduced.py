@@ -136,7 +136,7 @@ def double_pendulum_formulations(ctx):
 
 # %%
 @figure("ch04", "energy_error", "Double pendulum: energy error per formulation and integrator",
-        cost=19.0, group="ch04_double_pendulum")
+        cost=26.0, group="ch04_double_pendulum")
 def energy_error(ctx):
     t_end, h = (5.0, 0.02) if ctx.quick else (30.0, 0.01)
     mod = double_pendulum(theta0=(0.6, 0.9))
@@ -177,7 +177,7 @@ def energy_error(ctx):
 # in maximal, reduced and Lagrangian form.
 
 # %%
-@figure("ch04", "cost_vs_n", "n-link pendulum: cost per simulated second at equal accuracy", cost=14.0)
+@figure("ch04", "cost_vs_n", "n-link pendulum: cost per simulated second at equal accuracy", cost=16.0)
 def cost_vs_n(ctx):
     ns = [2, 3] if ctx.quick else [2, 5, 10, 20, 50]
     tol = 1e-8

@@ -104,7 +104,7 @@ def _rack(radius: float):
 # Billiards break: momentum and energy through the impacts (ε = 1, μ = 0).
 
 # %%
-@figure("ch06", "billiards_break", "Billiards break: momentum and energy through the impacts (ε = 1, μ = 0)", cost=3.0)
+@figure("ch06", "billiards_break", "Billiards break: momentum and energy through the impacts (ε = 1, μ = 0)", cost=6.0)
 def billiards_break(ctx):
     from pbanim.particles import ParticleSystem
     from pbanim.scene import Scene
@@ -186,7 +186,7 @@ def toi_accuracy(ctx):
 # Boxes tumbling onto the ground (ε = 0.3, μ = 0.5).
 
 # %%
-@figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)", cost=12.0)
+@figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)", cost=19.0)
 def boxes_tumbling(ctx):
     from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
     from pbanim.rigid.quat import quat_from_axis_angle

@@ -72,7 +72,7 @@ PROJECTIONS = (("gauss_seidel", {"iterations": 20}, "Gauss–Seidel 20 (Stam)"),
 # divergence-free to the solver's tolerance, in about 10 iterations whatever the grid.
 
 # %%
-@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=42.0)
+@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=45.0)
 def smoke_plume_figure(ctx):
     shape, t_end, h = ((40, 60), 1.2, 0.02) if ctx.quick else ((128, 192), 3.0, 0.01)
     every = 10
@@ -159,7 +159,7 @@ def taylor_green_decay(ctx):
 # the DCT is exact at the price of two transforms.
 
 # %%
-@figure("ch09", "projection_cost", "Divergence left vs time per projection, per method", cost=8.0)
+@figure("ch09", "projection_cost", "Divergence left vs time per projection, per method", cost=11.0)
 def projection_cost(ctx):
     n = 64 if ctx.quick else 256
     g = Grid((n, n), 1.0 / n, "walls")
@@ -216,7 +216,7 @@ def blob_crossing(n: int, method: str, cfl: float = 0.4):
             float(abs(s.sum() - s0.sum()) / s0.sum()))
 
 
-@figure("ch09", "advection_dissipation", "Numerical dissipation of each advection scheme vs grid size", cost=5.0)
+@figure("ch09", "advection_dissipation", "Numerical dissipation of each advection scheme vs grid size", cost=8.0)
 def advection_dissipation(ctx):
     # full: up to 128² (the slopes in Δx are plain over three octaves; 256², 4 096 steps on 65 536 cells, was
     # 7/8 of the figure's 36 s: the cost grows as n³)
@@ -284,7 +284,7 @@ def collocated_vs_mac(ctx):
 # steady state) and the velocity on the vertical centre line follows Ghia, Ghia and Shin's table.
 
 # %%
-@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=22.0)
+@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=27.0)
 def lid_cavity(ctx):
     n, h, t_end = (24, 0.04, 10.0) if ctx.quick else (64, 0.01, 20.0)
     scene = lid_driven_cavity(n, 100.0)

@@ -40,7 +40,7 @@ from pbanim.plotting import figure
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=28.0)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=32.0)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
@@ -103,7 +103,7 @@ def drape(ctx):
 
 # %%
 @figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers",
-        cost=25.0)
+        cost=27.0)
 def work_precision_figure(ctx):
     n, budget = (8, 1.5) if ctx.quick else (16, 20.0)
     wp = work_precision(n, budget, ctx.quick)
@@ -130,7 +130,7 @@ def work_precision_figure(ctx):
 # smaller step. Large steps (implicit Euler, linearized) and XPBD do not care.
 
 # %%
-@figure("ch12", "stable_step", "Largest stable step vs stiffness per method", cost=16.0)
+@figure("ch12", "stable_step", "Largest stable step vs stiffness per method", cost=19.0)
 def stable_step(ctx):
     ks = (1e2, 1e3, 1e4) if ctx.quick else (1e1, 1e2, 1e3, 1e4, 1e5)
     n = 6 if ctx.quick else 8
@@ -154,7 +154,7 @@ def stable_step(ctx):
 # (Jacobi preconditioning: ∝ N), so its cost grows faster than N² while each iteration is linear.
 
 # %%
-@figure("ch12", "step_cost", "Cost per step vs N² (large steps, XPBD)")
+@figure("ch12", "step_cost", "Cost per step vs N² (large steps, XPBD)", cost=5.0)
 def step_cost(ctx):
     sizes = (8, 16, 24) if ctx.quick else (16, 32, 64)
     costs = step_costs(sizes, repeats=1 if ctx.quick else 3)
