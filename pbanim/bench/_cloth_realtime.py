@@ -1,4 +1,5 @@
-"""``pbanim bench cloth``: large steps in real time — one simulated second of the N × N sheet at h = 1/60 s.
+"""``pbanim bench cloth``: large steps in real time — one simulated second of the N × N sheet at h = 1/60 s —
+and the largest stable step of each method (:func:`largest_stable_step`).
 
 The goal of issue 29: B&W's large steps at h = 1/60 s on N = 64 (12 288 unknowns) cost ≤ 1 s of wall time
 per simulated second, i.e. ≤ 16.7 ms a step. Measured here directly: 60 steps from rest (the fall; with the
@@ -50,6 +51,7 @@ from ..cloth import large_step, xpbd_step
 from ..cloth.large_steps import PRECONDITIONERS
 from ..cloth.step_system import spring_system
 from ..contracts import Choice, Int, Real, Seq, contract, unchecked
+from ..errors import PbanimError
 
 _large_step, _xpbd_step = unchecked(large_step), unchecked(xpbd_step)
 
@@ -58,9 +60,9 @@ CG_TOL = 1e-3            # large steps at h = 1/60: CG error ≤ 0.1× the step'
 WARM = 6                 # steps into the fall where a step is timed (the first ones need few CG iterations)
 
 
-def _sheet(n):
+def _sheet(n, stretch=1e3):
     from .cloth import sheet                            # the benchmark's sheet (imported when called: no cycle)
-    return sheet(n)
+    return sheet(n, stretch)
 
 
 def one_second(cloth, tol: float, precond: str = "multigrid") -> tuple[float, float, float]:
@@ -154,3 +156,38 @@ def cg_error_vs_truncation(n: int, tol: float = CG_TOL, precond: str = "jacobi")
     k = cloth.n
     return tuple(float(np.abs(y1[s] - tight[s]).max() / np.abs(half[s] - tight[s]).max())
                  for s in (slice(None, k), slice(k, None)))
+
+
+def _stable(cloth, step, h, t_end=0.2):
+    y = cloth.state()
+    with np.errstate(all="ignore"):
+        for _ in range(max(1, int(round(t_end / h)))):
+            try:
+                y = step(y, h)
+            except PbanimError:                          # SimulationDiverged: a non-finite state
+                return False
+            if not np.isfinite(y).all() or np.abs(y[cloth.n:]).max() > 20.0:
+                return False
+    return True
+
+
+@contract(method=Choice(("large steps", "XPBD", "symplectic Euler")), stretch=Real(gt=0, le=1e9),
+          n=Int(ge=2, le=64))
+def largest_stable_step(method: str, stretch: float = 1e3, n: int = 8) -> float:
+    """The largest h = 0.1 · 2⁻ʲ (j = 0 … 14) at which ``method`` runs the sheet for 0.2 s without blowing up."""
+    cloth = _sheet(n, stretch)
+    f = unchecked(cloth.rhs)
+
+    def symplectic(y, h):
+        yf = cloth.free_state(y)
+        a = f(0.0, yf)[cloth.nf:]
+        yf[cloth.nf:] += h * a
+        yf[:cloth.nf] += h * yf[cloth.nf:]
+        return cloth.full_state(yf)
+    step = {"large steps": lambda y, h: _large_step(cloth, y, h, 1e-6, 20000)[0],
+            "XPBD": lambda y, h: _xpbd_step(cloth, y, h, 1, 10), "symplectic Euler": symplectic}[method]
+    for j in range(15):
+        h = 0.1 * 2.0 ** -j
+        if _stable(cloth, step, h):
+            return h
+    return 0.0

@@ -45,13 +45,12 @@ import time
 import numpy as np
 
 from . import Goal, Report, Table
-from ._cloth_realtime import (CG_TOL, WARM, cg_error_vs_truncation, floor_per_step, step_costs,
-                              wall_per_simulated_second)
+from ._cloth_realtime import (CG_TOL, WARM, cg_error_vs_truncation, floor_per_step, largest_stable_step,
+                              step_costs, wall_per_simulated_second)
 from ..cloth import Cloth, Sheet, large_step, newton_step, xpbd_step
 from ..cloth.large_steps import PRECONDITIONERS
 from ..cloth.assembly import second_order_jac
 from ..contracts import Choice, Flag, Int, Real, Seq, contract, unchecked
-from ..errors import PbanimError
 
 # the solvers, bound once past their argument checks (the benchmark's own calls are valid)
 _large_step, _newton_step, _xpbd_step = unchecked(large_step), unchecked(newton_step), unchecked(xpbd_step)
@@ -270,41 +269,6 @@ def _alternating(cloth, a, b, rounds, budget):
             ts.append(_clock() - t0)
         ratios.append(ts[0] / ts[1])
     return float(np.median(ratios)), float(np.percentile(ratios, 25)), float(np.percentile(ratios, 75))
-
-
-def _stable(cloth, step, h, t_end=0.2):
-    y = cloth.state()
-    with np.errstate(all="ignore"):
-        for _ in range(max(1, int(round(t_end / h)))):
-            try:
-                y = step(y, h)
-            except PbanimError:                          # SimulationDiverged: a non-finite state
-                return False
-            if not np.isfinite(y).all() or np.abs(y[cloth.n:]).max() > 20.0:
-                return False
-    return True
-
-
-@contract(method=Choice(("large steps", "XPBD", "symplectic Euler")), stretch=Real(gt=0, le=1e9),
-          n=Int(ge=2, le=64))
-def largest_stable_step(method: str, stretch: float = 1e3, n: int = 8) -> float:
-    """The largest h = 0.1 · 2⁻ʲ (j = 0 … 14) at which ``method`` runs the sheet for 0.2 s without blowing up."""
-    cloth = sheet(n, stretch)
-    f = unchecked(cloth.rhs)
-
-    def symplectic(y, h):
-        yf = cloth.free_state(y)
-        a = f(0.0, yf)[cloth.nf:]
-        yf[cloth.nf:] += h * a
-        yf[:cloth.nf] += h * yf[cloth.nf:]
-        return cloth.full_state(yf)
-    step = {"large steps": lambda y, h: _large_step(cloth, y, h, 1e-6, 20000)[0],
-            "XPBD": lambda y, h: _xpbd_step(cloth, y, h, 1, 10), "symplectic Euler": symplectic}[method]
-    for j in range(15):
-        h = 0.1 * 2.0 ** -j
-        if _stable(cloth, step, h):
-            return h
-    return 0.0
 
 
 def run(quick: bool = False) -> Report:
