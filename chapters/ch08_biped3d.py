@@ -107,7 +107,7 @@ def biped3d_walk(ctx):
     a.set(aspect="equal", xlabel="x [m]", ylabel="z [m]", title="side view every 0.2 s over the last 2.4 s")
     v = np.hypot(np.gradient(r.com[:, 0], r.t), np.gradient(r.com[:, 1], r.t))
     b.plot(r.t, v, lw=1, label=f"mean {r.speed(min(5.0, t_end / 2)):.2f} m/s over the last {min(5.0, t_end / 2):.1f} s")
-    b.set(ylabel="horizontal speed |ċ_xy| [m/s]")
+    b.set(xlabel="t [s]", ylabel="horizontal speed |ċ_xy| [m/s]")
     b.legend(fontsize=8, loc="lower right")
     c.plot(r.t, r.heading, lw=1, label="pelvis heading ψ")
     if turn is not None:

@@ -166,8 +166,8 @@ def qp_biped3d_step(ctx):
             ax.plot([c[axis] + off] * 2, [c[2], 0.0], "o", color="C3", ms=4,
                     label="centre of mass and its ground point" if j == 0 else None)
         side.text(j * gap, -0.14, f"t = {r.t[k]:.2f} s", ha="center", fontsize=7)
-    for ax, label, title in ((side, "x [m], each frame shifted 0.55 m", "side view (x forward)"),
-                             (front, "y [m], each frame shifted 0.55 m", "front view (y to the biped's left)")):
+    for ax, label, title in ((side, "x, each frame shifted 0.55 m [m]", "side view (x forward)"),
+                             (front, "y, each frame shifted 0.55 m [m]", "front view (y to the biped's left)")):
         ax.axhline(0, color="0.5", lw=0.8)
         ax.set(aspect="equal", xlim=(-0.35, (len(frames) - 1) * gap + 0.45), ylim=(-0.2, 2.0), ylabel="z [m]",
                xlabel=label, title=title)
