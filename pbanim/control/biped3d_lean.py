@@ -33,7 +33,7 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 from ..errors import SimulationDiverged
 from ..contracts import unchecked
 from ..lcp import pgs_box_friction
-from ..lcp.box_lean import LEAN_ROWS, box_sweeps_floats
+from ..lcp.box_lean import LEAN_ROWS, box_sweeps_floats, project_impulses
 from ..rigid.quat import quat_to_matrix
 
 _quat_to_matrix = unchecked(quat_to_matrix)
@@ -250,10 +250,7 @@ def pgs(A, b, mu: float, *, max_iter: int, tol: float, warm_start):
     if n > LEAN_ROWS:
         return _pgs(A, b, mu, max_iter=max_iter, tol=tol, warm_start=warm_start)
     mus = np.full(n // 3, mu)
-    z = np.array(warm_start, dtype=float)                      # projected: fᵢ ≥ 0, |τᵢⱼ| ≤ μ fᵢ
-    z[0::3] = np.maximum(z[0::3], 0.0)
-    lim = mus * z[0::3]
-    z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    z = project_impulses(np.array(warm_start, dtype=float), mus)
     return box_sweeps_floats(A, b, mus, A.diagonal().copy(), z, int(max_iter), tol * max(1.0, float(np.abs(b).max())))
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .box_lean import LEAN_ROWS, box_sweeps_floats
+from .box_lean import LEAN_ROWS, box_sweeps_floats, project_impulses
 from .pivoting import _check, _scale
 from .specs import LCP_ENTRIES
 from ..contracts import Array, Int, Opt, Real, contract
@@ -140,9 +140,7 @@ def _warm_impulses(warm_start, n: int, mu: np.ndarray) -> np.ndarray:
         z = np.array(warm_start, dtype=float)
         if z.shape != (n,) or not np.all(np.isfinite(z)):
             raise InvalidInput(f"warm_start must be a finite array of shape ({n},), got shape {z.shape}")
-        z[0::3] = np.maximum(z[0::3], 0.0)
-        lim = mu * z[0::3]
-        z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+        project_impulses(z, mu)
     return z
 
 

@@ -21,6 +21,15 @@ LEAN_ROWS = 54          # rows up to which the float sweep is the faster one (me
                         # 2× at 30, even at 60, 0.65× at 96)
 
 
+def project_impulses(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """z (3m,) projected in place onto the box-friction bounds fᵢ ≥ 0, |τᵢⱼ| ≤ μᵢfᵢ, and returned: the sweep's
+    first iterate from a warm start (the previous step's impulses of persisting contacts)."""
+    z[0::3] = np.maximum(z[0::3], 0.0)
+    lim = mu * z[0::3]
+    z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    return z
+
+
 def box_sweeps_floats(A: np.ndarray, b: np.ndarray, mu: np.ndarray, diag: np.ndarray, z: np.ndarray,
                       max_iter: int, threshold: float) -> tuple:
     """Sweeps of :func:`pbanim.lcp.pgs_box_friction` from the first iterate ``z`` (3m,) (already on its
