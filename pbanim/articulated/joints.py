@@ -142,10 +142,6 @@ class RigidJoints(Effect):
             raise InvalidInput("RigidJoints: solver='linear' handles equality joints only; limits and velocity "
                                "motors need solver='dense'")
         self.solver = solver
-        # which joints have motors, limits or velocity motors: fixed here, so a step of joints without them
-        # skips the loops over the joints that would find none
-        self._motored = any(j.motor for j in self.joints)
-        self._unilateral = any(j.limits is not None or j.motor_speed is not None for j in self.joints)
         self.projection = bool(projection)
         self._projection_args = (float(projection_tol), int(projection_max_iter))
         self._order = None
@@ -188,6 +184,8 @@ class RigidJoints(Effect):
         # the relative orientation at rest: the weld/slider rotation rows hold q_b⁻¹ q_a = q_rel0
         self._qrel0 = [quat_multiply(quat_conjugate(qw[j.b]), qw[j.a]) for j in self.joints]
         self._plan = JointRowPlan(self.joints, system.N, self._qrel0)
+        # which joints have motors, limits or velocity motors: fixed with the plan, so a step of joints
+        # without them skips the loops over the joints that would find none
         self._motored = any(j.motor for j in self.joints)
         self._unilateral = any(j.limits is not None or j.motor_speed is not None for j in self.joints)
 
