@@ -34,12 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contracts import Anything, Array, Int, Obj, Opt, Real, contract, unchecked
-from ..errors import InvalidInput
+from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract, unchecked
 from ..ode.driver import MAX_STEPS, drive, step_grid
 from .biped3d import biped3d, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
 from .simbicon3d import WALK3D, Gait3D, Simbicon3D
+from .specs import Items
 
 __all__ = ["Walk3DResult", "simulate_walk3d"]
 
@@ -88,7 +88,7 @@ class Walk3DResult:
 
 @contract(gait=Obj(Gait3D), t_end=Real(gt=0, le=600), h=Real(gt=0, le=0.01), speed=Real(ge=0, le=2),
           push=Opt(Array((3,))), turn=Opt(Array((2,))), friction=Real(ge=0), record_every=Int(ge=1),
-          max_steps=Int(ge=1), push_phase=Opt(Anything("(state, delay s, duration s)")))
+          max_steps=Int(ge=1), push_phase=Opt(Items(Choice(("R0", "R1", "L0", "L1")), Real(ge=0, le=5), Real(gt=0, le=5))))
 def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3, *, speed: float = START_SPEED,
                     push=None, turn=None, friction: float = 0.9, record_every: int = 25,
                     max_steps: int = MAX_STEPS, push_phase=None) -> Walk3DResult:
@@ -97,9 +97,6 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
     ``turn``: (t, ψ̄), the heading target from time t."""
     if push_phase is not None:
         phase, delay, duration = push_phase
-        if phase not in ("R0", "R1", "L0", "L1") or not 0 <= float(delay) <= 5 or not 0 < float(duration) <= 5:
-            raise InvalidInput(f"push_phase: (state in R0/R1/L0/L1, delay in [0, 5] s, duration in (0, 5] s), "
-                               f"got {push_phase!r}")
     tree = biped3d()
     ws = WorldStep(tree, biped3d_contact_points(tree), friction=friction, tol=1e-5)
     ctrl = Simbicon3D(ws, gait)

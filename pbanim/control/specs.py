@@ -126,10 +126,11 @@ class Pair(Spec):
         self.specs = (first, second)
 
     def describe(self) -> str:
-        return f"a pair ({self.specs[0].describe()}, {self.specs[1].describe()})"
+        items = ", ".join(s.describe() for s in self.specs)
+        return f"a pair ({items})" if len(self.specs) == 2 else f"a tuple of {len(self.specs)} ({items})"
 
     def check(self, name, value, env):
-        if not isinstance(value, (list, tuple)) or len(value) != 2:
+        if not isinstance(value, (list, tuple)) or len(value) != len(self.specs):
             raise env.fail(name, self.describe(), value)
         return tuple(s.check(f"{name}[{i}]", v, env) for i, (s, v) in enumerate(zip(self.specs, value)))
 
@@ -146,6 +147,13 @@ class Pair(Spec):
             out += [(f"item {i} {label}", tuple(v if j == i else g for j, g in enumerate(good)))
                     for label, v in s.bad(env)[:2]]
         return out
+
+
+class Items(Pair):
+    """A list or tuple of as many items as ``specs``, each meeting its spec; → tuple."""
+
+    def __init__(self, *specs: Spec) -> None:
+        self.specs = tuple(specs)
 
 
 class Mask(Spec):
