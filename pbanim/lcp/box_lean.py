@@ -34,27 +34,41 @@ def box_sweeps_floats(A: np.ndarray, b: np.ndarray, mu: np.ndarray, diag: np.nda
                       max_iter: int, threshold: float) -> tuple:
     """Sweeps of :func:`pbanim.lcp.pgs_box_friction` from the first iterate ``z`` (3m,) (already on its
     bounds) until the box residual is ≤ ``threshold`` or ``max_iter`` sweeps ran. A (3m, 3m), b (3m,),
-    μ (m,), diag = diag(A) > 0, all checked by the caller. Returns (z, residual, sweeps)."""
-    n = len(b)
+    μ (m,), diag = diag(A) > 0, all checked by the caller. Returns (z, residual, sweeps).
+
+    One contact (fᵢ, τᵢ₁, τᵢ₂) at a time, its bounds read once; clip(x, lo, hi) = min(max(x, lo), hi) written
+    as the two comparisons Python's max and min make (the first argument kept on ties), so the same floats
+    (signed zeros included). A tangent row whose bound μᵢfᵢ is zero and whose impulse is zero is skipped:
+    the clip onto [−0, 0] would return a zero, which the readable sweep does not write (Δz = 0)."""
     cols = A.T.tolist()                                # column r as a list: A₍:,ᵣ₎
     w = (A @ z + b).tolist()
     z, d_, mu_ = z.tolist(), diag.tolist(), mu.tolist()
-    inf = float("inf")
+    blocks = [(3 * i, 3 * i + 1, 3 * i + 2, m_i) for i, m_i in enumerate(mu_)]
     res = 0.0
     for sweep in range(1, max_iter + 1):
-        for r in range(n):
-            i, kind = divmod(r, 3)
-            if kind == 0:
-                lo, hi = 0.0, inf
-            else:
-                lim = mu_[i] * z[3 * i]
-                lo, hi = -lim, lim
-            zr = z[r]
-            new = min(max(zr - w[r] / d_[r], lo), hi)
-            if new != zr:
-                dz = new - zr
-                w = list(map(add, w, map(dz.__mul__, cols[r])))
-                z[r] = new
+        for r0, r1, r2, m_i in blocks:
+            f = z[r0]
+            new = f - w[r0] / d_[r0]
+            if 0.0 > new:                              # fᵢ ≥ 0 (the upper bound ∞ never binds)
+                new = 0.0
+            if new != f:
+                dz = new - f
+                w = list(map(add, w, map(dz.__mul__, cols[r0])))
+                z[r0] = f = new
+            lim = m_i * f
+            for r in (r1, r2):                         # |τᵢⱼ| ≤ μᵢ fᵢ
+                zr = z[r]
+                if lim == 0.0 and zr == 0.0:
+                    continue
+                new = zr - w[r] / d_[r]
+                if -lim > new:
+                    new = -lim
+                if lim < new:
+                    new = lim
+                if new != zr:
+                    dz = new - zr
+                    w = list(map(add, w, map(dz.__mul__, cols[r])))
+                    z[r] = new
         res = box_residual_floats(z, w, mu_)
         if res <= threshold:
             return np.array(z), res, sweep
@@ -63,17 +77,24 @@ def box_sweeps_floats(A: np.ndarray, b: np.ndarray, mu: np.ndarray, diag: np.nda
 
 def box_residual_floats(z: list, w: list, mu: list) -> float:
     """The box residual of the readable sweep on floats: max over contacts of |min(fᵢ, w_fᵢ)| and of |w_τ| for
-    each tangential impulse strictly inside its bounds (|τ| < μᵢfᵢ (1 − 10⁻¹²))."""
+    each tangential impulse strictly inside its bounds (|τ| < μᵢfᵢ (1 − 10⁻¹²)); min and abs written as the
+    comparisons they make."""
     out = 0.0
     for i, m_i in enumerate(mu):
-        f = z[3 * i]
-        v = abs(min(f, w[3 * i]))
+        r = 3 * i
+        f, v = z[r], w[r]
+        if not v < f:                                  # min(fᵢ, w_fᵢ)
+            v = f
+        if v < 0.0:
+            v = -v
         if v > out:
             out = v
         edge = m_i * f * (1 - 1e-12)
-        for r in (3 * i + 1, 3 * i + 2):
-            if abs(z[r]) < edge:
-                v = abs(w[r])
+        for r in (r + 1, r + 2):
+            if -edge < z[r] < edge:
+                v = w[r]
+                if v < 0.0:
+                    v = -v
                 if v > out:
                     out = v
     return out
