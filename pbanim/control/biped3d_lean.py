@@ -214,12 +214,12 @@ def bias(ws, kin, qd):
     return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
 
 
-def rotation_vector_floats(R) -> np.ndarray:
+def rotation_vector_floats(R, as_list: bool = False):
     """log(R) (3,) of a rotation matrix (3, 3): :func:`pbanim.rigid.matrix_to_quat` (Shepperd: the largest of
     4w², 4x², 4y², 4z² under the square root, w ≥ 0), then :func:`pbanim.design.simulate.quat_log`
     (2 atan2(|v|, w) v / |v|; 2v / w below |v| = 1e-12) — their arithmetic in their order on nine floats, so
     their bits (``tests/test_biped3d_lean.py``), without the two calls' array work (the controller's two
-    servos call it every step)."""
+    servos call it every step). An array (3,), or with ``as_list`` the list of its three floats."""
     (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = R.tolist()
     tr = r00 + r11 + r22
     cand = [1 + tr, 1 + 2 * r00 - tr, 1 + 2 * r11 - tr, 1 + 2 * r22 - tr]      # 4w², 4x², 4y², 4z²
@@ -234,7 +234,8 @@ def rotation_vector_floats(R) -> np.ndarray:
         w, x, y, z = -w, -x, -y, -z
     s = sqrt(x * x + y * y + z * z)
     scale = 2.0 * atan2(s, w) / s if s > 1e-12 else 2.0 / max(w, 1e-300)
-    return np.array([scale * x, scale * y, scale * z])
+    out = [scale * x, scale * y, scale * z]
+    return out if as_list else np.array(out)
 
 
 _TINY = float(np.finfo(float).tiny)

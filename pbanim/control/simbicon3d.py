@@ -156,6 +156,12 @@ class Simbicon3D:
         self.mass = step.mass
         self.M = float(step.mass.sum())
         self.history: list = []
+        # the hot loop's calls, bound once without their argument checks (the arguments are this class's own)
+        self._update, self._balance = unchecked(self.fsm.update), unchecked(self.balance)
+        self._jacobians, self._all = unchecked(step.point_jacobians), np.arange(tree.n)
+        self._frames = (None, None, None)             # (ψ̄, θ̄_tor) → R_z(ψ̄), R_z(ψ̄) R_−y(θ̄_tor): recomputed on change
+        self._servos = {}                             # (stance, phase) → the joint servos' (q̇ index, target, k_p, k_v)
+        self._hips = {}                               # swing side → (the swing hip's, the stance hip's q̇ indices)
 
     def sides(self) -> tuple[str, str]:
         """(stance, swing)."""
@@ -165,17 +171,14 @@ class Simbicon3D:
     def balance(self, kin, qd) -> tuple[np.ndarray, np.ndarray, float]:
         """(d, v, ψ): the centre of mass's offset from the stance ankle and its velocity in the heading frame
         (x forward, y left; 2-vectors), and the pelvis's heading ψ."""
-        st = self.step
-        _, Jc = unchecked(st.point_jacobians)(kin, np.arange(st.tree.n), st.com)
+        _, Jc = self._jacobians(kin, self._all, self.step.com)
         com = self.mass @ kin["c"] / self.M
-        vcom = np.einsum("n,nij,j->i", self.mass, Jc, qd) / self.M
+        vx, vy, _ = (np.einsum("n,nij,j->i", self.mass, Jc, qd) / self.M).tolist()
         R0 = kin["R"][self.link["pelvis"]]
         psi = float(np.arctan2(R0[1, 0], R0[0, 0]))
         c, s = np.cos(psi), np.sin(psi)
-        ankle = kin["o"][self.link[f"{self.sides()[0]}_foot"]]
-        r = com - ankle
-        return (np.array([c * r[0] + s * r[1], -s * r[0] + c * r[1]]),
-                np.array([c * vcom[0] + s * vcom[1], -s * vcom[0] + c * vcom[1]]), psi)
+        rx, ry, _ = (com - kin["o"][self.link[f"{self.sides()[0]}_foot"]]).tolist()      # from the stance ankle
+        return np.array([c * rx + s * ry, -s * rx + c * ry]), np.array([c * vx + s * vy, -s * vx + c * vy]), psi
 
     @contract(t=NotBefore("self.fsm.entered"), q=Array(("self.step.tree.nq",)), qd=Array(("self.step.tree.nv",)),
               events=Names(), kin=Anything("the dict of step.kinematics(q), or None"), h=Real(ge=0))
@@ -184,44 +187,62 @@ class Simbicon3D:
         (t, state, d, v, ψ) in :attr:`history`."""
         st = self.step
         kin = st.kinematics(q) if kin is None else kin              # (checks the quaternion)
-        self.fsm.update(t, events)
+        self._update(t, events)
         ph: Phase3D = self.fsm.payload
         stance, swing = self.sides()
         g = self.gait
         kp, kv = g.kp, g.kv
-        tau, k = np.zeros(qd.size), np.zeros(qd.size)
-        d, v, psi = self.balance(kin, qd)
+        nv = qd.size
+        tau, k = [0.0] * nv, [0.0] * nv
+        d, v, psi = self._balance(kin, qd)
+        ql, qdl = q.tolist(), qd.tolist()
         # knees and ankles: joint space, stable PD (q index = q̇ index + 1: the quaternion's extra number)
-        for joint, target, kind in ((f"{swing}_knee", ph.swk, "knee"), (f"{swing}_ankle_y", ph.swa, "ankle"),
-                                    (f"{swing}_ankle_x", 0.0, "ankle"), (f"{stance}_knee", ph.stk, "knee"),
-                                    (f"{stance}_ankle_y", ph.sta, "ankle"), (f"{stance}_ankle_x", 0.0, "ankle")):
-            i = JI[joint]
-            tau[i], k[i] = kp[kind] * (target - q[i + 1] - h * qd[i]), kv[kind]
-        # world-frame torso and swing thigh
+        servos = self._servos.get((stance, ph))
+        if servos is None:
+            servos = self._servos[(stance, ph)] = [
+                (JI[joint], target, kp[kind], kv[kind]) for joint, target, kind in (
+                    (f"{swing}_knee", ph.swk, "knee"), (f"{swing}_ankle_y", ph.swa, "ankle"),
+                    (f"{swing}_ankle_x", 0.0, "ankle"), (f"{stance}_knee", ph.stk, "knee"),
+                    (f"{stance}_ankle_y", ph.sta, "ankle"), (f"{stance}_ankle_x", 0.0, "ankle"))]
+        for i, target, kpi, kvi in servos:
+            tau[i], k[i] = kpi * (target - ql[i + 1] - h * qdl[i]), kvi
+        # world-frame torso and swing thigh (3-vectors as floats: the same products and sums as on arrays)
         S = kin["S"]
-        Rz = _rot(_Z, self.heading)
-        R_tor = Rz @ _rot(_Y, ph.tor)
-        w0 = S[:3, :3] @ qd[:3]                                    # the pelvis's world angular velocity
-        tau_torso = kp["torso"] * rotation_vector(R_tor @ kin["R"][self.link["pelvis"]].T) - kv["torso"] * w0
+        if self._frames[0] != (self.heading, ph.tor):
+            Rz = _rot(_Z, self.heading)
+            self._frames = ((self.heading, ph.tor), Rz, Rz @ _rot(_Y, ph.tor))
+        _, Rz, R_tor = self._frames
+        w0 = (S[:3, :3] @ qd[:3]).tolist()                        # the pelvis's world angular velocity
+        kpt, kvt = kp["torso"], kv["torso"]
+        tau_torso = [kpt * r - kvt * w for r, w in
+                     zip(rotation_vector_floats(R_tor @ kin["R"][self.link["pelvis"]].T, as_list=True), w0)]
         sag = ph.swh + ph.cd * d[0] + ph.cv * v[0]
         out = 1.0 if swing == "left" else -1.0
         cor = out * ph.cor + ph.cd_cor * d[1] + ph.cv_cor * v[1]
         R_sw = Rz @ _rot(_X, cor) @ _rot(_Y, sag)
         thigh = self.link[f"{swing}_thigh"]
-        hips = [JI[f"{swing}_hip_{a}"] for a in "zxy"]
-        w_thigh = S[:3] @ (qd * st.mask[thigh])
-        tau_swing = kp["hip"] * rotation_vector(R_sw @ kin["R"][thigh].T) - kv["hip"] * w_thigh
-        for j in hips:                                             # its damping about its own axis at q̇⁺
-            tau[j] = S[:3, j] @ tau_swing + kv["hip"] * qd[j]
-            k[j] = kv["hip"]
-        tau_stance = -tau_torso - tau_swing
-        for a in "zxy":
-            j = JI[f"{stance}_hip_{a}"]
-            tau[j] = S[:3, j] @ tau_stance
-        k[JI[f"{stance}_hip_z"]] = g.stance_yaw_kv                 # the stance leg's spin damped, at q̇⁺
-        np.clip(tau, -g.limit, g.limit, out=tau)
+        w_thigh = (S[:3] @ (qd * st.mask[thigh])).tolist()
+        kph, kvh = kp["hip"], kv["hip"]
+        tx, ty, tz = tau_swing = [kph * r - kvh * w for r, w in
+                                  zip(rotation_vector_floats(R_sw @ kin["R"][thigh].T, as_list=True), w_thigh)]
+        hips = self._hips.get(swing)
+        if hips is None:
+            hips = self._hips[swing] = ([JI[f"{swing}_hip_{a}"] for a in "zxy"], [JI[f"{stance}_hip_{a}"] for a in "zxy"])
+        sw, stn = hips
+        for j, (ax, ay, az) in zip(sw, S[:3, sw].T.tolist()):     # τⱼ = aⱼ·τ, its damping about its own axis at q̇⁺
+            tau[j], k[j] = ax * tx + ay * ty + az * tz + kvh * qdl[j], kvh
+        sx, sy, sz = [-a - b for a, b in zip(tau_torso, tau_swing)]         # τ_stance = −τ_torso − τ_swing
+        for j, (ax, ay, az) in zip(stn, S[:3, stn].T.tolist()):
+            tau[j] = ax * sx + ay * sy + az * sz
+        k[stn[0]] = g.stance_yaw_kv                                # the stance leg's spin damped, at q̇⁺
+        lim = g.limit
+        for i, x in enumerate(tau):                                # clipped to ±limit (np.clip's comparisons)
+            if x < -lim:
+                tau[i] = -lim
+            elif x > lim:
+                tau[i] = lim
         self.history.append((t, self.fsm.state, d, v, psi))
-        return tau, k
+        return np.array(tau), np.array(k)
 
     @contract(t=Real())
     def reset(self, t: float = 0.0) -> None:
