@@ -86,6 +86,8 @@ class LeanPlan:
         self.gravity = np.asarray(tree.gravity, dtype=float)
         self.damping = np.asarray(tree.arrays()["damping"], dtype=float)
         self.cache = (None, None)           # (q's bytes, its kinematics): the last state's, read again
+        self.contacts = (ws.links, ws.points[:, :, None], self.mask[ws.links])
+        self.basis = {}                     # the near points' normals' bytes → their frames (n, t₁, t₂) (≤ 64 kept)
 
 
 def kinematics(ws, q) -> dict:
@@ -156,9 +158,13 @@ def point_jacobians(ws, kin, links, points):
     """(P, J) of :meth:`WorldStep.point_jacobians`; the centres of mass' J_c once per state."""
     if points is ws.com and len(links) == ws.tree.n:
         return kin["c"], com_jacobians(ws, kin)
-    links = np.asarray(links).astype(int)
-    P = kin["o"][links] + (kin["R"][links] @ np.asarray(points, dtype=float)[:, :, None])[:, :, 0]
-    return P, jacobians_at(kin["S"], P, ws._plan.mask[links])
+    if links is ws.links and points is ws.points:                 # the contact points: their arrays kept
+        links, pts, mask = ws._plan.contacts
+    else:
+        links = np.asarray(links).astype(int)
+        pts, mask = np.asarray(points, dtype=float)[:, :, None], ws._plan.mask[links]
+    P = kin["o"][links] + (kin["R"][links] @ pts)[:, :, 0]
+    return P, jacobians_at(kin["S"], P, mask)
 
 
 def com_jacobians(ws, kin):
@@ -288,11 +294,17 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     ws.last = None
     if near.size:
         nn, JJ, g = nrm[near], Jp[near], gap[near]
-        ref = np.where(np.abs(nn[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-        t1 = ref - (ref * nn).sum(axis=1)[:, None] * nn
-        t1 /= np.sqrt((t1 * t1).sum(axis=1))[:, None]
-        t2 = _cross(nn, t1)
-        rows = (np.stack([nn, t1, t2], axis=1) @ JJ).reshape(3 * near.size, -1)
+        key = nn.tobytes()
+        frames = ws._plan.basis.get(key)
+        if frames is None:                                     # new normals (on a plane: once per count of points)
+            ref = np.where(np.abs(nn[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+            t1 = ref - (ref * nn).sum(axis=1)[:, None] * nn
+            t1 /= np.sqrt((t1 * t1).sum(axis=1))[:, None]
+            frames = np.stack([nn, t1, _cross(nn, t1)], axis=1)
+            if len(ws._plan.basis) >= 64:
+                ws._plan.basis.clear()
+            ws._plan.basis[key] = frames
+        rows = (frames @ JJ).reshape(3 * near.size, -1)
         MinvJt = dpotrs(cho, rows.T)[0]
         A = rows @ MinvJt
         u = ws._impulses(A, rows, MinvJt, u, g, near, h)             # the contact law: the readable step's

@@ -46,6 +46,7 @@ from . import biped3d_lean as _lean
 __all__ = ["WorldStep"]
 
 _aba, _pgs = unchecked(aba_fast), unchecked(pgs_box_friction)
+_NONE = (0.0, 0.0, 0.0)                 # the warm start of a contact that was not near in the last step
 
 
 def _rot(axis, angle: float) -> np.ndarray:
@@ -203,10 +204,12 @@ class WorldStep:
         A.flat[::A.shape[0] + 1] += self.cfm * max(float(A.diagonal().max()), 1e-300)      # A + cfm·max diag A·𝟙
         b = rows @ u
         b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
-        warm = np.concatenate([self._warm.get(int(c), np.zeros(3)) for c in near])
+        nl, last = near.tolist(), self._warm
+        warm = np.array([x for c in nl for x in last.get(c, _NONE)])
         z, res, sweeps = (_lean.pgs if self.lean else _pgs)(A, b, self.mu, max_iter=self.max_iter, tol=self.tol,
                                                               warm_start=warm)
-        self._warm = {int(c): z[3 * m:3 * m + 3] for m, c in enumerate(near)}
+        zl = z.tolist()
+        self._warm = {c: zl[3 * m:3 * m + 3] for m, c in enumerate(nl)}
         self.last = {"impulses": z, "contacts": near, "residual": res, "sweeps": sweeps}
         return u + MinvJt @ z
 

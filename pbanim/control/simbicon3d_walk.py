@@ -135,13 +135,15 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
         if force is not None:
             tau = tau + force
         q1, u1 = stepf(q, qd, hh, tau, k, kin)
-        ev = []
-        if ws.last is not None:
-            z, near = ws.last["impulses"], ws.last["contacts"]
-            for side, first in (("left", 0), ("right", 4)):
-                if np.any(z[0::3][(near >= first) & (near < first + 4)] > 0):
-                    ev.append(f"{side}_strike")
-        state["events"] = tuple(ev)
+        left = right = False
+        if ws.last is not None:                                  # corners 0–3 the left sole's, 4–7 the right's
+            for c, f in zip(ws.last["contacts"].tolist(), ws.last["impulses"][0::3].tolist()):
+                if f > 0:
+                    if c < 4:
+                        left = True
+                    elif c < 8:
+                        right = True
+        state["events"] = ("left_strike",) * left + ("right_strike",) * right
         R0 = kinematics(q1)["R"][0]
         cause = ("pelvis dropped below 0.7 m" if q1[6] < 0.7 else
                  f"trunk tipped {np.degrees(np.arccos(min(R0[2, 2], 1.0))):.0f}°" if R0[2, 2] < np.cos(1.0) else "")

@@ -24,9 +24,12 @@ LEAN_ROWS = 54          # rows up to which the float sweep is the faster one (me
 def project_impulses(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """z (3m,) projected in place onto the box-friction bounds fᵢ ≥ 0, |τᵢⱼ| ≤ μᵢfᵢ, and returned: the sweep's
     first iterate from a warm start (the previous step's impulses of persisting contacts)."""
-    z[0::3] = np.maximum(z[0::3], 0.0)
-    lim = mu * z[0::3]
-    z[1::3], z[2::3] = np.clip(z[1::3], -lim, lim), np.clip(z[2::3], -lim, lim)
+    f = np.maximum(z[0::3], 0.0)
+    z[0::3] = f
+    lim = mu * f
+    nlim = -lim
+    for t in (z[1::3], z[2::3]):                          # clip(τ, −μf, μf) = min(max(τ, −μf), μf), in place
+        np.minimum(np.maximum(t, nlim, out=t), lim, out=t)
     return z
 
 
