@@ -35,6 +35,11 @@ class Fell(Exception):
     """Raised inside the loop to stop it at a fall (caught by :func:`simulate_walk`)."""
 
 
+class Settled(Exception):
+    """Raised inside the loop to stop a pushed run once it has recovered (``settle`` of
+    :func:`.walk_branch.simulate_pushes`); the run ends there, not fallen."""
+
+
 @contract(impulse=Real(ge=-1e4, le=1e4), phase=Real(ge=0, lt=1), count=Int(ge=2))
 @dataclass(frozen=True)
 class Push:
@@ -64,6 +69,7 @@ class WalkResult:
     strikes: list = field(default_factory=list)
     push_time: float | None = None
     targets: list = field(default_factory=list)
+    settled: float | None = None        # stopped here as recovered (simulate_pushes' settle), else None
 
     @contract(last=Real(gt=0))
     def speed(self, last: float = 5.0) -> float:
@@ -188,10 +194,13 @@ def _run_walk(parts: tuple, push, state: dict, lean: bool, record_every: int, *,
               record_every=record_every, check_every=check_every)
     except Fell:
         fell, (fall_time, cause) = True, state["fall"]
+    except Settled:
+        pass                                   # state["settled"]: the time the run was stopped as recovered
     wall = time.perf_counter() - start
     return WalkResult(t=np.array(ts), q=np.array(qs), qd=np.array(qds), trace=list(ctrl.fsm.trace), fell=fell,
                       fall_time=fall_time, fall_cause=cause, wall_time=wall, h=grid.h, com=np.array(coms),
-                      strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]))
+                      strikes=state["strikes"], push_time=state["pushed"], targets=list(ctrl.history[::record_every]),
+                      settled=state.get("settled"))
 
 
 def _leanable(ctrl: Simbicon, kernel: PlanarKernel) -> bool:
