@@ -64,6 +64,10 @@ class FaceOperator:
                 idx[ax] = end
                 ghosts[tuple(idx)] += 1.0
         self.diag = np.where(self.closed, 1.0, 1.0 + a * (2 * grid.dim + ghosts) / grid.dx ** 2)
+        cut = lambda ax, k: tuple(k if b == ax else slice(None) for b in range(grid.dim))  # noqa: E731
+        # per axis: (upper, lower, first, last) index tuples — the views moveaxis would give, made once
+        self._cuts = [(cut(ax, slice(1, None)), cut(ax, slice(None, -1)), cut(ax, 0), cut(ax, -1))
+                      for ax in range(grid.dim)]
 
     def laplacian(self, x: np.ndarray, walls: bool) -> np.ndarray:
         g, i = self.grid, self.i
@@ -72,17 +76,16 @@ class FaceOperator:
             if g.periodic[ax]:
                 lap += np.roll(x, 1, axis=ax) + np.roll(x, -1, axis=ax)
                 continue
-            view = np.moveaxis(lap, ax, 0)                 # views: lap += lower and upper neighbours
-            xs = np.moveaxis(x, ax, 0)
-            view[1:] += xs[:-1]
-            view[:-1] += xs[1:]
+            upper, lower, first, last = self._cuts[ax]     # lap += lower and upper neighbours along ax
+            lap[upper] += x[lower]
+            lap[lower] += x[upper]
             if ax == i:                                    # wall faces are held: any value will do
-                view[0] += xs[0]
-                view[-1] += xs[-1]
+                lap[first] += x[first]
+                lap[last] += x[last]
                 continue
-            for side, end in ((0, 0), (1, -1)):            # ghost 2w − x across a wall half a cell away
+            for side, end in ((0, first), (1, last)):      # ghost 2w − x across a wall half a cell away
                 w = g.lids.get((ax, side)) if walls else None
-                view[end] += (0.0 if w is None else 2.0 * float(w[i])) - xs[end]
+                lap[end] += (0.0 if w is None else 2.0 * float(w[i])) - x[end]
         return lap / g.dx ** 2
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
@@ -112,6 +115,18 @@ def diffusion_coefficient(grid, coef: float, h: float, what: str) -> float:
     return a
 
 
+def _face_operator(grid, i: int, a: float) -> tuple:
+    """(FaceOperator, its wall term) for component i and a = νΔt, made once per (i, a) and cached on the grid
+    (a run at a fixed step builds them once; at most 16 kept)."""
+    cache = grid.__dict__.setdefault("_face_cache", {})
+    if (i, a) not in cache:
+        if len(cache) >= 16:
+            cache.clear()
+        A = FaceOperator(grid, i, a)
+        cache[i, a] = (A, A.wall_term())
+    return cache[i, a]
+
+
 @contract(grid=_GRID, u=Velocity(), nu=_COEF, h=_H, method=Choice(DIFFUSION_METHODS), iterations=_SWEEPS, tol=_TOL,
           max_iter=_MAX_ITER, returns=finite_fields)
 @quiet
@@ -130,8 +145,8 @@ def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, 
     a = diffusion_coefficient(grid, nu, h, "nu")
     out, infos = [], []
     for i, c in enumerate(u):
-        A = FaceOperator(grid, i, a)
-        r = np.where(A.closed, 0.0, c) + A.wall_term()
+        A, wall = _face_operator(grid, i, a)
+        r = np.where(A.closed, 0.0, c) + wall
         its = 0
         if method == "fft":
             x = _spectral(grid, r, 1.0, a)

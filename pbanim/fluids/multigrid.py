@@ -37,9 +37,14 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
-from .poisson import CellOperator, _direct, _norm, relax, unit_scale, warm_start
+from .poisson import CellOperator, _direct, _norm, operator_matrix, relax, unit_scale, warm_start
 
-__all__ = ["levels", "multigrid_solve", "v_cycle"]
+try:                      # scipy's own kernel behind ``M @ x`` for CSR M (y += M x), reached without its dispatch
+    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
+except ImportError:       # pragma: no cover - another scipy layout: the public product
+    _csr_matvec = None
+
+__all__ = ["LeanCycle", "lean_cycle", "levels", "multigrid_solve", "preconditioner", "v_cycle"]
 
 SMOOTH = 2
 
@@ -107,14 +112,105 @@ def v_cycle(hierarchy, b: np.ndarray, alpha: float, beta: float, level: int = 0)
     return x * g.fluid
 
 
-def multigrid_solve(grid, A, r, x, alpha, beta, tol, max_iter):
+def _mv(M, x: np.ndarray) -> np.ndarray:
+    """M x for a CSR matrix M: what ``M @ x`` computes (zeros, then scipy's kernel adds M x), without its type
+    dispatch, which on the coarse levels costs as long as the product (bit for bit the same numbers)."""
+    if _csr_matvec is None:                                        # pragma: no cover
+        return M @ x
+    y = np.zeros(M.shape[0])
+    _csr_matvec(M.shape[0], M.shape[1], M.indptr, M.indices, M.data, x, y)
+    return y
+
+
+class LeanCycle:
+    """The lean twin of :func:`v_cycle`: on each level the cells in red–black order (red first) and every
+    half-sweep, residual, restriction R and prolongation P one sparse product, built once per hierarchy.
+
+    A red half-sweep of the readable cycle, x_R ← x_R + (b − A x)_R / a_R, is here the same update rearranged,
+    x_R ← (b_R − A°_R x) / a_R with A° = A − diag(a) (its red rows; black likewise): equal in exact arithmetic,
+    to roundoff in floats (ORACLES E24). A solid cell's row is the identity, as in :class:`CellOperator`.
+    Called on a field of the fine grid's shape, it returns what ``v_cycle(hierarchy, b, α, β)`` returns.
+    """
+
+    def __init__(self, hierarchy) -> None:
+        import scipy.sparse as sp
+
+        self.levels, below = [], None
+        for g, A in reversed(hierarchy):                     # coarse to fine: R and P need the coarse order
+            red = _colours(g.shape)[0].ravel()
+            perm = np.concatenate([np.flatnonzero(red), np.flatnonzero(~red)])
+            fluid = g.fluid.ravel()[perm].astype(float)
+            lv = {"grid": g, "A": A, "perm": perm, "n_red": int(red.sum()), "fluid": fluid}
+            if below is not None:
+                M = operator_matrix(g, A.alpha, A.beta)[0][perm][:, perm]
+                M = (sp.diags(fluid) @ M + sp.diags(1.0 - fluid)).tocsr()     # solid rows: the identity
+                d = A.diag.ravel()[perm]
+                off = (M - sp.diags(M.diagonal())).tocsr()
+                lv.update(M=M, off_red=off[:lv["n_red"]], off_black=off[lv["n_red"]:], d_red=d[:lv["n_red"]],
+                          d_black=d[lv["n_red"]:])
+                # fine cell (i, j, …) → coarse cell (i//2, j//2, …), both in their red–black order
+                coarse = np.ravel_multi_index(tuple(c // 2 for c in np.unravel_index(perm, g.shape)),
+                                              below["grid"].shape)
+                where = np.empty_like(below["perm"])
+                where[below["perm"]] = np.arange(below["perm"].size)
+                cols = where[coarse]
+                rows = np.arange(perm.size)
+                lv["P"] = sp.csr_matrix((fluid, (rows, cols)), shape=(perm.size, below["perm"].size))
+                lv["R"] = sp.csr_matrix((fluid / 2 ** g.dim, (cols, rows)), shape=(below["perm"].size, perm.size))
+            self.levels.insert(0, lv)
+            below = lv
+        self.perm = self.levels[0]["perm"]
+
+    def __call__(self, b: np.ndarray) -> np.ndarray:
+        out = np.empty(b.size)
+        out[self.perm] = self._cycle(0, b.ravel()[self.perm])
+        return out.reshape(b.shape)
+
+    def _cycle(self, k: int, b: np.ndarray) -> np.ndarray:
+        lv = self.levels[k]
+        if k == len(self.levels) - 1:
+            g, A = lv["grid"], lv["A"]
+            full = np.empty(b.size)
+            full[lv["perm"]] = b
+            return _direct(g, full.reshape(g.shape), A.alpha, A.beta).ravel()[lv["perm"]] * lv["fluid"]
+        nr, x = lv["n_red"], np.zeros(b.size)
+        red = (slice(None, nr), lv["off_red"], lv["d_red"])
+        black = (slice(nr, None), lv["off_black"], lv["d_black"])
+        for order in ((red, black) * SMOOTH, "coarse", (black, red) * SMOOTH):
+            if order == "coarse":
+                x += _mv(lv["P"], self._cycle(k + 1, _mv(lv["R"], b - _mv(lv["M"], x))))
+                continue
+            for part, off, d in order:
+                x[part] = (b[part] - _mv(off, x)) / d
+        return x * lv["fluid"]
+
+
+def lean_cycle(grid, alpha: float, beta: float) -> LeanCycle:
+    """The :class:`LeanCycle` of ``levels(grid, α, β)`` (cached on the grid beside the hierarchy)."""
+    cache = grid.__dict__.setdefault("_multigrid_lean", {})
+    if (alpha, beta) not in cache:
+        cache[alpha, beta] = LeanCycle(levels(grid, alpha, beta))
+    return cache[alpha, beta]
+
+
+def preconditioner(grid, alpha: float, beta: float, lean: bool = True):
+    """b ↦ one V-cycle for (αI − βL) x = b on ``grid``: the :class:`LeanCycle` (``lean``) or the readable
+    :func:`v_cycle`."""
+    if lean:
+        return lean_cycle(grid, alpha, beta)
+    hierarchy = levels(grid, alpha, beta)
+    return lambda b: v_cycle(hierarchy, b, alpha, beta)
+
+
+def multigrid_solve(grid, A, r, x, alpha, beta, tol, max_iter, lean=True):
     """V-cycles on the residual until ‖r − A x‖₂ ≤ tol ‖r‖₂ (at most ``max_iter`` cycles); (x, cycles). r and x
-    are scaled by :func:`~pbanim.fluids.poisson.unit_scale` first (the cycle is linear)."""
+    are scaled by :func:`~pbanim.fluids.poisson.unit_scale` first (the cycle is linear); ``lean``: see
+    :func:`preconditioner`."""
     s = unit_scale(r, x)
     if s != 1.0:
-        x, k = multigrid_solve(grid, A, r * s, x * s, alpha, beta, tol, max_iter)
+        x, k = multigrid_solve(grid, A, r * s, x * s, alpha, beta, tol, max_iter, lean)
         return x / s, k
-    hierarchy = levels(grid, alpha, beta)
+    cycle = preconditioner(grid, alpha, beta, lean)
     x, res, r_norm = warm_start(A, r, x)
     for k in range(max_iter + 1):
         norm = _norm(res)
@@ -122,7 +218,7 @@ def multigrid_solve(grid, A, r, x, alpha, beta, tol, max_iter):
             return x, k
         if k == max_iter:
             break
-        x = x + v_cycle(hierarchy, res, alpha, beta)
+        x = x + cycle(res)
         res = r - A(x)
     raise ConvergenceError("multigrid", max_iter, norm / r_norm, tol, "relative 2-norm residual ‖r − Ax‖/‖r‖ of "
                            "(αI − βL)x = r")

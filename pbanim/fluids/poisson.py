@@ -45,7 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contracts import Choice, Int, Obj, Opt, Real, contract
+from ..contracts import Choice, Flag, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, check_result
 from .specs import MAX_ITER, MAX_SWEEPS, Cells, finite_fields, quiet
 
@@ -147,27 +147,7 @@ def _matrix(grid, alpha: float, beta: float):
     import scipy.sparse as sp
     from scipy.sparse.csgraph import connected_components
 
-    n = grid.solid.size
-    idx = np.arange(n).reshape(grid.shape)
-    rows, cols, vals = [], [], []
-    for i, w in enumerate(grid.open):
-        if grid.periodic[i]:
-            lo, hi, ww = np.roll(idx, 1, axis=i), idx, w
-        else:
-            a = [slice(None)] * grid.dim
-            a[i] = slice(None, -1)
-            b = [slice(None)] * grid.dim
-            b[i] = slice(1, None)
-            inner = [slice(None)] * grid.dim
-            inner[i] = slice(1, -1)
-            lo, hi, ww = idx[tuple(a)], idx[tuple(b)], w[tuple(inner)]
-        keep = ww.ravel() > 0
-        rows += [lo.ravel()[keep], hi.ravel()[keep]]
-        cols += [hi.ravel()[keep], lo.ravel()[keep]]
-        vals += [ww.ravel()[keep]] * 2
-    W = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
-    deg = np.asarray(W.sum(axis=1)).ravel()
-    A = (beta / grid.dx ** 2) * (sp.diags(deg) - W) + alpha * sp.identity(n)
+    A, W = operator_matrix(grid, alpha, beta)
     fixed = grid.solid.ravel().copy()
     if alpha == 0:
         _, labels = connected_components(W, directed=False)
@@ -178,6 +158,29 @@ def _matrix(grid, alpha: float, beta: float):
     keep = sp.diags((~fixed).astype(float))
     A = (keep @ A @ keep + sp.diags(fixed.astype(float))).tocsc()
     return A, fixed
+
+
+def operator_matrix(grid, alpha: float, beta: float):
+    """(A, W): A = αI − βL as a sparse CSR matrix of the raveled cells (not pinned, solid rows not yet the
+    identity: their entries are 0 besides α), W the open-face adjacency weights."""
+    import scipy.sparse as sp
+
+    n = grid.solid.size
+    idx = np.arange(n).reshape(grid.shape)
+    rows, cols, vals = [], [], []
+    for i, w in enumerate(grid.open):
+        if grid.periodic[i]:
+            lo, hi, ww = np.roll(idx, 1, axis=i), idx, w
+        else:
+            cut = lambda lo_, hi_: tuple(slice(lo_, hi_) if a == i else slice(None) for a in range(grid.dim))  # noqa: E731,B023
+            lo, hi, ww = idx[cut(None, -1)], idx[cut(1, None)], w[cut(1, -1)]
+        keep = ww.ravel() > 0
+        rows += [lo.ravel()[keep], hi.ravel()[keep]]
+        cols += [hi.ravel()[keep], lo.ravel()[keep]]
+        vals += [ww.ravel()[keep]] * 2
+    W = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(n, n))
+    deg = np.asarray(W.sum(axis=1)).ravel()
+    return ((beta / grid.dx ** 2) * (sp.diags(deg) - W) + alpha * sp.identity(n)).tocsr(), W
 
 
 def _direct(grid, r, alpha, beta):
@@ -212,7 +215,7 @@ def relax(A, r, x, method: str, iterations: int, omega: float = 1.0, reverse: bo
 
 def _dot(a, b) -> float:
     """Σ a b by numpy's pairwise sum (not BLAS: its threads stall when the cores are shared)."""
-    return float(np.multiply(a, b).sum())
+    return float(np.add.reduce(np.multiply(a, b), axis=None))     # what ndarray.sum calls, without its wrapper
 
 
 def _norm(v) -> float:
@@ -281,21 +284,23 @@ def _cg(A, r, x, tol, max_iter, precondition, name):
 
 @contract(grid=Obj("pbanim.fluids.grid:Grid"), r=Cells(), alpha=Real(ge=0), beta=Real(gt=0),
           method=Choice(POISSON_METHODS), iterations=Int(ge=0, le=MAX_SWEEPS), omega=Real(gt=0, le=1),
-          tol=Real(gt=0, le=1), max_iter=Opt(Int(ge=1, le=MAX_ITER)), x0=Opt(Cells()), returns=finite_fields)
+          tol=Real(gt=0, le=1), max_iter=Opt(Int(ge=1, le=MAX_ITER)), x0=Opt(Cells()), lean=Flag(),
+          returns=finite_fields)
 @quiet
 def solve_cells(grid, r, alpha: float = 0.0, beta: float = 1.0, method: str = "dct", *, iterations: int = 20,
-                omega: float = 1.0, tol: float = 1e-12, max_iter: int | None = None, x0=None):
+                omega: float = 1.0, tol: float = 1e-12, max_iter: int | None = None, x0=None, lean: bool = True):
     """Solve (α I − β L) x = r on the cells of ``grid``; returns ``(x, SolveInfo)``.
 
     ``iterations`` is the number of sweeps of gauss_seidel / jacobi (Stam: 20); ``omega`` Jacobi's weight
     in (0, 1]; ``tol`` and ``max_iter`` (default 20·max(n) + 100) the stop and the cap of the CGs
-    (multigrid: max_iter/10 cycles). With α = 0 the part of r that is constant over a fluid region is not
+    (multigrid: max_iter/10 cycles); ``lean=False`` runs the readable V-cycle, not its sparse twin
+    (:class:`~pbanim.fluids.multigrid.LeanCycle`). With α = 0 the part of r that is constant over a fluid region is not
     solvable and is dropped. An operator whose entries β/Δx² overflow is
     :class:`~pbanim.errors.NonFiniteResult`.
     """
     check_method_fits(grid, method)
     x = np.zeros(grid.shape) if x0 is None else np.array(x0, dtype=float)
-    return _solve(grid, np.array(r, dtype=float), x, alpha, beta, method, iterations, omega, tol, max_iter)
+    return _solve(grid, np.array(r, dtype=float), x, alpha, beta, method, iterations, omega, tol, max_iter, lean=lean)
 
 
 def check_method_fits(grid, method: str, where: str = "solve_cells", name: str = "method") -> None:
@@ -344,7 +349,8 @@ def _operator(grid, alpha, beta) -> CellOperator:
     return cache[alpha, beta]
 
 
-def _solve(grid, r, x, alpha, beta, method, iterations=20, omega=1.0, tol=1e-12, max_iter=None, residual=True):
+def _solve(grid, r, x, alpha, beta, method, iterations=20, omega=1.0, tol=1e-12, max_iter=None, residual=True,
+           lean=True):
     """The solve behind :func:`solve_cells`, arguments already checked (r may be modified in place)."""
     max_iter = 20 * max(grid.shape) + 100 if max_iter is None else max_iter
     if grid.has_obstacles:
@@ -369,15 +375,14 @@ def _solve(grid, r, x, alpha, beta, method, iterations=20, omega=1.0, tol=1e-12,
     elif method == "multigrid":
         from .multigrid import multigrid_solve
 
-        x, its = multigrid_solve(grid, A, r, x, alpha, beta, tol, max(1, max_iter // 10))
+        x, its = multigrid_solve(grid, A, r, x, alpha, beta, tol, max(1, max_iter // 10), lean)
     else:
         if method == "cg":
             pre = lambda v: v / A.diag
         elif method == "mgpcg":
-            from .multigrid import levels, v_cycle
+            from .multigrid import preconditioner
 
-            hierarchy = levels(grid, alpha, beta)
-            pre = lambda v: v_cycle(hierarchy, v, alpha, beta)
+            pre = preconditioner(grid, alpha, beta, lean)
         else:
             free = grid.__dict__.setdefault("_free_box", {})
             if grid.shape not in free:
