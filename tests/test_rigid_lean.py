@@ -117,9 +117,8 @@ def test_renormalized_quaternions_stay_unit_on_the_lean_path():
 @pytest.mark.parametrize("make", [
     lambda rb: RigidScene(rb, [RigidGravity(), RigidSprings([0], [[0.0, 0, 0]], [-1], [[0.0, 0, 1]], 10.0)]),
     lambda rb: RigidScene(rb, [PointForce([0], [[0.0, 0.0, 1.0]], [1.0, 0.0, 0.0])]),
-    lambda rb: RigidScene(rb, [RigidGravity()], quaternions="exponential"),
     lambda rb: RigidScene(rb, [RigidGravity(), type("MyRenormalize", (QuaternionRenormalize,), {})()]),
-], ids=["springs", "point force", "exponential map", "a subclass of a stage"])
+], ids=["springs", "point force", "a subclass of a stage"])
 def test_scenes_the_lean_path_does_not_cover_run_the_readable_one(make):
     assert make(_bodies())._lean_plan is None
 
@@ -128,7 +127,7 @@ def test_many_bodies_and_other_methods_run_the_readable_path():
     assert RigidScene(_bodies(LEAN_MAX_BODIES + 1), [RigidGravity()])._lean_plan is None
     scene = RigidScene(_bodies(), [RigidGravity()])
     readable = object()
-    for name in ("verlet", "implicit_midpoint", "dopri5"):
+    for name in ("verlet", "dopri5"):      # (the exp map and the implicit methods: tests/test_rigid_lean_expmap.py)
         assert scene._lean_plan.advance(get_method(name), [0, 0], readable) is None
 
 

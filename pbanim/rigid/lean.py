@@ -27,7 +27,9 @@ m g, c_v, c_ω               ``f0 … f2``, ``cv``, ``cw``       per body, folde
 When: :class:`pbanim.rigid.RigidScene` takes this path for a scene of at most :data:`LEAN_MAX_BODIES` bodies
 whose force effects are :class:`~pbanim.rigid.RigidGravity`, :class:`~pbanim.rigid.LinearDrag` and
 :class:`~pbanim.rigid.AngularDrag` only, with no constraint effect and no post-step stage but the
-renormalization (``quaternions="renormalize"`` or ``"none"``), stepped by one of :data:`LEAN_METHODS`;
+renormalization (``quaternions="renormalize"`` or ``"none"``), stepped by one of :data:`LEAN_METHODS`
+(implicit Euler and implicit midpoint, :data:`FLOAT_RATE_METHODS`, run their own Newton step on these
+float rates; ``quaternions="exponential"`` runs the float exponential map of :mod:`pbanim.rigid.lean_expmap`);
 any other scene, or ``scene.lean_path = False``, runs the readable vectorized path. A step that divides
 by zero (a quaternion collapsed to 0 in a diverging run) is handed to the readable path, which names
 the divergence. The two paths agree to roundoff (``tests/test_rigid_lean.py``, ORACLES C1, C3).
@@ -46,29 +48,35 @@ from ..contracts import Obj, contract
 from .domain import _SAFE
 from .effects import AngularDrag, LinearDrag, QuaternionRenormalize, RigidGravity
 
-__all__ = ["LEAN_MAX_BODIES", "LEAN_METHODS", "lean_plan"]
+__all__ = ["LEAN_MAX_BODIES", "LEAN_METHODS", "FLOAT_RATE_METHODS", "lean_plan"]
 
 #: Up to this many bodies a scene steps on floats: the float step grows as N (a few µs per body and
 #: right-hand side), the vectorized one barely; they cross near N = 25 (one RK4 step with gravity).
 LEAN_MAX_BODIES = 16
 #: The methods of the lean path (explicit chains of stages, and symplectic Euler).
 LEAN_METHODS = ("euler", "midpoint", "rk4", "symplectic_euler")
+#: The implicit methods whose Newton iterations (forward-difference Jacobian: n + 1 evaluations per matrix)
+#: call the float rates through an array wrapper; the method's own step, unchanged.
+FLOAT_RATE_METHODS = ("implicit_euler", "implicit_midpoint")
 
 
 @contract(scene=Obj("pbanim.rigid.scene:RigidScene"))
 def lean_plan(scene) -> "LeanRigid | None":
     """The lean plan of a :class:`~pbanim.rigid.RigidScene`, or None when the scene does not qualify (see the
-    module docstring); built once, when the scene is.
+    module docstring); built once, when the scene is. A scene with ``quaternions="exponential"`` gets the
+    float exponential map of :mod:`pbanim.rigid.lean_expmap`.
 
     >>> from pbanim.rigid import RigidBodies, RigidGravity, RigidScene, RigidSprings
     >>> rb = RigidBodies(1.0, [1.0, 2.0, 3.0])
     >>> lean_plan(RigidScene(rb, [RigidGravity()])) is not None
     True
-    >>> lean_plan(RigidScene(rb, [RigidGravity()], quaternions="exponential")) is None
+    >>> type(lean_plan(RigidScene(rb, [RigidGravity()], quaternions="exponential"))).__name__
+    'LeanExpMap'
+    >>> lean_plan(RigidScene(RigidBodies(np.ones(LEAN_MAX_BODIES + 1), [1.0, 2.0, 3.0]))) is None
     True
     """
     rb = scene.system
-    if rb.N > LEAN_MAX_BODIES or scene.quaternions == "exponential" or scene._constraint:
+    if rb.N > LEAN_MAX_BODIES or scene._constraint:
         return None
     if any(type(e) is not QuaternionRenormalize for e in scene._post):
         return None
@@ -83,13 +91,18 @@ def lean_plan(scene) -> "LeanRigid | None":
             cw += e.c
         else:
             return None
+    if scene.quaternions == "exponential":
+        from .lean_expmap import LeanExpMap
+
+        return LeanExpMap(rb, Q0, cv, cw, renormalize=bool(scene._post))
     return LeanRigid(rb, Q0, cv, cw, renormalize=bool(scene._post))
 
 
-def _body_rates(W: float, inv_I: tuple, F: tuple, cv: float, cw: float):
+def _body_rates(W: float, inv_I: tuple, F: tuple, cv: float, cw: float, omega: bool = False):
     """ẏ of one body as a function of its 13 floats (x, q, P, L), the constants bound here (see the module
     docstring). A drag coefficient of 0 adds no term (the readable path has no such effect); a diagonal
-    I⁻¹_body skips its zero products (a·u + 0·v = a·u exactly for finite u, v)."""
+    I⁻¹_body skips its zero products (a·u + 0·v = a·u exactly for finite u, v). ``omega``: the 12 floats
+    (ẋ, ω, Ṗ, L̇) instead, ω in place of q̇ (what the exponential map steps, :mod:`pbanim.rigid.lean_expmap`)."""
     a00, a01, a02, a10, a11, a12, a20, a21, a22 = inv_I
     f0, f1, f2, t0, t1, t2 = F
     linear, angular = cv != 0.0, cw != 0.0
@@ -119,6 +132,10 @@ def _body_rates(W: float, inv_I: tuple, F: tuple, cv: float, cw: float):
             f0_, f1_, f2_ = f0 - cv * v0, f1 - cv * v1, f2 - cv * v2
         else:
             f0_, f1_, f2_ = f0, f1, f2
+        if omega:
+            if angular:
+                return v0, v1, v2, o0, o1, o2, f0_, f1_, f2_, t0 - cw * o0, t1 - cw * o1, t2 - cw * o2
+            return v0, v1, v2, o0, o1, o2, f0_, f1_, f2_, t0, t1, t2
         if angular:
             return (v0, v1, v2,
                     -0.5 * (o0 * x + o1 * yq + o2 * z), 0.5 * (o0 * w + o1 * z - o2 * yq),
@@ -129,6 +146,57 @@ def _body_rates(W: float, inv_I: tuple, F: tuple, cv: float, cw: float):
                 0.5 * (o1 * w + o2 * x - o0 * z), 0.5 * (o2 * w + o0 * yq - o1 * x),
                 f0_, f1_, f2_, t0, t1, t2)
     return rates
+
+
+def chain_stepper(tableau, rates, unit=None):
+    """``step(y, h) -> y₁`` on lists of floats for a chain tableau (every stage uses the one before:
+    k_{i+1} = rates(y + h a_{i+1} k_i)), or None for another tableau; ``unit(y₁)`` (in place), when given, is
+    applied to the result. The weights are grouped as :func:`pbanim.ode.tableau.make_rk_step` groups them:
+    y + Σ_groups (Σ k_j)(h b)."""
+    s = tableau.stages
+    if not all(len(tableau.rows[i]) == 1 and tableau.rows[i][0][0] == i - 1 for i in range(1, s)):
+        return None
+    chain = tuple(float(tableau.rows[i][0][1]) for i in range(1, s))
+    groups: dict = {}
+    for j, b in enumerate(tableau.B):
+        if b != 0:
+            groups.setdefault(float(b), []).append(j)
+    groups = tuple((b, tuple(js)) for b, js in groups.items())
+    if len(groups) == 2 and all(len(js) == 2 for _, js in groups):   # RK4: (k₀ + k₃)(h/6) + (k₁ + k₂)(h/3)
+        (b, (i0, i1)), (c, (j0, j1)) = groups
+        a1, a2, a3 = chain
+
+        def step(y: list, h: float) -> list:
+            k0 = rates(y)
+            ha = h * a1
+            k1 = rates([u + d * ha for u, d in zip(y, k0)])
+            ha = h * a2
+            k2 = rates([u + d * ha for u, d in zip(y, k1)])
+            ha = h * a3
+            k3 = rates([u + d * ha for u, d in zip(y, k2)])
+            k = (k0, k1, k2, k3)
+            hb, hc = h * b, h * c
+            y1 = [u + ((p + q) * hb + (r + v) * hc) for u, p, q, r, v in zip(y, k[i0], k[i1], k[j0], k[j1])]
+            return unit(y1) if unit else y1
+        return step
+
+    def step(y: list, h: float) -> list:
+        last = rates(y)
+        k = [last]
+        for a in chain:
+            ha = h * a
+            last = rates([u + d * ha for u, d in zip(y, last)])
+            k.append(last)
+        inc = None
+        for b, js in groups:
+            part = k[js[0]]
+            for j in js[1:]:
+                part = [p + q for p, q in zip(part, k[j])]
+            hb = h * b
+            inc = [p * hb for p in part] if inc is None else [i + p * hb for i, p in zip(inc, part)]
+        y1 = [u + i for u, i in zip(y, inc)]
+        return unit(y1) if unit else y1
+    return step
 
 
 class LeanRigid:
@@ -175,53 +243,8 @@ class LeanRigid:
         return y
 
     def stepper(self, tableau):
-        """``step(y, h) -> y₁`` on lists for a chain tableau (see the module docstring), or None. The weights
-        are grouped as :func:`pbanim.ode.tableau.make_rk_step` groups them: y + Σ_groups (Σ k_j)(h b)."""
-        s = tableau.stages
-        if not all(len(tableau.rows[i]) == 1 and tableau.rows[i][0][0] == i - 1 for i in range(1, s)):
-            return None
-        chain = tuple(float(tableau.rows[i][0][1]) for i in range(1, s))
-        groups: dict = {}
-        for j, b in enumerate(tableau.B):
-            if b != 0:
-                groups.setdefault(float(b), []).append(j)
-        groups = tuple((b, tuple(js)) for b, js in groups.items())
-        rates, unit = self.rates, (self.unit if self.renormalize else None)
-        if len(groups) == 2 and all(len(js) == 2 for _, js in groups):   # RK4: (k₀ + k₃)(h/6) + (k₁ + k₂)(h/3)
-            (b, (i0, i1)), (c, (j0, j1)) = groups
-            a1, a2, a3 = chain
-
-            def step(y: list, h: float) -> list:
-                k0 = rates(y)
-                ha = h * a1
-                k1 = rates([u + d * ha for u, d in zip(y, k0)])
-                ha = h * a2
-                k2 = rates([u + d * ha for u, d in zip(y, k1)])
-                ha = h * a3
-                k3 = rates([u + d * ha for u, d in zip(y, k2)])
-                k = (k0, k1, k2, k3)
-                hb, hc = h * b, h * c
-                y1 = [u + ((p + q) * hb + (r + v) * hc) for u, p, q, r, v in zip(y, k[i0], k[i1], k[j0], k[j1])]
-                return unit(y1) if unit else y1
-            return step
-
-        def step(y: list, h: float) -> list:
-            last = rates(y)
-            k = [last]
-            for a in chain:
-                ha = h * a
-                last = rates([u + d * ha for u, d in zip(y, last)])
-                k.append(last)
-            inc = None
-            for b, js in groups:
-                part = k[js[0]]
-                for j in js[1:]:
-                    part = [p + q for p, q in zip(part, k[j])]
-                hb = h * b
-                inc = [p * hb for p in part] if inc is None else [i + p * hb for i, p in zip(inc, part)]
-            y1 = [u + i for u, i in zip(y, inc)]
-            return unit(y1) if unit else y1
-        return step
+        """``step(y, h) -> y₁`` on lists for a chain tableau (see the module docstring), or None."""
+        return chain_stepper(tableau, self.rates, self.unit if self.renormalize else None)
 
     def kick_drift(self, y: list, h: float) -> list:
         """Symplectic Euler as :class:`pbanim.scene.Scene` runs it: P₁, L₁ = P, L + h (F, τ)(y₀), then
@@ -240,6 +263,8 @@ class LeanRigid:
         divides by zero."""
         from ..ode.methods import TABLEAUX
 
+        if method.name in FLOAT_RATE_METHODS:
+            return self._float_rates_advance(method, counter, readable)
         if method.name == "symplectic_euler":
             step, nfev = self.kick_drift, 1
         elif method.name in LEAN_METHODS and method.name in TABLEAUX:
@@ -260,4 +285,21 @@ class LeanRigid:
         # float arithmetic raises on no non-finite state (an overflow is inf, 0/0 goes to the readable step):
         # the driver may check the stored states once per block (the first bad step named as at each step)
         advance.nan_safe = True
+        return advance
+
+    def _float_rates_advance(self, method, counter: list, readable):
+        """``advance`` of an implicit method (:data:`FLOAT_RATE_METHODS`): the method's own step and Newton
+        solve, f(t, y) the float rates behind an array (13N floats in, an array out), then q ← q/|q|."""
+        rates, unit, array, method_step, split = self.rates, self.unit, np.array, method.step, self.split
+
+        def fun(t, y):
+            counter[0] += 1
+            return array(rates(y.tolist()))
+
+        def advance(t, y, h):
+            try:
+                y1 = method_step(fun, t, y, h, split=split)
+            except ZeroDivisionError:                 # |q| = 0: the readable step names the divergence
+                return readable(t, y, h)
+            return array(unit(y1.tolist())) if self.renormalize else y1
         return advance

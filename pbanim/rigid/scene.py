@@ -158,7 +158,8 @@ class RigidScene(Scene):
 
     A scene of at most :data:`pbanim.rigid.lean.LEAN_MAX_BODIES` bodies under gravity and drag steps on
     plain floats (:mod:`pbanim.rigid.lean`: the same equations, equal to roundoff, some 20× faster for one
-    body); set ``scene.lean_path = False`` to run the readable vectorized step instead.
+    body; with ``quaternions="exponential"``, :mod:`pbanim.rigid.lean_expmap`); set ``scene.lean_path =
+    False`` to run the readable vectorized step instead.
 
     Examples
     --------
@@ -258,6 +259,8 @@ class RigidScene(Scene):
             for e in post:
                 y = e.post_step(t + h, y, h)
             return y
+        if self._lean_plan and self.lean_path:        # a small scene: the same exponential map on floats
+            return self._lean_plan.advance(m, counter, advance)
         return advance
 
     def _splitting_advance(self, counter: list):
