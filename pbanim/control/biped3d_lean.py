@@ -137,7 +137,7 @@ def _kinematics(ws, q) -> dict:
     return {"R": R, "o": o, "c": cm, "S": S}
 
 
-_I1, _I2 = [1, 2, 0], [2, 0, 1]
+_I1, _I2 = np.array([1, 2, 0]), np.array([2, 0, 1])
 
 
 def _cross(u, v):
@@ -149,7 +149,10 @@ def jacobians_at(S, P, mask):
     """J (m, 3, nv) of world points P (m, 3): column v is (v_v + a_v × P) where the point moves with it."""
     ax, ay, az = S[0], S[1], S[2]
     Px, Py, Pz = P[:, 0:1], P[:, 1:2], P[:, 2:3]
-    J = np.stack([S[3] + (ay * Pz - az * Py), S[4] + (az * Px - ax * Pz), S[5] + (ax * Py - ay * Px)], axis=1)
+    J = np.empty((P.shape[0], 3, S.shape[1]))
+    np.add(S[3], ay * Pz - az * Py, out=J[:, 0])
+    np.add(S[4], az * Px - ax * Pz, out=J[:, 1])
+    np.add(S[5], ax * Py - ay * Px, out=J[:, 2])
     J *= mask[:, None, :]
     return J
 
@@ -281,7 +284,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     nv1 = H.shape[0] + 1
     K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
     if K is not None:
-        H.flat[::nv1] += h * K                                 # H + hK (H is this step's own array)
+        H.reshape(-1)[::nv1] += h * K                          # H + hK (H is this step's own array: a view)
     cho = _cholesky(H)
     f = tau0 - bias(ws, kin, qd) if K is None else tau0 - K * qd - bias(ws, kin, qd)
     u = qd + h * dpotrs(cho, f)[0]                             # q̇ + h (H + hK)⁻¹ (τ₀ − K q̇ − C)
