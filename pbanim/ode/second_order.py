@@ -82,6 +82,7 @@ class SecondOrderJacobian:
         self.n = jx.shape[0]
         self.shape = (2 * self.n, 2 * self.n)
         self.band = band if self.sparse else None               # S factored by a banded LU (see factor)
+        self.plan = None                                        # its band placement (band_plan), shared
 
     def tocsr(self) -> sp.csr_matrix:
         """The full 2n × 2n J (sparse)."""
@@ -137,14 +138,29 @@ class SecondOrderJacobian:
 
     def _banded(self, sigma):
         """The banded solver of S: from the data of Jx and Jv when they share one CSC pattern (S.data =
-        −σ Jv.data − Jx.data, σ² added to the diagonal row of the band), else from S itself."""
+        −σ Jv.data − Jx.data, σ² added to the diagonal row of the band; their places in the band from
+        ``plan``, :func:`_band_plan`, computed once per pattern), else from S itself."""
         jx, jv = self.jx, self.jv
-        if not (jx.nnz == jv.nnz and np.array_equal(jx.indptr, jv.indptr) and np.array_equal(jx.indices, jv.indices)):
-            S = self.schur(sigma).tocoo()
-            return _banded_solver(S.row, S.col, S.data, 0.0, self.n, self.band)
-        if getattr(self, "_rc", None) is None:
-            self._rc = (jx.indices, np.repeat(np.arange(self.n), np.diff(jx.indptr)))
-        return _banded_solver(*self._rc, -sigma * jv.data - jx.data, sigma * sigma, self.n, self.band)
+        plan = self.band_plan()
+        if plan is None:
+            S = self.schur(sigma).tocsc()
+            return _banded_solver(_band_plan(S.indices, S.indptr, self.n, self.band), S.data, 0.0, self.n,
+                                  self.band)
+        return _banded_solver(plan, -sigma * jv.data - jx.data, sigma * sigma, self.n, self.band)
+
+    @contract()
+    def band_plan(self):
+        """The places of Jx's and Jv's shared CSC entries in the banded LU's array (:func:`_band_plan`), computed
+        once and kept (``plan``; a caller with a fixed pattern may hand one Jacobian's plan to the next); None
+        without a band or when the two blocks do not share one pattern."""
+        jx, jv = self.jx, self.jv
+        if self.plan is not None and len(self.plan[0]) == jx.nnz:
+            return self.plan
+        if self.band is None or not (jx.nnz == jv.nnz and np.array_equal(jx.indptr, jv.indptr)
+                                     and np.array_equal(jx.indices, jv.indices)):
+            return None
+        self.plan = _band_plan(jx.indices, jx.indptr, self.n, self.band)
+        return self.plan
 
     def __repr__(self) -> str:
         kind = "sparse" if self.sparse else "dense"
@@ -153,17 +169,33 @@ class SecondOrderJacobian:
         return f"SecondOrderJacobian(n = {self.n}, {kind})"
 
 
-def _banded_solver(row, col, data, diag, n, b):
-    """r ↦ S⁻¹r by LAPACK's banded LU with partial pivoting (gbtrf/gbtrs) of the sparse S (COO) whose entries
-    lie within ``b`` of the diagonal (a grid ordering: the bend springs of an n-particle row reach 2n particles);
-    for a band ≪ n it costs n b² against SuperLU's fill of the same band (measured on the N = 16 cloth, 762
-    unknowns, b = 98: 4.2 ms against 6.8 ms). S = (row, col, data) plus ``diag`` on the diagonal. Raises
-    ``RuntimeError`` for a singular S, as SuperLU does."""
-    if len(row) and int(np.abs(row - col).max()) > b:
+def _band_plan(indices, indptr, n: int, b: int):
+    """(positions, diagonal positions) of a CSC pattern's entries in the flattened (Fortran order) band
+    array of LAPACK's gbtrf with kl = ku = b (row 2b + i − j of column j), computed once per pattern;
+    ``InvalidInput`` when an entry lies outside the half-bandwidth b.
+
+    >>> _band_plan(np.array([0, 1, 0, 1]), np.array([0, 2, 4]), 2, 1)[0].tolist()    # 2 × 2 full, b = 1
+    [2, 3, 5, 6]
+    """
+    indices, indptr = np.asarray(indices, dtype=np.intp), np.asarray(indptr, dtype=np.intp)
+    col = np.repeat(np.arange(n), np.diff(indptr))
+    if len(col) and int(np.abs(indices - col).max()) > b:
         raise InvalidInput(f"SecondOrderJacobian: an entry of S lies outside the half-bandwidth {b}")
-    ab = np.zeros((3 * b + 1, n), dtype=np.result_type(data, diag))
-    ab[2 * b + row - col, col] = data                         # gbtrf's layout, b extra rows for the pivots
-    ab[2 * b] += diag
+    rows = 3 * b + 1
+    return (2 * b + indices - col) + col * rows, 2 * b + np.arange(n) * rows
+
+
+def _banded_solver(plan, data, diag, n, b):
+    """r ↦ S⁻¹r by LAPACK's banded LU with partial pivoting (gbtrf/gbtrs) of the sparse S (CSC data placed by
+    ``plan``, :func:`_band_plan`) whose entries lie within ``b`` of the diagonal (a grid ordering: the bend
+    springs of an n-particle row reach 2n particles); for a band ≪ n it costs n b² against SuperLU's fill of
+    the same band (measured on the N = 16 cloth, 762 unknowns, b = 98: 4.2 ms against 6.8 ms). S = data plus
+    ``diag`` on the diagonal. Raises ``RuntimeError`` for a singular S, as SuperLU does."""
+    pos, dpos = plan
+    flat = np.zeros((3 * b + 1) * n, dtype=np.result_type(data, diag))
+    flat[pos] = data
+    flat[dpos] += diag
+    ab = flat.reshape((3 * b + 1, n), order="F")              # gbtrf's layout, b extra rows for the pivots
     gbtrf, gbtrs = sla.get_lapack_funcs(("gbtrf", "gbtrs"), (ab,))
     lu, piv, info = gbtrf(ab, b, b, overwrite_ab=1)
     if info > 0:
@@ -172,5 +204,5 @@ def _banded_solver(row, col, data, diag, n, b):
     def solve(r):
         if np.iscomplexobj(r) and not np.iscomplexobj(lu):
             return solve(r.real) + 1j * solve(r.imag)
-        return gbtrs(lu, b, b, r.astype(lu.dtype, copy=True), piv)[0]
+        return gbtrs(lu, b, b, r.astype(lu.dtype, copy=True), piv, overwrite_b=1)[0]
     return solve
