@@ -35,7 +35,7 @@ from .simulate import quat_log, simulate
 from .specs import OutputTriples, ParameterNames, Quaternion, u_size
 from .trajectory import Trajectory
 
-__all__ = ["output_vector", "analytic_jacobian", "fd_jacobian"]
+__all__ = ["output_vector", "analytic_jacobian", "fd_jacobian", "fd_differences"]
 
 
 @contract(tr=Obj(Trajectory), outputs=OutputTriples("tr"), reference=Opt(Seq(Opt(Quaternion()))))
@@ -72,6 +72,17 @@ def fd_jacobian(scene, names, u, t_end, outputs, *, delta: float = 1e-4, richard
     ``delta`` is the step (times max(1, |u_k|) when ``relative``). Every perturbed run must have the same
     number of impacts as the nominal one.
     """
+    if not richardson:
+        return fd_differences(scene, names, u, t_end, outputs, [delta], h=h, relative=relative)[0]
+    D1, D2 = fd_differences(scene, names, u, t_end, outputs, [delta, delta / 2], h=h, relative=relative)
+    return (4.0 * D2 - D1) / 3.0
+
+
+@contract(scene=Obj(DesignScene), names=ParameterNames("scene"), u=Opt(Array((u_size(),))), t_end=Real(),
+          outputs=OutputTriples("scene"), deltas=Seq(Real(gt=0), min_len=1, max_len=64), h=Real(gt=0), relative=Flag())
+def fd_differences(scene, names, u, t_end, outputs, deltas, *, h: float = 0.005, relative: bool = True) -> list:
+    """[D(δ) for δ in deltas]: the plain centred differences of :func:`fd_jacobian` at several steps, the
+    nominal run S(t, u) (the orientation references and the impact count) simulated once for all of them."""
     u = np.asarray(scene.vector(names) if u is None else u, dtype=float)
     times = sorted({t for _, t, _ in outputs if t < t_end})
     base = simulate(scene, t_end, names, u, times=times, h=h, sensitivities=False, warn=False)
@@ -86,8 +97,4 @@ def fd_jacobian(scene, names, u, t_end, outputs, *, delta: float = 1e-4, richard
                                f"{len(tr.impacts)}); S is not smooth there: use a smaller delta")
         return output_vector(tr, outputs, refs)
 
-    D1 = central_jacobian(S, u, eps=delta, relative=relative)
-    if not richardson:
-        return D1
-    D2 = central_jacobian(S, u, eps=delta / 2, relative=relative)
-    return (4.0 * D2 - D1) / 3.0
+    return [central_jacobian(S, u, eps=float(d), relative=relative) for d in deltas]

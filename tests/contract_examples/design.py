@@ -124,6 +124,8 @@ CALLS.update({
     "pbanim.design.check.analytic_jacobian": lambda: {"outputs": [(0, 0.5, "position")]},
     "pbanim.design.check.fd_jacobian": lambda: {"scene": _scene(), "t_end": 0.6, "h": 0.1,
                                                 "outputs": [(0, 0.6, "position")]},
+    "pbanim.design.check.fd_differences": lambda: {"scene": _scene(), "t_end": 0.6, "h": 0.1, "deltas": [1e-4],
+                                                   "outputs": [(0, 0.6, "position")]},
     "pbanim.design.shooting.sketch_objective": lambda: {"points": _SKETCH, "tr_pos": lambda t: np.zeros(3)},
     "pbanim.design.shooting.single_shooting": lambda: {"scene": _scene(), "goals": _goal(), "t_end": 0.6, "h": 0.1,
                                                        "maxiter": 5, "sketch": _SKETCH},
