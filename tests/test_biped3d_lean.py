@@ -154,3 +154,85 @@ def test_the_lean_contact_solve_is_the_library_pgs_bit_for_bit():
             z0, res0, sweeps0 = pgs_box_friction(A, b, mu, max_iter=300, tol=1e-5, warm_start=warm)
             assert np.array_equal(z, z0) and res == res0 and sweeps == sweeps0
             assert np.all(z[0::3] >= 0) and np.all(np.abs(z[1::3]) <= mu * z[0::3] + 1e-15)
+
+
+def test_the_contact_sweep_skips_and_stops_exactly_as_the_readable_sweep():
+    # ORACLES D20, F20: the float sweep visits one contact at a time, skips a zero tangent under a zero bound
+    # and stops the residual at the first value above the exit threshold; against the readable array sweep,
+    # bit for bit: contacts that separate (f = 0), μ = 0 on some contacts, warm starts, and runs stopped at a
+    # cap of 1, 3 and 40 sweeps (the residual then reported whole, as the readable sweep reports it)
+    from pbanim.lcp.box import _box_residual, _box_sweeps
+    from pbanim.lcp.box_lean import box_residual_floats, box_sweeps_floats, project_impulses
+
+    rng = np.random.default_rng(21)
+    zeros_seen = skipped_mu = 0
+    for m in range(1, 9):
+        J = rng.normal(size=(3 * m, 2 * m + 3))
+        A = J @ J.T + 1e-6 * np.eye(3 * m)
+        b = rng.normal(size=3 * m)
+        b[0::3] += rng.choice([0.0, 3.0], size=m)                  # some contacts pulled apart: f = 0
+        mu = np.where(rng.uniform(size=m) < 0.3, 0.0, rng.uniform(0.2, 1.0, m))
+        skipped_mu += int(np.sum(mu == 0))
+        for warm in (None, 2 * rng.normal(size=3 * m)):
+            for cap, tol in ((1, 1e-300), (3, 1e-300), (40, 1e-300), (500, 1e-7)):
+                z0 = project_impulses(np.zeros(3 * m) if warm is None else warm.copy(), mu)
+                za, ra, ka = _box_sweeps(A, b, mu, np.diag(A).copy(), z0.copy(), cap, tol)
+                zb, rb, kb = box_sweeps_floats(A, b, mu, np.diag(A).copy(), z0.copy(), cap,
+                                               tol * max(1.0, float(np.abs(b).max())))
+                assert ka == kb and ra == rb and np.array_equal(za, zb)
+                zeros_seen += int(np.sum(zb[0::3] == 0))
+        # the residual with a stop: the whole value when it is at most the stop, else a value above the stop
+        z, w = rng.normal(size=3 * m), rng.normal(size=3 * m)
+        z[0::3] = np.abs(z[0::3])
+        full = _box_residual(z, w, mu)
+        for stop in (0.0, 0.5 * full, full, 2 * full):
+            r = box_residual_floats(z.tolist(), w.tolist(), mu.tolist(), stop)
+            assert (r == full) if full <= stop else (stop < r <= full)
+    assert zeros_seen > 0 and skipped_mu > 0                      # the skipped rows were there
+
+
+def test_the_contact_frames_follow_the_terrain_normals():
+    # ORACLES F20: the lean step keeps the contact frames (n, t₁, t₂) per set of normals; a step on a tilted
+    # plane after one on the flat, then the flat again, equals the readable step each time (a stale frame would
+    # put the impulses along the wrong normal: errors of order the impulse, not ulps)
+    from pbanim.articulated.contact import Plane
+
+    fast, slow = _steps()
+    rng = np.random.default_rng(8)
+    q, qd = standing_state3d(height=-1e-3)
+    qd = qd + 0.2 * rng.normal(size=18)
+    tau = 10 * rng.normal(size=18)
+    tilt = np.array([np.sin(0.1), 0.0, np.cos(0.1)])
+    for terrain in (Plane((0.0, 0.0, 1.0), 0.0), Plane(tilt, 0.0), Plane((0.0, 0.0, 1.0), 0.0)):
+        fast.terrain = slow.terrain = terrain
+        (qf, uf), (qs, us) = fast.step(q, qd, 2e-3, tau), slow.step(q, qd, 2e-3, tau)
+        assert fast.last is not None and np.array_equal(fast.last["contacts"], slow.last["contacts"])
+        # roundoff of the two solves (Cholesky, LU) through the sweeps: measured 4e-14 in q̇ on the tilted plane
+        assert np.abs(qf - qs).max() <= 64 * EPS and np.abs(uf - us).max() <= 1e-12 * (1 + np.abs(us).max())
+    assert len(fast._plan.basis) == 2                            # two sets of normals seen, two frames kept
+
+
+def test_the_controller_follows_a_heading_change_and_a_new_phase():
+    # ORACLES F20: Simbicon3D keeps R_z(ψ̄) and the torso target, and its servo table per (stance, phase); after
+    # the heading moves, or the machine changes state, its torques equal a fresh controller's in the same state
+    from pbanim.control.simbicon3d import Simbicon3D
+
+    ws, _ = _steps()
+    rng = np.random.default_rng(9)
+    q, qd = standing_state3d(speed=0.5)
+    q[7:] += 0.1 * rng.normal(size=12)
+    qd = qd + 0.2 * rng.normal(size=18)
+    kin = ws.kinematics(q)
+    used = Simbicon3D(ws)
+    used.torques(0.0, q, qd, (), kin, 2e-3)
+    for heading, start, t in ((0.3, "R0", 0.01), (0.3, "R1", 0.35)):
+        used.heading = heading
+        fresh = Simbicon3D(ws, heading=heading, start=start)
+        fresh.fsm.entered = used.fsm.entered if start == "R0" else t
+        tau, k = used.torques(t, q, qd, (), kin, 2e-3)
+        assert used.fsm.state == start
+        tau0, k0 = fresh.torques(t, q, qd, (), kin, 2e-3)
+        assert np.array_equal(tau, tau0) and np.array_equal(k, k0)
+    # the heading moved the swing hip's torques (the cache did not hide it)
+    assert not np.array_equal(used.torques(0.36, q, qd, (), kin, 2e-3)[0],
+                              Simbicon3D(ws, start="R1").torques(0.36, q, qd, (), kin, 2e-3)[0])
