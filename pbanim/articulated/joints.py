@@ -52,6 +52,7 @@ from scipy.linalg.lapack import dpotrf as _potrf, dpotrs as _potrs
 from ..scene import Effect
 from ..rigid.domain import RigidState
 from .joint_rows import ROWS_PER_JOINT, JointRowPlan
+from .joints_lean import lean_joints
 from .specs import UnitAxis
 
 __all__ = ["RigidJoint", "RigidJoints", "JOINTS"]
@@ -145,6 +146,8 @@ class RigidJoints(Effect):
         self.projection = bool(projection)
         self._projection_args = (float(projection_tol), int(projection_max_iter))
         self._order = None
+        self._lean = None
+        self.lean_path = True           # False: every force evaluation takes the readable path
         self.last_lambda = None
         self.last_limit_lambda = None
 
@@ -188,6 +191,7 @@ class RigidJoints(Effect):
         # without them skips the loops over the joints that would find none
         self._motored = any(j.motor for j in self.joints)
         self._unilateral = any(j.limits is not None or j.motor_speed is not None for j in self.joints)
+        self._lean = lean_joints(self)              # None: the readable path (joints_lean says when)
 
     # -- rows -----------------------------------------------------------------------------------
     @contract(y=_Y, sparse=Flag(), returns=finite_result)
@@ -257,11 +261,20 @@ class RigidJoints(Effect):
 
     @contract(t=_T, y=_Y, Q=Array(("self.system.N", 6)), returns=finite_result)
     def constrain(self, t: float, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
-        s = self.system
+        if self._lean is not None and self.lean_path and self.solver == "dense":
+            out = self._lean.constrain(y, Q)         # ball and hinge rows on preallocated arrays (joints_lean)
+            if out is not None:
+                return out
         if self._motored:
             Q = self._motors(y, Q)
         if self.solver == "linear":
             return self._constrain_linear(y, Q)
+        return self._constrain_dense(y, Q)
+
+    def _constrain_dense(self, y, Q):
+        """The readable dense solve: the rows, J W Jᵀ, λ by Cholesky (least squares for dependent rows),
+        limits and velocity motors by the LCP core."""
+        s = self.system
         vel = s.velocities(y)
         C, J, jdot, Cdot = self._plan.evaluate(s, y, velocities=vel)
         Wb, WQ = self._free_acceleration(y, Q, vel[1])
@@ -359,6 +372,9 @@ class RigidJoints(Effect):
 
     @contract(t=_T, y=_Y, returns=finite_result)
     def diagnostics(self, t: float, y: np.ndarray) -> dict:
-        C, _, _, Cdot = self.rows(y)
+        if self._lean is not None and self.lean_path:
+            C, Cdot = self._lean.errors(y)           # the same rows on the lean plan's arrays
+        else:
+            C, _, _, Cdot = self.rows(y)
         return {"joint_error": float(np.max(np.abs(C), initial=0.0)),
                 "joint_velocity_error": float(np.max(np.abs(Cdot), initial=0.0))}
