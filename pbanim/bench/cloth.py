@@ -96,6 +96,7 @@ def _budgeted(f, budget):
         if _clock() - start > budget:
             raise OverBudget
         return f(*a)
+    g.autonomous = getattr(f, "autonomous", False)       # RODAS4 skips ∂f/∂t (it took one more f a step)
     return g
 
 

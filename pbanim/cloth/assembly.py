@@ -297,6 +297,9 @@ class _SpringPass:
         return fj.matrix(np.take(srcK, self.gather), None if srcD is None else np.take(srcD, self.gather))
 
 
+_SpringPass.rhs.autonomous = True     # f does not depend on t: pbanim's Rosenbrock skips its ∂f/∂t difference
+
+
 def _spring_pass(cloth):
     """The cloth's :class:`_SpringPass` (built once, kept on the cloth), or None when the cloth is not all
     springs (:func:`pbanim.cloth.step_system.spring_system`)."""
