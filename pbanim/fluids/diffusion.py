@@ -38,12 +38,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contracts import Choice, Int, Obj, Opt, Real, contract
+from ..contracts import Choice, Flag, Int, Obj, Opt, Real, contract
 from ..errors import InvalidInput, check_result
 from .poisson import SolveInfo, _cg, _solve, _spectral, check_method_fits, relax
 from .specs import MAX_ITER, MAX_SWEEPS, Cells, Velocity, finite_fields, quiet
 
-__all__ = ["DIFFUSION_METHODS", "FaceOperator", "diffuse_scalar", "diffuse_velocity", "diffusion_coefficient"]
+__all__ = ["DIFFUSION_METHODS", "FaceOperator", "SparseFaceOperator", "diffuse_scalar", "diffuse_velocity", "diffusion_coefficient"]
 
 DIFFUSION_METHODS = ("gauss_seidel", "jacobi", "cg", "fft")
 
@@ -98,6 +98,47 @@ class FaceOperator:
         return np.where(self.closed, 0.0, self.a * self.laplacian(z, walls=True))
 
 
+class SparseFaceOperator:
+    """The lean twin of a :class:`FaceOperator` (its linear part): the same matrix, read off the operator by
+    2d + 1 probes and applied as one sparse product (a CG iteration's A p).
+
+    Probe k is the indicator of the faces of colour k, colour = Σₐ (a + 1) idxₐ mod (2d + 1): the 2d + 1 faces of
+    a stencil (itself and ±eₐ) have distinct colours, so row r of A(probe k) is the one entry of row r in the
+    column of that colour. The matrix is checked against the operator on a random field before use (a
+    periodic axis whose length is no multiple of 2d + 1 makes two stencil faces share a colour: then ``ok`` is
+    False and the caller keeps the readable operator). Equal to it to roundoff (ORACLES E25).
+    """
+
+    def __init__(self, A: FaceOperator) -> None:
+        import scipy.sparse as sp
+
+        shape, d = A.diag.shape, A.diag.ndim
+        m, idx = 2 * d + 1, np.indices(A.diag.shape)
+        colour = sum((a + 1) * idx[a] for a in range(d)) % m
+        flat = np.arange(colour.size).reshape(shape)
+        rows, cols, vals = [], [], []
+        for k in range(m):
+            y = A((colour == k).astype(float))
+            for a in range(d):
+                for o in (0, 1, -1) if a == 0 else (1, -1):
+                    nb = idx.copy()
+                    nb[a] += o
+                    nb[a] %= shape[a]                  # wrapped (a wall face's neighbour outside is never read)
+                    inside = A.grid.periodic[a] | ((idx[a] + o >= 0) & (idx[a] + o < shape[a]))
+                    hit = inside & (colour[tuple(nb)] == k)
+                    rows.append(flat[hit]), cols.append(flat[tuple(nb)][hit]), vals.append(y[hit])
+        M = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(flat.size,) * 2)
+        M.sum_duplicates()
+        self.matrix, self.diag, self.shape = M, A.diag, shape
+        x = np.random.default_rng(0).standard_normal(shape)
+        self.ok = bool(np.abs(self(x) - A(x)).max() <= 64 * np.finfo(float).eps * np.abs(A(x)).max())
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        from .multigrid import _mv
+
+        return _mv(self.matrix, x.ravel()).reshape(self.shape)
+
+
 _GRID = Obj("pbanim.fluids.grid:Grid")
 _COEF = Real(ge=0)
 _H = Real(gt=0)
@@ -116,26 +157,28 @@ def diffusion_coefficient(grid, coef: float, h: float, what: str) -> float:
 
 
 def _face_operator(grid, i: int, a: float) -> tuple:
-    """(FaceOperator, its wall term) for component i and a = νΔt, made once per (i, a) and cached on the grid
-    (a run at a fixed step builds them once; at most 16 kept)."""
+    """(FaceOperator, its wall term, its :class:`SparseFaceOperator` or the operator itself when the probe
+    failed) for component i and a = νΔt, made once per (i, a) and cached on the grid (at most 16 kept)."""
     cache = grid.__dict__.setdefault("_face_cache", {})
     if (i, a) not in cache:
         if len(cache) >= 16:
             cache.clear()
         A = FaceOperator(grid, i, a)
-        cache[i, a] = (A, A.wall_term())
+        lean = SparseFaceOperator(A)
+        cache[i, a] = (A, A.wall_term(), lean if lean.ok else A)
     return cache[i, a]
 
 
 @contract(grid=_GRID, u=Velocity(), nu=_COEF, h=_H, method=Choice(DIFFUSION_METHODS), iterations=_SWEEPS, tol=_TOL,
-          max_iter=_MAX_ITER, returns=finite_fields)
+          max_iter=_MAX_ITER, lean=Flag(), returns=finite_fields)
 @quiet
 def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, iterations: int = 20,
-                     tol: float = 1e-12, max_iter: int | None = None) -> tuple[list, list]:
+                     tol: float = 1e-12, max_iter: int | None = None, lean: bool = True) -> tuple[list, list]:
     """Solve (I − νΔt ∇²) u¹ = u⁰ component by component; returns (u¹, [SolveInfo per component]).
 
     ``iterations``: sweeps of gauss_seidel / jacobi; ``tol``, ``max_iter`` (default 20·max(n) + 100): the
-    stop and the cap of cg (:class:`~pbanim.errors.ConvergenceError` past it)."""
+    stop and the cap of cg (:class:`~pbanim.errors.ConvergenceError` past it); ``lean=False``: cg applies the
+    readable :class:`FaceOperator`, not its :class:`SparseFaceOperator`."""
     if nu == 0:
         return [c.copy() for c in u], [SolveInfo(method, 0, 0.0) for _ in u]
     if method == "fft" and (grid.has_obstacles or not all(grid.periodic)):
@@ -145,13 +188,14 @@ def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, 
     a = diffusion_coefficient(grid, nu, h, "nu")
     out, infos = [], []
     for i, c in enumerate(u):
-        A, wall = _face_operator(grid, i, a)
+        A, wall, sparse = _face_operator(grid, i, a)
         r = np.where(A.closed, 0.0, c) + wall
         its = 0
         if method == "fft":
             x = _spectral(grid, r, 1.0, a)
         elif method == "cg":
-            x, its = _cg(A, r, c * grid.open[i], tol, max_iter, lambda v, A=A: v / A.diag, "diffusion cg")
+            x, its = _cg(sparse if lean else A, r, c * grid.open[i], tol, max_iter, lambda v, A=A: v / A.diag,
+                         "diffusion cg")
         else:
             x, its = relax(A, r, c * grid.open[i], method, iterations)
         res = r - A(x)
