@@ -21,7 +21,14 @@ joint j on the path from the root to i, the columns ω_j × p + v_j of the joint
 (⁰X_j S_j = (ω_j, v_j), v_j the velocity of the point at the world origin). The impulses come from the
 core's projected Gauss–Seidel with box friction (:func:`pbanim.lcp.pgs_box_friction`, capped sweeps, its
 residual kept in ``last``): Lemke on the Stewart–Trinkle form stops on secondary rays when a ragdoll's
-many contact points are redundant, where PGS degrades gracefully.
+many contact points are redundant, where PGS degrades gracefully. ``solver="active_set"`` solves the same
+problem by the active set (one linear solve per guess of which contacts push, stick or slide), its first
+guess each contact's state at the previous step (contact persistence, keyed by the contact point, sphere pair
+or joint stop), PGS sweeps finding the guess when the exchanges cycle (:func:`pbanim.lcp.box.box_friction_handoff`); an
+answer not certified to ``tol`` within ``max_iter`` sweeps is counted in ``fallbacks``. With the constraint-force mixing, A is positive definite
+and the problem has one solution, so the two solvers answer the same impulses to their tolerance — where
+PGS stops at its sweep cap on a ragdoll lying on many redundant points, the active set still certifies
+(ORACLES I12).
 """
 
 from __future__ import annotations
@@ -33,6 +40,7 @@ import numpy as np
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import cross, tangent_basis
 from ..lcp import pgs_box_friction
+from ..lcp.box import box_friction_handoff
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
 from .dynamics import bias_forces, crba, world_poses
@@ -40,6 +48,8 @@ from .spatial import plucker_inverse
 from .system import ArticulatedSystem
 
 __all__ = ["ArticulatedContact", "point_jacobians", "Plane", "Staircase"]
+
+SOLVERS = ("pgs", "active_set")
 
 
 class Plane:
@@ -58,21 +68,37 @@ class Plane:
 
 class Staircase:
     """Stairs going down along +x (z up): height 0 for x < ``start``, then treads ``run`` long, each
-    ``rise`` lower, ``steps`` of them, then flat. A point touches the tread below it (normal +z); the
-    risers are not modelled (a point moving back into a riser passes through it)."""
+    ``rise`` lower, ``steps`` of them, then flat. A point touches the tread below it (normal +z, gap
+    z − height(x)). Without ``risers`` the risers are not modelled: a point moving back into one is under
+    its tread by up to a rise and is pushed up out of it. With ``risers``, a point under its tread (gap < 0)
+    that is nearer to the riser ending that tread (the face x = edge going down to the next tread) is pushed
+    out of that face, the nearest one: normal +x, gap x − edge."""
 
-    def __init__(self, rise: float = 0.2, run: float = 0.4, steps: int = 5, start: float = 0.0) -> None:
+    def __init__(self, rise: float = 0.2, run: float = 0.4, steps: int = 5, start: float = 0.0,
+                 risers: bool = False) -> None:
         self.rise = check_number("rise", rise, low=0.0)
         self.run = check_number("run", run, low=0.0, low_open=True)
         self.steps = check_count("steps", steps, minimum=0, maximum=10_000)
         self.start = check_number("start", start)
+        if not isinstance(risers, bool):
+            raise InvalidInput(f"risers must be True or False, got {risers!r}")
+        self.risers = risers
 
     def height(self, x) -> np.ndarray:
         k = np.clip(np.floor((np.asarray(x, dtype=float) - self.start) / self.run) + 1, 0, self.steps)
         return -self.rise * k
 
     def gap_normal(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return P[:, 2] - self.height(P[:, 0]), np.broadcast_to(np.array([0.0, 0.0, 1.0]), P.shape)
+        x = P[:, 0]
+        k = np.clip(np.floor((x - self.start) / self.run) + 1, 0, self.steps)
+        gap = P[:, 2] + self.rise * k
+        normal = np.zeros(P.shape)
+        normal[:, 2] = 1.0
+        riser = self.start + self.run * k - x                   # distance to the riser at the tread's end
+        side = (gap < 0) & (k < self.steps) & (riser < -gap) & (P[:, 2] > -self.rise * (k + 1)) & self.risers
+        if side.any():
+            gap[side], normal[side] = -riser[side], (1.0, 0.0, 0.0)
+        return gap, normal
 
 
 def point_jacobians(tree, q: np.ndarray, links, points) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +133,8 @@ class ArticulatedContact:
 
     def __init__(self, system: ArticulatedSystem, contact_points, *, friction: float = 0.5,
                  normal=None, offset: float = 0.0, terrain=None, erp: float = 0.2, margin: float = 0.02,
-                 cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-8, spheres=()) -> None:
+                 cfm: float = 1e-6, max_iter: int = 300, tol: float = 1e-8, spheres=(),
+                 solver: str = "pgs") -> None:
         if not isinstance(system, ArticulatedSystem):
             raise InvalidInput(f"system must be an ArticulatedSystem, got {type(system).__name__}")
         self.system, self.tree = system, system.tree
@@ -136,6 +163,11 @@ class ArticulatedContact:
         self.max_iter = check_count("max_iter", max_iter, maximum=100_000)
         self.tol = check_number("tol", tol, low=0.0, low_open=True, high=1.0)
         self.limited = self.tree.limited()          # joint stops: (q index, q̇ index, lower, upper)
+        if solver not in SOLVERS:
+            raise InvalidInput(f"solver must be one of {SOLVERS}, got {solver!r}")
+        self.solver = solver
+        self._persist: dict = {}                     # contact key -> its [on, stick/slide, stick/slide] state
+        self.fallbacks = 0                           # active-set steps handed to PGS
         self.last = None
 
     def _set_spheres(self, spheres: list) -> None:
@@ -167,21 +199,22 @@ class ArticulatedContact:
         gap, nrm = self.terrain.gap_normal(P)
         speed = np.einsum("kij,j,ki->k", Jp, u, nrm)                  # normal speed of each point at u*
         near = np.flatnonzero(gap < self.margin + h * np.abs(speed))
-        blocks = [(nrm[near], Jp[near], gap[near])] if near.size else []
+        blocks = [(nrm[near], Jp[near], gap[near], near)] if near.size else []
         if self.pairs.size:
             blocks += self._sphere_blocks(q, u, h)
-        rows, g, mu = [], [], []
+        rows, g, mu, keys = [], [], [], []
         if blocks:
             nn = np.concatenate([b[0] for b in blocks])
             JJ = np.concatenate([b[1] for b in blocks])
             g.append(np.concatenate([b[2] for b in blocks]))
+            keys.append(np.concatenate([b[3] for b in blocks]))
             t1, t2 = tangent_basis(nn)
             rows.append(np.stack([np.einsum("ki,kij->kj", nn, JJ), np.einsum("ki,kij->kj", t1, JJ),
                                   np.einsum("ki,kij->kj", t2, JJ)], axis=1).reshape(3 * len(nn), -1))   # [n, t₁, t₂]·J
             mu.append(np.full(len(nn), self.mu))
         stops = self._stop_rows(q, u, h)
         if stops is not None:
-            rows.append(stops[0]), g.append(stops[1]), mu.append(np.zeros(len(stops[1])))
+            rows.append(stops[0]), g.append(stops[1]), mu.append(np.zeros(len(stops[1]))), keys.append(stops[2])
         if rows:
             rows, g, mu = np.concatenate(rows), np.concatenate(g), np.concatenate(mu)
             m = g.size
@@ -191,7 +224,10 @@ class ArticulatedContact:
             A += self.cfm * max(float(np.max(np.diag(A))), 1e-300) * np.eye(3 * m)
             bias = rows @ u
             bias[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
-            z, residual, sweeps = pgs_box_friction(A, bias, mu, max_iter=self.max_iter, tol=self.tol)
+            if self.solver == "active_set":
+                z, residual, sweeps = self._active_set(A, bias, mu, np.concatenate(keys))
+            else:
+                z, residual, sweeps = pgs_box_friction(A, bias, mu, max_iter=self.max_iter, tol=self.tol)
             u = u + HinvJt @ z
             n_stop = 0 if stops is None else len(stops[1])
             self.last = {"impulses": z, "residual": residual, "sweeps": sweeps, "contacts": near,
@@ -204,18 +240,20 @@ class ArticulatedContact:
 
     def _stop_rows(self, q, u, h):
         """Joint stops as contacts without friction: for a joint at q near its limit lower (upper) the row
-        +e_i (−e_i) on q̇ with gap q − lower (upper − q), rows [e, 0, 0]; None when no stop is near."""
-        found = []
-        for qi, vi, lo, hi in self.limited:
-            for gap, sign in ((q[qi] - lo, 1.0), (hi - q[qi], -1.0)):
+        +e_i (−e_i) on q̇ with gap q − lower (upper − q), rows [e, 0, 0], and the stops' keys; None when no
+        stop is near."""
+        found, keys = [], []
+        base = len(self.links) + len(self.pairs)                          # after the points and sphere pairs
+        for k, (qi, vi, lo, hi) in enumerate(self.limited):
+            for side, (gap, sign) in enumerate(((q[qi] - lo, 1.0), (hi - q[qi], -1.0))):
                 if gap < self.margin + h * max(-sign * u[vi], 0.0):       # ±inf limits never pass
-                    found.append((vi, sign, gap))
+                    found.append((vi, sign, gap)), keys.append(base + 2 * k + side)
         if not found:
             return None
         rows = np.zeros((3 * len(found), self.tree.nv))
         for k, (vi, sign, _) in enumerate(found):
             rows[3 * k, vi] = sign
-        return rows, np.array([f[2] for f in found])
+        return rows, np.array([f[2] for f in found]), np.array(keys, dtype=int)
 
     def simulate(self, t_end: float, h: float, *, record_every: int = 1, max_steps: int = MAX_STEPS) -> SimResult:
         """Fixed steps through the one driver; diagnostics: energy, lowest contact-point gap."""
@@ -252,7 +290,23 @@ class ArticulatedContact:
         li, lj = [self.sphere_links[k] for k in i], [self.sphere_links[k] for k in j]
         loc = [X0[lk][:3, :3] @ (p - origins[lk]) for lk, p in zip(li + lj, list(pi) + list(pj))]
         _, J = point_jacobians(self.tree, q, li + lj, loc)
-        return [(n, J[:near.size] - J[near.size:], gap[near])]
+        return [(n, J[:near.size] - J[near.size:], gap[near], len(self.links) + near)]
+
+    def _active_set(self, A, b, mu, keys) -> tuple:
+        """Impulses by the active set from each persisting contact's last state (a new contact: on if
+        b_f < 0, sticking), PGS sweeps finding its guess when it cycles (:func:`pbanim.lcp.box.box_friction_handoff`); an
+        answer not certified after ``max_iter`` sweeps is counted in ``fallbacks``. Returns (z, residual,
+        PGS sweeps)."""
+        state0 = np.zeros((keys.size, 3), dtype=int)
+        state0[:, 0] = b[0::3] < 0
+        for r, k in enumerate(keys.tolist()):
+            if k in self._persist:
+                state0[r] = self._persist[k]
+        z, res, sweeps, state, certified = box_friction_handoff(A, b, mu, state=state0, max_iter=self.max_iter,
+                                                                tol=self.tol)
+        self.fallbacks += not certified
+        self._persist = dict(zip(keys.tolist(), state))
+        return z, res, sweeps
 
     def _min_gap(self, y) -> float:
         P, _ = point_jacobians(self.tree, y[:self.system.nq], self.links, self.points)

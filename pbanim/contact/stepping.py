@@ -53,6 +53,7 @@ from ..collision.shapes import Contacts
 from ..errors import InvalidInput, check_count, check_number
 from ..geometry import tangent_basis
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
+from ..lcp.box import box_state
 from ..lcp.colored import color_groups, extend_colors, pgs_box_friction_colored
 from ..lcp.rows import pgs_box_friction_rows
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
@@ -173,12 +174,7 @@ class FrictionStepping(TimeStepping):
 
     def _state_of(self, z, m):
         """On/off and stick/slide rows of impulses z (what the next step's active-set guess starts from)."""
-        f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-        lim = (self.mu * f)[:, None] * (1 - 1e-9)
-        state = np.zeros((m, 3), dtype=int)
-        state[:, 0] = f > 0
-        state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
-        return state
+        return box_state(z, self.mu)
 
     def _solve(self, A, b, keys):
         m = keys.size

@@ -12,6 +12,17 @@ definite A (Gauss–Seidel on the QP), slowly when A is ill conditioned, and its
 budget is reported, never hidden. The plain LCP sweep (``pgs``, the chapter 07 assignment) is in
 :mod:`pbanim.lcp.solve`; the colored, vectorized box-friction sweep is :mod:`pbanim.lcp.colored`.
 
+The box-friction problem is not monotone (the bounds ±μfᵢ move with fᵢ), and for A positive definite
+two solvers reach its answer in very different ways: PGS converges linearly at a rate set by how strongly
+the rows are coupled (a ragdoll lying on a dozen redundant points stops at its sweep cap), while the active
+set (:func:`pbanim.lcp.active_set.box_friction_active_set`) is exact once its guess of the states
+sᵢ = (on/off, stick/+μf/−μf per tangent) is right but can cycle between two wrong guesses when a contact
+slides. :func:`box_friction_handoff` uses each for what it does well: the active set from the caller's guess
+(the contacts' states at the previous step); if it does not certify, PGS sweeps from zero in growing chunks
+(10, 20, 40, …, at most ``max_iter`` sweeps in all) and after each chunk the active set from the state the
+PGS iterate shows (:func:`box_state`). Each answer is certified by its own solver's residual at
+tol·max(1, ‖b‖∞); after ``max_iter`` sweeps without it, the PGS iterate is returned flagged uncertified.
+
 =========  ===========  ==========  =================================================
 symbol     code         shape       meaning
 =========  ===========  ==========  =================================================
@@ -23,13 +34,15 @@ w          ``w``        (m,)        A z + b
 Limiting cases: a diagonal A is solved in one sweep; μ = 0 keeps the tangential impulses at zero.
 
 References: K. G. Murty, *Linear Complementarity, Linear and Nonlinear Programming* (1988), ch. 9;
-E. Catto, "Iterative dynamics with temporal coherence", GDC 2005.
+E. Catto, "Iterative dynamics with temporal coherence", GDC 2005; J. J. Júdice, F. M. Pires, Comput. Oper.
+Res. 21 (1994) (block pivoting).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .active_set import box_friction_active_set
 from .box_lean import LEAN_ROWS, box_sweeps_floats, project_impulses
 from .pivoting import _check, _scale
 from .specs import LCP_ENTRIES
@@ -151,3 +164,44 @@ def _box_residual(z, w, mu) -> float:
     r_n = np.abs(np.minimum(f, wn)) if f.size else np.zeros(0)
     r_t = np.where(inside, np.abs(wt), 0.0)
     return float(max(np.max(r_n, initial=0.0), np.max(r_t, initial=0.0)))
+
+
+CHUNKS = (10, 20, 40, 80)       # PGS sweeps between two active-set attempts; then 160 each
+
+
+def box_state(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """The states (m, 3) that impulses z (3m,) show: on where fᵢ > 0; a tangent at +1 (−1) where it lies on
+    +μfᵢ (−μfᵢ) to 10⁻⁹ relative, 0 (sticking) inside; an off contact's tangents 0."""
+    f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
+    lim = (mu * f)[:, None] * (1 - 1e-9)
+    state = np.zeros((f.size, 3), dtype=int)
+    state[:, 0] = f > 0
+    state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
+    return state
+
+
+def box_friction_handoff(A: np.ndarray, b: np.ndarray, mu: np.ndarray, *, state=None, max_iter: int = 300,
+                         tol: float = 1e-8) -> tuple:
+    """The box-friction impulses (see the module docstring). A (3m, 3m) positive definite, b (3m,), μ (m,),
+    ``state`` (m, 3) the first guess (None: on where b_f < 0, sticking). Returns (z, residual, sweeps,
+    state, certified): ``sweeps`` the PGS sweeps spent (0 when the first guess was right), ``state`` the
+    active set's for the next step's guess (from z when PGS answered)."""
+    n = b.size
+    mu = np.broadcast_to(np.asarray(mu, dtype=float), (n // 3,))
+    bar = tol * max(1.0, float(np.max(np.abs(b)))) if n else tol
+    if state is not None:
+        z, res, _, s = box_friction_active_set(A, b, mu, state=state, tol=tol)
+        if res <= bar:
+            return z, res, 0, s, True
+    z, done, k = np.zeros(n), 0, 0
+    while done < max_iter:
+        chunk = min(CHUNKS[k] if k < len(CHUNKS) else 2 * CHUNKS[-1], max_iter - done)
+        k += 1
+        z, res, sweeps = pgs_box_friction(A, b, mu, max_iter=chunk, tol=tol, warm_start=z)
+        done += sweeps
+        if sweeps < chunk or res <= bar:                      # PGS itself reached tol
+            return z, res, done, box_state(z, mu), True
+        za, resa, _, s = box_friction_active_set(A, b, mu, state=box_state(z, mu), tol=tol)
+        if resa <= bar:
+            return za, resa, done, s, True
+    return z, res, done, box_state(z, mu), False
