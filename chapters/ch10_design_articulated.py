@@ -60,7 +60,7 @@ def thrown_chain_figure(ctx):
     """Aim a springy 3-rod chain: min-norm updates of (vx, vy, ω) until |p_tip(T) − p*| ≤ 1e-8."""
     tree, q0, qd0, k, T, h = chain_problem(ctx.quick)
     res = aim_chain(tree, q0, qd0, T, h, TIP[0], TIP[1], TARGET, tol=1e-8, stiffness=k)
-    first = simulate_chain(tree, q0, qd0, T, h, stiffness=k)
+    first = res.flights[0]                               # the throw from qd0, with ∂S/∂u (aim_chain's first iterate)
 
     def S(u):
         qd = qd0.copy()
@@ -72,10 +72,8 @@ def thrown_chain_figure(ctx):
     kernel = PlanarKernel(tree)
     nq = tree.nq
     fig, ax = ctx.subplots(figsize=(8, 4))
-    for j, u in enumerate(res.history):                  # the tip path of every iterate, the last darkest
-        fl = res.flight if j == len(res.history) - 1 else simulate_chain(
-            tree, q0, np.concatenate([u, qd0[3:]]), T, h, stiffness=k, sensitivities=False)
-        P, _ = fl.point(TIP[0], TIP[1])
+    for j, fl in enumerate(res.flights):                 # the tip path of every iterate, the last darkest (the
+        P, _ = fl.point(TIP[0], TIP[1])                  # states of a run with ∂S/∂u are those of one without)
         ax.plot(P[:, 0], P[:, 1], lw=1, color="C0", alpha=0.3 + 0.7 * j / max(1, len(res.history) - 1))
     fl = res.flight
     for i, a in zip(np.linspace(0, len(fl.t) - 1, 8).astype(int), np.linspace(0.25, 1.0, 8)):

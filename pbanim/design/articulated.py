@@ -27,7 +27,7 @@ body simulations", SIGGRAPH 2000 (S, ∂S/∂u, min-norm edits); J. Carpentier, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -146,6 +146,7 @@ class ChainAim:
     residuals: list
     success: bool
     history: list
+    flights: list = field(default_factory=list)     # the flight of every iterate (the last is ``flight``)
 
 
 @contract(tree=Tree(), q0=JointPositions("tree"), qd0=Array(("tree.nv",)), T=Real(gt=0, le=100), h=Real(gt=0, le=1),
@@ -158,10 +159,11 @@ def aim_chain(tree, q0, qd0, T: float, h: float, link: int, local, target, tol: 
     simulations. Certified: the returned flight's residual is recomputed from its own final state."""
     qd = np.array(qd0, dtype=float)
     target = np.asarray(target, dtype=float)
-    residuals, history = [], []
+    residuals, history, flights = [], [], []
     for _ in range(max_iter):
         fl = simulate_chain(tree, q0, qd, T, h, free, stiffness, rest)
         history.append(qd[fl.free].copy())
+        flights.append(fl)
         P, D = fl.point(link, local)
         r = target - P[-1]
         residuals.append(float(np.linalg.norm(r)))
@@ -170,4 +172,4 @@ def aim_chain(tree, q0, qd0, T: float, h: float, link: int, local, target, tol: 
         qd[fl.free] += min_norm_update(D[-1], r).du
     final = PlanarKernel(tree).points(fl.y[-1, :tree.nq], [link], np.asarray(local, dtype=float)[None])[0]
     success = float(np.linalg.norm(target - final)) <= tol
-    return ChainAim(history[-1], fl, residuals, success, history)
+    return ChainAim(history[-1], fl, residuals, success, history, flights)
