@@ -1,5 +1,5 @@
-"""The float exponential map (pbanim.rigid.lean_expmap) and the implicit methods on float rates
-(pbanim.rigid.lean, FLOAT_RATE_METHODS) compute the readable steps (chapter 05).
+"""The float exponential map (pbanim.rigid.lean_expmap), the implicit methods on float rates (pbanim.rigid.lean,
+FLOAT_RATE_METHODS) and the float rigid-body Verlet (LeanRigid.verlet) compute the readable steps (chapter 05).
 
 Each test runs one scene twice, ``scene.lean_path`` True and False, from the same start, and compares the
 final states after n steps (roundoff: a few ε per step; the implicit methods' Newton iterations on
@@ -78,3 +78,25 @@ def test_float_exponential_map_rk4_converges_at_order_4_to_the_closed_form():
                    - body.omega(2.0)[0]).max() for h in hs]
     slope = np.polyfit(np.log(hs), np.log(errs), 1)[0]
     assert 3.7 < slope < 4.3, (slope, errs)
+
+
+@pytest.mark.parametrize("quaternions", ["renormalize", "none"])
+@pytest.mark.parametrize("effects", ["none", "gravity and drag"])
+def test_float_rigid_verlet_equals_the_splitting_step(quaternions, effects):
+    # ORACLES C1 (the splitting keeps |L| of a free body and |q| = 1 to roundoff) on both paths
+    n, h = 200, 4e-3
+    scene = RigidScene(_bodies(), _effects() if effects != "none" else [], quaternions=quaternions)
+    a, b = _both(scene, n, h, "verlet")
+    assert np.abs(a.y - b.y).max() <= 8 * EPS * n * (1.0 + np.abs(b.y).max())
+    assert a.nfev == b.nfev == 2 * n
+    assert np.abs(np.linalg.norm(a.y[3:7], axis=0) - 1).max() <= 8 * EPS * n
+    if effects == "none":
+        L = np.linalg.norm(a.y[10:13], axis=0)
+        assert np.abs(L / L[0] - 1).max() <= 4 * EPS
+
+
+def test_several_bodies_take_the_readable_splitting():
+    scene = RigidScene(_bodies(2), _effects())
+    from pbanim.ode import get_method
+
+    assert scene._lean_plan.advance(get_method("verlet"), [0, 0], object()) is None

@@ -29,7 +29,8 @@ whose force effects are :class:`~pbanim.rigid.RigidGravity`, :class:`~pbanim.rig
 :class:`~pbanim.rigid.AngularDrag` only, with no constraint effect and no post-step stage but the
 renormalization (``quaternions="renormalize"`` or ``"none"``), stepped by one of :data:`LEAN_METHODS`
 (implicit Euler and implicit midpoint, :data:`FLOAT_RATE_METHODS`, run their own Newton step on these
-float rates; ``quaternions="exponential"`` runs the float exponential map of :mod:`pbanim.rigid.lean_expmap`);
+float rates; one body's ``"verlet"`` is the splitting of :mod:`pbanim.rigid.splitting` on floats;
+``quaternions="exponential"`` runs the float exponential map of :mod:`pbanim.rigid.lean_expmap`);
 any other scene, or ``scene.lean_path = False``, runs the readable vectorized path. A step that divides
 by zero (a quaternion collapsed to 0 in a diverging run) is handed to the readable path, which names
 the divergence. The two paths agree to roundoff (``tests/test_rigid_lean.py``, ORACLES C1, C3).
@@ -40,13 +41,14 @@ exactly (c_v = 0 adds an exact zero).
 
 from __future__ import annotations
 
-from math import sqrt
+from math import cos, sin, sqrt
 
 import numpy as np
 
 from ..contracts import Obj, contract
 from .domain import _SAFE
 from .effects import AngularDrag, LinearDrag, QuaternionRenormalize, RigidGravity
+from .splitting import _SEQUENCE
 
 __all__ = ["LEAN_MAX_BODIES", "LEAN_METHODS", "FLOAT_RATE_METHODS", "lean_plan"]
 
@@ -214,6 +216,14 @@ class LeanRigid:
             self.rates = bodies[0][4]        # one body: the flat layout is the body's own (x, q, P, L)
         else:
             self.rates = self._gathered(bodies)
+        # the rigid-body Verlet (pbanim.rigid.splitting) on floats: per body W, principal moments and axes
+        self._verlet = None
+        if N == 1 and bodies:
+            from .splitting import _principal
+
+            lam, axes = _principal(rb)
+            self._verlet = (float(rb.inv_mass[0]), tuple(float(v) for v in lam[0]),
+                            tuple(tuple(float(v) for v in row) for row in axes[0]))
 
     def _gathered(self, bodies):
         """ẏ at y (13N floats) for several bodies: each body's 13 floats gathered, its rates scattered."""
@@ -256,6 +266,37 @@ class LeanRigid:
         y1[:s] = [u + h * di for u, di in zip(y[:s], d1[:s])]
         return self.unit(y1) if self.renormalize else y1
 
+    def verlet(self, y: list, h: float) -> list:
+        """Kick, free translation, the free rotation R₁(½h) R₂(½h) R₃(h) R₂(½h) R₁(½h), kick: the step of
+        :func:`pbanim.rigid.splitting.rigid_verlet_step` for one body on floats (F, τ read from the rates)."""
+        W, lam, A = self._verlet
+        rates, hh = self.rates, 0.5 * h
+        d = rates(y)
+        x0, x1, x2, w, qx, qy, qz = y[:7]
+        P = [u + hh * f for u, f in zip(y[7:10], d[7:10])]
+        L = [u + hh * f for u, f in zip(y[10:13], d[10:13])]
+        hW = h * W
+        x0, x1, x2 = x0 + hW * P[0], x1 + hW * P[1], x2 + hW * P[2]
+        s = 2.0 / (w * w + qx * qx + qy * qy + qz * qz)          # Rᵀ L (the formula of quat_to_matrix)
+        l0, l1, l2 = L
+        u0 = (1.0 - s * (qy * qy + qz * qz)) * l0 + s * (qx * qy + w * qz) * l1 + s * (qx * qz - w * qy) * l2
+        u1 = s * (qx * qy - w * qz) * l0 + (1.0 - s * (qx * qx + qz * qz)) * l1 + s * (qy * qz + w * qx) * l2
+        u2 = s * (qx * qz + w * qy) * l0 + s * (qy * qz - w * qx) * l1 + (1.0 - s * (qx * qx + qy * qy)) * l2
+        Pi = [A[0][i] * u0 + A[1][i] * u1 + A[2][i] * u2 for i in range(3)]      # Aᵀ Rᵀ L
+        for i, frac in _SEQUENCE:
+            theta = frac * h * Pi[i] / lam[i]
+            c, sn = cos(0.5 * theta), sin(0.5 * theta)
+            b1, b2, b3 = sn * A[0][i], sn * A[1][i], sn * A[2][i]
+            w, qx, qy, qz = (w * c - qx * b1 - qy * b2 - qz * b3, w * b1 + qx * c + qy * b3 - qz * b2,
+                             w * b2 - qx * b3 + qy * c + qz * b1, w * b3 + qx * b2 - qy * b1 + qz * c)
+            j, k = (i + 1) % 3, (i + 2) % 3
+            cj, ck = cos(theta), sin(theta)
+            Pi[j], Pi[k] = cj * Pi[j] + ck * Pi[k], -ck * Pi[j] + cj * Pi[k]
+        y1 = [x0, x1, x2, w, qx, qy, qz, *P, *L]
+        d = rates(y1)
+        y1[7:] = [u + hh * f for u, f in zip(y1[7:], d[7:])]
+        return self.unit(y1) if self.renormalize else y1
+
     def advance(self, method, counter: list, readable):
         """``advance(t, y, h)`` of the scene's driver on the lean path for ``method`` (a registered
         :class:`pbanim.ode.Method`), counting right-hand sides in ``counter[0]`` as the readable path does;
@@ -267,6 +308,10 @@ class LeanRigid:
             return self._float_rates_advance(method, counter, readable)
         if method.name == "symplectic_euler":
             step, nfev = self.kick_drift, 1
+        elif method.name == "verlet":
+            if self._verlet is None:
+                return None
+            step, nfev = self.verlet, 2
         elif method.name in LEAN_METHODS and method.name in TABLEAUX:
             step, nfev = self.stepper(TABLEAUX[method.name]), TABLEAUX[method.name].stages
             if step is None:

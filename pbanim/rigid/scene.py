@@ -247,7 +247,9 @@ class RigidScene(Scene):
 
     def _advance_step(self, m, counter: list):
         if m.name == "verlet" and self.quaternions != "exponential":
-            return self._splitting_advance(counter)
+            readable = self._splitting_advance(counter)
+            lean = self._lean_plan.advance(m, counter, readable) if self._lean_plan and self.lean_path else None
+            return lean or readable
         if self.quaternions != "exponential":
             readable = super()._advance(m, counter)
             lean = self._lean_plan.advance(m, counter, readable) if self._lean_plan and self.lean_path else None
