@@ -4,7 +4,7 @@ FLOAT_RATE_METHODS) and the float rigid-body Verlet (LeanRigid.verlet) compute t
 Each test runs one scene twice, ``scene.lean_path`` True and False, from the same start, and compares the
 final states after n steps (roundoff: a few ε per step; the implicit methods' Newton iterations on
 forward-difference Jacobians of the two rates, which agree to roundoff, converge to the same step) and the
-counts of f; the physics checks (ORACLES C1, C3) run on the lean path.
+counts of f (ORACLES C4); the physics checks (ORACLES C1, C3) run on the lean path.
 """
 
 import numpy as np
