@@ -123,13 +123,23 @@ def _mv(M, x: np.ndarray) -> np.ndarray:
     return y
 
 
+def _add_mv(M, x: np.ndarray, y: np.ndarray) -> None:
+    """y += M x in place (y a contiguous array or view), by scipy's kernel when reachable."""
+    if _csr_matvec is None:                                        # pragma: no cover
+        y += M @ x
+    else:
+        _csr_matvec(M.shape[0], M.shape[1], M.indptr, M.indices, M.data, x, y)
+
+
 class LeanCycle:
     """The lean twin of :func:`v_cycle`: on each level the cells in red–black order (red first) and every
     half-sweep, residual, restriction R and prolongation P one sparse product, built once per hierarchy.
 
     A red half-sweep of the readable cycle, x_R ← x_R + (b − A x)_R / a_R, is here the same update rearranged,
-    x_R ← (b_R − A°_R x) / a_R with A° = A − diag(a) (its red rows; black likewise): equal in exact arithmetic,
-    to roundoff in floats (ORACLES E24). A solid cell's row is the identity, as in :class:`CellOperator`.
+    x_R ← b_R / a_R + N_R x with N = −diag(a)⁻¹ A°, A° = A − diag(a) (its red rows; black likewise): equal in
+    exact arithmetic, to roundoff in floats (ORACLES E24). Every smoothing level has even lengths (:func:`_coarsen`),
+    so no red cell neighbours a red one, even across a periodic side: N_R reads black cells only and the
+    product adds into x_R in place. A solid cell's row is the identity, as in :class:`CellOperator`.
     Called on a field of the fine grid's shape, it returns what ``v_cycle(hierarchy, b, α, β)`` returns.
     """
 
@@ -146,9 +156,10 @@ class LeanCycle:
                 M = operator_matrix(g, A.alpha, A.beta)[0][perm][:, perm]
                 M = (sp.diags(fluid) @ M + sp.diags(1.0 - fluid)).tocsr()     # solid rows: the identity
                 d = A.diag.ravel()[perm]
-                off = (M - sp.diags(M.diagonal())).tocsr()
-                lv.update(M=M, off_red=off[:lv["n_red"]], off_black=off[lv["n_red"]:], d_red=d[:lv["n_red"]],
-                          d_black=d[lv["n_red"]:])
+                N = (-sp.diags(1.0 / d) @ (M - sp.diags(M.diagonal()))).tocsr()
+                nr = lv["n_red"]
+                red, black = (slice(None, nr), N[:nr]), (slice(nr, None), N[nr:])
+                lv.update(M=M, d=d, sweeps=((red, black) * SMOOTH, (black, red) * SMOOTH))
                 # fine cell (i, j, …) → coarse cell (i//2, j//2, …), both in their red–black order
                 coarse = np.ravel_multi_index(tuple(c // 2 for c in np.unravel_index(perm, g.shape)),
                                               below["grid"].shape)
@@ -174,15 +185,16 @@ class LeanCycle:
             full = np.empty(b.size)
             full[lv["perm"]] = b
             return _direct(g, full.reshape(g.shape), A.alpha, A.beta).ravel()[lv["perm"]] * lv["fluid"]
-        nr, x = lv["n_red"], np.zeros(b.size)
-        red = (slice(None, nr), lv["off_red"], lv["d_red"])
-        black = (slice(nr, None), lv["off_black"], lv["d_black"])
-        for order in ((red, black) * SMOOTH, "coarse", (black, red) * SMOOTH):
+        x, bs = np.zeros(b.size), b / lv["d"]
+        pre, post = lv["sweeps"]
+        for order in (pre, "coarse", post):
             if order == "coarse":
                 x += _mv(lv["P"], self._cycle(k + 1, _mv(lv["R"], b - _mv(lv["M"], x))))
                 continue
-            for part, off, d in order:
-                x[part] = (b[part] - _mv(off, x)) / d
+            for part, N in order:              # x_part = b/a + N x, added in place (N reads the other colour)
+                y = x[part]
+                y[...] = bs[part]
+                _add_mv(N, x, y)
         return x * lv["fluid"]
 
 
