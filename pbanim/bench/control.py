@@ -24,18 +24,34 @@ and is not robust there, see :mod:`pbanim.control.simbicon`); one QP control ste
 solves in ≤ 1 ms with proxsuite. Issue 31: the 3-D walk at h = 2 ms runs at ≥ 1× real time, its lean step
 ≥ 4× the readable one's real-time factor.
 
-Measured for issue 31 on a shared 2-core machine (load 11–16), 3 runs of ``--quick`` (medians of the runs'
-medians, min–max): the lean walk 0.75× real time per CPU second (0.69–0.81) and 0.15× on the wall clock
-(0.13–0.16: the wall factor measures the load), lean / readable 2.9× (2.4–3.1) on the wall, 2.6× (2.2–2.7) in
-CPU. The CPU split per step, 2.66 ms (2.48–2.92): contact 1.27 (Jacobians, rows, A = J(H + hK)⁻¹Jᵀ, the PGS
-sweep on floats: ~12 sweeps a step on ~17 rows, 46 % of all sweeps in 3 % of the steps, five steps in 500 at
-the 300-sweep cap), controller 0.43, kinematics 0.33, dynamics 0.31, runner 0.29, H 0.08. The floor: 185
-Python calls, 1971 builtins (most of them the sweep's min, max, divmod and abs) and 175 numpy calls a step,
-1.5–5.5 ms at the per-call costs measured in the same runs (h / floor 0.37–1.3×): with the contact law as it
-is (the library's sweep, row by row), the interpreter's calls bound the step near 1× real time even with no
-arithmetic. The cuts of issue 31 (the controller's rotation vectors on floats, the sweep called without its
-argument checks, H + hK in place) took the walk from 3.52 to 2.86 ms CPU a step (medians of 6 alternating
-rounds of a 2 s walk against the previous code, per-round ratio 1.25×, 1.00–1.29×), bit for bit the same walk.
+Measured for issue 31 on a shared 2-core machine (load 14–17), 3 runs of ``--quick`` (medians of the runs'
+medians; min–max over all rounds): the lean walk 0.81× real time per CPU second (0.67–0.88; the runs' medians
+0.74, 0.81, 0.82) and 0.08× on the wall clock (the wall factor measures the load), lean / readable 2.5× in CPU
+(2.1–3.0). The CPU split per step, 2.48 ms (2.28–2.98): contact 1.15 (Jacobians, rows, A = J(H + hK)⁻¹Jᵀ, the
+PGS sweep on floats: ~12 sweeps a step on ~17 rows, a third of all sweeps in 3 % of the steps, eight steps in
+1000 at the 300-sweep cap), controller 0.38 (the centres of mass' Jacobians included: it asks for them
+first), kinematics 0.37, dynamics 0.32, runner 0.24, H 0.08. The floor: 153 Python calls, 19 builtins and
+146 numpy calls a step, 1.1–3.0 ms at the per-call costs measured in the same runs (h / floor 0.67–1.75×).
+The cuts of issue 31, the same walk bit for bit: first the controller's rotation vectors on floats, the sweep
+called without its argument checks, H + hK in place (3.52 → 2.86 ms CPU a step, per-round ratio 1.25×); then
+the sweep one contact at a time with min, max, abs and divmod written as the comparisons they make, a zero
+tangent under a zero bound skipped and the residual stopped at the first value above the exit threshold; the
+controller's own calls bound unchecked, R_z(ψ̄) and its servo table kept, the hips' torques and the clip on
+floats; the contact frames kept per set of normals, the contact points' arrays kept, the warm start and the
+foot-strike events on floats, the Jacobians written without ``np.stack``: a 1 s walk's CPU per step 2.87 →
+2.04 ms (5 alternating rounds in separate processes against the previous code, medians; per-round cut 27 %,
+19–37 %). The goal (≥ 1× per CPU second) is missed: what is left is ~150 numpy calls and the sweep's ~12
+sweeps a step (a third of them in the few steps where four corners of one sole carry load, A redundant and
+PGS slow; no sweep reaches a fixed point or a cycle there, so no exact early exit exists: a shorter sweep
+there changes the contact law).
+
+The step h of the 3-D walk (20 s from the 0.5 m/s start, WALK3D; the mean speed of the centre of mass over
+the last 5 s): h = 1, 1.25, 1.5, 2, 3, 3.5 ms give 0.8763, 0.8789, 0.8818, 0.8869, 0.8971, 0.9045 m/s (all
+walk, 65 strikes): + 0.30 %, + 0.63 %, + 1.2 %, + 2.4 %, + 3.2 % of the h = 1 ms speed. By the planar
+chapter's rule (the largest step within 0.5 % of the h = 1 ms speed) the step would be 1.25 ms, where the
+tests' claims hold too (15 N s forward, ± 20 N s lateral, the turn: measured at 1, 1.25 and 1.5 ms) and the
+walk costs 1.6 times the CPU a simulated second takes at 2 ms (0.81 × 1.25 / 2 ≈ 0.5× real time per CPU
+second; a single loaded 20 s run measured 0.66×). The goal line stays at h = 2 ms, as the issue sets it.
 """
 
 from __future__ import annotations
