@@ -15,9 +15,10 @@ Figures:
   ORACLES F18): an animation in two projections (side x–z, top x–y), a strip of key frames, and the centre
   of mass's horizontal speed and the pelvis's heading ψ over time. Full run: 20 s at h = 2 ms with the heading
   target turned to 0.5 rad from t = 8 s (measured: no fall, 62 strikes, 0.83 m/s over the last 5 s, ψ settling
-  about 0.5 ± 0.05 rad; 54 s of CPU on a loaded machine, 74 s before the lean controller and contact solve and
-  the GIF's frame rate: the walk 24 s of it (2.4 ms a step), the 201 GIF frames, one per 0.1 s at 10 fps
-  (real time), most of the rest); quick: 2.5 s at h = 3.5 ms.
+  about 0.5 ± 0.05 rad; 52 s of CPU on a loaded machine, 58.6 s before the float sweep, controller and contact
+  cuts of issue 31 measured back to back (the same GIF and strip, byte for byte), 74 s before the lean
+  controller and contact solve and the GIF's frame rate: the walk about 20 s of it (~2 ms a step), the 201 GIF
+  frames, one per 0.1 s at 10 fps (real time), most of the rest); quick: 2.5 s at h = 3.5 ms.
 """
 
 from __future__ import annotations
@@ -62,7 +63,7 @@ def _points(ws, q, bones) -> np.ndarray:
 
 # %%
 @figure("ch08", "biped3d_walk", "SIMBICON's 3-D biped walking: side and top views, speed and heading",
-        cost=54.0)
+        cost=52.0)
 def biped3d_walk(ctx):
     from pbanim.control.biped3d_step import WorldStep
     from pbanim.control.biped3d import biped3d_contact_points
