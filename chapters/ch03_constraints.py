@@ -268,7 +268,7 @@ def cloth(ctx):
 # Per-step cost (assembly + λ) vs n for every solver, log-log (Baraff 1996).
 
 # %%
-@figure("ch03", "solver_cost", "Per-step cost of λ vs chain length for every solver (log-log)", cost=21.0)
+@figure("ch03", "solver_cost", "Per-step cost of λ vs chain length for every solver (log-log)", cost=9.0)
 def solver_cost(ctx):
     ns = [10, 100, 1000] if ctx.quick else [10, 100, 1000, 10_000, 100_000]
     solvers = ["linear", "witkin-sparse", "kkt", "witkin-dense"] if ctx.quick else SOLVER_LIST
@@ -296,7 +296,7 @@ def solver_cost(ctx):
 # Drift and energy error vs wall time for none / Baumgarte / projection.
 
 # %%
-@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=17.0)
+@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=13.0)
 def work_precision_fig(ctx):
     wp = work_precision(ctx.quick)
     rows = wp["rows"]

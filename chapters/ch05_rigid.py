@@ -186,7 +186,7 @@ def t_handle_flip(ctx):
 # |q| = 1 to roundoff.
 
 # %%
-@figure("ch05", "quat_drift", "Quaternion norm drift per integrator; renormalization; exponential map", cost=6.0)
+@figure("ch05", "quat_drift", "Quaternion norm drift per integrator; renormalization; exponential map", cost=2.5)
 def quat_drift(ctx):
     h = 0.05
     t_end = 10.0 if ctx.quick else 40.0
@@ -232,7 +232,7 @@ def quat_drift(ctx):
 
 # %%
 @figure("ch05", "work_precision", "Torque-free body: error of ω(t) vs wall time per integrator and quaternion policy",
-        cost=36.0)
+        cost=8.0)
 def work_precision(ctx):
     from pbanim.bench.rigid import work_precision as wp
 
