@@ -38,9 +38,9 @@ the sweep one contact at a time with min, max, abs and divmod written as the com
 tangent under a zero bound skipped and the residual stopped at the first value above the exit threshold; the
 controller's own calls bound unchecked, R_z(ψ̄) and its servo table kept, the hips' torques and the clip on
 floats; the contact frames kept per set of normals, the contact points' arrays kept, the warm start and the
-foot-strike events on floats, the Jacobians written without ``np.stack``: a 1 s walk's CPU per step 2.87 →
-2.04 ms (5 alternating rounds in separate processes against the previous code, medians; per-round cut 27 %,
-19–37 %). The goal (≥ 1× per CPU second) is missed: what is left is ~150 numpy calls and the sweep's ~12
+foot-strike events on floats, the Jacobians written without ``np.stack``: a 1 s walk's CPU per step 3.05 →
+2.16 ms (11 alternating rounds in separate processes against the previous code, medians; per-round cut 27.5 %,
+11–37 %: short of the 30 % aimed at). The goal (≥ 1× per CPU second) is missed: what is left is ~150 numpy calls and the sweep's ~12
 sweeps a step (a third of them in the few steps where four corners of one sole carry load, A redundant and
 PGS slow; no sweep reaches a fixed point or a cycle there, so no exact early exit exists: a shorter sweep
 there changes the contact law).
