@@ -17,8 +17,7 @@ T = 0.05 s. Its stiffest mode has ω ≈ 140 N rad/s, so h = 1/60 s is h ω ≈ 
   (LSODA, banded: the state interleaved particle by particle, bandwidth given). Every run has a CPU-time
   budget; a run past it prints "over budget" (a result: that method does not reach the row at that N here),
   and a method whose cheapest run is over budget at one N is not run at the larger ones (its cost grows
-  with N; printed
-  "over budget (at a smaller N: not run)").
+  with N; printed "over budget (at a smaller N: not run)").
 * **Large steps at h = 1/60 s** on N = 64: wall time of one simulated second, with the CG iterations and the
   floor of the design (:mod:`pbanim.bench._cloth_realtime`).
 * **Cost per step vs N** (large steps at h = 1/60 s, XPBD 1 × 10 sweeps): the fitted slope of log t against
@@ -34,8 +33,12 @@ order 3 for any W, so one LU may serve several steps; its order 3 checked with W
 RODAS4 drops to 1) reaches the same errors as RODAS4 with a fresh J each step (13 steps at rtol 10⁻³, 23 at
 10⁻⁴, 67 against 93 evaluations of f) and no faster; reusing the factorization for up to 12 steps, the
 falling sheet's J changes too fast: 10 of 24 steps rejected at rtol 10⁻³, 93 of 192 at 10⁻⁴ (2.6 s against
-0.4 s). The LU of the half-size stage system (762 unknowns at N = 16) is ~30 % of a RODAS4 run; a banded
-LAPACK LU (bandwidth 96) costs the same as SuperLU with its minimum-degree order, a dense one 4× more.
+0.4 s). pbanim's and scipy's solvers get the same f and J from one pass over the springs (``free_ode`` of
+:mod:`pbanim.cloth.assembly`: 0.15 and 1 ms at N = 16); RODAS4 at rtol 10⁻² (8 steps, none rejected) then
+spends about half in the banded LU of S (b = 98: ~2.5 ms of LAPACK each), the rest in solves, f and J. N = 16,
+pbanim / scipy at equal error, 3 runs (each the median of 3 alternating rounds): 0.16, 0.20, 0.20 at 10⁻²
+(XPBD); 0.45, 0.45, 0.40 at 10⁻³ and 10⁻⁴ (RODAS4 rtol 10⁻² / odeint 10⁻²); 0.41, 0.40, 0.35 at 10⁻⁵, 10⁻⁶
+(RODAS4 10⁻³ / odeint 10⁻⁴); before the one-pass f, J and band placement 0.65–0.82 and 0.56–0.60.
 """
 
 from __future__ import annotations
