@@ -50,7 +50,7 @@ def _summary(run) -> dict:
 
 # %%
 @figure("ch08", "qp_push_balance", "QP balance controller: a push recovered, a larger one not; forces in their cones",
-        cost=27.0)
+        cost=42.0)
 def qp_push_balance(ctx):
     t_end = 2.5
     impulses = np.arange(-32.0, 33.0, 4.0)
@@ -133,7 +133,7 @@ def _support(ctrl, q, tol: float) -> np.ndarray:
 
 
 @figure("ch08", "qp_biped3d_step", "3-D biped stepping under the QP controller: side and front views, COM, support",
-        cost=12.0)
+        cost=14.0)
 def qp_biped3d_step(ctx):
     from chapters.ch08_biped3d import _bones, _points
     from pbanim.control.qp_biped3d import QPBiped3D

@@ -81,7 +81,8 @@ def contact_box_scene():
                         [Plane()], friction=0.3)
 
 
-@figure("ch10", "contact_box_slide", "A box pushed to slide and stop on a spot (v₀ and μ designed)")
+@figure("ch10", "contact_box_slide", "A box pushed to slide and stop on a spot (v₀ and μ designed)",
+        cost=7.0)
 def contact_box_slide(ctx):
     """The push and μ found together (a vertical push weighted 10⁶ in M) so that the box stops on the spot."""
     scene, T, spot = contact_box_scene(), 1.0, np.array([0.8, -0.3, 0.05])
@@ -107,7 +108,7 @@ def contact_cup_scene():
     return ContactScene(body, [Plane()], [StaticBox([0.5, 0.5, 0.4], [0, 0, 0.4])] + walls, friction=0.4)
 
 
-@figure("ch10", "contact_ball_cup", "A ball rolled off a table edge into a cup")
+@figure("ch10", "contact_ball_cup", "A ball rolled off a table edge into a cup", cost=6.5)
 def contact_ball_cup(ctx):
     """The push v₀ is designed so that, rolling to the edge and flying, the ball passes over the cup's centre
     at t = 0.62 s (goal on x and y) and drops in."""
@@ -129,7 +130,7 @@ def contact_ball_cup(ctx):
 contact_die_scene = die_scene          # the die thrown (its old name in this chapter)
 
 
-@figure("ch10", "contact_die", "A die thrown to rest on a chosen face at a chosen place", cost=12.0)
+@figure("ch10", "contact_die", "A die thrown to rest on a chosen face at a chosen place", cost=9.5)
 def contact_die(ctx):
     """Gauss–Newton on v₀ through the corner impacts and the rolling (with up to six seeded kicks where the
     place lies across a jump of S); the face by the cube's symmetry on θ₀. The figure designs the first random
