@@ -232,7 +232,7 @@ def quat_drift(ctx):
 
 # %%
 @figure("ch05", "work_precision", "Torque-free body: error of ω(t) vs wall time per integrator and quaternion policy",
-        cost=8.0)
+        cost=5.0)
 def work_precision(ctx):
     from pbanim.bench.rigid import work_precision as wp
 
