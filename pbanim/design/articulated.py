@@ -136,7 +136,7 @@ def simulate_chain(tree, q0, qd0, T: float, h: float, free=None, stiffness=None,
 
 
 @contract(u=Array((None,), empty=True), flight=Obj(ChainFlight), residuals=Seq(Real(ge=0)), success=Flag(),
-          history=Seq(Array((None,), empty=True)))
+          history=Seq(Array((None,), empty=True)), flights=Seq(Obj(ChainFlight)))
 @dataclass
 class ChainAim:
     """A shooting design: the launch u found, the flight, the residual |p(T) − p*| and u per iterate, success."""
