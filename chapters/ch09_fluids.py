@@ -124,7 +124,7 @@ def smoke_plume_figure(ctx):
 # (on 32²: 0.0093, 0.0046, 0.0021 for Δt = 0.05, 0.025, 0.0125).
 
 # %%
-@figure("ch09", "taylor_green_decay", "Taylor–Green vortex: kinetic energy against the closed form")
+@figure("ch09", "taylor_green_decay", "Taylor–Green vortex: kinetic energy against the closed form", cost=3.0)
 def taylor_green_decay(ctx):
     nu, h, t_end = 0.05, 0.05, 2.0
     sizes = (16, 32) if ctx.quick else (16, 32, 64, 128)
