@@ -84,13 +84,16 @@ class Staircase:
             raise InvalidInput(f"risers must be True or False, got {risers!r}")
         self.risers = risers
 
+    def _tread(self, x) -> np.ndarray:
+        """The number k of the tread below x (0 before the stairs, ``steps`` after them): height −rise·k."""
+        return np.clip(np.floor((np.asarray(x, dtype=float) - self.start) / self.run) + 1, 0, self.steps)
+
     def height(self, x) -> np.ndarray:
-        k = np.clip(np.floor((np.asarray(x, dtype=float) - self.start) / self.run) + 1, 0, self.steps)
-        return -self.rise * k
+        return -self.rise * self._tread(x)
 
     def gap_normal(self, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         x = P[:, 0]
-        k = np.clip(np.floor((x - self.start) / self.run) + 1, 0, self.steps)
+        k = self._tread(x)
         gap = P[:, 2] + self.rise * k
         normal = np.zeros(P.shape)
         normal[:, 2] = 1.0

@@ -169,15 +169,10 @@ class FrictionStepping(TimeStepping):
                                                       max_iter=self.iterations, tol=self.tol,
                                                       warm_start=z0 if self.warm else None)
         self.stats["rounds"] += sweeps
-        self._remember(keys, self._state_of(z, keys.size), z)
+        self._remember(keys, box_state(z, self.mu), z)
         return z, res, u_new
 
-    def _state_of(self, z, m):
-        """On/off and stick/slide rows of impulses z (what the next step's active-set guess starts from)."""
-        return box_state(z, self.mu)
-
     def _solve(self, A, b, keys):
-        m = keys.size
         state0, z0 = self._warm(keys, b)
         pgs = lambda: self._pgs(A, b, keys, z0)  # noqa: E731
         if self.solver == "active_set" and self._skip > 0:
@@ -205,7 +200,7 @@ class FrictionStepping(TimeStepping):
             self.stats["rounds"] += sweeps
             state = None
         if state is None:
-            state = self._state_of(z, m)
+            state = box_state(z, self.mu)
         self._remember(keys, state, z)
         return z, res
 

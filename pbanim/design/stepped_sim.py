@@ -43,6 +43,7 @@ from ..contracts import unchecked
 from ..geometry import skew
 from ..lcp.active_set import box_friction_active_set, box_friction_residual
 from ..lcp import pgs_box_friction
+from ..lcp.box import box_state
 from ..rigid import quat_exp, quat_multiply, quat_to_matrix
 from .scene import UncertifiedTrajectory, left_jacobian
 from .stepped import frames
@@ -76,13 +77,8 @@ class StepInfo:
 
 
 def _state_of(z, mu):
-    """The active set a projected Gauss–Seidel answer z suggests (on where λ > 0; ±1 where |τⱼ| ≈ μλ)."""
-    f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-    lim = (mu * f)[:, None] * (1 - 1e-6)
-    st = np.zeros((f.size, 3), int)
-    st[:, 0] = f > 0
-    st[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
-    return st
+    """The active set a projected Gauss–Seidel answer z suggests (on where λ > 0; ±1 where |τⱼ| ≈ μλ to 10⁻⁶)."""
+    return box_state(z, mu, rel=1e-6)
 
 
 def _neighbours(st):

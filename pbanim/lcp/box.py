@@ -169,11 +169,11 @@ def _box_residual(z, w, mu) -> float:
 CHUNKS = (10, 20, 40, 80)       # PGS sweeps between two active-set attempts; then 160 each
 
 
-def box_state(z: np.ndarray, mu: np.ndarray) -> np.ndarray:
+def box_state(z: np.ndarray, mu: np.ndarray, rel: float = 1e-9) -> np.ndarray:
     """The states (m, 3) that impulses z (3m,) show: on where fᵢ > 0; a tangent at +1 (−1) where it lies on
-    +μfᵢ (−μfᵢ) to 10⁻⁹ relative, 0 (sticking) inside; an off contact's tangents 0."""
+    +μfᵢ (−μfᵢ) to ``rel`` relative, 0 (sticking) inside; an off contact's tangents 0."""
     f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-    lim = (mu * f)[:, None] * (1 - 1e-9)
+    lim = (mu * f)[:, None] * (1 - rel)
     state = np.zeros((f.size, 3), dtype=int)
     state[:, 0] = f > 0
     state[:, 1:] = np.where(f[:, None] > 0, np.where(t >= lim, 1, np.where(t <= -lim, -1, 0)), 0)
