@@ -201,6 +201,23 @@ def chain_stepper(tableau, rates, unit=None):
     return step
 
 
+def unit_quats(y: list, quats) -> list:
+    """q ← q/|q| for the quaternions of y starting at the indices ``quats``, in place (a |q|² outside the safe
+    range: q scaled by max |qᵢ| first)."""
+    lo, hi = _SAFE
+    for i in quats:
+        w, x, yq, z = y[i], y[i + 1], y[i + 2], y[i + 3]
+        n2 = w * w + x * x + yq * yq + z * z
+        if not lo < n2 < hi:
+            m = max(abs(w), abs(x), abs(yq), abs(z))
+            if m > 0:                            # (0 and NaN are left to the divergence check)
+                w, x, yq, z = w / m, x / m, yq / m, z / m
+                n2 = w * w + x * x + yq * yq + z * z
+        n = sqrt(n2)
+        y[i], y[i + 1], y[i + 2], y[i + 3] = w / n, x / n, yq / n, z / n
+    return y
+
+
 class LeanRigid:
     """The bound per-body rates of one scene and its float steps (see the module docstring)."""
 
@@ -238,19 +255,8 @@ class LeanRigid:
         return rates
 
     def unit(self, y: list) -> list:
-        """q ← q/|q| for every body, in place (a |q|² outside the safe range: q scaled by max |qᵢ| first)."""
-        lo, hi = _SAFE
-        for i in self.quats:
-            w, x, yq, z = y[i], y[i + 1], y[i + 2], y[i + 3]
-            n2 = w * w + x * x + yq * yq + z * z
-            if not lo < n2 < hi:
-                m = max(abs(w), abs(x), abs(yq), abs(z))
-                if m > 0:                            # (0 and NaN are left to the divergence check)
-                    w, x, yq, z = w / m, x / m, yq / m, z / m
-                    n2 = w * w + x * x + yq * yq + z * z
-            n = sqrt(n2)
-            y[i], y[i + 1], y[i + 2], y[i + 3] = w / n, x / n, yq / n, z / n
-        return y
+        """q ← q/|q| for every body, in place (:func:`unit_quats`)."""
+        return unit_quats(y, self.quats)
 
     def stepper(self, tableau):
         """``step(y, h) -> y₁`` on lists for a chain tableau (see the module docstring), or None."""

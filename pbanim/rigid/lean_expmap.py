@@ -75,11 +75,12 @@ class LeanExpMap:
     """The bound per-body rates of one scene and its float exponential-map steps (see the module docstring)."""
 
     def __init__(self, rb, Q0: np.ndarray, cv: np.ndarray, cw: np.ndarray, renormalize: bool) -> None:
-        from .lean import LeanRigid, _body_rates
+        from .lean import _body_rates, unit_quats
 
         N = rb.N
         self.N, self.renormalize = N, renormalize
-        self._unit = LeanRigid(rb, Q0, cv, cw, renormalize).unit          # q ← q/|q| (a renormalization added)
+        quats = tuple(range(3 * N, 7 * N, 4))
+        self._unit = lambda y: unit_quats(y, quats)                       # q ← q/|q| (a renormalization added)
         self._q0: list = [None] * N                                        # q_n of each body, set per step
         bodies = tuple((i, _body_rates(float(rb.inv_mass[i]), tuple(float(a) for a in rb.inv_I_body[i].ravel()),
                                        tuple(float(f) for f in Q0[i]), float(cv[i]), float(cw[i]), omega=True))
