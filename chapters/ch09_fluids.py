@@ -287,7 +287,7 @@ def collocated_vs_mac(ctx):
 # steady state) and the velocity on the vertical centre line follows Ghia, Ghia and Shin's table.
 
 # %%
-@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=16.0)
+@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=7.5)
 def lid_cavity(ctx):
     n, h, t_end = (24, 0.04, 10.0) if ctx.quick else (64, 0.01, 20.0)
     scene = lid_driven_cavity(n, 100.0)

@@ -158,14 +158,18 @@ def diffusion_coefficient(grid, coef: float, h: float, what: str) -> float:
 
 def _face_operator(grid, i: int, a: float) -> tuple:
     """(FaceOperator, its wall term, its :class:`SparseFaceOperator` or the operator itself when the probe
-    failed) for component i and a = νΔt, made once per (i, a) and cached on the grid (at most 16 kept)."""
+    failed, the lean CG's preconditioner) for component i and a = νΔt, made once per (i, a) and cached on the
+    grid (at most 16 kept). The preconditioner is the exact inverse on a box without obstacles
+    (:class:`~pbanim.fluids.face_solve.FaceInverse`, ORACLES E26), else the diagonal."""
+    from .face_solve import FaceInverse
+
     cache = grid.__dict__.setdefault("_face_cache", {})
     if (i, a) not in cache:
         if len(cache) >= 16:
             cache.clear()
         A = FaceOperator(grid, i, a)
-        lean = SparseFaceOperator(A)
-        cache[i, a] = (A, A.wall_term(), lean if lean.ok else A)
+        lean, inv = SparseFaceOperator(A), FaceInverse(A)
+        cache[i, a] = (A, A.wall_term(), lean if lean.ok else A, inv if inv.ok else (lambda v, A=A: v / A.diag))
     return cache[i, a]
 
 
@@ -178,7 +182,9 @@ def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, 
 
     ``iterations``: sweeps of gauss_seidel / jacobi; ``tol``, ``max_iter`` (default 20·max(n) + 100): the
     stop and the cap of cg (:class:`~pbanim.errors.ConvergenceError` past it); ``lean=False``: cg applies the
-    readable :class:`FaceOperator`, not its :class:`SparseFaceOperator`."""
+    readable :class:`FaceOperator`, not its :class:`SparseFaceOperator`, preconditioned by the diagonal, not
+    by the exact inverse of a box without obstacles (:mod:`~pbanim.fluids.face_solve`: one iteration to the
+    same stopping test, so the same answer to ``tol``, ORACLES E26)."""
     if nu == 0:
         return [c.copy() for c in u], [SolveInfo(method, 0, 0.0) for _ in u]
     if method == "fft" and (grid.has_obstacles or not all(grid.periodic)):
@@ -188,14 +194,14 @@ def diffuse_velocity(grid, u: list, nu: float, h: float, method: str = "cg", *, 
     a = diffusion_coefficient(grid, nu, h, "nu")
     out, infos = [], []
     for i, c in enumerate(u):
-        A, wall, sparse = _face_operator(grid, i, a)
+        A, wall, sparse, pre = _face_operator(grid, i, a)
         r = np.where(A.closed, 0.0, c) + wall
         its = 0
         if method == "fft":
             x = _spectral(grid, r, 1.0, a)
         elif method == "cg":
-            x, its = _cg(sparse if lean else A, r, c * grid.open[i], tol, max_iter, lambda v, A=A: v / A.diag,
-                         "diffusion cg")
+            x, its = _cg(sparse if lean else A, r, c * grid.open[i], tol, max_iter,
+                         pre if lean else (lambda v, A=A: v / A.diag), "diffusion cg")
         else:
             x, its = relax(A, r, c * grid.open[i], method, iterations)
         res = r - A(x)
