@@ -166,7 +166,8 @@ class TimeStepping:
     lean : bool
         Let :meth:`simulate` take the lean step (:mod:`pbanim.contact.lean`: bound once, equal to the
         readable :meth:`step` to roundoff) when it applies — rigid bodies, no friction, a narrow phase with
-        raw arrays (:class:`pbanim.contact.scenes.SceneDetect`); False: the readable step always.
+        raw arrays (:class:`pbanim.contact.scenes.SceneDetect`) — or, with friction and Lemke's method on a few
+        rigid bodies, :mod:`pbanim.contact.lean_friction` (also equal to roundoff); False: the readable step always.
 
     Examples
     --------
@@ -312,6 +313,7 @@ class TimeStepping:
         from ..contracts import unchecked
         from ..results import LazyDiagnostics
         from .lean import LeanFrictionless, lean_applies
+        from .lean_friction import LeanFriction, lean_friction_applies
 
         grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
         y = np.array(self.system.state() if y0 is None else y0, dtype=float, copy=True)
@@ -335,7 +337,13 @@ class TimeStepping:
             diag["lcp_time"].append(0.0 if sol is None else sol.time)
             diag["lcp_unconverged"].append(0.0 if sol is None else float(not sol.success))
 
-        step = unchecked(LeanFrictionless(self).step if (self.lean and lean_applies(self)) else self.step)
+        if self.lean and lean_applies(self):
+            step = LeanFrictionless(self).step
+        elif self.lean and lean_friction_applies(self):
+            step = LeanFriction(self).step
+        else:
+            step = self.step
+        step = unchecked(step)
         start = time.perf_counter()
         drive(step, grid, y, record=record, record_every=record_every)
         wall = time.perf_counter() - start

@@ -46,10 +46,12 @@ from typing import Any
 import numpy as np
 
 from .box import _box_residual, pgs_bounded, pgs_box_friction  # noqa: F401  (their import path)
-from .pivoting import _EPS1000, _check, _dantzig, _lemke, _polish, _scale, residual_threshold
+from .pivoting import _check, _dantzig, _lemke, _polish, _scale, residual_threshold
 from .qp import qp
 from .pivoting import _MATRIX, _VECTOR
-from .specs import LIMIT as _LIMIT, JacobianRows, RowIndices, check_options, length_of
+from .sweeps import pgs_sweeps, sweeps_for  # noqa: F401  (pgs_sweeps: its import path)
+from .lean_solve import lean_lemke, lean_pgs  # noqa: F401  (their import path)
+from .specs import JacobianRows, RowIndices, check_options, length_of
 from ..contracts import Array, Choice, Flag, Int, Opt, Real, contract, finite_result
 from ..errors import InfeasibleContact, InvalidInput, PbanimError
 from ..results import ContactSolution, natural_map_residual
@@ -79,71 +81,9 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
     absA = np.abs(A)
     if natural_map_residual(f, A @ f + b) <= residual_threshold(A, b, f, tol):
         return f, "converged", 0
-    f, status, sweep, _, _ = pgs_sweeps(A, b, f, diag, absA, tol * _scale(b), int(max_iter), omega)
+    f, status, sweep, _, _ = sweeps_for(m)(A, b, f, diag, absA, tol * _scale(b), int(max_iter), omega)
     return f, status, sweep
     # END SOLUTION
-
-
-def pgs_sweeps(A, b, f, diag, absA, tol_b: float, max_iter: int, omega: float = 1.0):
-    """The sweeps of :func:`pgs` from f (in place), unchecked: (f, status, sweeps, residual, threshold).
-
-    Each sweep fᵢ ← max(0, fᵢ − ω (Aᵢ·f + bᵢ)/Aᵢᵢ), then the stop test residual ≤ tol·max(1, ‖b‖∞) +
-    1000 ε ‖|A| f‖∞ — the certificate of :func:`solve_lcp` itself (f ≥ 0, so |A||f| = |A| f): a "converged"
-    answer has passed it, with these very numbers. The one sweep that :func:`pgs` and the lean contact step
-    (:mod:`pbanim.contact.lean`) both run; ``diag`` = diag(A) > 0 and ``absA`` = |A| are the caller's.
-    """
-    m = b.size
-    rows = [A[i] for i in range(m)]
-    res = thresh = float("inf")
-    for sweep in range(1, max_iter + 1):
-        for i in range(m):
-            fi = f[i] - omega * (rows[i] @ f + b[i]) / diag[i]
-            f[i] = fi if fi > 0.0 else 0.0
-        thresh = tol_b + _EPS1000 * float(np.max(absA @ f))
-        res = float(np.abs(f - np.maximum(0.0, f - (A @ f + b))).max())
-        if res <= thresh:
-            return f, "converged", sweep, res, thresh
-    return f, "max_iter", max_iter, res, thresh
-
-
-def lean_pgs(A: np.ndarray, b: np.ndarray, warm_start, tol: float, max_iter: int = 1000,
-             omega: float = 1.0) -> ContactSolution | None:
-    """``solve_lcp(A, b, "pgs", tol=tol, warm_start=warm_start, validate=False)`` for a stepping loop that built
-    A and b itself: the same warm-start test, the same iterates (:func:`pgs_sweeps`) and the same certificate,
-    without the checks of values the loop made (shapes, options) or the certificate computed a second time.
-    None when the readable call must answer: A or b not finite or beyond the entries' limit, a diagonal entry
-    ≤ 0, or no convergence in ``max_iter`` sweeps (the readable call then names the failure or returns it)."""
-    m = b.size
-    absA = np.abs(A)
-    if not (m and max(float(absA.max()), float(np.abs(b).max())) <= _LIMIT):      # NaN fails too
-        return None
-    diag = np.diag(A).copy()
-    if not diag.min() > 0:
-        return None
-    start = time.perf_counter()
-    extra: dict = {}
-    f = None
-    if warm_start is not None:
-        ws = np.asarray(warm_start, dtype=float)
-        with np.errstate(over="ignore", invalid="ignore"):
-            worse = not natural_map_residual(ws, A @ ws + b) <= natural_map_residual(np.zeros(m), b)
-        if worse:
-            extra["warm_start_dropped"] = True
-        else:
-            f = np.maximum(np.array(ws, dtype=float), 0.0)
-    if f is None:
-        f = np.zeros(m)
-    tol_b = tol * _scale(b)
-    thresh = tol_b + _EPS1000 * float(np.max(absA @ f))
-    if natural_map_residual(f, A @ f + b) <= thresh:
-        sweeps = 0
-    else:
-        f, status, sweeps, _, thresh = pgs_sweeps(A, b, f, diag, absA, tol_b, int(max_iter), omega)
-        if status != "converged":
-            return None
-    extra["threshold"] = thresh
-    return ContactSolution(f=f, solver="pgs", status="converged", success=True, iterations=sweeps,
-                           time=time.perf_counter() - start, A=A, b=b, extra=extra)
 
 
 # ---------------------------------------------------------------------------------------------
