@@ -103,6 +103,9 @@ def lean_joints(joints) -> "LeanJoints | None":
 class LeanJoints:
     """The multiplier solve of ball and hinge joints on preallocated arrays (see the module docstring)."""
 
+    #: False: the array rows even where the float rows of :mod:`.joints_float` qualify
+    floats = True
+
     def __init__(self, joints) -> None:
         s = joints.system
         js = joints.joints
@@ -150,6 +153,16 @@ class LeanJoints:
         self.dyn = s._dyn
         self.any_static = bool(s.static.any())
         self.inv_mass = s.inv_mass[:, None]
+        # the float rows of a small scene (joints_float): W as one (6N, 6N) block diagonal whose angular blocks
+        # are a strided view, J's angular entries by one put
+        from .joints_float import float_rows
+
+        self._all_idx = np.concatenate([self._ball_idx, self._hinge_idx])
+        W = self._W = np.zeros((6 * N, 6 * N))
+        W[np.arange(6 * N), np.arange(6 * N)] = np.repeat(s.inv_mass, 6)
+        self._W_ang = np.lib.stride_tricks.as_strided(W[3:, 3:], shape=(N, 3, 3), strides=(
+            (6 * N + 1) * 6 * W.itemsize, 6 * N * W.itemsize, W.itemsize))
+        self._float = float_rows(self)
 
     def rotations(self, q: np.ndarray) -> np.ndarray:
         """R(q) of every body into the padded buffer's first N entries (see the module docstring)."""
@@ -213,13 +226,61 @@ class LeanJoints:
 
     def errors(self, y: np.ndarray):
         """(C, Ċ = J u) at y: the joints' drift and its rate (what their diagnostics report)."""
+        if self._float is not None and self.floats:
+            return self._errors_floats(y)
         N = self.N
         _, w, _, r, tab = self.rows(y)
         u = np.concatenate([self.inv_mass * y[7 * N:10 * N].reshape(N, 3), w], axis=1)
         return self.constraint_values(y, r, tab), self.Jv @ u.ravel()
 
+    def _errors_floats(self, y: np.ndarray):
+        fr = self._float
+        yl = y.tolist()
+        Rs, ws, _ = fr.bodies(yl)
+        _, _, C, Cd = fr.rows(yl, Rs, ws, True, True)
+        return np.array(C, dtype=float), np.array(Cd, dtype=float)
+
+    def _constrain_floats(self, y: np.ndarray, Q: np.ndarray):
+        """:meth:`constrain` with the rows on floats (:mod:`.joints_float`) and W Jᵀ by one product."""
+        fr, N, Jv, k = self._float, self.N, self.Jv, self.k
+        yl = y.tolist()
+        Rs, ws, per_body = fr.bodies(yl)
+        ks, kd = self.effect.ks, self.effect.kd           # read at each call: a caller may retune them
+        vals, bias, C, Cd = fr.rows(yl, Rs, ws, bool(ks), bool(kd))
+        nv = len(vals)
+        arr = np.array(vals + per_body + bias + (C or []) + (Cd or []), dtype=float)   # one conversion, then views
+        np.put(self._J, self._all_idx, arr[:nv])
+        self._W_ang[...] = arr[nv:nv + 9 * N].reshape(N, 3, 3)
+        JW = Jv @ self._W
+        A = JW @ Jv.T
+        Qg = arr[nv + 9 * N:nv + 15 * N]
+        Qg += Q.ravel()                                    # Q + Q_gyro, Q_gyro = (0, −ω × L)
+        rhs = JW @ Qg
+        rhs += arr[nv + 15 * N:nv + 15 * N + k]
+        np.negative(rhs, out=rhs)                          # −J̇u − J W (Q + Q_gyro)
+        at = nv + 15 * N + k
+        if ks:
+            rhs -= ks * arr[at:at + k]
+            at += k
+        if kd:
+            rhs -= kd * arr[at:at + k]                     # Ċ = J u
+        c, info = _potrf(A, lower=False, clean=False)
+        if info != 0:
+            return None
+        d = c.diagonal().tolist()                          # positive where the factor succeeded
+        if not min(d) > 1e-5 * max(d):                     # the readable path's rule (joints._spd_solve)
+            return None
+        lam = _potrs(c, rhs)[0]
+        check = float(lam @ lam)
+        if check - check != 0.0:                           # not finite: the readable path names it
+            return None
+        self.effect.last_lambda = lam
+        return Q + (lam @ Jv).reshape(N, 6)
+
     def constrain(self, y: np.ndarray, Q: np.ndarray):
         """Q + Jᵀλ (and ``last_lambda`` set on the joints), or None where the readable path must decide."""
+        if self._float is not None and self.floats:
+            return self._constrain_floats(y, Q)
         N, k = self.N, self.k
         Iw, w, L, r, tab = self.rows(y)
         Jv, Wb = self.Jv, self.Wb
