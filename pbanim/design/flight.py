@@ -223,8 +223,12 @@ def normalize(y: np.ndarray, T: np.ndarray | None, N: int):
 
 
 def plain_step(model: FlightModel, y: np.ndarray, h: float) -> np.ndarray:
-    """One RK4 step of the state alone (event location, finite differences)."""
-    y1 = rk4_step(lambda t, yy: flight_rhs(model, yy), 0.0, y, h)
+    """One RK4 step of the state alone (event location, finite differences); one body's f on floats
+    (:mod:`~pbanim.design.lean_flight`, the same products in the same order)."""
+    from .lean_flight import one_body_rhs
+
+    f = one_body_rhs(model) or (lambda t, yy: flight_rhs(model, yy))
+    y1 = rk4_step(f, 0.0, y, h)
     return normalize(y1, None, model.N)[0]
 
 

@@ -48,6 +48,7 @@ from ..ode.events import crossings, make_events
 from .exact import ExactFlight, exact_reason
 from .flight import FlightModel, augmented_step, flight_rhs, plain_step, step_rate
 from .impact import Features, apply_impact, gaps, saltation_post
+from .lean_flight import one_body_gaps
 from .rest import ContactState, clearance_of, gap_rates, hermite_dips, hermite_peak
 from .scene import DesignScene, GrazingImpactWarning, PenetrationError, RestingContactError, TooManyImpacts
 from .specs import ParameterNames, u_size
@@ -237,6 +238,9 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
         return lambda s: contacts.project(plain_step(model, yy, s0 + s))[0]
 
     last = [None, None, None, None]      # (y₁, G, g(y₁), ġ(y₁)) of the last step tried: the next step's start
+    lean = one_body_gaps(feat, model, nrm)   # one body on planes: its gaps and rates on floats (ORACLES H10)
+    gap = lean[0] if lean else (lambda yy: gaps(feat, yy, N, nrm))
+    rates = (lambda yy, G: lean[1](yy)) if lean else (lambda yy, G: gap_rates(feat, model, yy, nrm, G)[0])
 
     def _at_start(yy, G):
         """(g, ġ) at the step's start: those of the last step's end when it is this state under the same
@@ -244,10 +248,10 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
         y_end, G_end, g_end, d_end = last
         if y_end is not None and np.array_equal(y_end, yy) and np.array_equal(G_end, G):
             return g_end, d_end
-        return gaps(feat, yy, N, nrm), gap_rates(feat, model, yy, nrm, G)[0]
+        return gap(yy), rates(yy, G)
 
     def gap_fn(k):
-        return make_events([lambda tt, yv: float(gaps(feat, yv, N, nrm)[k])])
+        return make_events([lambda tt, yv: float(gap(yv)[k])])
 
     def event(t, yy, y1, hk, tol0):
         """The first impact in the step, (t_e, feature), or None, or "settle" (a touching contact sinks);
@@ -255,17 +259,17 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
         skip = contacts.mask()
         G = contacts.gravity()
         g0, d0 = _at_start(yy, G)
-        g1, d1 = gaps(feat, y1, N, nrm), gap_rates(feat, model, y1, nrm, G)[0]
+        g1, d1 = gap(y1), rates(y1, G)
         last[:] = [y1.copy(), G.copy(), g1, d1]
         found, touches = [], []
         hit = np.flatnonzero((g0 > tol0) & (g1 <= 0) & ~skip)
         if hit.size:
-            evs = make_events([(lambda tt, yv, k=k: float(gaps(feat, yv, N, nrm)[k])) for k in hit])
+            evs = make_events([(lambda tt, yv, k=k: float(gap(yv)[k])) for k in hit])
             te, _, ev = crossings(evs, g0[hit], t, yy, t + hk, y1, hk, partial(yy))[0]
             found.append((te, int(hit[evs.index(ev)])))
         for k in hermite_dips(np.where(skip, -np.inf, g0), d0, g1, d1, hk, tol0):
             # the gap dips inside the step: a touch, or in and out; the true minimum along the partial step
-            low = minimize_scalar(lambda s: float(gaps(feat, partial(yy)(s), N, nrm)[k]), bounds=(0.0, hk),
+            low = minimize_scalar(lambda s: float(gap(partial(yy)(s))[k]), bounds=(0.0, hk),
                                   method="bounded", options={"xatol": 1e-9 * hk})
             s, gk = float(low.x), float(low.fun)
             ys = partial(yy)(s)
@@ -276,7 +280,7 @@ def _rk4_path(model, feat, nrm, contacts, resolve, impulse, n, p, sensitivities,
         for k in np.flatnonzero((np.abs(g0) <= tol0) & (g1 < -tol0) & ~skip):   # touching, then inside
             s = hermite_peak(g0[k], d0[k], g1[k], d1[k], hk)
             ys = partial(yy)(s)
-            gk = float(gaps(feat, ys, N, nrm)[k])
+            gk = float(gap(ys)[k])
             if gk <= tol0:
                 return "settle"
             found.append((crossings(gap_fn(k), [gk], t + s, ys, t + hk, y1, hk - s, partial(yy, s))[0][0], int(k)))
