@@ -61,6 +61,7 @@ from .biped import BIPED_JOINTS as JI
 from .biped import biped_contact_points, planar_biped
 from .pd import InvalidGains
 from .qp import MODES, InfeasibleControl, QPController
+from .qp_lean import LeanQP
 from .qp_solve import backends
 from .qp_tasks import InvalidTask, Task
 from .specs import Mapping, Pair, named
@@ -179,8 +180,10 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
 
     ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`. ``lean`` (default): the
     simulation's contact step is :class:`~pbanim.articulated.planar_lean.LeanPlanarStep` (the readable step's
-    operations in their order) and the kinematics of the fall detector serve the next step; ``lean=False``
-    runs :class:`PlanarContactStep` itself (ORACLES F22: the same run to the QP runs' own spread).
+    operations in their order), the weighted QP is solved on its lean path (:class:`~pbanim.control.qp_lean.LeanQP`,
+    ORACLES F23) and one lean kinematics of q serves the QP, the step and the fall detector; ``lean=False``
+    runs :class:`PlanarContactStep` and :meth:`QPController.solve` themselves (ORACLES F22: the same run to the QP
+    runs' own spread).
     """
     options = {k: v for k, v in locals().items() if k not in ("push", "t_end", "h")}
     return _balance(push, t_end, h, options)
@@ -246,7 +249,16 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
     solve = unchecked(ctrl.solve)
     kinematics, com = unchecked(kernel.kinematics), unchecked(kernel.centre_of_mass)
     lean = LeanPlanarStep(stepper) if o["lean"] else None
+    lean_qp = LeanQP(ctrl, lean) if lean is not None else None
+    if lean_qp is not None and lean_qp.supported:       # the QP's lean twin (ORACLES F23) takes the lean kinematics
+        solve = unchecked(lean_qp.solve)
+    else:
+        lean_qp = None
     readable = unchecked(stepper.step)
+
+    def lean_kinematics(q):
+        lk = lean.kinematics(q)
+        return lk + (lean.com_jacobians(lk[2], lk[3]),)
     counter = [0]
 
     def advance(t, y, hh):
@@ -259,10 +271,13 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
             state["snapshot"] = (k, y, {g: state[g] for g in ("tau", "last", "k", "qp")}, stepper.modes.copy(),
                                  {g: list(v) for g, v in rec.items()})
             raise _Branch
-        kin = state.pop("kin", None) or kinematics(q)
+        if lean_qp is not None:                        # the QP and the step share the lean kinematics of q
+            kin = state.pop("lk", None) or lean_kinematics(q)
+        else:
+            kin = state.pop("kin", None) or kinematics(q)
         if not state["pushed"] and push != 0.0 and t >= push_time - 1e-12:
-            H, _, kin = kernel.dynamics(q, qd, kin)
-            Jc = kernel.jacobians(kin, torso, kin["c"][torso])[0]
+            H, _, kin_p = kernel.dynamics(q, qd, kinematics(q) if lean_qp is not None else kin)
+            Jc = kernel.jacobians(kin_p, torso, kin_p["c"][torso])[0]
             qd = qd + np.linalg.solve(H, Jc.T @ np.array([push, 0.0]))
             state["pushed"] = True
         if state["k"] % every == 0:
@@ -275,15 +290,19 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
             state["qp"] += time.perf_counter() - start
             state["tau"], state["last"] = res.tau, res
         state["k"] += 1
-        if lean is not None:
-            lk = lean.kinematics(q)
-            q1, u1, state["near"], state["z"] = lean.step(q, qd, hh, state["tau"], None, lk,
-                                                          lean.com_jacobians(lk[2], lk[3]))
+        if lean_qp is not None:
+            q1, u1, state["near"], state["z"] = lean.step(q, qd, hh, state["tau"], None, kin[:4], kin[4])
+            state["lk"] = lk1 = lean_kinematics(q1)              # the next step's kinematics (the same q)
+            cause = fall_cause(kernel, {"o": np.stack([lk1[2].real, lk1[2].imag], axis=1)}, q1, ground)
         else:
-            q1, u1 = readable(q, qd, hh, state["tau"], None, kin)
-            state["near"], state["z"] = stepper.last["near"], stepper.last["impulses"]
-        state["kin"] = kin1 = kinematics(q1)                   # the next step's kinematics (the same q)
-        cause = fall_cause(kernel, kin1, q1, ground)
+            if lean is not None:
+                lk = lean_kinematics(q)
+                q1, u1, state["near"], state["z"] = lean.step(q, qd, hh, state["tau"], None, lk[:4], lk[4])
+            else:
+                q1, u1 = readable(q, qd, hh, state["tau"], None, kin)
+                state["near"], state["z"] = stepper.last["near"], stepper.last["impulses"]
+            state["kin"] = kin1 = kinematics(q1)               # the next step's kinematics (the same q)
+            cause = fall_cause(kernel, kin1, q1, ground)
         if cause:
             state["stop"] = ("fell", t + hh, cause)
             raise _Stop

@@ -1,0 +1,303 @@
+"""The weighted control QP of a planar character on its lean path: shapes decided once, one bound solver call.
+
+:meth:`QPController.solve <pbanim.control.qp.QPController.solve>` is written to be read: it builds the QP of
+:mod:`.qp` from the kernel's kinematics dict, the centroidal features (:func:`~.qp_features.centroidal`), one
+row block per task (:func:`~.qp_tasks.task_rows`) zero-padded to all N = n_v + n_a + 2m unknowns, the contact
+rows, the friction pyramid and the bounds, hands them to :func:`~.qp_solve.solve_qp` (which checks their size,
+scales them and calls ProxQP), and judges the answer (:meth:`QPController._judge`). On the planar biped the
+QP has 15–23 unknowns and ProxQP needs two iterations: the Python around it costs four times the solve.
+
+:class:`LeanQP` solves the same QP
+
+    min  ½ x̃ᵀ Q̃ x̃ + g̃ᵀ x̃   s.t.  Ã x̃ = b,   C̃ x̃ ≤ 0,   l̃ ≤ x̃ ≤ ũ         (x = D x̃, D = R^{-1/2})
+
+with Q̃ = ε I + Σₖ wₖ J_kᵀ J_k on the q̈ block only (a task acts on q̈ alone; ε D R D = ε I elsewhere, set
+once), g̃ = −Σₖ wₖ J_kᵀ (ÿₖ* − J̇_k q̇), Ã = [[H, −Sᵀ D_τ, −J_cᵀ D_f], [J_c,keep, 0, 0]], b = [−C, −J̇_c q̇]:
+
+* what depends only on the controller — D, the cone rows C̃, the bounds of τ and f, the posture's indices,
+  each task's gains and weight — is set at construction; per contact set (which points are active, which
+  of their rows are kept) the arrays of the QP are allocated once and rewritten in place at every step;
+* H, C and the bias accelerations J̇ q̇ of the centres come from one pass over the complex kinematics of
+  :class:`~pbanim.articulated.planar_lean.LeanPlanarStep` (its ``kinematics`` and ``com_jacobians``), the
+  centroidal features and the contact rows from the same arrays (the formulas of :mod:`.qp_features` and
+  :func:`~.qp_solve.contact_rows`, QR with column pivoting for the kept rows);
+* ProxQP's dense ``solve`` is bound once and called once per step (no size check, no copy of the data);
+* the answer is certified by the same cheap checks as the readable path: the KKT residual from ProxQP's
+  multipliers (:data:`~.qp.KKT_TOL`), each constraint group's residual against its tolerance, each task's error.
+
+The result is a :class:`~.qp.QPResult` with the readable path's status, residuals, tolerances and task errors;
+equal to the readable path to the solver's tolerance (the operations are the same up to their order;
+tests/test_qp_lean.py, ORACLES F23). Whatever it does not handle — a prioritized controller, another
+backend, a task kind other than centre of mass, angular momentum and posture, data that are not finite or
+beyond :data:`~.qp_solve.MAX_DATUM`, a status other than met or compromise — goes to the readable
+:meth:`QPController.solve` from the same state, which answers (or raises) as it always does.
+
+Notation as in :mod:`.qp`: q̈, τ, f the unknowns; H, C the equations of motion; J_c, J̇_c q̇ the contact rows;
+μ friction; wₖ, ÿₖ* the tasks' weights and desired accelerations; ε the regularization.
+"""
+
+from __future__ import annotations
+
+import time
+from math import isfinite
+
+import numpy as np
+from scipy.linalg.lapack import dgeqp3
+
+from ..articulated.planar_lean import LeanPlanarStep
+from ..contracts import Anything, Array, Flag, Obj, contract, unchecked
+from .qp import KKT_TOL, InfeasibleControl, QPController, QPResult
+from .qp_solve import MAX_DATUM, friction_pyramid
+
+__all__ = ["LeanQP"]
+
+_KINDS = ("com", "momentum", "posture")
+
+
+class LeanQP:
+    """``LeanQP(ctrl, lean_step)``: the lean twin of ``ctrl.solve`` for a weighted planar controller on native
+    ProxQP (``supported`` says whether ``ctrl`` is one; otherwise every call goes to ``ctrl.solve``).
+
+    ``lean_step``: the :class:`LeanPlanarStep` of the simulation (its kernel's constants and kinematics).
+    The tasks, weights and settings are read at construction: change them on ``ctrl`` and build a new one.
+    """
+
+    @contract(ctrl=Obj(QPController), lean_step=Obj(LeanPlanarStep))
+    def __init__(self, ctrl: QPController, lean_step: LeanPlanarStep) -> None:
+        k = ctrl.kernel
+        self.ctrl, self.lean, self.kernel = ctrl, lean_step, k
+        self._readable = unchecked(ctrl.solve)
+        self.supported = (ctrl.mode == "weighted" and ctrl.backend == "proxqp" and ctrl.native
+                          and all(t.kind in _KINDS for t in ctrl.tasks) and lean_step.kernel is k
+                          and not set(ctrl.solver_options) - {"equilibrate", "primal_inf"})
+        nv, na = k.nv, ctrl.na
+        self.nv, self.na = nv, na
+        self.mass, self.M = k.mass, float(k.mass.sum())
+        self.IzzPhi = k.Izz @ k.Phi
+        self.links, self.r0z = ctrl.links, k.point_offsets(ctrl.links, ctrl.local)
+        self.Pr_c, self.Dz_c, self.P_c = k.Pr[ctrl.links], k._Dz[ctrl.links], k.P[ctrl.links]
+        n_, t_ = ctrl.ground.normal, ctrl.ground.tangent
+        self.normal, self.nx, self.ny, self.tx, self.ty = n_, float(n_[0]), float(n_[1]), float(t_[0]), float(t_[1])
+        self.tasks = []                                   # (kind, weight, gains, target, acceleration, velocity, idx)
+        for t in ctrl.tasks:
+            idx = np.array([ctrl.joints[nm] for nm in t.target]) if t.kind == "posture" else None
+            self.tasks.append((t.kind, float(t.weight), float(t.kp), float(t.kd), t._target, t.acceleration,
+                               t.velocity, idx, t.name))
+        self.eps, self.f_scale = ctrl.eps, ctrl.f_scale
+        self.equilibrate = bool(ctrl.solver_options.get("equilibrate", False))
+        self.primal_inf = ctrl.solver_options.get("primal_inf")
+        self._layouts: dict = {}
+        self._eye_nv = np.eye(nv)
+        if self.supported:
+            import proxsuite  # lazy: only a controller that solves loads it
+
+            self._dense_solve = proxsuite.proxqp.dense.solve
+            self._proxqp = proxsuite.proxqp
+
+    # -- once per contact set -------------------------------------------------------------------
+    def _layout(self, m2: int) -> dict:
+        """The arrays of the QP with 2m = ``m2`` force entries: D, Q̃ (its constant diagonal set), Ã with −Sᵀ D_τ
+        set, C̃, l, u and the bounds' constant entries (the layout of :meth:`QPController.build`)."""
+        L = self._layouts.get(m2)
+        if L is not None:
+            return L
+        c, nv, na = self.ctrl, self.nv, self.na
+        N = nv + na + m2
+        R = np.concatenate([np.ones(nv), np.full(na, self.f_scale ** -2), np.full(m2, self.f_scale ** -2)])
+        D = R ** -0.5
+        Q = np.zeros((N, N))
+        Q.flat[::N + 1] = D * (self.eps * R) * D
+        G = friction_pyramid(m2 // 2, 2, c.ground.mu, nv + na, N)
+        lb = np.concatenate([np.full(nv, -np.inf), -c.torque_limits, np.tile([c.min_normal, -np.inf], m2 // 2)])
+        ub = np.concatenate([np.full(nv, np.inf), c.torque_limits, np.full(m2, np.inf)])
+        L = {"N": N, "D": D, "Dq": D[nv:], "Q": Q, "g": np.zeros(N), "G": G, "Gs": G * D, "l": np.full(G.shape[0], -np.inf),
+             "u": np.zeros(G.shape[0]), "lb": lb, "ub": ub, "lbs": lb / D, "ubs": ub / D, "StD": -c.S.T * D[nv:nv + na]}
+        self._layouts[m2] = L
+        return L
+
+    # -- per step -------------------------------------------------------------------------------
+    @contract(q=Array(("self.nv",)), qd=Array(("self.nv",)), kin=Anything("LeanPlanarStep.kinematics(q) and its "
+              "com_jacobians: complex arrays of the same q"), raise_on_failure=Flag())
+    def solve(self, q, qd, kin, *, raise_on_failure: bool = False) -> QPResult:
+        """The control QP at (q, q̇): :meth:`QPController.solve`'s result (see the module docstring);
+        ``kin`` = (rot, w, zo, zc, Jz) of :class:`LeanPlanarStep` at q."""
+        if self.supported:
+            with np.errstate(all="ignore"):
+                out = self._lean(q, qd, kin)
+            if out is not None:
+                if raise_on_failure and not out.success:
+                    raise InfeasibleControl(out)
+                return out
+        return self._readable(q, qd, raise_on_failure=raise_on_failure)
+
+    def _lean(self, q, qd, kin):
+        t0 = time.perf_counter()
+        rot, w, zo, zc, Jz = kin
+        lean, nv, na, m = self.lean, self.nv, self.na, self.mass
+        # equations of motion and the centres' bias accelerations J̇ᵢ q̇ (PlanarKernel.dynamics, _bias_z)
+        phid = lean.Phi @ qd
+        pd2 = np.where(lean.rooted, phid[lean.parent], 0.0) ** 2
+        bias_i = -((lean.P * pd2[None, :]) @ w) - phid ** 2 * (zc - zo)
+        JmT = Jz.conj().T * m
+        H = (JmT @ Jz).real + lean.Hrot
+        C = (JmT @ (bias_i - lean.gz)).real
+        # centroidal features (qp_features.centroidal on complex numbers)
+        M = self.M
+        comz = (m @ zc) / M
+        Jcz = (m @ Jz) / M
+        rz = (zc - comz).conj()
+        A_L = m @ (rz[:, None] * Jz).imag + self.IzzPhi
+        bz = (m @ bias_i) / M
+        vz = Jcz @ qd
+        L, L_bias = float(A_L @ qd), float(m @ (rz * bias_i).imag)
+        # contact points: positions, Jacobians, biases, which are active (QPController._contacts)
+        links = self.links
+        pz = zo[links] + rot[links] * self.r0z
+        Jp = (1j * (pz[:, None] - zo[None, :]) * self.Pr_c) @ lean.Rv + self.Dz_c
+        Jx, Jy = Jp.real, Jp.imag
+        nx, ny, tx, ty = self.nx, self.ny, self.tx, self.ty
+        gap = pz.real * nx + pz.imag * ny
+        Jn = nx * Jx + ny * Jy
+        ctrl = self.ctrl
+        active = (gap <= ctrl.contact_tol) & (Jn @ qd <= ctrl.contact_speed)
+        act = np.flatnonzero(active)
+        ma = act.size
+        m2 = 2 * ma
+        Lay = self._layout(m2)
+        N, D = Lay["N"], Lay["D"]
+        Jnt = np.empty((m2, nv))
+        bnt = np.empty(m2)
+        if ma:
+            bp = -((self.P_c[act] * pd2[None, :]) @ w) - phid[links[act]] ** 2 * (pz[act] - zo[links[act]])
+            Jnt[0::2], Jnt[1::2] = Jn[act], tx * Jx[act] + ty * Jy[act]
+            bnt[0::2], bnt[1::2] = bp.real * nx + bp.imag * ny, bp.real * tx + bp.imag * ty
+            qr, jpvt, _, _, info = dgeqp3(np.asfortranarray(Jnt.T))
+            if info != 0:
+                return None
+            dd = np.abs(np.diag(qr))
+            keep = np.sort(jpvt[:int(np.sum(dd > 1e-9 * max(dd[0], 1e-300)))] - 1)
+        else:
+            keep = np.zeros(0, dtype=int)
+        nk = keep.size
+        # the QP's arrays, in the scaled unknowns x̃ = D⁻¹ x
+        Q, g = Lay["Q"], Lay["g"]
+        Qq = self.eps * self._eye_nv
+        gq = np.zeros(nv)
+        rows = []                                         # (name, J, b, weight) of every task: e = J q̈ − b
+        com, vcom = np.array([comz.real, comz.imag]), np.array([vz.real, vz.imag])
+        for kind, wt, kp, kd, target, acc, vel, idx, name in self.tasks:
+            if kind == "com":
+                J = np.vstack([Jcz.real, Jcz.imag])
+                b = acc + kp * (target - com) + kd * (vel - vcom) - np.array([bz.real, bz.imag])
+            elif kind == "momentum":
+                J = A_L[None, :]
+                b = acc + kd * (target - L) - L_bias
+            else:
+                J = None
+                b = acc + kp * (target - q[idx]) + kd * (vel - qd[idx])
+            rows.append((name, J, b, wt, idx))
+            if wt > 0:
+                if J is None:
+                    np.add.at(Qq, (idx, idx), wt)
+                    np.subtract.at(gq, idx, wt * b)
+                else:
+                    Qq += (wt * J.T) @ J
+                    gq -= (wt * J.T) @ b
+        Q[:nv, :nv] = Qq
+        g[:nv] = gq
+        neq = nv + nk
+        Aeq = np.zeros((neq, N))
+        Aeq[:nv, :nv], Aeq[:nv, nv:nv + na], Aeq[:nv, nv + na:] = H, Lay["StD"], -Jnt.T * Lay["Dq"][na:]
+        Aeq[nv:, :nv] = Jnt[keep]
+        beq = np.concatenate([-C, -bnt[keep]])
+        lbs, ubs = Lay["lbs"], Lay["ubs"]
+        if ctrl.limit_index.size:
+            i, T = ctrl.limit_index, ctrl.limit_horizon
+            kk = 2.0 / (T * T)
+            lbs, ubs = lbs.copy(), ubs.copy()
+            lbs[i] = kk * (ctrl.limit_lo - q[i] - T * qd[i])
+            ubs[i] = kk * (ctrl.limit_hi - q[i] - T * qd[i])
+        Gs, l, u = Lay["Gs"], Lay["l"], Lay["u"]
+        big = max(np.abs(Qq).max(), np.abs(gq).max(), np.abs(Aeq).max(), np.abs(beq).max(),
+                  np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
+                  np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0))
+        if not big <= MAX_DATUM:                          # NaN or beyond: the readable path says why
+            return None
+        As, Cs, bs, ls, us = Aeq, Gs, beq, l, u
+        if self.equilibrate:                              # solve_qp's equilibrate: rows over their largest entry
+            sa = np.abs(Aeq).max(axis=1, initial=0.0)
+            sa = 1.0 / np.where(sa > 0, sa, 1.0)
+            sc = np.abs(Gs).max(axis=1, initial=0.0)
+            sc = 1.0 / np.where(sc > 0, sc, 1.0)
+            As, bs, Cs, ls, us = sa[:, None] * Aeq, sa * beq, sc[:, None] * Gs, sc * l, sc * u
+        t1 = time.perf_counter()
+        if self.primal_inf is None:
+            r = self._dense_solve(Q, g, As, bs, Cs, ls, us, l_box=lbs, u_box=ubs, eps_abs=ctrl.eps_abs, eps_rel=0.0,
+                                  max_iter=ctrl.max_iter)
+        else:
+            qp = self._proxqp.dense.QP(N, neq, Cs.shape[0], True)
+            st = qp.settings
+            st.eps_abs, st.eps_rel, st.max_iter, st.eps_primal_inf = ctrl.eps_abs, 0.0, ctrl.max_iter, self.primal_inf
+            qp.init(Q, g, As, bs, Cs, ls, us, lbs, ubs)
+            qp.solve()
+            r = qp.results
+        xs, y, z = r.x, r.y, r.z
+        t2 = time.perf_counter()
+        if not isfinite(float(xs.sum())):
+            return None
+        nc = Cs.shape[0]
+        kkt = _kkt(Q, g, As, bs, Cs, us, lbs, ubs, xs, y, z[:nc], z[nc:])
+        x = D * xs
+        return self._judge(x, H, C, Jnt, bnt, keep, active, rows, lbs[:nv], ubs[:nv], kkt, r, t1 - t0, t2 - t1)
+
+    def _judge(self, x, H, C, Jnt, bnt, keep, active, rows, lbq, ubq, kkt, r, t_build, t_solve):
+        """:meth:`QPController._judge` on the lean arrays; None (the readable path answers) unless met or compromise."""
+        ctrl, nv, na = self.ctrl, self.nv, self.na
+        qdd, tau_a, f = x[:nv], x[nv:nv + na], x[nv + na:]
+        tau = np.zeros(nv)
+        tau[ctrl.actuated] = tau_a
+        F = f.reshape(-1, 2)
+        fn, ft = F[:, 0], np.abs(F[:, 1])
+        dyn = float(np.abs(H @ qdd + C - tau - Jnt.T @ f).max())
+        con = float(np.abs(Jnt[keep] @ qdd + bnt[keep]).max(initial=0.0))
+        cone = float(np.maximum(ft - ctrl.ground.mu * fn, ctrl.min_normal - fn).max(initial=0.0))
+        lim = float(max((np.abs(tau_a) - ctrl.torque_limits).max(initial=0.0),
+                        np.maximum(lbq - qdd, qdd - ubq).max(initial=0.0)))
+        ftol, fs = ctrl.feasibility_tol, self.f_scale
+        tol = {"dynamics": ftol * (fs + np.abs(C).max()), "contact": ftol * (1.0 + np.abs(bnt).max(initial=0.0)),
+               "cone": ftol * fs, "limits": ftol * fs}
+        res = {"dynamics": dyn, "contact": con, "cone": cone, "limits": lim}
+        if not (dyn <= tol["dynamics"] and con <= tol["contact"] and cone <= tol["cone"] and lim <= tol["limits"]
+                and kkt <= KKT_TOL):
+            return None
+        errors, missed = {}, {}
+        for name, J, b, wt, idx in rows:
+            e = float(np.linalg.norm((qdd[idx] if J is None else J @ qdd) - b))
+            errors[name] = e
+            if wt > 0 and e > ctrl.task_tol * (1.0 + np.linalg.norm(b)):
+                missed[name] = e
+        forces = np.zeros((self.links.size, 2))
+        forces[active] = F
+        msg = ("every task met" if not missed else "least-squares compromise: " + ", ".join(
+            f"task {n!r} misses its desired acceleration by {e:.3g}" for n, e in missed.items()))
+        return QPResult(status="compromise" if missed else "met", message=msg, tau=tau, qdd=qdd.copy(), forces=forces,
+                        active=active, task_errors=errors, residuals=res, tolerances=tol,
+                        solver_status=[str(r.info.status).split(".")[-1]], iterations=int(r.info.iter),
+                        build_time=t_build, solve_time=t_solve, kkt=float(kkt))
+
+
+def _kkt(Q, g, A, b, G, u, lb, ub, x, y, zc, zb) -> float:
+    """:func:`~.qp_solve.kkt_residual` of min ½xᵀQx + gᵀx s.t. A x = b, G x ≤ u (its lower sides −∞),
+    lb ≤ x ≤ ub, with the multipliers y, z_G, z_box (the same stationarity and duality gap)."""
+    terms = (Q @ x, g, A.T @ y, G.T @ zc, zb)
+    stat = np.abs(terms[0] + terms[1] + terms[2] + terms[3] + terms[4]).max() / (
+        1.0 + max(np.abs(t).max(initial=0.0) for t in terms))
+    zgp, zgm = np.maximum(zc, 0.0), np.minimum(zc, 0.0)
+    zp, zm = np.maximum(zb, 0.0), np.minimum(zb, 0.0)
+    fu, fl = np.isfinite(ub), np.isfinite(lb)
+    parts = (float(x @ terms[0]), float(g @ x), float(b @ y), float(u @ zgp), float(ub[fu] @ zp[fu]),
+             float(lb[fl] @ zm[fl]))
+    stray = float(-zgm.sum() + zp[~fu].sum() - zm[~fl].sum())
+    gap = (abs(sum(parts)) + stray) / (1.0 + sum(abs(p) for p in parts))
+    out = max(float(stat), float(gap))
+    return out if out == out else np.inf
