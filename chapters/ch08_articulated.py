@@ -42,18 +42,21 @@ def chain_models(n: int, theta0: float = 0.9, ks: float = 0.0, kd: float = 0.0):
     return rod_chain(n, L, M, theta0, G, ks=ks, kd=kd)
 
 
-def _tip_maximal(rb, y):
-    x, q, _, _ = rb.unpack(y)
-    return x[-1] + quat_to_matrix(q[-1]) @ [0, -L / 2, 0]
+def _tip_maximal(rb, Y):
+    """The last rod's tip x + R(q) (0, −L/2, 0) at every recorded state (columns of Y, (13N, K))."""
+    N = rb.N
+    x, q = Y[3 * (N - 1):3 * N].T, Y[3 * N + 4 * (N - 1):7 * N].T
+    return x + quat_to_matrix(q) @ np.array([0, -L / 2, 0])
 
 
 def _joints(scene):
     return next(e for e in scene.effects if isinstance(e, RigidJoints))
 
 
-def _tip_reduced(q):
-    th = np.cumsum(q)
-    return np.array([L * np.sin(th).sum(), -L * np.cos(th).sum(), 0.0])
+def _tip_reduced(Q):
+    """The chain's tip (Σ L sin θ, −Σ L cos θ, 0), θ the cumulative joint angles, at every row of Q (K, n)."""
+    th = np.cumsum(Q, axis=1)
+    return np.stack([L * np.sin(th).sum(axis=1), -L * np.cos(th).sum(axis=1), np.zeros(len(Q))], axis=1)
 
 
 # %% [markdown]
@@ -76,8 +79,8 @@ def chain_maximal_vs_reduced(ctx):
     rm = scene.simulate(t_end, h, "rk4")
     rs = stab_scene.simulate(t_end, h, "rk4")
     rr = red.simulate(t_end, h, "rk4")
-    tip_m = np.array([_tip_maximal(rb, y) for y in rm.y.T])
-    tip_r = np.array([_tip_reduced(y[:n]) for y in rr.y.T])
+    tip_m = _tip_maximal(rb, rm.y)
+    tip_r = _tip_reduced(rr.y[:n].T)
     # only the series drawn, from the recorded states (the runs' full diagnostics cost some 6 CPU s more)
     energy, drift, drift_stab = (unchecked(f) for f in (scene.energy, _joints(scene).diagnostics,
                                                         _joints(stab_scene).diagnostics))

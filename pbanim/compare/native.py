@@ -57,13 +57,18 @@ def _rigid(spec: SceneSpec):
 
 
 def _rigid_trace(rb, res, wall: float, steps: int, settings: str, extra=None) -> Trace:
+    """The recorded states as a trace: x, q, and (v, ω) = (P/m, R (I⁻¹_body (Rᵀ L))) as
+    :meth:`pbanim.rigid.RigidBodies.velocities` computes them, for all samples at once (the same products)."""
+    from ..rigid import quat_to_matrix
+
     Y = np.asarray(res.y).T
-    xs, qs, vs, ws = [], [], [], []
-    for y in Y:
-        x, q, _, _ = rb.unpack(y)
-        v, w = rb.velocities(y)
-        xs.append(x), qs.append(q), vs.append(v), ws.append(w)
-    return Trace(res.t, np.array(xs), np.array(qs), np.array(vs), np.array(ws), wall, steps, extra or {}, settings)
+    K, N = Y.shape[0], rb.N
+    x, q = Y[:, :3 * N].reshape(K, N, 3), Y[:, 3 * N:7 * N].reshape(K, N, 4)
+    P, L = Y[:, 7 * N:10 * N].reshape(K, N, 3), Y[:, 10 * N:].reshape(K, N, 3)
+    R = quat_to_matrix(q)
+    RtL = np.matmul(L[..., None, :], R)[..., 0, :]
+    w = np.matmul(R, np.matmul(rb.inv_I_body, RtL[..., None]))[..., 0]
+    return Trace(res.t, x.copy(), q.copy(), rb.inv_mass[:, None] * P, w, wall, steps, extra or {}, settings)
 
 
 def _timed(fn):
