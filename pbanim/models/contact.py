@@ -19,6 +19,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..collision.shapes import Contacts
 from ..contact.assembly import make_contacts
 from ..errors import InvalidInput, check_count, check_number
 
@@ -105,6 +106,18 @@ def _corners(half: np.ndarray, bottom_only: bool) -> np.ndarray:
     return s * half
 
 
+def _box_contacts(a, b, point, normal, depth):
+    """The Contacts of a box scene's narrow phase, valid by construction (normals: a fixed unit plane normal or
+    a rotation's column; points and depths finite while the state is, which the stepping drivers check), stored
+    as :class:`~pbanim.collision.shapes.Contacts` stores them without its per-call validation (a time step's
+    ``check_contacts`` still checks what it receives)."""
+    c = object.__new__(Contacts)
+    c.a, c.b = np.asarray(a, dtype=np.intp), np.asarray(b, dtype=np.intp)
+    c.point, c.normal, c.depth = point, normal, depth
+    c.radius, c.radius_b = np.zeros(c.a.size), np.zeros(c.a.size)
+    return c
+
+
 def _plane_corners(bodies, y, half, normal, offset, margin, bodies_idx=None, bottom_only=False):
     """Corners of boxes ``bodies_idx`` within ``margin`` of the static plane n·x = offset."""
     idx = np.arange(bodies.N) if bodies_idx is None else np.asarray(bodies_idx)
@@ -116,7 +129,7 @@ def _plane_corners(bodies, y, half, normal, offset, margin, bodies_idx=None, bot
     keep = sep <= margin
     body = np.broadcast_to(idx[:, None], sep.shape)[keep]
     m = int(keep.sum())
-    return make_contacts(body, -np.ones(m, int), pts[keep], np.tile(normal, (m, 1)), -sep[keep])
+    return _box_contacts(body, -np.ones(m, int), pts[keep], np.tile(normal, (m, 1)), -sep[keep])
 
 
 def _check_mass(name, value):
@@ -198,7 +211,7 @@ def box_stack(n: int = 10, mass_ratio: float = 100.0, pattern: str = "alternatin
         a = np.broadcast_to(k[1:, None], sep.shape)[keep]
         m0 = int(keep0.sum())
         normals = np.broadcast_to(nrm[:, None, :], sep.shape + (3,))[keep]
-        return make_contacts(np.concatenate([np.zeros(m0, int), a]), np.concatenate([-np.ones(m0, int), a - 1]),
+        return _box_contacts(np.concatenate([np.zeros(m0, int), a]), np.concatenate([-np.ones(m0, int), a - 1]),
                              np.vstack([pts[0][keep0], pts[1:][keep]]), np.vstack([np.tile(up, (m0, 1)), normals]),
                              -np.concatenate([sep0[keep0], sep[keep]]))
 
