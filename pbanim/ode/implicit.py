@@ -94,24 +94,32 @@ def newton_solve(fun: Callable, t: float, y0: np.ndarray, theta_h: float, jac=No
     f = fun(t, z)
     batch = z.ndim == 2
     solve = _newton_matrix(fun, t, z, f, theta_h, jac, batch)
-    constant_J = jac is not None and not callable(jac)
+    refresh = None if jac is not None and not callable(jac) else (
+        lambda t, z, f: _newton_matrix(fun, t, z, f, theta_h, jac, batch))
+    return _iterate(fun, t, y0, z, f, theta_h, solve, refresh, tol, max_iter)[0]
+
+
+def _iterate(fun, t, y0, z, f, theta_h, solve, refresh, tol, max_iter):
+    """The iterations of :func:`newton_solve` from z (= y₀, written) with f = f(t, z) and the solver ``solve``
+    of M; ``refresh(t, z, f)`` gives a new solver when the contraction is slow (None: M is kept). Returns
+    (z, the solver in use at the end)."""
     res = prev = np.inf
     for it in range(1, max_iter + 1):
         dz = solve(y0 + theta_h * f - z)
         z += dz
         if not dz.size:
-            return z
+            return z, solve
         # relative Newton correction, per trajectory in batch mode
         res = float(np.max(np.max(np.abs(dz), axis=-1) / (1.0 + np.max(np.abs(z), axis=-1))))
         if not np.isfinite(res):
             break
         if res <= tol or (res <= 1e-8 and res >= prev):  # converged, or no progress at roundoff level
-            return z
+            return z, solve
         slow = res > 0.1 * prev
         prev = res
         f = fun(t, z)
-        if slow and not constant_J:
-            solve = _newton_matrix(fun, t, z, f, theta_h, jac, batch)
+        if slow and refresh is not None:
+            solve = refresh(t, z, f)
     raise ConvergenceError("Newton (implicit step)", it, res, tol,
                            f"at t = {t:.6g}, θh = {theta_h:.3g}; reduce the step h")
 

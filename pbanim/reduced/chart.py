@@ -293,12 +293,15 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
     """Fixed-step run of ``rhs`` with a method of :mod:`pbanim.ode`, recording ``energy(y, t)`` every few steps.
 
     Runs through the one driver (:mod:`pbanim.ode.driver`: same step rule, cap and finiteness check).
+    Implicit Euler and midpoint keep their Newton matrix across steps (:class:`pbanim.ode.implicit_run.NewtonSteps`:
+    the states of the per-step solve to its Newton tolerance, without a Jacobian and an LU per step).
     Returns a :class:`pbanim.results.SimResult` (``diagnostics["energy"]`` when ``energy`` is given).
     A :class:`SingularChartError` raised by the rhs propagates (never NaN states); ``max_steps`` (default
     :data:`pbanim.ode.driver.MAX_STEPS`) caps the run before its first step.
     """
     from ..ode import get_method
     from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
+    from ..ode.implicit_run import THETA, NewtonSteps
     from ..results import SimResult
 
     grid = step_grid(0.0, t_end, h, max_steps=MAX_STEPS if max_steps is None else max_steps,
@@ -323,9 +326,13 @@ def simulate_fixed(rhs: Callable, y0, t_end: float, h: float, method: str = "imp
         if energy:
             es.append(energy(y1, t1))
 
+    if m.name in THETA:     # implicit Euler / midpoint: the Newton matrix kept across steps (to the Newton tol)
+        advance = NewtonSteps(fun, m.name).step
+    else:
+        def advance(t, yy, hk):
+            return step(fun, t, yy, hk, split=split)
     start = time.perf_counter()
-    drive(lambda t, yy, hk: step(fun, t, yy, hk, split=split), grid, y, record=record,
-          record_every=record_every)
+    drive(advance, grid, y, record=record, record_every=record_every)
     wall = time.perf_counter() - start
     diag = {"energy": np.array(es)} if energy else {}
     return SimResult(t=np.array(ts), y=np.array(ys).T, nfev=nfev[0], wall_time=wall, method=method,

@@ -34,6 +34,7 @@ CALLS.update({
     "pbanim.ode.methods.explicit_rk_step": lambda: {"tableau": "rk4", "fun": oscillator,
                                                     "y": np.array([1.0, 0.0]), "h": 0.1},
     "pbanim.ode.implicit.newton_solve": lambda: {"fun": oscillator, "y0": np.array([1.0, 0.0]), "theta_h": 0.1},
+    "pbanim.ode.implicit_run.NewtonSteps.__init__": lambda: {"fun": oscillator, "method": "implicit_midpoint"},
 })
 
 
