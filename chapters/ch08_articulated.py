@@ -70,7 +70,7 @@ def _tip_reduced(Q):
 # joint drift that only the maximal form has.
 
 # %%
-@figure("ch08", "chain_maximal_vs_reduced", "A chain of rods in maximal and in reduced coordinates", cost=24.0)
+@figure("ch08", "chain_maximal_vs_reduced", "A chain of rods in maximal and in reduced coordinates", cost=17.0)
 def chain_maximal_vs_reduced(ctx):
     n, h = (3, 2e-3) if ctx.quick else (5, 1e-3)
     t_end = 1.0 if ctx.quick else 4.0
