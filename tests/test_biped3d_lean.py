@@ -138,24 +138,6 @@ def test_rotation_vector_on_floats_is_the_quaternion_route_bit_for_bit():
     assert branches == {0, 1, 2, 3}
 
 
-def test_the_lean_contact_solve_is_the_library_pgs_bit_for_bit():
-    # ORACLES F20: biped3d_lean.pgs (no argument checks) against pgs_box_friction: the same z, residual and
-    # sweep count on random positive definite problems of 1 to 8 contacts, from warm starts outside the bounds
-    from pbanim.lcp import pgs_box_friction
-
-    rng = np.random.default_rng(4)
-    for m in range(1, 9):
-        G = rng.normal(size=(3 * m, 3 * m))
-        A = G @ G.T + 0.1 * np.eye(3 * m)
-        b = rng.normal(size=3 * m)
-        warm = 2 * rng.normal(size=3 * m)                       # negative normals, tangents past μ f
-        for mu in (0.0, 0.5, 0.9):
-            z, res, sweeps = lean.pgs(A.copy(), b, mu, max_iter=300, tol=1e-5, warm_start=warm)
-            z0, res0, sweeps0 = pgs_box_friction(A, b, mu, max_iter=300, tol=1e-5, warm_start=warm)
-            assert np.array_equal(z, z0) and res == res0 and sweeps == sweeps0
-            assert np.all(z[0::3] >= 0) and np.all(np.abs(z[1::3]) <= mu * z[0::3] + 1e-15)
-
-
 def test_the_contact_sweep_skips_and_stops_exactly_as_the_readable_sweep():
     # ORACLES D20, F20: the float sweep visits one contact at a time, skips a zero tangent under a zero bound
     # and stops the residual at the first value above the exit threshold; against the readable array sweep,

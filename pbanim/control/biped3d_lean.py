@@ -1,7 +1,7 @@
 """The lean twin of the 3-D biped's world-frame contact step (chapter 08): the same formulas, fewer calls.
 
 :class:`~pbanim.control.biped3d_step.WorldStep` reads as the lecture writes the step (one joint at a time,
-``np.cross``, ``np.linalg.solve`` twice, the library's PGS). At h = 2 ms its Python calls, not its
+``np.cross``, ``np.linalg.solve`` twice, the library's hand-off). At h = 2 ms its Python calls, not its
 arithmetic, set the cost (``pbanim bench control``), so ``WorldStep(lean=True)`` (the default) runs
 this module instead, computing the same quantities:
 
@@ -14,8 +14,9 @@ this module instead, computing the same quantities:
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
    H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
 4. **the contact solve** on the near points only, by the readable step's contact law
-   (``WorldStep._impulses``: the library's projected Gauss–Seidel, whose sweep runs on floats at this size,
-   called through :func:`pgs` without the library's argument checks: the same iterates);
+   (``WorldStep._impulses``: the box-friction hand-off, the active set from the last step's contact states,
+   PGS in chunks when it does not certify), through :func:`pbanim.lcp.handoff_lean.handoff_floats` (its
+   rounds' tests on floats: the library's answer bit for bit);
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the CPU seconds (process
@@ -32,8 +33,6 @@ from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import SimulationDiverged
 from ..contracts import unchecked
-from ..lcp import pgs_box_friction
-from ..lcp.box_lean import LEAN_ROWS, box_sweeps_floats, project_impulses
 from ..rigid.quat import quat_to_matrix
 
 _quat_to_matrix = unchecked(quat_to_matrix)
@@ -248,22 +247,6 @@ def rotation_vector_floats(R, as_list: bool = False):
 
 
 _TINY = float(np.finfo(float).tiny)
-_pgs = unchecked(pgs_box_friction)
-
-
-def pgs(A, b, mu: float, *, max_iter: int, tol: float, warm_start):
-    """:func:`pbanim.lcp.pgs_box_friction`'s answer (z, residual, sweeps) without its argument checks, for the
-    step's own A = J(H + hK)⁻¹Jᵀ + cfm·max diag A·𝟙 (finite, diagonal > 0) and b: its first iterate
-    (the warm start projected on the bounds), its threshold tol·max(1, ‖b‖∞) and its float sweep
-    (:mod:`pbanim.lcp.box_lean`), so its bits; above LEAN_ROWS rows the library's call itself."""
-    n = b.size
-    if n > LEAN_ROWS:
-        return _pgs(A, b, mu, max_iter=max_iter, tol=tol, warm_start=warm_start)
-    mus = np.full(n // 3, mu)
-    z = project_impulses(np.array(warm_start, dtype=float), mus)
-    return box_sweeps_floats(A, b, mus, A.diagonal().copy(), z, int(max_iter), tol * max(1.0, float(np.abs(b).max())))
-
-
 def _cholesky(M):
     """The upper Cholesky factor of M (LAPACK's potrf, as :func:`scipy.linalg.cho_factor` calls it, without
     its wrapper's ~30 µs); a matrix that is not positive definite raises, as the readable solve would not."""
@@ -312,7 +295,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         A = rows @ MinvJt
         u = ws._impulses(A, rows, MinvJt, u, g, near, h)             # the contact law: the readable step's
     else:
-        ws._warm = {}
+        ws._states = {}
     q1 = integrate(q, u, h, kin["R"][0])
     if clock is not None:                                      # pbanim bench control: the step's split
         clock["H"] += c1 - c0
