@@ -70,8 +70,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..contracts import Anything, Array, Choice, Flag, Int, Opt, Real, Seq, Text, contract
+from ..contracts import Anything, Array, Choice, Flag, Int, Opt, Real, Seq, Text, contract, unchecked
 from ..errors import InvalidInput, NonFiniteResult
+from ..geometry import cross as _checked_cross
 from ..rigid.quat import quat_from_axis_angle, quat_multiply, quat_to_matrix
 from .biped3d import BIPED3D_JOINTS, biped3d, biped3d_contact_points
 from .biped3d_lean import bias as _bias
@@ -82,6 +83,8 @@ from .qp_solve import backends, contact_rows, friction_pyramid, joint_limit_boun
 from .qp_tasks import Task, check_tasks
 from .simbicon3d import rotation_vector
 from .specs import Mapping, Pair, named
+
+_cross = unchecked(_checked_cross)     # a × b by components: np.cross's arithmetic without its axis moves
 
 __all__ = ["Centroidal3D", "Ground3D", "QPBiped3D", "QPResult3D", "TRUNK", "trunk_matrix"]
 
@@ -109,7 +112,7 @@ class Ground3D:
 def _cross6(V: np.ndarray, W: np.ndarray) -> np.ndarray:
     """Spatial motion cross products V × W of (…, 6) arrays (ω first)."""
     w, v, w2, v2 = V[..., :3], V[..., 3:], W[..., :3], W[..., 3:]
-    return np.concatenate([np.cross(w, w2), np.cross(w, v2) + np.cross(v, w2)], axis=-1)
+    return np.concatenate([_cross(w, w2), _cross(w, v2) + _cross(v, w2)], axis=-1)
 
 
 def _link_motion(world: WorldStep, kin: dict, qd: np.ndarray, owner=None) -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +129,7 @@ def _point_bias(kin: dict, V: np.ndarray, A: np.ndarray, links, P: np.ndarray) -
     """a_p = A_v + A_ω × p + ω × (v + ω × p) (m, 3) of world points P (m, 3) on ``links`` at q̈ = 0."""
     links = np.asarray(links, dtype=int)
     w, v, aw, av = V[links, :3], V[links, 3:], A[links, :3], A[links, 3:]
-    return av + np.cross(aw, P) + np.cross(w, v + np.cross(w, P))
+    return av + _cross(aw, P) + _cross(w, v + _cross(w, P))
 
 
 @dataclass(frozen=True)
@@ -162,8 +165,8 @@ def _centroidal3d(world: WorldStep, kin: dict, qd: np.ndarray, V: np.ndarray, A:
     rx -= rx.transpose(0, 2, 1)
     AL = np.einsum("n,nij,njv->iv", m, rx, Jc) + np.einsum("nij,njv->iv", Iw, Jw)
     w, Iww = V[:, :3], np.einsum("nij,nj->ni", Iw, V[:, :3])
-    tq = np.einsum("nij,nj->ni", Iw, A[:, :3]) + np.cross(w, Iww)       # Īᵢ αᵢ + ωᵢ × Īᵢ ωᵢ
-    Lb = m @ np.cross(r, ac) + tq.sum(axis=0)
+    tq = np.einsum("nij,nj->ni", Iw, A[:, :3]) + _cross(w, Iww)       # Īᵢ αᵢ + ωᵢ × Īᵢ ωᵢ
+    Lb = m @ _cross(r, ac) + tq.sum(axis=0)
     J = np.einsum("n,niv->iv", m, Jc) / M
     C = _bias(world, kin, qd)                  # the same link sums, written once (the 3-D step's lean C)
     return Centroidal3D(mass=M, com=com, vcom=J @ qd, J=J, bias=m @ ac / M, L=AL @ qd, A=AL, L_bias=Lb, C=C)
@@ -344,7 +347,7 @@ class QPBiped3D(QPController):
         cf, P = self._last["centroidal"], self._last["points"]
         F = res.forces[:, [1, 2, 0]]                          # (fₜ₁, fₜ₂, fₙ) along x̂, ŷ, ẑ: world forces
         lin = cf.mass * (cf.J @ res.qdd + cf.bias) - F.sum(axis=0) - cf.mass * np.asarray(self.kernel.gravity)
-        ang = cf.A @ res.qdd + cf.L_bias - np.cross(P - cf.com, F).sum(axis=0)
+        ang = cf.A @ res.qdd + cf.L_bias - _cross(P - cf.com, F).sum(axis=0)
         return {"com": cf.com, "vcom": cf.vcom, "newton_euler": np.array([np.linalg.norm(lin), np.linalg.norm(ang)])}
 
     @contract(q=_Q, qd=_QD, kin=_KIN)

@@ -226,7 +226,8 @@ def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: s
 
 def kkt_residual(Q, g, A, b, x, y, rows) -> float:
     """How far (x, y, z) is from the optimality conditions of min ½xᵀQx + gᵀx s.t. A x = b, l ≤ M x ≤ u
-    (``rows``: (M, l, u, z) blocks; z > 0 on an active upper side, z < 0 on a lower one), relative to
+    (``rows``: (M, l, u, z) blocks, M None for the identity (bounds on x); z > 0 on an active upper side, z < 0
+    on a lower one), relative to
     the size of their terms: the larger of
 
         ‖Q x + g + Aᵀy + Σ Mᵀz‖∞ / (1 + the largest term)                    (stationarity)
@@ -238,7 +239,8 @@ def kkt_residual(Q, g, A, b, x, y, rows) -> float:
     if y is None or any(z is None for *_, z in rows) or not np.all(np.isfinite(x)):
         return np.inf
     y = np.asarray(y, dtype=float)
-    terms = [Q @ x, g, A.T @ y] + [M.T @ np.asarray(z, dtype=float) for M, _, _, z in rows]
+    terms = [Q @ x, g, A.T @ y] + [np.asarray(z, dtype=float) if M is None else M.T @ np.asarray(z, dtype=float)
+                                   for M, _, _, z in rows]
     stat = np.abs(sum(terms)).max(initial=0.0) / (1.0 + max(np.abs(t).max(initial=0.0) for t in terms))
     parts, stray = [float(x @ terms[0]), float(g @ x), float(b @ y)], 0.0
     for M, lo, hi, z in rows:
@@ -263,6 +265,9 @@ def _largest(a: np.ndarray) -> float:
     a = np.asarray(a, dtype=float)
     if not a.size:
         return 0.0
+    big = float(np.abs(a).max())
+    if big < np.inf:                             # every entry finite (a NaN propagates, an inf is ∞): the answer
+        return big
     m = np.abs(a[np.isfinite(a) | np.isnan(a)])
     return float(m.max()) if m.size else 0.0
 
@@ -290,7 +295,7 @@ def _solve(Q, g, Aeq, beq, C, l, u, lb, ub, scale, x0, backend, native, eps_abs,
             qp.solve() if xs0 is None else qp.solve(xs0, None, None)
             r = qp.results
         xs, z, m = np.array(r.x, dtype=float), np.array(r.z, dtype=float), Cs.shape[0]
-        kkt = kkt_residual(Qs, gs, As, beq, xs, r.y, [(Cs, l, u, z[:m]), (np.eye(xs.size), lbs, ubs, z[m:])])
+        kkt = kkt_residual(Qs, gs, As, beq, xs, r.y, [(Cs, l, u, z[:m]), (None, lbs, ubs, z[m:])])
         return D * xs, str(r.info.status).split(".")[-1], int(r.info.iter), kkt
     import qpsolvers  # lazy, as above
 
