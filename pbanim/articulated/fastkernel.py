@@ -68,13 +68,18 @@ def _add6(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3], a[4] + b[4], a[5] + b[5])
 
 
-def _quat_frame(M, p, q4, pq):
-    """Floating joint: R = M R(quaternion), origin p + M p_q (the quaternion's norm does not matter)."""
-    w, x, y, z = q4
+def _quat_rows(w, x, y, z):
+    """R(q) row-major for q = (w, x, y, z) of any norm: s = 2/|q|², the formula of
+    :func:`pbanim.rigid.quat_to_matrix` (the same products in the same order)."""
     s = 2.0 / (w * w + x * x + y * y + z * z)
     xx, yy, zz, xy, xz, yz = s * x * x, s * y * y, s * z * z, s * x * y, s * x * z, s * y * z
     wx, wy, wz = s * w * x, s * w * y, s * w * z
-    Rq = (1.0 - yy - zz, xy - wz, xz + wy, xy + wz, 1.0 - xx - zz, yz - wx, xz - wy, yz + wx, 1.0 - xx - yy)
+    return (1.0 - yy - zz, xy - wz, xz + wy, xy + wz, 1.0 - xx - zz, yz - wx, xz - wy, yz + wx, 1.0 - xx - yy)
+
+
+def _quat_frame(M, p, q4, pq):
+    """Floating joint: R = M R(quaternion), origin p + M p_q (the quaternion's norm does not matter)."""
+    Rq = _quat_rows(*q4)
     t = _rotate(M, pq)
     return _matmul(M, Rq), (p[0] + t[0], p[1] + t[1], p[2] + t[2])
 

@@ -43,6 +43,7 @@ from math import sqrt
 import numpy as np
 
 from ..contracts import Obj, contract
+from .fastkernel import _quat_rows
 
 __all__ = ["FLOAT_MAX_JOINTS", "float_rows"]
 
@@ -95,14 +96,8 @@ class FloatRows:
         N = self.N
         Rs, ws, Iw, gyro = [], [], [], []
         for n in range(N):
-            w, x, y, z = yl[3 * N + 4 * n:3 * N + 4 * n + 4]
-            s = 2.0 / (w * w + x * x + y * y + z * z)
-            xx, yy, zz = s * x * x, s * y * y, s * z * z
-            xy, xz, yz = s * x * y, s * x * z, s * y * z
-            wx, wy, wz = s * w * x, s * w * y, s * w * z
-            r00, r01, r02 = 1.0 - yy - zz, xy - wz, xz + wy
-            r10, r11, r12 = xy + wz, 1.0 - xx - zz, yz - wx
-            r20, r21, r22 = xz - wy, yz + wx, 1.0 - xx - yy
+            R = _quat_rows(*yl[3 * N + 4 * n:3 * N + 4 * n + 4])
+            r00, r01, r02, r10, r11, r12, r20, r21, r22 = R
             d0, d1, d2 = self.d[n]
             # I⁻¹_world = R diag(d) Rᵀ (symmetric: six products of rows)
             a0, a1, a2 = r00 * d0, r01 * d1, r02 * d2
@@ -118,7 +113,7 @@ class FloatRows:
             ox = i00 * Lx + i01 * Ly + i02 * Lz
             oy = i01 * Lx + i11 * Ly + i12 * Lz
             oz = i02 * Lx + i12 * Ly + i22 * Lz
-            Rs.append((r00, r01, r02, r10, r11, r12, r20, r21, r22))
+            Rs.append(R)
             ws.append((ox, oy, oz))
             Iw += (i00, i01, i02, i01, i11, i12, i02, i12, i22)
             gyro += (0.0, 0.0, 0.0, oz * Ly - oy * Lz, ox * Lz - oz * Lx, oy * Lx - ox * Ly)
