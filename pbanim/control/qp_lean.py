@@ -51,9 +51,11 @@ from math import isfinite
 import numpy as np
 from scipy.linalg.lapack import dgeqp3
 
-from ..articulated.planar_lean import LeanPlanarStep, _solve_one
+from ..articulated.planar_lean import LeanPlanarStep
 from ..contracts import Anything, Array, Flag, Obj, contract, unchecked
 from .qp import KKT_TOL, InfeasibleControl, QPController, QPResult
+from .qp_active import ActiveSet as _ActiveSet
+from .qp_active import kkt_lean as _kkt
 from .qp_solve import MAX_DATUM, friction_pyramid
 
 __all__ = ["LeanQP"]
@@ -296,111 +298,3 @@ class LeanQP:
                         active=active, task_errors=errors, residuals=res, tolerances=tol,
                         solver_status=[str(r.info.status).split(".")[-1]], iterations=int(r.info.iter),
                         build_time=t_build, solve_time=t_solve, kkt=float(kkt))
-
-
-class _ActiveSet:
-    """The QP's optimum from the active set of the previous step: Q̃ x̃ + g̃ + Ãᵀy + W̃ᵀz = 0, Ã x̃ = b, W̃ x̃ = w
-    (W̃ the cone rows and bounds active at the last answer, on their sides), one solve of the KKT matrix,
-    kept only when the inactive rows hold to the solver's eps_abs and the active multipliers have their signs
-    (z ≥ 0 on an upper side, ≤ 0 on a lower one, exactly): then x̃ is the optimum (the QP is strictly convex) and
-    ProxQP is not called. Carries ``x``, ``y``, ``z`` and ``info`` like ProxQP's results."""
-
-    class info:
-        status, iter = "ACTIVE_SET_CERTIFIED", 0
-
-    def __init__(self, x, y, z):
-        self.x, self.y, self.z = x, y, z
-
-    @staticmethod
-    def remember(Lay, z, nc, lbs, ubs) -> None:
-        """Keep the rows ProxQP's multipliers z (cone rows, then bounds) say are active, for the next step."""
-        z = np.asarray(z)
-        zc, zb = z[:nc], z[nc:]
-        rows = np.flatnonzero(zc > 0.0)
-        lo = (zb < 0.0) & np.isfinite(lbs)
-        # a point whose two cone rows are held has fₙ = fₜ = 0: its bound fₙ ≥ 0 is then a dependent row (the
-        # KKT matrix singular), let go
-        held = np.zeros(nc, bool)
-        held[rows] = True
-        both = np.flatnonzero(held[0::2] & held[1::2])
-        lo[lbs.size - nc + 2 * both] = False
-        Lay["guess"] = (rows, np.flatnonzero((zb > 0.0) & np.isfinite(ubs)), np.flatnonzero(lo))
-
-    @staticmethod
-    def solve(Lay, Q, g, A, b, G, u, lbs, ubs, tol, rounds: int = 4):
-        """The optimum from the remembered active set, corrected for at most ``rounds`` solves (a row whose
-        multiplier has the wrong sign let go, else the most violated row held: the primal active-set step);
-        None when no round certifies an answer (the caller asks ProxQP)."""
-        guess = Lay.get("guess")
-        if guess is None:
-            return None
-        rows, up, lo = (list(a) for a in guess)
-        N, neq = Q.shape[0], A.shape[0]
-        for _ in range(rounds):                           # a cap known before the loop starts
-            out = _ActiveSet._round(Q, g, A, b, G, u, lbs, ubs, tol, rows, up, lo)
-            if out is None:
-                return None
-            x, sol, zr, zu, zl = out
-            # the signs exactly: the regularization ε ‖x̃‖² gives some multipliers of size ε |x̃| ~ 1e-11, and a
-            # wrong sign there (a row held that should be let go) is an answer off by the same free direction
-            worst = min([(z, 0, i) for i, z in enumerate(zr.tolist())] + [(z, 1, i) for i, z in enumerate(zu.tolist())]
-                        + [(-z, 2, i) for i, z in enumerate(zl.tolist())], default=(0.0, 0, 0))
-            if worst[0] < 0.0:
-                (rows, up, lo)[worst[1]].pop(worst[2])
-                continue
-            viol = G @ x - u
-            viol[rows] = -np.inf
-            over, under = x - ubs, lbs - x
-            over[up], under[lo] = -np.inf, -np.inf
-            cands = [(viol.max(initial=-np.inf), 0), (over.max(), 1), (under.max(), 2)]
-            v, which = max(cands)
-            if v > tol:
-                (rows, up, lo)[which].append(int(np.argmax((viol, over, under)[which])))
-                continue
-            if not np.abs(A @ x - b).max(initial=0.0) <= tol:
-                return None
-            Lay["guess"] = (np.array(rows, dtype=int), np.array(up, dtype=int), np.array(lo, dtype=int))
-            zc, zb = np.zeros(G.shape[0]), np.zeros(N)
-            zc[rows], zb[up], zb[lo] = zr, zu, zl
-            return _ActiveSet(x, sol[N:N + neq], np.concatenate([zc, zb]))
-        return None
-
-    @staticmethod
-    def _round(Q, g, A, b, G, u, lbs, ubs, tol, rows, up, lo):
-        """(x̃, the KKT solution, z of the held cone rows, upper bounds, lower bounds) with those rows held as
-        equalities; None when the KKT matrix is singular or the answer not finite."""
-        N, neq = Q.shape[0], A.shape[0]
-        nr, nu = len(rows), len(up)
-        k = nr + nu + len(lo)
-        n = N + neq + k
-        K = np.zeros((n, n))
-        K[:N, :N] = Q
-        K[:N, N:N + neq] = A.T
-        K[N:N + neq, :N] = A
-        W = K[N + neq:, :N]
-        W[:nr] = G[rows]
-        W[np.arange(nr, k), up + lo] = 1.0
-        K[:N, N + neq:] = W.T
-        rhs = np.concatenate([-g, b, u[rows], ubs[up], lbs[lo]])
-        sol = _solve_one(K, rhs)
-        if not isfinite(float(sol.sum())):
-            return None
-        z = sol[N + neq:]
-        return sol[:N], sol, z[:nr], z[nr:nr + nu], z[nr + nu:]
-
-
-def _kkt(Q, g, A, b, G, u, lb, ub, x, y, zc, zb) -> float:
-    """:func:`~.qp_solve.kkt_residual` of min ½xᵀQx + gᵀx s.t. A x = b, G x ≤ u (its lower sides −∞),
-    lb ≤ x ≤ ub, with the multipliers y, z_G, z_box (the same stationarity and duality gap)."""
-    terms = (Q @ x, g, A.T @ y, G.T @ zc, zb)
-    stat = np.abs(terms[0] + terms[1] + terms[2] + terms[3] + terms[4]).max() / (
-        1.0 + max(np.abs(t).max(initial=0.0) for t in terms))
-    zgp, zgm = np.maximum(zc, 0.0), np.minimum(zc, 0.0)
-    zp, zm = np.maximum(zb, 0.0), np.minimum(zb, 0.0)
-    fu, fl = np.isfinite(ub), np.isfinite(lb)
-    parts = (float(x @ terms[0]), float(g @ x), float(b @ y), float(u @ zgp), float(ub[fu] @ zp[fu]),
-             float(lb[fl] @ zm[fl]))
-    stray = float(-zgm.sum() + zp[~fu].sum() - zm[~fl].sum())
-    gap = (abs(sum(parts)) + stray) / (1.0 + sum(abs(p) for p in parts))
-    out = max(float(stat), float(gap))
-    return out if out == out else np.inf
