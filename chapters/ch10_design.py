@@ -82,7 +82,7 @@ def s_across_impact(ctx):
 # Analytic ∂S/∂u vs finite differences.
 
 # %%
-@figure("ch10", "derivative_vs_fd_step", "Analytic ∂S/∂u vs finite differences", cost=8.0)
+@figure("ch10", "derivative_vs_fd_step", "Analytic ∂S/∂u vs finite differences", cost=7.0)
 def derivative_vs_fd_step(ctx):
     """Max error of centred FD (plain, Richardson) vs the analytic derivative, against the step δ."""
     b = DesignBody(Box([0.2, 0.15, 0.1]), mass=1.3, position=[0, 0, 1.0],
