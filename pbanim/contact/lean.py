@@ -129,6 +129,45 @@ def _exp_times_floats(theta, q) -> np.ndarray:
     return np.array(out)
 
 
+def free_velocity(lean, t: float, y: np.ndarray, h: float):
+    """The start of a lean rigid step: (x, q, R, Rᵀ, I⁻¹, ũ) with R of y once (on floats up to
+    :data:`FLOAT_BODIES` bodies), the bound effects applied and ũ = (W(P + hQ_v), I⁻¹(L + hQ_ω)) padded to
+    (N + 1, 6) (the world's row zero). ``lean``: a lean stepper's bound fields (N, floats, rotations, zero,
+    applies, Ib_inv, inv_mass)."""
+    N = lean.N
+    x = y[:3 * N].reshape(N, 3)
+    q = y[3 * N:7 * N].reshape(N, 4)
+    P = y[7 * N:10 * N].reshape(N, 3)
+    L = y[10 * N:].reshape(N, 3)
+    R = _rotations_floats(q) if lean.floats else None
+    if R is None:
+        R = lean.rotations(y)
+    Rt = np.swapaxes(R, 1, 2)
+    Q = lean.zero.copy()
+    for apply in lean.applies:
+        apply(t, y, Q)
+    Iinv = R @ lean.Ib_inv @ Rt
+    u = np.zeros((N + 1, 6))
+    u[:N, :3] = lean.inv_mass[:N, None] * (P + h * Q[:, :3])
+    u[:N, 3:] = (Iinv @ (L + h * Q[:, 3:])[:, :, None])[:, :, 0]
+    return x, q, R, Rt, Iinv, u
+
+
+def advance(lean, x, q, R, Rt, u, h: float) -> np.ndarray:
+    """The end of a lean rigid step: x⁺ = x + h v⁺, q⁺ = exp(½hω⁺) ⊗ q, P⁺ = m v⁺, L⁺ = R I_b Rᵀ ω⁺ (zero on
+    static bodies), as the flat state. ``lean``: the bound fields (N, floats, Ib, m_live, live)."""
+    N = lean.N
+    v, w = u[:N, :3], u[:N, 3:]
+    L_new = (R @ lean.Ib @ Rt @ w[:, :, None])[:, :, 0]
+    L_new[~lean.live[:, 0]] = 0.0
+    out = np.empty(13 * N)
+    out[:3 * N] = (x + h * v).ravel()
+    out[3 * N:7 * N] = (_exp_times_floats if lean.floats else _exp_times)(h * w, q).ravel()
+    out[7 * N:10 * N] = (lean.m_live * v).ravel()
+    out[10 * N:] = L_new.ravel()
+    return out
+
+
 class LeanFrictionless:
     """The frictionless rigid step of a :class:`~pbanim.contact.friction.TimeStepping`, bound once (see the
     module docstring); ``step(t, y, h)`` sets the stepper's ``last`` and ``last_info`` as its readable step.
@@ -167,21 +206,7 @@ class LeanFrictionless:
     @contract(t=Real(), y=Array((lambda env: 13 * env.values["self"].N,)), h=Real(gt=0))
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         ts, N = self.ts, self.N
-        x = y[:3 * N].reshape(N, 3)
-        q = y[3 * N:7 * N].reshape(N, 4)
-        P = y[7 * N:10 * N].reshape(N, 3)
-        L = y[10 * N:].reshape(N, 3)
-        R = _rotations_floats(q) if self.floats else None
-        if R is None:
-            R = self.rotations(y)
-        Rt = np.swapaxes(R, 1, 2)
-        Q = self.zero.copy()
-        for apply in self.applies:
-            apply(t, y, Q)
-        Iinv = R @ self.Ib_inv @ Rt
-        u = np.zeros((N + 1, 6))
-        u[:N, :3] = self.inv_mass[:N, None] * (P + h * Q[:, :3])
-        u[:N, 3:] = (Iinv @ (L + h * Q[:, 3:])[:, :, None])[:, :, 0]
+        x, q, R, Rt, Iinv, u = free_velocity(self, t, y, h)
         ca, cb, point, normal, sep, keys = self.arrays(y, R)
         m = ca.size
         ts.last_info = {"m": m, "penetration": float(np.max(-sep, initial=0.0))}
@@ -238,12 +263,4 @@ class LeanFrictionless:
         else:
             ts.last = None
             ts.last_info["contacts"] = None
-        v, w = u[:N, :3], u[:N, 3:]
-        L_new = (R @ self.Ib @ Rt @ w[:, :, None])[:, :, 0]
-        L_new[~self.live[:, 0]] = 0.0
-        out = np.empty(13 * N)
-        out[:3 * N] = (x + h * v).ravel()
-        out[3 * N:7 * N] = (_exp_times_floats if self.floats else _exp_times)(h * w, q).ravel()
-        out[7 * N:10 * N] = (self.m_live * v).ravel()
-        out[10 * N:] = L_new.ravel()
-        return out
+        return advance(self, x, q, R, Rt, u, h)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lean import FLOAT_BODIES, _cross, _exp_times, _exp_times_floats, _rotations_floats
+from .lean import FLOAT_BODIES, _cross, advance, free_velocity
 from .specs import check_contacts
 from ..contracts import Obj, contract, unchecked
 from ..errors import InvalidInput
@@ -79,7 +79,7 @@ class LeanFriction:
         self.inv_mass = s.inv_mass
         self.Ib_inv, self.Ib = s.inv_I_body, s.I_body
         self.m_live = np.where(s.static, 0.0, s.mass)[:, None]
-        self.dead = s.static.copy()
+        self.live = ~s.static[:, None]
         self.W = np.zeros((6 * N, 6 * N))                    # dense W, the diagonal 1/m set once
         idx = np.arange(N)
         for c in range(3):
@@ -116,21 +116,7 @@ class LeanFriction:
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         ts, N, k = self.ts, self.N, self.k
         s = ts.system
-        x = y[:3 * N].reshape(N, 3)
-        q = y[3 * N:7 * N].reshape(N, 4)
-        P = y[7 * N:10 * N].reshape(N, 3)
-        L = y[10 * N:].reshape(N, 3)
-        R = _rotations_floats(q) if self.floats else None
-        if R is None:
-            R = self.rotations(y)
-        Rt = np.swapaxes(R, 1, 2)
-        Q = self.zero.copy()
-        for apply in self.applies:
-            apply(t, y, Q)
-        Iinv = R @ self.Ib_inv @ Rt
-        u = np.empty((N, 6))
-        u[:, :3] = self.inv_mass[:, None] * (P + h * Q[:, :3])
-        u[:, 3:] = (Iinv @ (L + h * Q[:, 3:])[:, :, None])[:, :, 0]
+        x, q, R, Rt, Iinv, u = free_velocity(self, t, y, h)
         contacts = ts._detect(y)
         if contacts is not None:
             check_contacts("TimeStepping", "detect(y)", contacts, s)
@@ -173,7 +159,7 @@ class LeanFriction:
             Gdd = G[m:, m:]
             A[m:m + mk, :m], A[m:m + mk, m:m + mk] = G[:m, m:].T, 0.5 * (Gdd + Gdd.T)
             A[m + mk:, :m] = np.diag(mu)
-            Ju = J @ u.ravel()
+            Ju = J @ u[:N].ravel()
             bb = np.zeros(m * (k + 2))
             bb[:m] = Ju[:m] + bias
             bb[m:m + mk] = Ju[m:]
@@ -188,16 +174,8 @@ class LeanFriction:
             imp_n = (z[:m] @ J[:m]).reshape(N, 6)
             fric = (z[m:] @ J[m:]).reshape(N, 6)
             imp = imp_n + fric
-            u = u + (W @ imp.ravel()).reshape(N, 6)
+            u[:N] += (W @ imp.ravel()).reshape(N, 6)
             ts.last_info.update(normal_impulse=sol.f[:m], impulse=imp, friction_impulse=fric)
         else:
             ts.last = None
-        v, w = u[:, :3], u[:, 3:]
-        L_new = (R @ self.Ib @ Rt @ w[:, :, None])[:, :, 0]
-        L_new[self.dead] = 0.0
-        out = np.empty(13 * N)
-        out[:3 * N] = (x + h * v).ravel()
-        out[3 * N:7 * N] = (_exp_times_floats if self.floats else _exp_times)(h * w, q).ravel()
-        out[7 * N:10 * N] = (self.m_live * v).ravel()
-        out[10 * N:] = L_new.ravel()
-        return out
+        return advance(self, x, q, R, Rt, u, h)
