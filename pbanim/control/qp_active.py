@@ -20,7 +20,10 @@ from math import isfinite
 
 import numpy as np
 
-from ..articulated.planar_lean import _solve_one
+try:                            # the gufunc np.linalg.solve calls, without its per-call checks (same LAPACK)
+    from numpy.linalg._umath_linalg import solve1 as _solve_one
+except ImportError:             # pragma: no cover - another numpy: the public function, same arithmetic
+    _solve_one = np.linalg.solve
 
 __all__ = []
 

@@ -46,7 +46,7 @@ Notation as in :mod:`.qp`: q̈, τ, f the unknowns; H, C the equations of motion
 from __future__ import annotations
 
 import time
-from math import isfinite
+from math import isfinite, sqrt
 
 import numpy as np
 from scipy.linalg.lapack import dgeqp3
@@ -227,11 +227,8 @@ class LeanQP:
             lbs[i] = kk * (ctrl.limit_lo - q[i] - T * qd[i])
             ubs[i] = kk * (ctrl.limit_hi - q[i] - T * qd[i])
         Gs, l, u = Lay["Gs"], Lay["l"], Lay["u"]
-        big = max(np.abs(Qq).max(), np.abs(gq).max(), np.abs(Aeq).max(), np.abs(beq).max(),
-                  np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
-                  np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0))
-        if not big <= MAX_DATUM:                          # NaN or beyond: the readable path says why
-            return None
+        if not isfinite(float(Qq.sum() + gq.sum() + Aeq.sum() + beq.sum())):
+            return None                                   # not finite: the readable path says why
         As, Cs, bs, ls, us = Aeq, Gs, beq, l, u
         if self.equilibrate:                              # solve_qp's equilibrate: rows over their largest entry
             sa = np.abs(Aeq).max(axis=1, initial=0.0)
@@ -241,6 +238,10 @@ class LeanQP:
             As, bs, Cs, ls, us = sa[:, None] * Aeq, sa * beq, sc[:, None] * Gs, sc * l, sc * u
         t1 = time.perf_counter()
         r = _ActiveSet.solve(Lay, Q, g, As, bs, Cs, us, lbs, ubs, ctrl.eps_abs)
+        if r is None and not max(np.abs(Qq).max(), np.abs(gq).max(), np.abs(Aeq).max(), np.abs(beq).max(),
+                                 np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
+                                 np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0)) <= MAX_DATUM:
+            return None                                   # beyond MAX_DATUM ProxQP stalls: the readable path says why
         if r is not None:
             pass
         elif self.primal_inf is None:
@@ -286,9 +287,10 @@ class LeanQP:
             return None
         errors, missed = {}, {}
         for name, J, b, wt, idx in rows:
-            e = float(np.linalg.norm((qdd[idx] if J is None else J @ qdd) - b))
+            d = (qdd[idx] if J is None else J @ qdd) - b
+            e = sqrt(float(d @ d))                        # np.linalg.norm's arithmetic for a vector
             errors[name] = e
-            if wt > 0 and e > ctrl.task_tol * (1.0 + np.linalg.norm(b)):
+            if wt > 0 and e > ctrl.task_tol * (1.0 + sqrt(float(b @ b))):
                 missed[name] = e
         forces = np.zeros((self.links.size, 2))
         forces[active] = F
