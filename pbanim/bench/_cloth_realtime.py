@@ -56,6 +56,32 @@ every ε here keeps the solve's error below the step's own truncation error, 10�
 the goal row keeps 10⁻² (a factor 17) and the floor line also prints the cost at 10⁻¹'s 2 iterations: even
 there the step is ~3× the 16.7 ms of the goal (ORACLES J11).
 
+Measured and not kept: a constant preconditioner with no per-step setup, P = (M + L_α) ⊗ I₃ (every
+spring's block α ŵŵᵀ + γ(𝟙 − ŵŵᵀ) of A replaced by its isotropic bound α𝟙, α = h²k + hk_d, γ ≤ α; L_α the
+α-weighted graph Laplacian, the Laplacian of projective dynamics / Liu et al. 2013; pins decoupled),
+factored once by a band Cholesky of the N² scalar unknowns (N = 64: half-bandwidth 128, ~60 ms) and applied
+as one band solve with 3 right-hand sides (1.5 ms; a sparse LU with minimum degree 2.4 ms). It is SPD and
+M ⪯ A ⪯ P on the free coordinates (eigenvalues of P⁻¹A in (0.0016, 1] on a falling 8 × 8 sheet), and the
+step with it equals the direct filtered solve to ~√κ ε (~23 ε). But the small eigenvalues are the sheet's
+transverse modes (a flat sheet has γ ≈ 0 across), which the P⁻¹-norm stopping test under-weights: at N = 64
+(60 steps from rest, 3 alternating rounds against the line multigrid at 10⁻², load 10-13)
+
+=========  ===================  ===========  =============================  =====================
+ε          CG / truncation x, v mean CG its  CPU s per sim. s (min–max)     multigrid 10⁻² same run
+=========  ===================  ===========  =============================  =====================
+10⁻¹       2.85, 2.71           3.9          1.41 (1.38–1.46)               13.1 (12.2–13.7)
+10⁻²       1.17, 0.68           15.7         3.90 (3.84–5.45)               13.1 (12.2–13.7)
+10⁻³       0.149, 0.091         80.0         15.8 (15.3–19.5)               13.3 (12.4–13.4)
+3·10⁻⁴     (not measured)       122.6        26.4 (24.9–27.4)               13.3 (12.4–13.4)
+=========  ===================  ===========  =============================  =====================
+
+(CPU seconds under that load are ~3× the quiet machine's: the multigrid row reads 4.6 there.) It is 3.4×
+faster at 10⁻² only where its CG error exceeds the step's truncation error (1.17); at an accuracy of the
+multigrid's order (10⁻³: 0.15, the multigrid's 3·10⁻² is 0.146 at 3.35 iterations) it is slower than the
+multigrid at 10⁻² (0.058). On the ch12 drape (24 × 24 Baraff–Witkin sheet with contacts, CG to 10⁻⁴) it
+needed ~90 iterations against Jacobi's ~250 and the line multigrid's ~15 and was no faster than Jacobi. Not
+kept; the floor of the goal stands (a step needs ≲ 1 V-cycle's work to reach 16.7 ms).
+
 Measured and not kept (same results bit for bit, no faster): the V-cycle on scipy's CSR kernel into
 preallocated buffers, the colours' rows and bands gathered by precomputed indices (the band column-major
 with a zero sentinel, factored in place) and the lines read through strided views of the grid instead of
@@ -92,6 +118,7 @@ _large_step, _xpbd_step = unchecked(large_step), unchecked(xpbd_step)
 
 H = 1.0 / 60.0
 CG_TOL = 1e-3            # large steps at h = 1/60: CG error ≤ 0.1× the step's truncation error (cg_error_vs_truncation)
+RT_TOLS = (1e-2, 1e-3)   # CG tolerances of the N = 64 real-time row (the first is the goal's)
 WARM = 6                 # steps into the fall where a step is timed (the first ones need few CG iterations)
 
 
@@ -241,3 +268,29 @@ def largest_stable_step(method: str, stretch: float = 1e3, n: int = 8) -> float:
         if _stable(cloth, step, h):
             return h
     return 0.0
+
+
+
+def realtime_goal(rep, cloth) -> None:
+    """The N = 64 real-time row of ``pbanim bench cloth`` (module docstring): 60 large steps of h = 1/60 s from
+    rest with the line multigrid at each CG tolerance of ``RT_TOLS`` and the ℓ1-Jacobi cycle at the first,
+    alternating rounds; the goal at ``RT_TOLS[0]`` with its CG error / truncation error and its floor."""
+    from . import Goal
+    rt = wall_per_simulated_second(cloth, RT_TOLS, 3, baseline=[(RT_TOLS[0], "multigrid-l1")])
+    for (tol, pc), (med, lo, hi, its, wall) in rt.items():
+        rep.notes.append(f"N = 64, h = 1/60 s, {pc}, CG to {tol:g}: one simulated second (60 steps from "
+                         f"rest) takes {med:.2f} CPU s (median of 3 alternating rounds, {lo:.2f}–{hi:.2f}; "
+                         f"wall {wall:.2f} s), {its:.1f} CG iterations a step on average")
+    base = rt[RT_TOLS[0], "multigrid-l1"][0]
+    rt = {t: rt[t, "multigrid"] for t in RT_TOLS}
+    rep.notes.append(f"N = 64, CG to {RT_TOLS[0]:g}: line-smoothed multigrid / ℓ1-Jacobi multigrid (the earlier "
+                     f"default), CPU s per simulated second, medians of the same alternating rounds: "
+                     f"{rt[RT_TOLS[0]][0] / base:.2f}")
+    ex, ev = cg_error_vs_truncation(cloth.sheet.n, RT_TOLS[0], "multigrid")
+    floor, parts = floor_per_step(cloth, rt[RT_TOLS[0]][3])
+    rep.goals.append(Goal("large_steps_N64_wall_per_simulated_s", rt[RT_TOLS[0]][0], 1.0, "<=", " s",
+                          f"h = 1/60 s, multigrid, CG to {RT_TOLS[0]:g} (CG error / truncation error {ex:.2f} "
+                          f"in x, {ev:.2f} in v: below 1), CPU s of this process, spread {rt[RT_TOLS[0]][1]:.2f}–"
+                          f"{rt[RT_TOLS[0]][2]:.2f} s, wall {rt[RT_TOLS[0]][4]:.2f} s; floor of this design here: "
+                          f"{parts} — {60 * floor:.1f}× the 1 s goal's 16.7 ms a step; not meetable in numpy/scipy "
+                          "with this CG"))

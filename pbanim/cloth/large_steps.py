@@ -27,9 +27,7 @@ iterate there:
 
 with P = diag(A) (Jacobi), or P⁻¹ one V-cycle of aggregation multigrid (:mod:`pbanim.cloth.multigrid`,
 ``large_step(..., precond="multigrid")``: line Gauss–Seidel smoothing, the pins' couplings dropped;
-``"multigrid-l1"``: ℓ1-Jacobi smoothing, the earlier default), or P = (M + L_α) ⊗ I₃, every spring's block
-replaced by its isotropic bound, constant and factored once (:mod:`pbanim.cloth.laplacian`, ``"laplacian"``:
-more iterations than the V-cycle, no setup per step); the dot products avoid BLAS (a threaded BLAS dot of 10⁴ entries
+``"multigrid-l1"``: ℓ1-Jacobi smoothing, the earlier default); the dot products avoid BLAS (a threaded BLAS dot of 10⁴ entries
 waits milliseconds for a busy core). :func:`modified_pcg` returns the iterate with its iterations, its relative
 preconditioned residual √(δ/δ₀) and whether it reached ε: a solve that stops at ``max_iter`` says so.
 
@@ -61,7 +59,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .collide import contacts
-from .laplacian import LaplacianPreconditioner
 from .multigrid import Multigrid
 from .step_system import spring_system
 from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
@@ -69,7 +66,7 @@ from ..errors import ConvergenceError, InvalidInput, SimulationDiverged
 
 __all__ = ["PCGResult", "modified_pcg", "large_step", "newton_step", "PRECONDITIONERS"]
 
-PRECONDITIONERS = ("jacobi", "multigrid", "multigrid-l1", "laplacian")
+PRECONDITIONERS = ("jacobi", "multigrid", "multigrid-l1")
 
 _CLOTH = Obj("pbanim.cloth.model:Cloth")
 _STATE = Array(("cloth.n_state",))
@@ -207,19 +204,13 @@ def _system(cloth, kdata, ddata, h):
     return cloth.pattern.matrix(data)
 
 
-def _preconditioner(cloth, A, precond, h):
+def _preconditioner(cloth, A, precond):
     """r ↦ P⁻¹r for the system A of the cloth: Jacobi, or a multigrid V-cycle (hierarchy built once per cloth):
     "multigrid" smooths by line Gauss–Seidel with the pins' couplings dropped, "multigrid-l1" by ℓ1-Jacobi
-    (additive on the finest level), "laplacian" by P = (M + L_α) ⊗ I₃ factored once per (cloth, h)
-    (:mod:`pbanim.cloth.laplacian`). A V-cycle whose line blocks are not positive definite (A not SPD) is
+    (additive on the finest level). A V-cycle whose line blocks are not positive definite (A not SPD) is
     replaced by Jacobi: the CG then still runs with an SPD preconditioner."""
     if precond == "jacobi":
         return _jacobi(A)
-    if precond == "laplacian":                                  # constant in time: factored once per (cloth, h)
-        lap = cloth.__dict__.get("_laplacian")
-        if lap is None or lap.h != h:
-            lap = cloth.__dict__["_laplacian"] = LaplacianPreconditioner(cloth, h)
-        return lap
     cache = cloth.__dict__.setdefault("_multigrid", {})
     mg = cache.get(precond)
     if mg is None:
@@ -246,7 +237,7 @@ def _large_step(cloth, y, h, tol, max_iter, precond="jacobi"):
             f, kdata, ddata = cloth._all(x, v, exact=False)
             A = _system(cloth, kdata, ddata, h)
             b = h * (f + cloth.pattern.matrix(kdata) @ (h * y[n:] + ycorr))
-        sol = _pcg(A, b, filt, z, tol, max_iter, _preconditioner(cloth, A, precond, h))
+        sol = _pcg(A, b, filt, z, tol, max_iter, _preconditioner(cloth, A, precond))
         y1 = np.empty_like(y)
         y1[n:] = y[n:] + sol.x
         y1[:n] = y[:n] + h * y1[n:] + ycorr
@@ -273,7 +264,7 @@ def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter, precond="jacobi"):
                 f, kdata, ddata = cloth._all(x1.reshape(-1, 3), v1.reshape(-1, 3), exact=False)
                 A = _system(cloth, kdata, ddata, h)
             g = filt(h * f - cloth.mass3 * dv)                  # −(residual) of M Δv = h f(x₁, v₁)
-            step = _pcg(A, g, filt, None, cg_tol, cg_iter, _preconditioner(cloth, A, precond, h))
+            step = _pcg(A, g, filt, None, cg_tol, cg_iter, _preconditioner(cloth, A, precond))
             cg += step.iterations
             dv += step.x
             size = float(np.max(np.abs(step.x))) if len(step.x) else 0.0
@@ -294,9 +285,8 @@ def large_step(cloth, y, h: float, tol: float = 1e-4, max_iter: int = 2000, prec
 
     ``precond``: "jacobi" (B&W's P = diag A), "multigrid" (a V-cycle of aggregation multigrid smoothed by
     line Gauss–Seidel, :mod:`pbanim.cloth.multigrid`: 2–4 CG iterations to 10⁻² at N = 16…64 on the
-    benchmark's sheet where Jacobi needs 46–300), "multigrid-l1" (ℓ1-Jacobi smoothing: 22–47) or "laplacian"
-    (the constant P = (M + L_α) ⊗ I₃, :mod:`pbanim.cloth.laplacian`: ~16 at N = 64, no per-step setup); with a
-    V-cycle or P the stopping test is the residual in its P⁻¹-norm. Raises SimulationDiverged when y₁ is not finite; a
+    benchmark's sheet where Jacobi needs 46–300) or "multigrid-l1" (ℓ1-Jacobi smoothing: 22–47); with a
+    V-cycle the stopping test is the residual in its P⁻¹-norm. Raises SimulationDiverged when y₁ is not finite; a
     CG solve that stopped at ``max_iter`` is returned with ``converged`` False (the caller decides: the
     benchmark and chapter 12 count or report them).
     """
