@@ -72,15 +72,18 @@ transverse modes (a flat sheet has γ ≈ 0 across), which the P⁻¹-norm stopp
 10⁻¹       2.85, 2.71           3.9          1.41 (1.38–1.46)               13.1 (12.2–13.7)
 10⁻²       1.17, 0.68           15.7         3.90 (3.84–5.45)               13.1 (12.2–13.7)
 10⁻³       0.149, 0.091         80.0         15.8 (15.3–19.5)               13.3 (12.4–13.4)
-3·10⁻⁴     (not measured)       122.6        26.4 (24.9–27.4)               13.3 (12.4–13.4)
+3·10⁻⁴     0.087, 0.056         122.6        26.4 (24.9–27.4)               13.3 (12.4–13.4)
 =========  ===================  ===========  =============================  =====================
 
 (CPU seconds under that load are ~3× the quiet machine's: the multigrid row reads 4.6 there.) It is 3.4×
 faster at 10⁻² only where its CG error exceeds the step's truncation error (1.17); at an accuracy of the
 multigrid's order (10⁻³: 0.15, the multigrid's 3·10⁻² is 0.146 at 3.35 iterations) it is slower than the
 multigrid at 10⁻² (0.058). On the ch12 drape (24 × 24 Baraff–Witkin sheet with contacts, CG to 10⁻⁴) it
-needed ~90 iterations against Jacobi's ~250 and the line multigrid's ~15 and was no faster than Jacobi. Not
-kept; the floor of the goal stands (a step needs ≲ 1 V-cycle's work to reach 16.7 ms).
+needed ~90 iterations against Jacobi's ~250 and the line multigrid's ~15 and was no faster than Jacobi; the
+line multigrid there (21.7 iterations a step over the 360 steps against 248) took 25.5 and 26.1 CPU s against
+Jacobi's 26.4 (alternating, load ~12: the readable Baraff–Witkin assembly and the V-cycle's setup on a
+24 × 24 grid take what the iterations save), and its frames differ from Jacobi's by up to 0.08 m (the contacts
+amplify the 10⁻⁴ solves' differences), so the figure keeps Jacobi. Not kept; the floor of the goal stands (a step needs ≲ 1 V-cycle's work to reach 16.7 ms).
 
 Measured and not kept (same results bit for bit, no faster): the V-cycle on scipy's CSR kernel into
 preallocated buffers, the colours' rows and bands gathered by precomputed indices (the band column-major
