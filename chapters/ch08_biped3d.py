@@ -14,11 +14,12 @@ Figures:
   (:mod:`pbanim.control.simbicon3d`, gait ``WALK3D``, ours: Table 1's sagittal numbers, our coronal ones;
   ORACLES F18): an animation in two projections (side x–z, top x–y), a strip of key frames, and the centre
   of mass's horizontal speed and the pelvis's heading ψ over time. Full run: 20 s at h = 2 ms with the heading
-  target turned to 0.5 rad from t = 8 s (measured: no fall, 62 strikes, 0.83 m/s over the last 5 s, ψ settling
-  about 0.5 ± 0.05 rad; 52 s of CPU on a loaded machine, 58.6 s before the float sweep, controller and contact
-  cuts of issue 31 measured back to back (the same GIF and strip, byte for byte), 74 s before the lean
-  controller and contact solve and the GIF's frame rate: the walk about 20 s of it (~2 ms a step), the 201 GIF
-  frames, one per 0.1 s at 10 fps (real time), most of the rest); quick: 2.5 s at h = 3.5 ms.
+  target turned to 0.5 rad from t = 8 s (measured: no fall, 65 strikes, 0.88 m/s over the last 5 s, ψ within
+  0.45–0.56 rad over the last 5 s); the GIF one frame per 0.2 s at 5 fps (real time, 101 frames). 31.6 s of
+  CPU (the walk 16.8 s, the GIF and strip 14.8 s) on a loaded machine, after 40.8 s with 201 GIF frames (one per
+  0.1 s) and the contact solved by PGS (48.6 s with the hand-off's exact contact solve and 201 frames, measured
+  beside another job), 52 and 58.6 s before the earlier cuts of issue 31, 74 s before the lean controller;
+  quick: 2.5 s at h = 3.5 ms.
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ def _points(ws, q, bones) -> np.ndarray:
 
 # %%
 @figure("ch08", "biped3d_walk", "SIMBICON's 3-D biped walking: side and top views, speed and heading",
-        cost=52.0)
+        cost=32.0)
 def biped3d_walk(ctx):
     from pbanim.control.biped3d_step import WorldStep
     from pbanim.control.biped3d import biped3d_contact_points
@@ -74,8 +75,8 @@ def biped3d_walk(ctx):
     tree = biped3d()
     ws = WorldStep(tree, biped3d_contact_points(tree))
     bones = _bones(tree)
-    # quick: every 2nd record (0.04 s) at 25 fps; full: every 5th (0.1 s) at 10 fps, real time, 201 frames
-    frames = np.arange(0, len(r.t), 2 if ctx.quick else 5)[:40 if ctx.quick else 400]
+    # quick: every 2nd record (0.04 s) at 25 fps; full: every 10th (0.2 s) at 5 fps, real time, 101 frames
+    frames = np.arange(0, len(r.t), 2 if ctx.quick else 10)[:40 if ctx.quick else 200]
     fig, (side, top) = ctx.subplots(2, 1, figsize=(6, 5))
     # the artists made once and moved each frame
     lines = [(side.plot([], [], "-", lw=2, color="k")[0], top.plot([], [], "-", lw=2, color="k")[0]) for _ in bones]
@@ -96,7 +97,7 @@ def biped3d_walk(ctx):
         side.set(xlim=(cx - 1.2, cx + 1.2), title=f"t = {r.t[k]:.2f} s (side, top)")
         top.set(xlim=(cx - 1.2, cx + 1.2), ylim=(cy - 0.6, cy + 0.6))
 
-    ctx.save_gif(fig, draw, len(frames), fps=25 if ctx.quick else 10)
+    ctx.save_gif(fig, draw, len(frames), fps=25 if ctx.quick else 5)
     fig2, (a, b, c) = ctx.subplots(3, 1, figsize=(11, 8))
     dt_rec = r.t[1] - r.t[0]
     strip = np.arange(max(0, len(r.t) - 1 - int(2.4 / dt_rec)), len(r.t), max(1, int(round(0.2 / dt_rec))))

@@ -5,7 +5,8 @@ strikes of the last step and returns τ₀ and the stable-PD damping k; the lean
 (:class:`.biped3d_step.WorldStep`) advances the biped with contact and box friction; a foot "strikes" when
 one of its four sole corners carries a normal impulse. A fall (the pelvis below 0.7 m, or the trunk tipped
 past 1 rad) stops the run and is reported with its time and cause. Runs go through the one fixed-step
-driver (:mod:`pbanim.ode.driver`: its grid, its cap, its finiteness check → ``SimulationDiverged``).
+driver (:mod:`pbanim.ode.driver`: its grid, its cap; its finiteness check → ``SimulationDiverged`` made in the
+step itself, before the fall test reads q⁺, without the check's own argument checks).
 
 A push is an impulse P (N s, horizontal, world frame) on the torso's centre of mass at time t_P:
 Δq̇ = H⁻¹ J_cᵀ P; or, with ``push_phase`` = (state, delay, duration), the force P / duration (generalized
@@ -23,7 +24,8 @@ on that edge, so whether it fell looked like a matter of h (fell at 1 and 1.5 ms
 m/s the walk is converged in h: 20 s at h = 1, 1.5, 2, 3, 3.5 ms all walk, 62, 62, 62, 61, 61 strikes, 16.07,
 16.04, 16.02, 15.98, 15.99 m, 0.827–0.823 m/s over the last 5 s; h = 4 ms falls (3.43 s; it walked from 0.4
 m/s), 5 ms (2.31 s) — those with the earlier gains (300/30 swing hip, no stance-hip yaw damper); with
-:data:`.simbicon3d.WALK3D`'s: 20 s at 2 and 3.5 ms (65 strikes, 0.89 and 0.90 m/s), 6 s at 1 and 4 ms.
+:data:`.simbicon3d.WALK3D`'s: 20 s at 2 and 3.5 ms (65 strikes, 0.89 and 0.90 m/s; with the contact's exact
+solve, :mod:`.biped3d_step`: 65 strikes, 0.887 and 0.904 m/s over the last 5 s), 6 s at 1 and 4 ms.
 Pushes, turns: ORACLES F18.
 """
 
@@ -35,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract, unchecked
-from ..ode.driver import MAX_STEPS, drive, step_grid
+from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from .biped3d import biped3d, biped3d_contact_points, standing_state3d
 from .biped3d_step import WorldStep
 from .simbicon3d import WALK3D, Gait3D, Simbicon3D
@@ -46,6 +48,7 @@ __all__ = ["Walk3DResult", "simulate_walk3d"]
 
 START_SPEED = 0.5        # m/s: the start's forward speed, inside the walk's basin (see the module docstring)
 TURN_RATE = 0.5          # rad/s: how fast the heading target turns toward a new heading
+_finite = unchecked(check_finite)
 
 
 class _Fell(Exception):
@@ -135,6 +138,8 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
         if force is not None:
             tau = tau + force
         q1, u1 = stepf(q, qd, hh, tau, k, kin)
+        y1 = np.concatenate([q1, u1])
+        _finite(y1, t, round(t / h))                 # the driver's check (unchecked), before q⁺ is read
         left = right = False
         if ws.last is not None:                                  # corners 0–3 the left sole's, 4–7 the right's
             for c, f in zip(ws.last["contacts"].tolist(), ws.last["impulses"][0::3].tolist()):
@@ -150,7 +155,7 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
         if cause:
             state["fall"] = (t + hh, cause)
             raise _Fell(cause)
-        return np.concatenate([q1, u1])
+        return y1
 
     grid = step_grid(0.0, t_end, h, max_steps=max_steps, record_every=record_every)
     y0 = np.concatenate([q0, qd0])
@@ -158,7 +163,7 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
     start = time.perf_counter()
     fell, fall_time, cause = False, None, ""
     try:
-        drive(advance, grid, y0, record=record, record_every=record_every)
+        drive(advance, grid, y0, record=record, record_every=record_every, check_every=grid.n_steps)
     except _Fell:
         fell, (fall_time, cause) = True, state["fall"]
     wall = time.perf_counter() - start
