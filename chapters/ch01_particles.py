@@ -93,7 +93,7 @@ def _spring_energy_methods():
 # (1 + h²ω²) per step, symplectic Euler oscillates within O(hω), RK4 slowly loses).
 
 # %%
-@figure("ch01", "spring_energy", "Mass on a spring: relative energy error per integrator", cost=10.0)
+@figure("ch01", "spring_energy", "Mass on a spring: relative energy error per integrator", cost=1.5)
 def spring_energy(ctx):
     k, m = 4.0, 1.0                       # ω = 2 rad/s
     omega = np.sqrt(k / m)

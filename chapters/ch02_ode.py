@@ -43,7 +43,7 @@ N_H_BY_NAME = {"implicit_euler": 4}
 
 # %%
 @figure("ch02", "convergence", "Global error vs step h on a Kepler orbit (e = 0.3, t = 2; orders 5 and 7: t = 6; order 12: t = 8): slopes = orders",
-        cost=16.0)
+        cost=13.0)
 def convergence(ctx):
     kp = kepler(0.3)
     n_h = 3 if ctx.quick else 6

@@ -236,7 +236,7 @@ def swinging_chain(ctx):
 # A cloth patch of rods pinned at two corners, falling under gravity.
 
 # %%
-@figure("ch03", "cloth", "A cloth patch of rods pinned at two corners", cost=11.0)
+@figure("ch03", "cloth", "A cloth patch of rods pinned at two corners", cost=6.5)
 def cloth(ctx):
     nx, t_end, h = (7, 0.4, 4e-3) if ctx.quick else (12, 1.0, 2e-3)
     mod = cloth_patch(nx, nx, spacing=1.0 / (nx - 1), mass=0.01)

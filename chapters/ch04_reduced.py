@@ -136,7 +136,7 @@ def double_pendulum_formulations(ctx):
 
 # %%
 @figure("ch04", "energy_error", "Double pendulum: energy error per formulation and integrator",
-        cost=26.0, group="ch04_double_pendulum")
+        cost=14.0, group="ch04_double_pendulum")
 def energy_error(ctx):
     t_end, h = (5.0, 0.02) if ctx.quick else (30.0, 0.01)
     mod = double_pendulum(theta0=(0.6, 0.9))
