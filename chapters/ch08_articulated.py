@@ -202,29 +202,10 @@ def ragdoll_fall(ctx):
     # and labels) is rendered once per resolution and shown as an image under them; the limbs, the stairs'
     # edge and the spines (drawn over the limbs) and the title stay live, in their order. The same pixels as
     # drawing every artist at every frame (checked frame by frame), a quarter of the drawing time
-    moving = [a for a in limbs + [pelvis, edge, ax.title, *ax.spines.values()] if a.get_visible()]
-    still = [a for a in (fig.patch, ax.patch, *ax.collections, ax.xaxis, ax.yaxis) if a.get_visible()]
-    backdrop = {}
+    from chapters.ch08_characters import _frozen_backdrop
 
-    def show_backdrop():
-        if backdrop.get("dpi") == fig.dpi:
-            return
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-        if "image" in backdrop:                                  # rendered at another resolution: again
-            backdrop.pop("image").remove()
-        for a in still:
-            a.set_visible(True)
-        for a in moving:
-            a.set_visible(False)
-        canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
-        canvas.draw()
-        image = np.asarray(canvas.buffer_rgba()).copy()
-        for a in moving:
-            a.set_visible(True)
-        for a in still:
-            a.set_visible(False)
-        backdrop["image"], backdrop["dpi"] = fig.figimage(image, 0, 0, origin="upper", zorder=-1), fig.dpi
+    show_backdrop = _frozen_backdrop(fig, [fig.patch, ax.patch, *ax.collections, ax.xaxis, ax.yaxis],
+                                     limbs + [pelvis, edge, ax.title, *ax.spines.values()])
 
     def draw(j):
         show_backdrop()
