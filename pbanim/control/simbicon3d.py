@@ -165,6 +165,7 @@ class Simbicon3D:
         self._frames = (None, None, None)             # (ψ̄, θ̄_tor) → R_z(ψ̄), R_z(ψ̄) R_−y(θ̄_tor): recomputed on change
         self._servos = {}                             # (stance, phase) → the joint servos' (q̇ index, target, k_p, k_v)
         self._hips = {}                               # swing side → (the swing hip's, the stance hip's q̇ indices)
+        self._maskf = step.mask.astype(float)         # the columns of each link's ancestors, as 0/1 floats
 
     def sides(self) -> tuple[str, str]:
         """(stance, swing)."""
@@ -225,7 +226,7 @@ class Simbicon3D:
         cor = out * ph.cor + ph.cd_cor * d[1] + ph.cv_cor * v[1]
         R_sw = Rz @ _rot(_X, cor) @ _rot(_Y, sag)
         thigh = self.link[f"{swing}_thigh"]
-        w_thigh = (S[:3] @ (qd * st.mask[thigh])).tolist()
+        w_thigh = (S[:3] @ (qd * self._maskf[thigh])).tolist()
         kph, kvh = kp["hip"], kv["hip"]
         tx, ty, tz = tau_swing = [kph * r - kvh * w for r, w in
                                   zip(rotation_vector_floats(R_sw @ kin["R"][thigh].T, as_list=True), w_thigh)]
@@ -233,10 +234,13 @@ class Simbicon3D:
         if hips is None:
             hips = self._hips[swing] = ([JI[f"{swing}_hip_{a}"] for a in "zxy"], [JI[f"{stance}_hip_{a}"] for a in "zxy"])
         sw, stn = hips
-        for j, (ax, ay, az) in zip(sw, S[:3, sw].T.tolist()):     # τⱼ = aⱼ·τ, its damping about its own axis at q̇⁺
+        axes = S[:3].T.tolist()                                   # each joint's world axis aⱼ
+        for j in sw:                                              # τⱼ = aⱼ·τ, its damping about its own axis at q̇⁺
+            ax, ay, az = axes[j]
             tau[j], k[j] = ax * tx + ay * ty + az * tz + kvh * qdl[j], kvh
         sx, sy, sz = [-a - b for a, b in zip(tau_torso, tau_swing)]         # τ_stance = −τ_torso − τ_swing
-        for j, (ax, ay, az) in zip(stn, S[:3, stn].T.tolist()):
+        for j in stn:
+            ax, ay, az = axes[j]
             tau[j] = ax * sx + ay * sy + az * sz
         k[stn[0]] = g.stance_yaw_kv                                # the stance leg's spin damped, at q̇⁺
         lim = g.limit

@@ -74,7 +74,7 @@ def _active_set(A, b, mu: float, s: list, tol: float, big: float) -> tuple:
     """box_friction_active_set(A, b, μ𝟙, state=s, tol=tol) → (z, residual, rounds, state): its rounds, its stop
     on an unchanged state or on ``PATIENCE`` rounds without a better residual, at most ``ROUNDS`` rounds."""
     thr = 0.1 * tol * big
-    rho = RHO_REL * max(float(np.max(np.diag(A))), _TINY)
+    rho = RHO_REL * max(float(A.diagonal().max()), _TINY)
     best, worse = float("inf"), 0
     z = np.zeros(b.size)
     zl, w = z.tolist(), b.tolist()
