@@ -135,7 +135,7 @@ def _support(ctrl, q, tol: float) -> np.ndarray:
 
 
 @figure("ch08", "qp_biped3d_step", "3-D biped stepping under the QP controller: side and front views, COM, support",
-        cost=14.0)
+        cost=12.0)
 def qp_biped3d_step(ctx):
     from chapters.ch08_biped3d import _bones, _points
     from pbanim.control.qp_biped3d import QPBiped3D
