@@ -24,34 +24,42 @@ and is not robust there, see :mod:`pbanim.control.simbicon`); one QP control ste
 solves in ≤ 1 ms with proxsuite. Issue 31: the 3-D walk at h = 2 ms runs at ≥ 1× real time, its lean step
 ≥ 4× the readable one's real-time factor.
 
-Measured for issue 31 on a shared 2-core machine (load 14–17), 3 runs of ``--quick`` (medians of the runs'
-medians; min–max over all rounds): the lean walk 0.81× real time per CPU second (0.67–0.88; the runs' medians
-0.74, 0.81, 0.82) and 0.08× on the wall clock (the wall factor measures the load), lean / readable 2.5× in CPU
-(2.1–3.0). The CPU split per step, 2.48 ms (2.28–2.98): contact 1.15 (Jacobians, rows, A = J(H + hK)⁻¹Jᵀ, the
-PGS sweep on floats: ~12 sweeps a step on ~17 rows, a third of all sweeps in 3 % of the steps, eight steps in
-1000 at the 300-sweep cap), controller 0.38 (the centres of mass' Jacobians included: it asks for them
-first), kinematics 0.37, dynamics 0.32, runner 0.24, H 0.08. The floor: 153 Python calls, 19 builtins and
-146 numpy calls a step, 1.1–3.0 ms at the per-call costs measured in the same runs (h / floor 0.67–1.75×).
-The cuts of issue 31, the same walk bit for bit: first the controller's rotation vectors on floats, the sweep
-called without its argument checks, H + hK in place (3.52 → 2.86 ms CPU a step, per-round ratio 1.25×); then
-the sweep one contact at a time with min, max, abs and divmod written as the comparisons they make, a zero
-tangent under a zero bound skipped and the residual stopped at the first value above the exit threshold; the
-controller's own calls bound unchecked, R_z(ψ̄) and its servo table kept, the hips' torques and the clip on
-floats; the contact frames kept per set of normals, the contact points' arrays kept, the warm start and the
-foot-strike events on floats, the Jacobians written without ``np.stack``: a 1 s walk's CPU per step 3.05 →
-2.16 ms (11 alternating rounds in separate processes against the previous code, medians; per-round cut 27.5 %,
-11–37 %: short of the 30 % aimed at). The goal (≥ 1× per CPU second) is missed: what is left is ~150 numpy calls and the sweep's ~12
-sweeps a step (a third of them in the few steps where four corners of one sole carry load, A redundant and
-PGS slow; no sweep reaches a fixed point or a cycle there, so no exact early exit exists: a shorter sweep
-there changes the contact law).
+Measured for issue 31 on a shared 2-core machine, 3 runs of ``--quick`` each time (medians of the runs'
+medians; min–max over all rounds). With the contact solved by the hand-off (below), at load 3–4: the lean walk
+1.47× real time per CPU second (1.20–2.04; the runs' medians 1.56, 1.47, 1.26), 1.02× on the wall clock
+(0.75–2.04), lean / readable 4.0× in CPU (2.7–5.1); the CPU split per step, 1.37 ms (0.98–1.67): contact 0.56
+(Jacobians, rows, A = J(H + hK)⁻¹Jᵀ, the hand-off, the update), kinematics 0.22, dynamics 0.22, controller 0.22,
+runner 0.08, H 0.05; the floor 209 numpy calls, 100 builtins, 123 Python calls a step, 0.25–0.29 ms (h / floor
+6.9–8.0×). The same code at load 8–11 (an hour earlier): 0.97× per CPU second (0.79–1.21; the runs' medians 1.00,
+0.97, 0.93), 2.00–2.15 ms a step, the numpy call's bare cost 3 µs instead of 1: the CPU second itself slows
+under load (two hardware threads per core, shared caches). The goal (≥ 1× per CPU second) is met at low load and
+missed by 3 % at load 8–11, within 10 % of the line: judged by the medians above, it holds only on a machine
+that is not saturated. Lean / readable (goal ≥ 4×): 4.0× at load 3–4, 3.2–3.7× at load 8–11 (the readable
+step calls the library's hand-off, whose rounds are array calls). The cuts of issue 31, first the same walk bit for bit: the controller's rotation vectors on
+floats, the sweep called without its argument checks, H + hK in place (3.52 → 2.86 ms CPU a step); the sweep
+one contact at a time, the controller's calls bound unchecked, its servo table kept, the contact frames and
+points kept, the Jacobians without ``np.stack`` (3.05 → 2.16 ms: 27.5 %, 11–37 %, 11 alternating rounds in
+separate processes, the runs then at 0.81× per CPU second, 0.67–0.88, load 14–17). Then the contact law: PGS
+stopped at tol (~12 sweeps a step on ~17 rows, a third of them in the 3 % of steps where four corners of one
+sole carry load and A is nearly singular) replaced by the box-friction hand-off
+(:func:`pbanim.lcp.box.box_friction_handoff`, ORACLES I12; its active set on floats,
+:mod:`pbanim.lcp.handoff_lean`, the library's answer bit for bit, I14): the LCP solved exactly, 98 % of the
+steps certified by one solve from the last step's contact states, no sweep; 17 steps in 1000 fall back to PGS
+chunks, 5 of them to the 300-sweep cap, uncertified, as PGS alone reached it in 8 (~7 % of the CPU). The walk
+moved little (20 s at 2 ms: 65 strikes and 0.8869 m/s over the last 5 s both ways; at 3.5 ms 0.9042 m/s; the
+± 20 / 30 N s push table at 2 ms unchanged). With the controller's centre-of-mass velocity as one product and
+the runner's finiteness check without its argument checks: against the code before the hand-off, 9 alternating
+rounds in separate processes (1 s walk, process CPU): 2.13 ms a step (1.85–2.66) → 1.42 ms (0.98–1.78), the
+per-round cut 33 % (10–53 %). What is left: ~210 numpy calls a step (the hand-off's solve and refinement ~40 of
+them), the hard steps' PGS chunks.
 
 The step h of the 3-D walk (20 s from the 0.5 m/s start, WALK3D; the mean speed of the centre of mass over
 the last 5 s): h = 1, 1.25, 1.5, 2, 3, 3.5 ms give 0.8763, 0.8789, 0.8818, 0.8869, 0.8971, 0.9045 m/s (all
 walk, 65 strikes): + 0.30 %, + 0.63 %, + 1.2 %, + 2.4 %, + 3.2 % of the h = 1 ms speed. By the planar
 chapter's rule (the largest step within 0.5 % of the h = 1 ms speed) the step would be 1.25 ms, where the
 tests' claims hold too (15 N s forward, ± 20 N s lateral, the turn: measured at 1, 1.25 and 1.5 ms) and the
-walk costs 1.6 times the CPU a simulated second takes at 2 ms (0.81 × 1.25 / 2 ≈ 0.5× real time per CPU
-second; a single loaded 20 s run measured 0.66×). The goal line stays at h = 2 ms, as the issue sets it.
+walk costs 1.6 times the CPU a simulated second takes at 2 ms (measured with PGS as the contact solve, at
+0.81× then: ≈ 0.5× real time per CPU second at 1.25 ms; a single loaded 20 s run measured 0.66×). The goal line stays at h = 2 ms, as the issue sets it.
 """
 
 from __future__ import annotations
