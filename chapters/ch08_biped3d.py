@@ -15,11 +15,11 @@ Figures:
   ORACLES F18): an animation in two projections (side x–z, top x–y), a strip of key frames, and the centre
   of mass's horizontal speed and the pelvis's heading ψ over time. Full run: 20 s at h = 2 ms with the heading
   target turned to 0.5 rad from t = 8 s (measured: no fall, 65 strikes, 0.88 m/s over the last 5 s, ψ within
-  0.45–0.56 rad over the last 5 s); the GIF one frame per 0.2 s at 5 fps (real time, 101 frames). 31.6 s of
-  CPU (the walk 16.8 s, the GIF and strip 14.8 s) on a loaded machine, after 40.8 s with 201 GIF frames (one per
-  0.1 s) and the contact solved by PGS (48.6 s with the hand-off's exact contact solve and 201 frames, measured
-  beside another job), 52 and 58.6 s before the earlier cuts of issue 31, 74 s before the lean controller;
-  quick: 2.5 s at h = 3.5 ms.
+  0.45–0.56 rad over the last 5 s); the GIF one frame per 0.2 s at 5 fps (real time, 101 frames). 23.7 s of
+  CPU (the walk 11.4 s, the GIF and strip 12.2 s), against 42.9 s (walk 16.8 s, GIF and strip 26.1 s) for the
+  code before (PGS as the contact solve, 201 GIF frames at 10 fps), the two run back to back at load ~1.5 (the
+  same walk outcome: 65 strikes, 0.879 m/s); 52, 58.6 and 74 s before the earlier cuts of issue 31, on a loaded
+  machine; quick: 2.5 s at h = 3.5 ms.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def _points(ws, q, bones) -> np.ndarray:
 
 # %%
 @figure("ch08", "biped3d_walk", "SIMBICON's 3-D biped walking: side and top views, speed and heading",
-        cost=32.0)
+        cost=24.0)
 def biped3d_walk(ctx):
     from pbanim.control.biped3d_step import WorldStep
     from pbanim.control.biped3d import biped3d_contact_points
