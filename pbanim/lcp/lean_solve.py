@@ -17,7 +17,7 @@ import numpy as np
 
 from .pivoting import _EPS1000, _lemke, _polish, _scale, residual_threshold
 from .specs import LIMIT as _LIMIT
-from .sweeps import sweeps_for
+from . import solve as _solve     # its sweeps_for (the readable row loop lives beside pgs)
 from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["lean_pgs", "lean_lemke"]
@@ -26,7 +26,7 @@ __all__ = ["lean_pgs", "lean_lemke"]
 def lean_pgs(A: np.ndarray, b: np.ndarray, warm_start, tol: float, max_iter: int = 1000,
              omega: float = 1.0) -> ContactSolution | None:
     """``solve_lcp(A, b, "pgs", tol=tol, warm_start=warm_start, validate=False)`` for a stepping loop that built
-    A and b itself: the same warm-start test, the same iterates (:func:`pbanim.lcp.sweeps.sweeps_for`) and the
+    A and b itself: the same warm-start test, the same iterates (:func:`pbanim.lcp.solve.sweeps_for`) and the
     same certificate,
     without the checks of values the loop made (shapes, options) or the certificate computed a second time.
     None when the readable call must answer: A or b not finite or beyond the entries' limit, a diagonal entry
@@ -56,7 +56,7 @@ def lean_pgs(A: np.ndarray, b: np.ndarray, warm_start, tol: float, max_iter: int
     if natural_map_residual(f, A @ f + b) <= thresh:
         sweeps = 0
     else:
-        f, status, sweeps, _, thresh = sweeps_for(m)(A, b, f, diag, absA, tol_b, int(max_iter), omega)
+        f, status, sweeps, _, thresh = _solve.sweeps_for(m)(A, b, f, diag, absA, tol_b, int(max_iter), omega)
         if status != "converged":
             return None
     extra["threshold"] = thresh

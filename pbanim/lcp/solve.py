@@ -49,7 +49,8 @@ from .box import _box_residual, pgs_bounded, pgs_box_friction  # noqa: F401  (th
 from .pivoting import _check, _dantzig, _lemke, _polish, _scale, residual_threshold
 from .qp import qp
 from .pivoting import _MATRIX, _VECTOR
-from .sweeps import pgs_sweeps, sweeps_for  # noqa: F401  (pgs_sweeps: its import path)
+from .pivoting import _EPS1000
+from .sweeps import WAVEFRONT_FROM, pgs_sweeps_wavefront
 from .lean_solve import lean_lemke, lean_pgs  # noqa: F401  (their import path)
 from .specs import JacobianRows, RowIndices, check_options, length_of
 from ..contracts import Array, Choice, Flag, Int, Opt, Real, contract, finite_result
@@ -84,6 +85,37 @@ def pgs(A: np.ndarray, b: np.ndarray, *, max_iter: int = 1000, tol: float = 1e-1
     f, status, sweep, _, _ = sweeps_for(m)(A, b, f, diag, absA, tol * _scale(b), int(max_iter), omega)
     return f, status, sweep
     # END SOLUTION
+
+
+def pgs_sweeps(A, b, f, diag, absA, tol_b: float, max_iter: int, omega: float = 1.0):
+    """The sweeps of :func:`pgs` from f (in place), unchecked: (f, status, sweeps, residual,
+    threshold) — the readable row loop.
+
+    Each sweep fᵢ ← max(0, fᵢ − ω (Aᵢ·f + bᵢ)/Aᵢᵢ), then the stop test residual ≤ tol·max(1, ‖b‖∞) +
+    1000 ε ‖|A| f‖∞ — the certificate of :func:`solve_lcp` itself (f ≥ 0, so |A||f| = |A| f):
+    a "converged" answer has passed it, with these very numbers. The one sweep that :func:`pgs`
+    and the lean contact step (:mod:`pbanim.contact.lean`) both run (from :data:`WAVEFRONT_FROM` rows by
+    wavefronts, :func:`pgs_sweeps_wavefront`); ``diag`` = diag(A) > 0 and ``absA`` = |A| are the caller's.
+    """
+    m = b.size
+    rows = [A[i] for i in range(m)]
+    res = thresh = float("inf")
+    for sweep in range(1, max_iter + 1):
+        for i in range(m):
+            fi = f[i] - omega * (rows[i] @ f + b[i]) / diag[i]
+            f[i] = fi if fi > 0.0 else 0.0
+        thresh = tol_b + _EPS1000 * float(np.max(absA @ f))
+        res = float(np.abs(f - np.maximum(0.0, f - (A @ f + b))).max())
+        if res <= thresh:
+            return f, "converged", sweep, res, thresh
+    return f, "max_iter", max_iter, res, thresh
+
+
+def sweeps_for(m: int):
+    """The sweeps for m rows: the readable row loop :func:`pgs_sweeps` (here, beside :func:`pgs`, so that the
+    assignment's code is the one its sweeps run), or from :data:`~pbanim.lcp.sweeps.WAVEFRONT_FROM` rows the same
+    iterates by wavefronts (:func:`pbanim.lcp.sweeps.pgs_sweeps_wavefront`, equal to roundoff)."""
+    return pgs_sweeps_wavefront if m >= WAVEFRONT_FROM else pgs_sweeps
 
 
 # ---------------------------------------------------------------------------------------------

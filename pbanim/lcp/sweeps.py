@@ -1,7 +1,7 @@
 """The sweeps of projected Gauss–Seidel: the readable row loop, and by wavefronts a level of rows at a time
 (chapter 07).
 
-The readable sweep (:func:`pgs_sweeps`) visits the rows i = 1 … m in order,
+The readable sweep (:func:`pbanim.lcp.solve.pgs_sweeps`, beside the assignment's :func:`~pbanim.lcp.solve.pgs`) visits the rows i = 1 … m in order,
 
     fᵢ ← max(0, fᵢ − ω (Aᵢ·f + bᵢ) / Aᵢᵢ),
 
@@ -38,35 +38,11 @@ import numpy as np
 
 from .pivoting import _EPS1000
 
-__all__ = ["pgs_sweeps", "wavefront_levels", "pgs_sweeps_wavefront", "sweeps_for", "WAVEFRONT_FROM"]
+__all__ = ["wavefront_levels", "pgs_sweeps_wavefront", "WAVEFRONT_FROM"]
 
 #: from this many rows :func:`pbanim.lcp.solve.pgs` and :func:`~pbanim.lcp.lean_solve.lean_pgs` sweep by wavefronts
 #: (below, the plan's O(m²) coupling scan costs about what the row loop saves)
 WAVEFRONT_FROM = 48
-
-
-def pgs_sweeps(A, b, f, diag, absA, tol_b: float, max_iter: int, omega: float = 1.0):
-    """The sweeps of :func:`pbanim.lcp.solve.pgs` from f (in place), unchecked: (f, status, sweeps, residual,
-    threshold) — the readable row loop.
-
-    Each sweep fᵢ ← max(0, fᵢ − ω (Aᵢ·f + bᵢ)/Aᵢᵢ), then the stop test residual ≤ tol·max(1, ‖b‖∞) +
-    1000 ε ‖|A| f‖∞ — the certificate of :func:`pbanim.lcp.solve.solve_lcp` itself (f ≥ 0, so |A||f| = |A| f):
-    a "converged" answer has passed it, with these very numbers. The one sweep that :func:`pbanim.lcp.solve.pgs`
-    and the lean contact step (:mod:`pbanim.contact.lean`) both run (from :data:`WAVEFRONT_FROM` rows by
-    wavefronts, :func:`pgs_sweeps_wavefront`); ``diag`` = diag(A) > 0 and ``absA`` = |A| are the caller's.
-    """
-    m = b.size
-    rows = [A[i] for i in range(m)]
-    res = thresh = float("inf")
-    for sweep in range(1, max_iter + 1):
-        for i in range(m):
-            fi = f[i] - omega * (rows[i] @ f + b[i]) / diag[i]
-            f[i] = fi if fi > 0.0 else 0.0
-        thresh = tol_b + _EPS1000 * float(np.max(absA @ f))
-        res = float(np.abs(f - np.maximum(0.0, f - (A @ f + b))).max())
-        if res <= thresh:
-            return f, "converged", sweep, res, thresh
-    return f, "max_iter", max_iter, res, thresh
 
 
 def wavefront_levels(A: np.ndarray) -> np.ndarray:
@@ -106,7 +82,7 @@ def _plan(A, b, diag, omega):
 
 
 def pgs_sweeps_wavefront(A, b, f, diag, absA, tol_b: float, max_iter: int, omega: float = 1.0):
-    """:func:`pgs_sweeps` by wavefronts: the same arguments, the same stop test after each
+    """:func:`pbanim.lcp.solve.pgs_sweeps` by wavefronts: the same arguments, the same stop test after each
     sweep, the same result tuple (f, status, sweeps, residual, threshold); f updated in place. The iterates
     are the readable ones to roundoff (the products summed in another order, the division by Aᵢᵢ distributed
     over them; ORACLES D21)."""
@@ -126,9 +102,3 @@ def pgs_sweeps_wavefront(A, b, f, diag, absA, tol_b: float, max_iter: int, omega
             status, done = "converged", sweep
             break
     return f, status, done, res, thresh
-
-
-def sweeps_for(m: int):
-    """The sweeps for m rows: the readable row loop, or from :data:`WAVEFRONT_FROM` rows
-    the same iterates by wavefronts (:func:`pgs_sweeps_wavefront`, equal to roundoff)."""
-    return pgs_sweeps_wavefront if m >= WAVEFRONT_FROM else pgs_sweeps
