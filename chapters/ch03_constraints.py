@@ -123,7 +123,7 @@ def _plane_outcome(method, wh, zeta, steps, h=0.01, C0=1e-3):
 
 # %%
 @figure("ch03", "baumgarte_stability", "Baumgarte feedback's own stability: ρ of the discrete map vs simulation",
-        cost=9.0)
+        cost=6.0)
 def baumgarte_stability(ctx):
     nw, nz = (40, 25) if ctx.quick else (90, 50)
     sims = (5, 3, 150) if ctx.quick else (9, 5, 400)
