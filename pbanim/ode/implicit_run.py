@@ -74,8 +74,8 @@ class NewtonSteps:
         return np.linalg.inv(M).dot
 
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
-        """y₁ from y at t (a new array): Newton from z⁰ = y₀ with the kept matrix (built here at the first step
-        and when h changes)."""
+        """y₁ from y at t (a new array): Newton with the kept matrix (built here at the first step and when h
+        changes) from z⁰ = y₀ + (z − y₀) of the last step at the same h, else from y₀."""
         fun, th = self.fun, self.theta * h
         tm = t + th
         d = self._d
