@@ -87,11 +87,12 @@ class LeanFriction:
         self.ang = (6 * idx[:, None, None] + 3 + np.arange(3)[:, None], 6 * idx[:, None, None] + 3 + np.arange(3))
         self.xp = np.zeros((N + 1, 3))                       # padded centres (the world at 0)
         self.zero = np.zeros((N, 6))
-        self._pyramid: dict[int, tuple] = {}                 # m → (E, the A template with −Eᵀ and E placed)
+        self._pyramid: dict[int, np.ndarray] = {}            # m → the A template with E and −Eᵀ placed
         self._last_normal, self._last_d = None, None         # the last step's normals and friction directions
 
     def _template(self, m: int):
-        """The LCP matrix's constant blocks for m contacts: E (mk × m) and −Eᵀ placed, the rest zero."""
+        """The LCP matrix's constant blocks for m contacts: E (mk × m, ones down each contact's k rows) and −Eᵀ
+        placed, the rest zero (filled per step on a copy)."""
         got = self._pyramid.get(m)
         if got is None:
             k = self.k
@@ -100,7 +101,7 @@ class LeanFriction:
             A0 = np.zeros((m * (k + 2), m * (k + 2)))
             A0[m:m + mk, m + mk:] = E
             A0[m + mk:, m:m + mk] = -E.T
-            got = self._pyramid[m] = (E, A0)
+            got = self._pyramid[m] = A0
         return got
 
     def _directions(self, normal):
@@ -153,8 +154,7 @@ class LeanFriction:
             JW = J @ W
             G = JW @ J.T
             mk = m * k
-            E, A0 = self._template(m)
-            A = A0.copy()
+            A = self._template(m).copy()
             A[:m, :m], A[:m, m:m + mk] = G[:m, :m], G[:m, m:]
             Gdd = G[m:, m:]
             A[m:m + mk, :m], A[m:m + mk, m:m + mk] = G[:m, m:].T, 0.5 * (Gdd + Gdd.T)
