@@ -20,6 +20,8 @@ from math import isfinite
 
 import numpy as np
 
+from .qp_solve import kkt_residual
+
 try:                            # the gufunc np.linalg.solve calls, without its per-call checks (same LAPACK)
     from numpy.linalg._umath_linalg import solve1 as _solve_one
 except ImportError:             # pragma: no cover - another numpy: the public function, same arithmetic
@@ -121,16 +123,5 @@ class ActiveSet:
 
 def kkt_lean(Q, g, A, b, G, u, lb, ub, x, y, zc, zb) -> float:
     """:func:`~.qp_solve.kkt_residual` of min ½xᵀQx + gᵀx s.t. A x = b, G x ≤ u (its lower sides −∞),
-    lb ≤ x ≤ ub, with the multipliers y, z_G, z_box (the same stationarity and duality gap)."""
-    terms = (Q @ x, g, A.T @ y, G.T @ zc, zb)
-    stat = np.abs(terms[0] + terms[1] + terms[2] + terms[3] + terms[4]).max() / (
-        1.0 + max(np.abs(t).max(initial=0.0) for t in terms))
-    zgp, zgm = np.maximum(zc, 0.0), np.minimum(zc, 0.0)
-    zp, zm = np.maximum(zb, 0.0), np.minimum(zb, 0.0)
-    fu, fl = np.isfinite(ub), np.isfinite(lb)
-    parts = (float(x @ terms[0]), float(g @ x), float(b @ y), float(u @ zgp), float(ub[fu] @ zp[fu]),
-             float(lb[fl] @ zm[fl]))
-    stray = float(-zgm.sum() + zp[~fu].sum() - zm[~fl].sum())
-    gap = (abs(sum(parts)) + stray) / (1.0 + sum(abs(p) for p in parts))
-    out = max(float(stat), float(gap))
-    return out if out == out else np.inf
+    lb ≤ x ≤ ub, with the multipliers y, z_G, z_box: these blocks handed to it."""
+    return kkt_residual(Q, g, A, b, x, y, ((G, np.full(u.shape, -np.inf), u, zc), (None, lb, ub, zb)))
