@@ -70,7 +70,7 @@ from ..contracts import Anything, Array, Choice, Obj, Real, Text, contract, unch
 from .specs import Mapping, Names, NotBefore, Pair
 from .biped3d import BIPED3D_JOINTS as JI
 from .biped3d_lean import rotation_vector_floats
-from .biped3d_step import WorldStep, _rot
+from .biped3d_step import WorldStep
 from .fsm import StateMachine, Transition
 
 __all__ = ["Phase3D", "Gait3D", "WALK3D", "Simbicon3D", "rotation_vector"]
@@ -138,6 +138,46 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
     return rotation_vector_floats(R)
 
 
+def _frames_of(kin) -> tuple[list, list]:
+    """The frames of a kinematics dict as floats: each link's R (nine floats, row-major) and each joint column
+    Sᵂ (six floats) — the lean kinematics keeps them (``"Rf"``, ``"Sf"``), the readable one's arrays are read."""
+    Rf = kin.get("Rf")
+    if Rf is None:
+        Rf = kin["Rf"] = [tuple(r) for r in kin["R"].reshape(-1, 9).tolist()]
+    cols = kin.get("Sf")
+    if cols is None:
+        cols = kin["Sf"] = kin["S"].T.tolist()
+    return Rf, cols
+
+
+def _rot9(axis, angle: float) -> tuple:
+    """R_a(θ) as nine floats (row-major): :func:`pbanim.control.biped3d_step._rot`'s Rodrigues, on floats."""
+    x, y, z = axis.tolist()
+    c, s = cos(angle), sin(angle)
+    t = 1.0 - c
+    return (t * x * x + c, t * x * y - s * z, t * x * z + s * y,
+            t * x * y + s * z, t * y * y + c, t * y * z - s * x,
+            t * x * z - s * y, t * y * z + s * x, t * z * z + c)
+
+
+def _mul9(A, B) -> tuple:
+    """A B of two 3 × 3 matrices given as nine floats (row-major)."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = A
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = B
+    return (a0 * b0 + a1 * b3 + a2 * b6, a0 * b1 + a1 * b4 + a2 * b7, a0 * b2 + a1 * b5 + a2 * b8,
+            a3 * b0 + a4 * b3 + a5 * b6, a3 * b1 + a4 * b4 + a5 * b7, a3 * b2 + a4 * b5 + a5 * b8,
+            a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8)
+
+
+def _mul9t(A, B) -> tuple:
+    """A Bᵀ of two 3 × 3 matrices given as nine floats (row-major)."""
+    a0, a1, a2, a3, a4, a5, a6, a7, a8 = A
+    b0, b1, b2, b3, b4, b5, b6, b7, b8 = B
+    return (a0 * b0 + a1 * b1 + a2 * b2, a0 * b3 + a1 * b4 + a2 * b5, a0 * b6 + a1 * b7 + a2 * b8,
+            a3 * b0 + a4 * b1 + a5 * b2, a3 * b3 + a4 * b4 + a5 * b5, a3 * b6 + a4 * b7 + a5 * b8,
+            a6 * b0 + a7 * b1 + a8 * b2, a6 * b3 + a7 * b4 + a8 * b5, a6 * b6 + a7 * b7 + a8 * b8)
+
+
 class Simbicon3D:
     """The 3-D controller: ``torques(t, q, q̇, events, kin, h)`` → (τ₀, k), τ = τ₀ − k ⊙ q̇⁺.
 
@@ -166,6 +206,7 @@ class Simbicon3D:
         self._servos = {}                             # (stance, phase) → the joint servos' (q̇ index, target, k_p, k_v)
         self._hips = {}                               # swing side → (the swing hip's, the stance hip's q̇ indices)
         self._maskf = step.mask.astype(float)         # the columns of each link's ancestors, as 0/1 floats
+        self._anc = {}                                # link → the q̇ indices of its ancestors' joints (and its own)
 
     def sides(self) -> tuple[str, str]:
         """(stance, swing)."""
@@ -176,13 +217,15 @@ class Simbicon3D:
         """(d, v, ψ): the centre of mass's offset from the stance ankle and its velocity in the heading frame
         (x forward, y left; 2-vectors), and the pelvis's heading ψ."""
         _, Jc = self._jacobians(kin, self._all, self.step.com)
-        com = self.mass @ kin["c"] / self.M
+        M = self.M
+        cx, cy, _ = (self.mass @ kin["c"]).tolist()
         mJ = (self.mass @ Jc.reshape(Jc.shape[0], -1)).reshape(3, -1)          # Σᵢ mᵢ J_c,i
-        vx, vy, _ = (mJ @ qd / self.M).tolist()
-        (r00, _, _), (r10, _, _), _ = kin["R"][self.link["pelvis"]].tolist()
-        psi = atan2(r10, r00)
+        vx, vy, _ = (mJ @ qd / M).tolist()
+        Rp = _frames_of(kin)[0][self.link["pelvis"]]
+        psi = atan2(Rp[3], Rp[0])
         c, s = cos(psi), sin(psi)
-        rx, ry, _ = (com - kin["o"][self.link[f"{self.sides()[0]}_foot"]]).tolist()      # from the stance ankle
+        ox, oy, _ = kin["o"][self.link[f"{self.sides()[0]}_foot"]].tolist()
+        rx, ry = cx / M - ox, cy / M - oy                                       # from the stance ankle
         return np.array([c * rx + s * ry, -s * rx + c * ry]), np.array([c * vx + s * vy, -s * vx + c * vy]), psi
 
     @contract(t=NotBefore("self.fsm.entered"), q=Array(("self.step.tree.nq",)), qd=Array(("self.step.tree.nv",)),
@@ -211,36 +254,44 @@ class Simbicon3D:
                     (f"{stance}_ankle_y", ph.sta, "ankle"), (f"{stance}_ankle_x", 0.0, "ankle"))]
         for i, target, kpi, kvi in servos:
             tau[i], k[i] = kpi * (target - ql[i + 1] - h * qdl[i]), kvi
-        # world-frame torso and swing thigh (3-vectors as floats: the same products and sums as on arrays)
-        S = kin["S"]
+        # world-frame torso and swing thigh on floats (3 × 3 matrices as nine floats, row-major)
+        Rf, cols = _frames_of(kin)
         if self._frames[0] != (self.heading, ph.tor):
-            Rz = _rot(_Z, self.heading)
-            self._frames = ((self.heading, ph.tor), Rz, Rz @ _rot(_Y, ph.tor))
+            Rz = _rot9(_Z, self.heading)
+            self._frames = ((self.heading, ph.tor), Rz, _mul9(Rz, _rot9(_Y, ph.tor)))
         _, Rz, R_tor = self._frames
-        w0 = (S[:3, :3] @ qd[:3]).tolist()                        # the pelvis's world angular velocity
+        p = Rf[self.link["pelvis"]]
+        q0, q1, q2 = qdl[0], qdl[1], qdl[2]
+        w0 = (p[0] * q0 + p[1] * q1 + p[2] * q2, p[3] * q0 + p[4] * q1 + p[5] * q2,
+              p[6] * q0 + p[7] * q1 + p[8] * q2)                  # the pelvis's world angular velocity R₀ ω
         kpt, kvt = kp["torso"], kv["torso"]
         tau_torso = [kpt * r - kvt * w for r, w in
-                     zip(rotation_vector_floats(R_tor @ kin["R"][self.link["pelvis"]].T, as_list=True), w0)]
+                     zip(rotation_vector_floats(_mul9t(R_tor, p), as_list=True), w0)]
         sag = ph.swh + ph.cd * d[0] + ph.cv * v[0]
         out = 1.0 if swing == "left" else -1.0
         cor = out * ph.cor + ph.cd_cor * d[1] + ph.cv_cor * v[1]
-        R_sw = Rz @ _rot(_X, cor) @ _rot(_Y, sag)
+        R_sw = _mul9(_mul9(Rz, _rot9(_X, cor)), _rot9(_Y, sag))
         thigh = self.link[f"{swing}_thigh"]
-        w_thigh = (S[:3] @ (qd * self._maskf[thigh])).tolist()
+        anc = self._anc.get(thigh)
+        if anc is None:
+            anc = self._anc[thigh] = np.flatnonzero(self._maskf[thigh]).tolist()
+        wx = wy = wz = 0.0
+        for j in anc:                                             # ω_thigh = Σ over its joints aⱼ q̇ⱼ
+            col, x = cols[j], qdl[j]
+            wx, wy, wz = wx + col[0] * x, wy + col[1] * x, wz + col[2] * x
         kph, kvh = kp["hip"], kv["hip"]
         tx, ty, tz = tau_swing = [kph * r - kvh * w for r, w in
-                                  zip(rotation_vector_floats(R_sw @ kin["R"][thigh].T, as_list=True), w_thigh)]
+                                  zip(rotation_vector_floats(_mul9t(R_sw, Rf[thigh]), as_list=True), (wx, wy, wz))]
         hips = self._hips.get(swing)
         if hips is None:
             hips = self._hips[swing] = ([JI[f"{swing}_hip_{a}"] for a in "zxy"], [JI[f"{stance}_hip_{a}"] for a in "zxy"])
         sw, stn = hips
-        axes = S[:3].T.tolist()                                   # each joint's world axis aⱼ
         for j in sw:                                              # τⱼ = aⱼ·τ, its damping about its own axis at q̇⁺
-            ax, ay, az = axes[j]
+            ax, ay, az = cols[j][:3]                              # the joint's world axis aⱼ
             tau[j], k[j] = ax * tx + ay * ty + az * tz + kvh * qdl[j], kvh
         sx, sy, sz = [-a - b for a, b in zip(tau_torso, tau_swing)]         # τ_stance = −τ_torso − τ_swing
         for j in stn:
-            ax, ay, az = axes[j]
+            ax, ay, az = cols[j][:3]
             tau[j] = ax * sx + ay * sy + az * sz
         k[stn[0]] = g.stance_yaw_kv                                # the stance leg's spin damped, at q̇⁺
         lim = g.limit
