@@ -244,3 +244,21 @@ def test_the_controller_on_float_frames_equals_it_on_the_readable_arrays():
         assert np.array_equal(kkf, kks)
         assert np.abs(tf - ts).max() <= 1e-12 * (1 + np.abs(ts).max())
         assert np.count_nonzero(tf) >= 12                             # the servos and both hips act
+
+
+def test_the_walk_names_a_state_that_is_not_finite(monkeypatch):
+    # the runner's finiteness test on floats (|y|² finite) hands a NaN, an Inf and a finite state whose |y|²
+    # overflows to the driver's check, which names them as before
+    for bad in (np.nan, np.inf, 1e200):
+        real = WorldStep.step
+
+        def step(self, q, qd, h, tau0, k=None, kin=None, _real=real, _bad=bad):
+            q1, u1 = _real(self, q, qd, h, tau0, k, kin)
+            u1 = u1.copy()
+            u1[7] = _bad
+            return q1, u1
+
+        monkeypatch.setattr(WorldStep, "step", step)
+        with pytest.raises(SimulationDiverged):
+            walk3d.simulate_walk3d(t_end=0.02, h=2e-3)
+        monkeypatch.undo()

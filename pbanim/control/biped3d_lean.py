@@ -5,13 +5,14 @@
 arithmetic, set the cost (``pbanim bench control``), so ``WorldStep(lean=True)`` (the default) runs
 this module instead, computing the same quantities:
 
-1. **kinematics** on Python floats, link by link in tree order: R_i = R_λ(i) ᴶR_i R_a(q_i) (Rodrigues),
+1. **kinematics** on Python floats, link by link in tree order: R_i = R_λ(i) ᴶR_i R_a(q_i) (Rodrigues; about
+   a coordinate axis ±eₖ, the biped's every joint, the two columns it turns: a = ±(R_λ ᴶR)eₖ),
    o_i = o_λ + R_λ p_i, the world joint column Sᵂ = (a, o × a) and c_i = o_i + R_i c̄_i on nine floats a
    frame, then four arrays (R, o, c, Sᵂ) built once: ~1500 float operations cost less than the ~55 numpy
    calls of a batched form on 3 × 3 blocks (measured 117 → 54 µs a state); the floats stay in the dict for
    the controller. numpy's 3 × 3 products go through BLAS (fused multiply-adds), these do not: equal to a
    few ulps, not bit for bit;
-2. **point Jacobians** J = v + a × P with the cross product written out on (m, nv) arrays; the centres of
+2. **point Jacobians** J = v − [P]× a as one batched product over the points; the centres of
    mass' Jacobians J_c are computed once per state and kept (the mass matrix and the controller's centre of
    mass velocity read the same ones);
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
@@ -20,7 +21,7 @@ this module instead, computing the same quantities:
    (``WorldStep._impulses``: the box-friction hand-off, the active set from the last step's contact states,
    PGS in chunks when it does not certify), through :func:`pbanim.lcp.handoff_lean.handoff_floats` (its
    rounds' tests on floats: the library's answer bit for bit);
-5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics.
+5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics (one array built).
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the CPU seconds (process
 time: on a shared machine the wall clock measures the load) each part takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
@@ -37,6 +38,14 @@ from ..errors import InvalidInput, SimulationDiverged
 
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
+
+
+def _coordinate_axis(u) -> tuple[int, float]:
+    """(k, ±1) when the joint axis u is ±eₖ exactly, else (−1, 0)."""
+    for k in range(3):
+        if abs(u[k]) == 1.0 and u[k - 1] == 0.0 and u[k - 2] == 0.0:
+            return k, u[k]
+    return -1, 0.0
 
 
 class LeanPlan:
@@ -64,7 +73,7 @@ class LeanPlan:
                           tuple(float(x) for x in j.p),
                           None if np.all(j.R == np.eye(3)) else tuple(float(x) for x in np.ravel(j.R)), tuple(u),
                           (u[0] * u[0], u[0] * u[1], u[0] * u[2], u[1] * u[1], u[1] * u[2], u[2] * u[2]),
-                          tuple(float(x) for x in ws.com[i])))
+                          tuple(float(x) for x in ws.com[i]), *_coordinate_axis(u)))
         self.links = links
         self.com_f = [tuple(float(x) for x in c) for c in ws.com]
 
@@ -114,7 +123,7 @@ def _kinematics(ws, q) -> dict:
     m0, m1, m2 = P.com_f[0]
     cs[0] = (px + (r00 * m0 + r01 * m1 + r02 * m2), py + (r10 * m0 + r11 * m1 + r12 * m2),
              pz + (r20 * m0 + r21 * m1 + r22 * m2))
-    for i, lam, qk, vk, p, JR, axis, aa, com in P.links:
+    for i, lam, qk, vk, p, JR, axis, aa, com, kax, sgn in P.links:
         a00, a01, a02, a10, a11, a12, a20, a21, a22 = Rs[lam]
         ox, oy, oz = os[lam]
         p0, p1, p2 = p
@@ -126,7 +135,27 @@ def _kinematics(ws, q) -> dict:
                 a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21, a00 * b02 + a01 * b12 + a02 * b22,
                 a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21, a10 * b02 + a11 * b12 + a12 * b22,
                 a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21, a20 * b02 + a21 * b12 + a22 * b22)
-        if qk >= 0:
+        if qk >= 0 and kax >= 0:                                     # a = ±eₖ: R_a(θ) turns two columns
+            th = ql[qk]
+            c, sn = cos(th), sin(th)
+            if sgn < 0.0:
+                sn = -sn
+            if kax == 0:                                                # R_λ R_x(θ): columns 1, 2
+                e0, e1, e2 = a00, a10, a20
+                a01, a02, a11, a12, a21, a22 = (c * a01 + sn * a02, c * a02 - sn * a01, c * a11 + sn * a12,
+                                                c * a12 - sn * a11, c * a21 + sn * a22, c * a22 - sn * a21)
+            elif kax == 1:                                              # R_λ R_y(θ): columns 2, 0
+                e0, e1, e2 = a01, a11, a21
+                a00, a02, a10, a12, a20, a22 = (c * a00 - sn * a02, c * a02 + sn * a00, c * a10 - sn * a12,
+                                                c * a12 + sn * a10, c * a20 - sn * a22, c * a22 + sn * a20)
+            else:                                                       # R_λ R_z(θ): columns 0, 1
+                e0, e1, e2 = a02, a12, a22
+                a00, a01, a10, a11, a20, a21 = (c * a00 + sn * a01, c * a01 - sn * a00, c * a10 + sn * a11,
+                                                c * a11 - sn * a10, c * a20 + sn * a21, c * a21 - sn * a20)
+            if sgn < 0.0:
+                e0, e1, e2 = -e0, -e1, -e2
+            cols[vk] = (e0, e1, e2, oy * e2 - oz * e1, oz * e0 - ox * e2, ox * e1 - oy * e0)
+        elif qk >= 0:
             ux, uy, uz = axis
             th = ql[qk]
             c, sn = cos(th), sin(th)
@@ -159,14 +188,17 @@ def _cross(u, v):
     return u[:, _I1] * v[:, _I2] - u[:, _I2] * v[:, _I1]
 
 
+_SKEW = np.zeros((3, 9))                  # P ↦ [P]× flattened row-major: [[0, −z, y], [z, 0, −x], [−y, x, 0]]
+_SKEW[2, 1] = _SKEW[0, 5] = _SKEW[1, 6] = -1.0
+_SKEW[1, 2] = _SKEW[2, 3] = _SKEW[0, 7] = 1.0
+
+
 def jacobians_at(S, P, mask):
-    """J (m, 3, nv) of world points P (m, 3): column v is (v_v + a_v × P) where the point moves with it."""
-    ax, ay, az = S[0], S[1], S[2]
-    Px, Py, Pz = P[:, 0:1], P[:, 1:2], P[:, 2:3]
-    J = np.empty((P.shape[0], 3, S.shape[1]))
-    np.add(S[3], ay * Pz - az * Py, out=J[:, 0])
-    np.add(S[4], az * Px - ax * Pz, out=J[:, 1])
-    np.add(S[5], ax * Py - ay * Px, out=J[:, 2])
+    """J (m, 3, nv) of world points P (m, 3): column v is (v_v + a_v × P) where the point moves with it, as
+    v − [P]× a: one batched product [P]× Sᵂ_ω (m, 3, 3)(3, nv), a subtraction and the mask (the cross
+    product's six products in a 3 × 3 product with its three zeros: equal to the written-out form to an ulp)."""
+    J = np.matmul((P @ _SKEW).reshape(-1, 3, 3), S[:3])
+    np.subtract(S[3:], J, out=J)
     J *= mask[:, None, :]
     return J
 
@@ -197,10 +229,19 @@ def mass_matrix(ws, kin):
     P = ws._plan
     n, nv = P.n, P.nv
     Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
-    Jw = kin["S"][None, :3, :] * P.mask[:, None, :]
-    R = kin["R"]
-    IJ = R @ (ws.inertia @ (R.transpose(0, 2, 1) @ Jw))
-    return (P.mass3 * Jc).T @ Jc + Jw.reshape(3 * n, nv).T @ IJ.reshape(3 * n, nv)
+    Iw, Jw = _rotational(ws, kin)
+    return (P.mass3 * Jc).T @ Jc + Jw.reshape(3 * n, nv).T @ (Iw @ Jw).reshape(3 * n, nv)
+
+
+def _rotational(ws, kin):
+    """(Īᵂ (n, 3, 3), J_ω (n, 3, nv)) of a state: the links' world inertias R Ī Rᵀ and their angular
+    velocity Jacobians (Sᵂ's angular rows over each link's joints), computed once per kinematics dict (the
+    mass matrix and the bias forces read the same ones)."""
+    got = kin.get("IwJw")
+    if got is None:
+        R = kin["R"]
+        got = kin["IwJw"] = (R @ ws.inertia @ R.transpose(0, 2, 1), kin["S"][None, :3, :] * ws._plan.mask[:, None, :])
+    return got
 
 
 def bias(ws, kin, qd):
@@ -220,8 +261,7 @@ def bias(ws, kin, qd):
     a, v = Sq[:3].T, Sq[3:].T
     w, vo = Vj[:, :3], Vj[:, 3:]
     c, om = kin["c"], V[:, :3]
-    R = kin["R"]
-    Iw = R @ ws.inertia @ R.transpose(0, 2, 1)
+    Iw, Jw = _rotational(ws, kin)
     Iom = (Iw @ om[:, :, None])[:, :, 0]
     # the five cross products that need only velocities, as one: w × a, w × v, v_O × a, ω × c, ω × Īω
     X5 = _cross(np.concatenate([w, w, vo, om, om]), np.concatenate([a, v, a, c, Iom]))
@@ -233,16 +273,16 @@ def bias(ws, kin, qd):
     ac = A[:, 3:] + X2[:n] + X2[n:] - P.gravity
     tq = (Iw @ A[:, :3, None])[:, :, 0] + omIom
     Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
-    Jw = (S[None, :3, :] * Mk[:, None, :]).reshape(3 * n, nv)
-    return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.T @ tq.reshape(-1) + P.damping * qd
+    return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.reshape(3 * n, nv).T @ tq.reshape(-1) + P.damping * qd
 
 
 def rotation_vector_floats(R, as_list: bool = False):
-    """log(R) (3,) of a rotation matrix (3, 3), or of its nine floats row-major: :func:`pbanim.rigid.matrix_to_quat` (Shepperd: the largest of
-    4w², 4x², 4y², 4z² under the square root, w ≥ 0), then :func:`pbanim.design.simulate.quat_log`
-    (2 atan2(|v|, w) v / |v|; 2v / w below |v| = 1e-12) — their arithmetic in their order on nine floats, so
-    their bits but for |v| (norm's BLAS dot: an ulp apart in 2 % of rotations, ``tests/test_biped3d_lean.py``),
-    without the two calls' array work (the controller's two servos call it every step). An array (3,), or with ``as_list`` the list of its three floats."""
+    """log(R) (3,) of a rotation matrix (3, 3), or of its nine floats row-major:
+    :func:`pbanim.rigid.matrix_to_quat` (Shepperd: the largest of 4w², 4x², 4y², 4z² under the square root,
+    w ≥ 0), then :func:`pbanim.design.simulate.quat_log` (2 atan2(|v|, w) v / |v|; 2v / w below |v| = 1e-12) —
+    their arithmetic in their order on nine floats, so their bits but for |v| (norm's BLAS dot: an ulp apart
+    in 2 % of rotations, ``tests/test_biped3d_lean.py``), without the two calls' array work (the controller's
+    two servos call it every step). An array (3,), or with ``as_list`` the list of its three floats."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = R.ravel().tolist() if isinstance(R, np.ndarray) else R
     tr = r00 + r11 + r22
     cand = [1 + tr, 1 + 2 * r00 - tr, 1 + 2 * r11 - tr, 1 + 2 * r22 - tr]      # 4w², 4x², 4y², 4z²
@@ -280,7 +320,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
     H = mass_matrix(ws, kin)
     c1 = process_time() if clock is not None else 0.0
     nv1 = H.shape[0] + 1
-    K = None if k is None or not np.any(k) else np.asarray(k, dtype=float)
+    K = None if k is None or not (k.any() if isinstance(k, np.ndarray) else np.any(k)) else np.asarray(k, dtype=float)
     if K is not None:
         H.reshape(-1)[::nv1] += h * K                          # H + hK (H is this step's own array: a view)
     cho = _cholesky(H)
@@ -311,7 +351,7 @@ def step(ws, q, qd, h: float, tau0, k, kin):
         u = ws._impulses(A, rows, MinvJt, u, g, near, h)             # the contact law: the readable step's
     else:
         ws._states = {}
-    q1 = integrate(q, u, h, kin["R"][0])
+    q1 = integrate(q, u, h, kin["Rf"][0] if "Rf" in kin else kin["R"][0])
     if clock is not None:                                      # pbanim bench control: the step's split
         clock["H"] += c1 - c0
         clock["dynamics"] += c2 - c1
@@ -322,14 +362,18 @@ def step(ws, q, qd, h: float, tau0, k, kin):
 
 def integrate(q, u, h: float, R0):
     """q⁺ = q + h q̇(q, u) on floats: ½ q ⊗ (0, ω) for the pelvis's quaternion (renormalized), R₀ v for its
-    position (R₀ the kinematics' R of q/|q|), q̇ for the joints."""
-    a0, a1, a2, a3 = q[:4].tolist()
-    w1, w2, w3, v1, v2, v3 = u[:6].tolist()
-    dq = [0.5 * (a0 * 0.0 - a1 * w1 - a2 * w2 - a3 * w3), 0.5 * (a0 * w1 + a1 * 0.0 + a2 * w3 - a3 * w2),
-          0.5 * (a0 * w2 - a1 * w3 + a2 * 0.0 + a3 * w1), 0.5 * (a0 * w3 + a1 * w2 - a2 * w1 + a3 * 0.0)]
-    q1 = np.empty(q.size)
-    q1[:4] = q[:4] + h * np.array(dq)
-    q1[:4] /= sqrt(float(q1[:4] @ q1[:4]))
-    q1[4:7] = q[4:7] + h * (R0 @ np.array([v1, v2, v3]))
-    q1[7:] = q[7:] + h * u[6:]
-    return q1
+    position (R₀ the kinematics' R of q/|q|, nine floats row-major or an array), q̇ for the joints; one array
+    built at the end."""
+    ql, ul = q.tolist(), u.tolist()
+    a0, a1, a2, a3, px, py, pz = ql[:7]
+    w1, w2, w3, v1, v2, v3 = ul[:6]
+    b0 = a0 + h * (0.5 * (a0 * 0.0 - a1 * w1 - a2 * w2 - a3 * w3))
+    b1 = a1 + h * (0.5 * (a0 * w1 + a1 * 0.0 + a2 * w3 - a3 * w2))
+    b2 = a2 + h * (0.5 * (a0 * w2 - a1 * w3 + a2 * 0.0 + a3 * w1))
+    b3 = a3 + h * (0.5 * (a0 * w3 + a1 * w2 - a2 * w1 + a3 * 0.0))
+    nb = sqrt(b0 * b0 + b1 * b1 + b2 * b2 + b3 * b3)
+    r0, r1, r2, r3, r4, r5, r6, r7, r8 = R0 if isinstance(R0, tuple) else R0.ravel().tolist()
+    out = [b0 / nb, b1 / nb, b2 / nb, b3 / nb, px + h * (r0 * v1 + r1 * v2 + r2 * v3),
+           py + h * (r3 * v1 + r4 * v2 + r5 * v3), pz + h * (r6 * v1 + r7 * v2 + r8 * v3)]
+    out += [x + h * v for x, v in zip(ql[7:], ul[6:])]
+    return np.array(out)

@@ -79,7 +79,7 @@ _ANGLE = Real(ge=-np.pi, le=np.pi)
 _FB = Real(ge=0)
 STATES = ("R0", "R1", "L0", "L1")
 SIDES = {"R": ("right", "left"), "L": ("left", "right")}
-_Y, _X, _Z = np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0])
+_Y, _X, _Z = (0.0, -1.0, 0.0), (1.0, 0.0, 0.0), (0.0, 0.0, 1.0)
 
 
 @contract(swh=_ANGLE, swk=_ANGLE, swa=_ANGLE, stk=_ANGLE, sta=_ANGLE, tor=_ANGLE, cor=_ANGLE, cd=_FB, cv=_FB,
@@ -152,7 +152,7 @@ def _frames_of(kin) -> tuple[list, list]:
 
 def _rot9(axis, angle: float) -> tuple:
     """R_a(θ) as nine floats (row-major): :func:`pbanim.control.biped3d_step._rot`'s Rodrigues, on floats."""
-    x, y, z = axis.tolist()
+    x, y, z = axis
     c, s = cos(angle), sin(angle)
     t = 1.0 - c
     return (t * x * x + c, t * x * y - s * z, t * x * z + s * y,

@@ -32,6 +32,7 @@ Pushes, turns: ORACLES F18.
 from __future__ import annotations
 
 import time
+from math import cos, isfinite
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +50,7 @@ __all__ = ["Walk3DResult", "simulate_walk3d"]
 START_SPEED = 0.5        # m/s: the start's forward speed, inside the walk's basin (see the module docstring)
 TURN_RATE = 0.5          # rad/s: how fast the heading target turns toward a new heading
 _finite = unchecked(check_finite)
+_COS1 = cos(1.0)                                     # the trunk's tip at which the walk has fallen: 1 rad
 
 
 class _Fell(Exception):
@@ -139,7 +141,8 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
             tau = tau + force
         q1, u1 = stepf(q, qd, hh, tau, k, kin)
         y1 = np.concatenate([q1, u1])
-        _finite(y1, t, round(t / h))                 # the driver's check (unchecked), before q⁺ is read
+        if not isfinite(sum([x * x for x in y1.tolist()])):   # the driver's test, |y|² finite, on floats; when
+            _finite(y1, t, round(t / h))                       # it fails, the driver's check names it
         left = right = False
         if ws.last is not None:                                  # corners 0–3 the left sole's, 4–7 the right's
             for c, f in zip(ws.last["contacts"].tolist(), ws.last["impulses"][0::3].tolist()):
@@ -149,9 +152,10 @@ def simulate_walk3d(gait: Gait3D = WALK3D, t_end: float = 20.0, h: float = 2e-3,
                     elif c < 8:
                         right = True
         state["events"] = ("left_strike",) * left + ("right_strike",) * right
-        R0 = kinematics(q1)["R"][0]
+        kin1 = kinematics(q1)
+        r22 = kin1["Rf"][0][8] if "Rf" in kin1 else float(kin1["R"][0, 2, 2])     # the pelvis's R₂₂
         cause = ("pelvis dropped below 0.7 m" if q1[6] < 0.7 else
-                 f"trunk tipped {np.degrees(np.arccos(min(R0[2, 2], 1.0))):.0f}°" if R0[2, 2] < np.cos(1.0) else "")
+                 f"trunk tipped {np.degrees(np.arccos(min(r22, 1.0))):.0f}°" if r22 < _COS1 else "")
         if cause:
             state["fall"] = (t + hh, cause)
             raise _Fell(cause)
