@@ -16,7 +16,9 @@ this module instead, computing the same quantities:
    mass' Jacobians J_c are computed once per state and kept (the mass matrix and the controller's centre of
    mass velocity read the same ones);
 3. **H** = Σ mᵢ J_c,iᵀ J_c,i + J_ω,iᵀ Īᵂᵢ J_ω,i as two (3n × nv) products; one Cholesky factorization of
-   H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`);
+   H + hK serves the free velocity and the contact rows (:func:`scipy.linalg.cho_factor`); **C(q, q̇)** by the
+   world-frame Newton–Euler sums on Python floats (forward: velocities and bias accelerations; backward: the
+   subtrees' wrenches about the world origin; :func:`bias`);
 4. **the contact solve** on the near points only, by the readable step's contact law
    (``WorldStep._impulses``: the box-friction hand-off, the active set from the last step's contact states,
    PGS in chunks when it does not certify), through :func:`pbanim.lcp.handoff_lean.handoff_floats` (its
@@ -24,7 +26,8 @@ this module instead, computing the same quantities:
 5. **the update** q⁺ = q + h q̇(q, u⁺) on floats, with the pelvis's R of the kinematics (one array built).
 
 ``WorldStep.clock``, a dict (kinematics, H, dynamics, contact, steps) or None, adds up the CPU seconds (process
-time: on a shared machine the wall clock measures the load) each part takes (``pbanim bench control``). ``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F19).
+time: on a shared machine the wall clock measures the load) each part takes (``pbanim bench control``).
+``tests/test_biped3d_lean.py`` holds the two paths equal to a few ulps per step (ORACLES F20).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from time import process_time
 import numpy as np
 from scipy.linalg.lapack import dpotrf, dpotrs
 from ..errors import InvalidInput, SimulationDiverged
+from .biped3d_bias import _rotational, bias
 
 
 __all__: list = []      # internal: reached through WorldStep(lean=True)
@@ -60,6 +64,8 @@ class LeanPlan:
         self.mass3 = np.repeat(ws.mass, 3)[:, None]
         self.mask = ws.mask.astype(float)
         self.gravity = np.asarray(tree.gravity, dtype=float)
+        self.gravity_f = tuple(float(x) for x in self.gravity)
+        self.mass_f = [float(m) for m in ws.mass]
         self.damping = np.asarray(tree.arrays()["damping"], dtype=float)
         self.cache = (None, None)           # (q's bytes, its kinematics): the last state's, read again
         self.contacts = (ws.links, ws.points[:, :, None], self.mask[ws.links])
@@ -231,49 +237,6 @@ def mass_matrix(ws, kin):
     Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
     Iw, Jw = _rotational(ws, kin)
     return (P.mass3 * Jc).T @ Jc + Jw.reshape(3 * n, nv).T @ (Iw @ Jw).reshape(3 * n, nv)
-
-
-def _rotational(ws, kin):
-    """(Īᵂ (n, 3, 3), J_ω (n, 3, nv)) of a state: the links' world inertias R Ī Rᵀ and their angular
-    velocity Jacobians (Sᵂ's angular rows over each link's joints), computed once per kinematics dict (the
-    mass matrix and the bias forces read the same ones)."""
-    got = kin.get("IwJw")
-    if got is None:
-        R = kin["R"]
-        got = kin["IwJw"] = (R @ ws.inertia @ R.transpose(0, 2, 1), kin["S"][None, :3, :] * ws._plan.mask[:, None, :])
-    return got
-
-
-def bias(ws, kin, qd):
-    """C(q, q̇) − (the gravity's generalized force): the world-frame Newton–Euler sums over the links,
-
-        C = Σᵢ mᵢ J_c,iᵀ (a_c,i − g) + J_ω,iᵀ (Īᵂᵢ α_i + ω_i × Īᵂᵢ ω_i)    at q̈ = 0,
-
-    with (ω_i, v_O,i) = Σ_j Sᵂ_j q̇_j over link i's joints (v_O: the velocity of the point at the world
-    origin), the bias accelerations (α_i, a_O,i) = Σ_j V_j ×ₘ Sᵂ_j q̇_j (V_j the velocity of the joint's
-    link; ×ₘ the motion cross product) and a_c = a_O + α × c + ω × v_c, v_c = v_O + ω × c."""
-    P = ws._plan
-    n, nv = P.n, P.nv
-    S, Mk = kin["S"], P.mask
-    Sq = S * qd                                    # (6, nv): each joint's S_j q̇_j
-    V = Mk @ Sq.T                                  # (n, 6): each link's (ω, v_O)
-    Vj = V[ws._joint_link]                         # (nv, 6): the velocity of the link each joint moves
-    a, v = Sq[:3].T, Sq[3:].T
-    w, vo = Vj[:, :3], Vj[:, 3:]
-    c, om = kin["c"], V[:, :3]
-    Iw, Jw = _rotational(ws, kin)
-    Iom = (Iw @ om[:, :, None])[:, :, 0]
-    # the five cross products that need only velocities, as one: w × a, w × v, v_O × a, ω × c, ω × Īω
-    X5 = _cross(np.concatenate([w, w, vo, om, om]), np.concatenate([a, v, a, c, Iom]))
-    wa, wv, va = X5[:nv], X5[nv:2 * nv], X5[2 * nv:3 * nv]
-    omc, omIom = X5[3 * nv:3 * nv + n], X5[3 * nv + n:]
-    A = Mk @ np.concatenate([wa, wv + va], axis=1)  # (n, 6): (α, a_O) at q̈ = 0
-    vc = V[:, 3:] + omc
-    X2 = _cross(np.concatenate([A[:, :3], om]), np.concatenate([c, vc]))      # α × c, ω × v_c
-    ac = A[:, 3:] + X2[:n] + X2[n:] - P.gravity
-    tq = (Iw @ A[:, :3, None])[:, :, 0] + omIom
-    Jc = com_jacobians(ws, kin).reshape(3 * n, nv)
-    return Jc.T @ (P.mass3[:, 0] * ac.reshape(-1)) + Jw.reshape(3 * n, nv).T @ tq.reshape(-1) + P.damping * qd
 
 
 def rotation_vector_floats(R, as_list: bool = False):
