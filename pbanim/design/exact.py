@@ -97,14 +97,19 @@ def flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: flo
         return _flight_map(model, y, T, tau)
 
 
-def _flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: float):
+def _flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: float, still: bool | None = None):
+    """The flight map; ``still`` (default: L = 0 for every body) skips the rotation's products: exp(0) = 1 and
+    R = J_l = 𝟙, so q(τ) = q₀ and δφ(τ) = δφ₀ + τ δω give what the products give, to the sign of a zero."""
     N = model.N
     x, q, P, L = (y[:3 * N].reshape(N, 3), y[3 * N:7 * N].reshape(N, 4), y[7 * N:10 * N].reshape(N, 3),
                   y[10 * N:].reshape(N, 3))
     W, m, g = model.W[:, None], model.m[:, None], model.g
+    if still is None:
+        still = not L.any()
     w = model.Iinv[:, :1] * L                                   # ω = L / I_s
     th = w * tau
-    q1 = quat_multiply(quat_exp(th), q)
+    E = None if still else quat_exp(th)
+    q1 = q.copy() if still else quat_multiply(E, q)
     q1 /= np.sqrt(np.sum(q1 * q1, axis=1))[:, None]
     y1 = np.concatenate([(x + tau * W * P + 0.5 * tau * tau * g).ravel(), q1.ravel(),
                          (P + tau * m * g).ravel(), L.ravel()])
@@ -119,8 +124,11 @@ def _flight_map(model: FlightModel, y: np.ndarray, T: np.ndarray | None, tau: fl
     T1[:, 10 * N:] = T[:, 10 * N:]
     dphi0 = rotation_tangent(q, Tq)                             # (p, N, 3)
     dw = model.Iinv[None, :, :1] * TL
-    R, Jl = quat_to_matrix(quat_exp(th)), _left_jacobians(th)
-    dphi1 = np.einsum("nij,pnj->pni", R, dphi0) + tau * np.einsum("nij,pnj->pni", Jl, dw)
+    if still:
+        dphi1 = dphi0 + tau * dw
+    else:
+        R, Jl = quat_to_matrix(E), _left_jacobians(th)
+        dphi1 = np.einsum("nij,pnj->pni", R, dphi0) + tau * np.einsum("nij,pnj->pni", Jl, dw)
     T1[:, 3 * N:7 * N] = _qdot(q1[None], dphi1).reshape(p, 4 * N)  # δq = ½ (0, δφ) ⊗ q
     return y1, T1
 
