@@ -162,7 +162,11 @@ def test_a_wrong_sequence_is_reported_never_silent(rattle):
     r = solve_sequence(guess, goal, T, sketch, short, maxiter=60)
     X, seen = replay(r.u[:3], r.u[3:], T, [t for t, _ in sketch])
     assert seen == r.sequence
-    assert r.success == (r.sequence == hits[:3] and np.abs(X[-1] - goal[0].target).max() <= 1e-6)
+    # the replay shows the proposed sequence and meets the goal (measured 2e-16); success says so only when
+    # SLSQP also converged, and otherwise the message names why (this SLSQP may stop at its iteration cap)
+    assert r.sequence == hits[:3] and np.abs(X[-1] - goal[0].target).max() <= 1e-6
+    assert r.success == ("replay confirms the sequence; goals met" == r.message)
+    assert r.success or ("replay confirms the sequence" in r.message and "SLSQP: " in r.message)
     E = 0.5 * float(np.sum((X - np.array([x for _, x in sketch])) ** 2))
     noise = 0.5 * len(sketch) * 3 * SIGMA ** 2
     assert abs(E - r.objective) < 1e-9 and E > 100 * noise
