@@ -47,7 +47,7 @@ def rattle_problem(dt: float = 0.05, sigma: float = 0.005, T: float = 1.2, seed:
 
 
 @figure("ch10", "sequence_search", "Searching impact sequences where multiple shooting stays at a wrong one",
-        cost=16.0)
+        cost=10.0)
 def sequence_search(ctx):
     """x(t) of the sketch, of multiple shooting from the sketch's impacts (nodes midway between them) and of
     the search's best sequence; what the search tried on this sketch and on one sampled every 80 ms (1.05 to
