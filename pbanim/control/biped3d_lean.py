@@ -69,6 +69,7 @@ class LeanPlan:
         self.damping = np.asarray(tree.arrays()["damping"], dtype=float)
         self.cache = (None, None)           # (q's bytes, its kinematics): the last state's, read again
         self.contacts = (ws.links, ws.points[:, :, None], self.mask[ws.links])
+        self.contacts_f = [(int(lk), tuple(float(x) for x in p)) for lk, p in zip(ws.links, ws.points)]
         self.basis = {}                     # the near points' normals' bytes → their frames (n, t₁, t₂) (≤ 64 kept)
         links = []                          # the float kinematics' plan, tree order (module docstring, 1)
         for i in range(1, n):
@@ -213,6 +214,16 @@ def point_jacobians(ws, kin, links, points):
     """(P, J) of :meth:`WorldStep.point_jacobians`; the centres of mass' J_c once per state."""
     if points is ws.com and len(links) == ws.tree.n:
         return kin["c"], com_jacobians(ws, kin)
+    if links is ws.links and points is ws.points and "Rf" in kin:   # the contact points: o + R p on floats
+        Rf, of = kin["Rf"], kin["of"]
+        rows = []
+        for lk, (p0, p1, p2) in ws._plan.contacts_f:
+            r0, r1, r2, r3, r4, r5, r6, r7, r8 = Rf[lk]
+            ox, oy, oz = of[lk]
+            rows.append((ox + (r0 * p0 + r1 * p1 + r2 * p2), oy + (r3 * p0 + r4 * p1 + r5 * p2),
+                         oz + (r6 * p0 + r7 * p1 + r8 * p2)))
+        P = np.array(rows)
+        return P, jacobians_at(kin["S"], P, ws._plan.contacts[2])
     if links is ws.links and points is ws.points:                 # the contact points: their arrays kept
         links, pts, mask = ws._plan.contacts
     else:

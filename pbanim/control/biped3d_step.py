@@ -214,7 +214,8 @@ class WorldStep:
         round (:mod:`pbanim.lcp.handoff_lean`, the same bits)."""
         A.flat[::A.shape[0] + 1] += self.cfm * max(float(A.diagonal().max()), 1e-300)      # A + cfm·max diag A·𝟙
         b = rows @ u
-        b[0::3] += np.maximum(g, 0) / h + self.erp * np.minimum(g, 0) / h
+        erp = self.erp
+        b[0::3] += [max(x, 0.0) / h + erp * min(x, 0.0) / h for x in g.tolist()]      # the normal rows' bias
         nl, last = near.tolist(), self._states
         bf = b[0::3].tolist()
         guess = [last.get(c) or (int(bf[m] < 0.0), 0, 0) for m, c in enumerate(nl)]
