@@ -230,7 +230,7 @@ def boxes_tumbling(ctx):
         for i in range(n):
             P = verts[frames[f], i][:, [0, 2]]
             outlines[i].set_xy(P[ConvexHull(P).vertices])
-        ax.set_title(f"t = {res.t[frames[f]]:.2f} s")
+        ax.set_title(f"t = {res.t[frames[f]]:.2f} s", y=1.0)
 
     ctx.save_gif(fig, update, frames=len(frames), fps=8)
     return {"min_height": float(verts[..., 2].min()), "final_speed": float(speed[:, -1].max()),

@@ -215,7 +215,7 @@ def stack_settling(ctx):
         R = bodies.rotations(yy)
         for k in range(n):
             outlines[k].set_xy(np.column_stack(_box_outline(x[k], R[k], hext)))
-        ax.set_title(f"t = {res.t[i]:.3f} s")
+        ax.set_title(f"t = {res.t[i]:.3f} s", y=1.0)
 
     ctx.save_gif(fig, draw, len(frames), fps=10)
     fig2, ax2 = ctx.subplots()
@@ -265,7 +265,7 @@ def sphere_pile(ctx):
         x = res.y[:3 * n, i].reshape(n, 3)
         for disc, p in zip(discs, x):
             disc.set_center((p[0], p[2]))
-        ax.set_title(f"t = {res.t[i]:.2f} s")
+        ax.set_title(f"t = {res.t[i]:.2f} s", y=1.0)
 
     ctx.save_gif(fig, draw, len(frames), fps=10)
     v = res.y[3 * n:, :].reshape(n, 3, -1)
