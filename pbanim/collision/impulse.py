@@ -77,7 +77,7 @@ import numpy as np
 
 from .shapes import Contacts
 from .specs import ContactsFor, SymmetricPSD, UnitVectors
-from ..contracts import Array, Choice, Either, Int, Obj, Opt, Real, contract
+from ..contracts import Array, Choice, Either, Flag, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult
 from ..geometry import cross, skew
 
@@ -334,11 +334,11 @@ def _sequential(bodies, c, eps, mu, fast, max_iter, impulse, sticking) -> tuple[
 
 @contract(bodies=_BODIES, contacts=ContactsFor("bodies"), restitution=Real(ge=0, le=1), friction=Real(ge=0),
           mode=Choice(MODES), rest_velocity=Real(ge=0), max_iter=Int(ge=1), tol=Real(gt=0, lt=1),
-          lcp=Choice(LCP_METHODS), friction_model=Choice(FRICTION_MODELS), max_rounds=Int(ge=1))
+          lcp=Choice(LCP_METHODS), friction_model=Choice(FRICTION_MODELS), max_rounds=Int(ge=1), lean=Flag())
 def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: float = 1.0,
                        friction: float = 0.0, mode: str = "sequential", rest_velocity: float = 0.0,
                        max_iter: int = 1000, tol: float = 1e-12, lcp: str = "lemke",
-                       friction_model: str = "staggered", max_rounds: int = 100) -> ImpulseResult:
+                       friction_model: str = "staggered", max_rounds: int = 100, lean: bool = True) -> ImpulseResult:
     """Apply collision impulses to ``bodies`` (in place) so no contact approaches; see the module docstring.
 
     Contacts approaching slower than ``rest_velocity`` get ε = 0 (resting contact: stopped, not bounced).
@@ -346,6 +346,8 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
     (each an LCP; a light body trapped between heavy ones needs about π√(M/m) of them, so after the cap
     what still approaches is stopped plastically, see :mod:`pbanim.collision.simultaneous`); ``tol`` is
     the relative tolerance of the certificate (no approach beyond tol·S, no energy growth beyond tol·T).
+    ``lean=False`` runs the readable staggered friction pass of the simultaneous rounds (the lean one is
+    the same arithmetic without a one-contact selection per contact: bit for bit, ORACLES D22).
 
     Three equal balls in a row, the first moving at 1 (Newton's cradle, ORACLES D2):
 
@@ -378,7 +380,7 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
         vn = np.einsum("ij,ij->i", contact_velocity(bodies, c), c.normal)
         if np.any(vn < -tol * speed):
             f, Jt, st, _, residual, more = rounds(bodies, c, 0.0, mu, rest, lcp, friction_model, max_rounds, tol,
-                                                 speed)
+                                                 speed, lean)
             impulse += f[:, None] * c.normal + Jt
             sticking |= st
             extra.update(more)
@@ -386,7 +388,7 @@ def resolve_collisions(bodies: ImpulseBodies, contacts: Contacts, restitution: f
         # one ε for the whole impact (Poisson): every contact restitutes when any contact collides faster
         # than the threshold, none when all are resting; one ε keeps ΔT = −½(1 − ε²) f_cᵀAf_c ≤ 0
         f, Jt, sticking, its, residual, more = rounds(bodies, c, eps, mu, rest, lcp, friction_model, max_rounds,
-                                                      tol, speed)
+                                                      tol, speed, lean)
         impulse += f[:, None] * c.normal + Jt
         extra.update(more)
     bodies.v[-1] = 0.0

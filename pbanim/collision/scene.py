@@ -333,7 +333,7 @@ class Collisions(Effect):
         vn_before = np.einsum("ij,ij->i", bodies.v[c.a] - bodies.v[c.b], c.normal)
         eps = 0.0 if plastic else self.restitution
         res = resolve_collisions(bodies, c, eps, self.friction, self.mode, rest, self.max_iter,
-                                 friction_model=self.friction_model)
+                                 friction_model=self.friction_model, lean=self.lean_path)
         self.last = res
         if np.any(res.normal_impulse > 0):
             self.log.append({"t": t, "contacts": c.m, "impulse": float(res.normal_impulse.sum()),
