@@ -19,9 +19,9 @@ Figures:
   CPU (the walk 11.4 s, the GIF and strip 12.2 s), against 42.9 s (walk 16.8 s, GIF and strip 26.1 s) for the
   code before (PGS as the contact solve, 201 GIF frames at 10 fps), the two run back to back at load ~1.5 (the
   same walk outcome: 65 strikes, 0.879 m/s); 52, 58.6 and 74 s before the earlier cuts of issue 31, on a loaded
-  machine. With the lean step's kinematics, controller and C(q, q̇) on floats (``pbanim bench control``): 18.4 s
-  (17.4–19.6) → 16.6 s (13.6–18.4) of the figure's CPU, 3 alternating rounds at load 4.6–5.6 (the 20 s walk
-  alone without the turn: 8.5 → 5.4 s CPU, single runs; 65 strikes, 0.8869 m/s both); quick: 2.5 s at
+  machine. With the lean step's kinematics, controller and C(q, q̇) on floats (``pbanim bench control``): 15.2 s
+  (14.8–17.6) → 13.1 s (12.2–13.5) of the figure's CPU, 3 alternating rounds at load 2.2–2.7 (the 20 s walk
+  alone without the turn: 8.5 → 5.4–5.8 s CPU, single runs; 65 strikes, 0.8869 m/s both); quick: 2.5 s at
   h = 3.5 ms.
 """
 

@@ -53,17 +53,18 @@ rounds in separate processes (1 s walk, process CPU): 2.13 ms a step (1.85–2.6
 per-round cut 33 % (10–53 %). Then the step on floats where numpy's calls outweighed the arithmetic: the
 kinematics link by link (R, o, Sᵂ, c as nine floats a frame; 117 → 54 µs a state), the controller's servos on
 those floats, J = v − [P]× a as one batched product, R Ī Rᵀ and J_ω once per state, C(q, q̇) by the
-Newton–Euler sums on floats (:mod:`pbanim.control.biped3d_bias`), q⁺ and the runner's tests on floats — equal
-to the readable step to a few ulps (ORACLES F20), the 20 s walk at 2 ms unchanged (65 strikes, 0.8869 m/s over
-the last 5 s). Against the code before, 6 alternating rounds in separate processes (1 s walk, 3 runs a
-process, process CPU) at load 4.5–4.8: 885 µs a step (740–1200) → 642 µs (541–1005), the per-round cut 27 %
-(1–45 %); ``--quick``, 3 alternating rounds at load 3.5–4.6 (the controller timed unchecked in both, as the
-runner calls it): the CPU goal line 1.83× (1.80–2.67) → 2.62× (2.19–3.37), lean / readable 3.83× → 5.04×; an
-earlier round of the same cuts without C on floats, at load 1.0–1.4: 2.22× (2.20–2.46) → 3.24× (3.16–3.57),
-whole step 907 → 618 µs. The split now (load ~4): contact 300 µs (the hand-off ~200 of it), dynamics 96,
-controller 77, kinematics 56, runner 35, H 30. What is left: the hand-off's rounds (:mod:`pbanim.lcp.handoff_lean`,
-~1/3 of the step), ~180 numpy calls a step, the hard steps' PGS chunks. At load 8–11 the step was not measured
-again: the earlier 0.97× there, scaled by the cut (885/642), gives ~1.3× — an estimate, not a measurement.
+Newton–Euler sums on floats (:mod:`pbanim.control.biped3d_bias`), q⁺, the contact points and the runner's
+tests on floats — equal to the readable step to a few ulps (ORACLES F20), the 20 s walk at 2 ms unchanged (65
+strikes, 0.8869 m/s over the last 5 s), the ± 20 / 30 N s push table at 2 ms unchanged (+30 R0 falls at 2.99 s).
+Against the code before, 6 alternating rounds in separate processes (1 s walk, 3 runs a process, process CPU)
+at load 3.0–3.4: 778 µs a step (726–957) → 582 µs (550–692), the per-round cut 25 % (15–38 %), 2.57× → 3.44×
+real time per CPU second; ``--quick``, 3 alternating rounds at load 2.0–2.5 (the controller timed unchecked in
+both, as the runner calls it): the CPU goal line 2.23× (1.62–2.60) → 3.12× (2.07–3.81), lean / readable 3.42×
+→ 4.58×; an earlier round of these cuts (before C, the contact points on floats) at load 1.0–1.4, the old
+harness: 2.22× (2.20–2.46) → 3.24× (3.16–3.57). The split (a round at load ~4): contact 300 µs (the
+hand-off ~200 of it), dynamics 96, controller 77, kinematics 56, runner 35, H 30. What is left: the hand-off's
+rounds (:mod:`pbanim.lcp.handoff_lean`, ~1/3 of the step), ~180 numpy calls a step, the hard steps' PGS chunks. At load 8–11 the step was not measured
+again: the earlier 0.97× there, scaled by the cut (778/582), gives ~1.3× — an estimate, not a measurement.
 
 The step h of the 3-D walk (20 s from the 0.5 m/s start, WALK3D; the mean speed of the centre of mass over
 the last 5 s): h = 1, 1.25, 1.5, 2, 3, 3.5 ms give 0.8763, 0.8789, 0.8818, 0.8869, 0.8971, 0.9045 m/s (all
