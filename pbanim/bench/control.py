@@ -63,8 +63,9 @@ both, as the runner calls it): the CPU goal line 2.23× (1.62–2.60) → 3.12×
 → 4.58×; an earlier round of these cuts (before C, the contact points on floats) at load 1.0–1.4, the old
 harness: 2.22× (2.20–2.46) → 3.24× (3.16–3.57). The split (a round at load ~4): contact 300 µs (the
 hand-off ~200 of it), dynamics 96, controller 77, kinematics 56, runner 35, H 30. What is left: the hand-off's
-rounds (:mod:`pbanim.lcp.handoff_lean`, ~1/3 of the step), ~180 numpy calls a step, the hard steps' PGS chunks. At load 8–11 the step was not measured
-again: the earlier 0.97× there, scaled by the cut (778/582), gives ~1.3× — an estimate, not a measurement.
+rounds (:mod:`pbanim.lcp.handoff_lean`, ~1/3 of the step), ~180 numpy calls a step, the hard steps' PGS chunks.
+At load 8–11 the step was not measured again: the earlier 0.97× there, scaled by the cut (778/582), gives ~1.3×
+— an estimate, not a measurement.
 
 The step h of the 3-D walk (20 s from the 0.5 m/s start, WALK3D; the mean speed of the centre of mass over
 the last 5 s): h = 1, 1.25, 1.5, 2, 3, 3.5 ms give 0.8763, 0.8789, 0.8818, 0.8869, 0.8971, 0.9045 m/s (all
