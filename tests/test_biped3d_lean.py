@@ -49,6 +49,18 @@ def test_lean_kinematics_mass_matrix_and_jacobians_equal_the_readable_ones():
     assert np.abs(fast.kinematics(q)["o"] - ko).max() <= 8 * EPS * (1 + np.abs(ko).max())
 
 
+def test_a_quaternion_whose_squares_overflow_gives_the_frames_of_its_direction():
+    # ORACLES F20: R(q) depends on the direction of q only; at |q| ~ 1e300 the squares overflow, the lean
+    # kinematics scales by the largest entry first (a bare ZeroDivisionError before), the readable R(q/|q|)
+    fast, _ = _steps()
+    q, _ = _random_state(np.random.default_rng(11))
+    unit = fast.kinematics(q.copy())["R"]
+    big = q.copy()
+    big[:4] *= 1e300 / np.abs(q[:4]).max()
+    R = fast.kinematics(big)["R"]
+    assert np.isfinite(R).all() and np.abs(R - unit).max() <= 16 * EPS
+
+
 def test_lean_bias_forces_give_the_aba_accelerations():
     # ORACLES F20: H⁻¹ (τ − C) with C from the world-frame Newton–Euler sums equals the readable ABA;
     # measured 1.2e-14 relative

@@ -32,7 +32,7 @@ time: on a shared machine the wall clock measures the load) each part takes (``p
 
 from __future__ import annotations
 
-from math import atan2, cos, sin, sqrt
+from math import atan2, cos, inf, sin, sqrt
 from time import process_time
 
 import numpy as np
@@ -111,6 +111,10 @@ def _kinematics(ws, q) -> dict:
     ql = q.tolist()
     w, x, y, z = ql[0], ql[1], ql[2], ql[3]
     nrm = sqrt(w * w + x * x + y * y + z * z)
+    if nrm == inf:                          # the squares overflow (|q| ≳ 1e154): scale by the largest entry first
+        big = max(abs(w), abs(x), abs(y), abs(z))
+        w, x, y, z = w / big, x / big, y / big, z / big
+        nrm = sqrt(w * w + x * x + y * y + z * z)
     if not nrm > 1e-9:
         raise InvalidInput(f"q[:4] must be the pelvis's (non-zero) quaternion, got {q[:4]}")
     w, x, y, z = w / nrm, x / nrm, y / nrm, z / nrm                 # quat_to_matrix's formula, s = 2/|q|²
