@@ -76,3 +76,44 @@ def test_solve_lcp_pgs_takes_the_wavefronts_and_certifies():
     assert sol.success and sol.residual <= sol.extra["threshold"]
     ref = solve_lcp(c.A, c.b, "lemke")                           # full rank: one answer
     assert np.abs(sol.f - ref.f).max() <= 1e-6 * max(1.0, np.abs(ref.f).max())
+
+
+def _wavefront_every_sweep(A, b, f, diag, absA, tol_b, max_iter, omega=1.0):
+    """The wavefront sweeps with the threshold tol_b + 1000 ε max(|A| f) made after every sweep (the stop test
+    as the readable loop writes it)."""
+    from pbanim.lcp.sweeps import _plan
+    order, plan = _plan(A, b, diag, omega)
+    fp = f[order]
+    res = thresh = float("inf")
+    for sweep in range(1, max_iter + 1):
+        for s, e, ML, cL in plan:
+            np.maximum(ML @ fp - cL, 0.0, out=fp[s:e])
+        f[order] = fp
+        thresh = tol_b + 1000 * EPS * float(np.max(absA @ f))
+        res = float(np.abs(f - np.maximum(0.0, f - (A @ f + b))).max())
+        if res <= thresh:
+            return f, "converged", sweep, res, thresh
+    return f, "max_iter", max_iter, res, thresh
+
+
+# ORACLES D21: the threshold's product |A| f skipped on sweeps whose residual exceeds the bound
+# tol_b + 1000 ε max rowsum|A| max f changes nothing: the same f, status, sweeps, residual and threshold, bit for bit
+@pytest.mark.parametrize("case", ["pile", "redundant", "sparse"])
+@pytest.mark.parametrize("tol_b", [1e-3, 1e-8, 1e-13, 0.0])
+def test_wavefront_stop_test_bound_skips_nothing_it_needs(case, tol_b):
+    if case == "pile":
+        A, b = _pile_lcp()
+    elif case == "redundant":
+        c = random_contact_lcp(80, redundant=True, seed=3)
+        A, b = c.A, c.b
+    else:
+        A, b = _sparse_lcp(120, 5)
+    diag, absA = np.diag(A).copy(), np.abs(A)
+    statuses = set()
+    for max_iter in (1, 7, 60, 400):
+        r1 = _wavefront_every_sweep(A, b, np.zeros(b.size), diag, absA, tol_b, max_iter)
+        r2 = pgs_sweeps_wavefront(A, b, np.zeros(b.size), diag, absA, tol_b, max_iter)
+        assert r1[1:] == r2[1:] and np.array_equal(r1[0], r2[0])
+        statuses.add(r1[1])
+    if tol_b >= 1e-8 and case != "redundant":             # PGS on the redundant case: slower than 400 sweeps
+        assert "converged" in statuses
