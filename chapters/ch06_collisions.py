@@ -186,7 +186,7 @@ def toi_accuracy(ctx):
 # Boxes tumbling onto the ground (ε = 0.3, μ = 0.5).
 
 # %%
-@figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)", cost=19.0)
+@figure("ch06", "boxes_tumbling", "Boxes tumbling onto the ground (ε = 0.3, μ = 0.5)", cost=9.5)
 def boxes_tumbling(ctx):
     from pbanim.rigid import RigidBodies, RigidGravity, RigidScene
     from pbanim.rigid.quat import quat_from_axis_angle

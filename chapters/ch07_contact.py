@@ -180,7 +180,7 @@ def _box_outline(x, R, h):
 
 # %%
 @figure("ch07", "stack_settling", "A stack of boxes dropped with 5 mm gaps settles (velocity level, μ = 0.5)",
-        cost=12.0)
+        cost=11.5)
 def stack_settling(ctx):
     n = 3 if ctx.quick else 6
     sc = box_stack(n, 1.0)
@@ -238,7 +238,7 @@ def stack_settling(ctx):
 
 # %%
 @figure("ch07", "sphere_pile", "Spheres poured into a box settle into a pile (velocity level, frictionless, PGS ≤ 30 sweeps)",
-        cost=10.0)
+        cost=8.0)
 def sphere_pile(ctx):
     n, T, h = (20, 0.4, 4e-3) if ctx.quick else (100, 1.2, 4e-3)
     sc = sphere_pour(n)
