@@ -6,6 +6,11 @@ limit), runs the very routine of the readable call — the same warm-start test,
 the same polish — and the same certificate (ORACLES D8): a ``ContactSolution`` that ``solve_lcp`` would
 return, or None when the readable call must answer (a failure it names, or an answer it returns uncertified).
 Tested bit for bit against ``solve_lcp`` (``tests/test_lcp_core.py``, ``tests/test_contact_lean_friction.py``).
+
+Lemke's route polishes with :func:`_polish_lean`, the arithmetic of :func:`pbanim.lcp.pivoting._polish` (the
+minimum-norm correction on the active set, LAPACK's gelsd with rcond = |C| ε as ``np.linalg.lstsq`` calls it,
+through the same gufunc) without the per-call wrappers; tested bit for bit against it
+(``tests/test_lcp_lean_polish.py``, ORACLES D22).
 """
 
 from __future__ import annotations
@@ -15,12 +20,67 @@ from typing import Any
 
 import numpy as np
 
-from .pivoting import _EPS1000, _lemke, _polish, _scale, residual_threshold
+from .pivoting import _EPS1000, _lemke, _scale, residual_threshold
 from .specs import LIMIT as _LIMIT
 from . import solve as _solve     # its sweeps_for (the readable row loop lives beside pgs)
 from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["lean_pgs", "lean_lemke"]
+
+try:                    # the gufunc np.linalg.lstsq calls (LAPACK gelsd), without its wrapper's per-call work
+    from numpy.linalg._umath_linalg import lstsq as _gelsd
+    from numpy.linalg._linalg import _raise_linalgerror_lstsq as _svd_failed
+except ImportError:     # pragma: no cover - another numpy: the public function, the same arithmetic
+    _gelsd = None
+
+_EPS = float(np.finfo(float).eps)
+
+
+def _lstsq(M: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``np.linalg.lstsq(M, r, rcond=None)[0]`` for a square float M (n, n), n ≥ 1, and r (n,): the same gufunc
+    with the same rcond = n ε and the same error state (a failed SVD raises LinAlgError)."""
+    if _gelsd is None:  # pragma: no cover
+        return np.linalg.lstsq(M, r, rcond=None)[0]
+    with np.errstate(call=_svd_failed, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        x = _gelsd(M, r[:, None], _EPS * r.size, signature="ddd->ddid")[0]
+    return x[:, 0]
+
+
+def _nmr(f: np.ndarray, w: np.ndarray) -> float:
+    """:func:`pbanim.results.natural_map_residual` ‖f − max(0, f − w)‖∞ of non-empty float arrays, unwrapped."""
+    return float(np.abs(f - np.maximum(0.0, f - w)).max())
+
+
+def _polish_lean(A: np.ndarray, b: np.ndarray, f: np.ndarray, rounds: int = 4) -> np.ndarray:
+    """:func:`pbanim.lcp.pivoting._polish` (A, b, f) with the same operations in the same order: f = 0 off the
+    active set C = {fᵢ > wᵢ}, f_C corrected by the minimum-norm least-squares step of A_CC Δ = −(A_CC f_C + b_C),
+    negative indices dropped (up to three times), a few rounds, the best answer by natural-map residual kept.
+    For the non-empty A (m, m), b, f (m,) of a stepping loop."""
+    best, best_r = f, _nmr(f, A @ f + b)
+    g = f
+    for _ in range(rounds):
+        w = A @ g + b
+        C = np.flatnonzero(g > w)
+        if C.size == 0:
+            g = np.zeros_like(f)
+            r = _nmr(g, b)
+            if r < best_r:
+                best, best_r = g, r
+            break
+        for drop in range(4):
+            ACC = A[np.ix_(C, C)]
+            gC = g[C] + _lstsq(ACC, -(ACC @ g[C] + b[C]))
+            if np.all(gC >= 0) or not np.any(gC > 0) or drop == 3:
+                break
+            C = C[gC > 0]
+        g = np.zeros_like(f)
+        g[C] = np.maximum(gC, 0.0)
+        r = _nmr(g, A @ g + b)
+        if r < best_r:
+            best, best_r = g, r
+        elif r >= best_r:
+            break
+    return best
 
 
 def lean_pgs(A: np.ndarray, b: np.ndarray, warm_start, tol: float, max_iter: int = 1000,
@@ -81,12 +141,12 @@ def lean_lemke(A: np.ndarray, b: np.ndarray, warm_start, tol: float, *, polish: 
     if warm_start is not None:
         ws = warm_start
         with np.errstate(over="ignore", invalid="ignore"):
-            worse = not natural_map_residual(ws, A @ ws + b) <= natural_map_residual(np.zeros(m), b)
+            worse = not _nmr(ws, A @ ws + b) <= _nmr(np.zeros(m), b)
         if worse:
             extra["warm_start_dropped"] = True
         elif np.any(ws > 0):
-            g = _polish(A, b, np.where(ws > 0, 1.0, 0.0) * np.maximum(ws, 0), tol)
-            if natural_map_residual(g, A @ g + b) <= residual_threshold(A, b, g, tol):
+            g = _polish_lean(A, b, np.where(ws > 0, 1.0, 0.0) * np.maximum(ws, 0))
+            if _nmr(g, A @ g + b) <= residual_threshold(A, b, g, tol):
                 f, status, extra["warm_start_hit"] = g, "solved", True
     if f is None:
         try:
@@ -94,7 +154,7 @@ def lean_lemke(A: np.ndarray, b: np.ndarray, warm_start, tol: float, *, polish: 
         except (ArithmeticError, RuntimeError, ValueError, np.linalg.LinAlgError):
             return None
         if polish and status == "solved":
-            g = _polish(A, b, f, tol)
+            g = _polish_lean(A, b, f)
             extra["polished"] = g is not f
             f = g
     if not np.isfinite(f).all():
