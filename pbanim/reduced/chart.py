@@ -238,6 +238,14 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
     index = {c: i for i, c in enumerate(coords)}
     n = len(coords)
     J, qdot, b, Jt_all, bt_all = [], [], [], [], []
+    memo: dict = {}     # (monomial, symbol) → derivative: a chain repeats sin(u_j), cos(u_j) in every later point
+
+    def diff(x, c):
+        d = memo.get((x, c))
+        if d is None:
+            d = memo[(x, c)] = x.diff(c)
+        return d
+
     for i, e in enumerate(positions):
         if isinstance(e, str) or not isinstance(sympy.sympify(e), sympy.Expr):
             raise InvalidInput(f"positions[{i}] must be a real number or a sympy expression, got {e!r}")
@@ -253,7 +261,7 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
         Jt: list[list] = [[] for _ in range(n)]
         for term in sympy.Add.make_args(e):
             for c in term.free_symbols & cset:
-                d = term.diff(c)
+                d = diff(term, c)
                 Jt[index[c]].extend(sympy.Add.make_args(d) if d.is_Add else [d])
         row = [sympy.Add(*ts) if ts else sympy.S.Zero for ts in Jt]
         rt = e.diff(t) if t is not None else sympy.S.Zero
@@ -262,9 +270,9 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
         for j in range(n):
             for jt in Jt[j]:
                 for c in jt.free_symbols & cset:
-                    bt.append(jt.diff(c) * speeds[j] * speeds[index[c]])
+                    bt.append(diff(jt, c) * speeds[j] * speeds[index[c]])
                 if t is not None and t in jt.free_symbols:
-                    bt.append(2 * jt.diff(t) * speeds[j])
+                    bt.append(2 * diff(jt, t) * speeds[j])
         if t is not None:
             rtt = rt.diff(t)
             if rtt != 0:
@@ -275,6 +283,37 @@ def point_kinematics(positions: Sequence, coords: Sequence, t: Any = None) -> Po
         Jt_all.append(Jt)
         bt_all.append(bt)
     return PointKinematics(coords, speeds, J, qdot, b, Jt_all, bt_all, time.perf_counter() - t0)
+
+
+_KINEMATICS: dict = {}      # (positions, coords, t) → PointKinematics: the few structures of a session
+_KINEMATICS_MAX = 16
+
+
+def _point_kinematics_cached(positions: Sequence, coords: Sequence, t: Any = None, lean: bool = True):
+    """:func:`point_kinematics`, derived once per (positions, coords, t) (the lean twin; ``lean=False``
+    derives again). ReducedSystem.from_sympy and derive_equations both differentiate the same positions
+    of a model (its reduced system and its Lagrangian): the second gets the first's expressions, as
+    fresh lists (a caller that edits them does not change the cache). Keys compare the expressions
+    structurally (sympy ==), so equal keys give the same J, q̇, b term for term; ``derivation_time``
+    is the first derivation's. Strings and unhashable entries are never cached (the readable path's
+    checks see them)."""
+    import sympy
+
+    if not lean or any(isinstance(e, str) for e in positions):
+        return point_kinematics(positions, coords, t)
+    try:
+        key = (tuple(sympy.sympify(e) for e in positions), tuple(coords), t)
+        kin = _KINEMATICS.get(key)
+    except (TypeError, sympy.SympifyError):
+        return point_kinematics(positions, coords, t)
+    if kin is None:
+        kin = point_kinematics(positions, coords, t)
+        while len(_KINEMATICS) >= _KINEMATICS_MAX:
+            _KINEMATICS.pop(next(iter(_KINEMATICS)))
+        _KINEMATICS[key] = kin
+    return PointKinematics(kin.coords, kin.speeds, [list(r) for r in kin.J], list(kin.qdot), list(kin.b),
+                           [[list(x) for x in Jt] for Jt in kin.J_terms], [list(x) for x in kin.b_terms],
+                           kin.derivation_time)
 
 
 def _methods():

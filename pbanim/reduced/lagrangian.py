@@ -82,7 +82,7 @@ import numpy as np
 import sympy
 
 from .codegen import LagrangianSystem, compile_equations
-from .chart import point_kinematics, validate_coords
+from .chart import _point_kinematics_cached, point_kinematics, validate_coords
 from .inputs import COORDS, SYMBOL, Expr, Hashable, PointMass, nonreal, validate_points
 from ..contracts import Array, Choice, Either, Obj, Opt, Seq, contract
 from ..errors import InvalidInput
@@ -239,7 +239,8 @@ def derive_equations(coords: Sequence, points: Sequence | None = None, *, T=None
         if any(not x.is_number or nonreal(x) for x in g):
             raise InvalidInput(f"gravity must be finite real numbers, got {list(gravity)!r}")
         g = [_num(x) for x in g]
-    kin = point_kinematics([r[d] for _, r in pts for d in range(dim)], coords, t)
+    # the same derivation as ReducedSystem.from_sympy of these positions (derived once, shared)
+    kin = _point_kinematics_cached([r[d] for _, r in pts for d in range(dim)], coords, t)
     speeds = kin.speeds
     masses = [_num(m) for m, _ in pts for _ in range(dim)]
     gd = [g[d] for _ in pts for d in range(dim)] if g is not None else None

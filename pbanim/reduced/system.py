@@ -65,7 +65,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .chart import METHOD, ChartCheck, ChartGuard, check_chart, point_kinematics, simulate_fixed
+from .chart import (METHOD, ChartCheck, ChartGuard, _point_kinematics_cached, check_chart, point_kinematics,
+                    simulate_fixed)
 from .inputs import COORDS, SYMBOL, Expr
 from ..contracts import Array, Either, Func, Int, Obj, Opt, Real, Seq, Text, contract
 from ..errors import InvalidInput, NonFiniteResult, SingularChartError, check_result
@@ -171,7 +172,7 @@ class ReducedSystem:
             flat = [sympy.sympify(e) for e in rows]
             if len(flat) % dim:
                 raise InvalidInput(f"positions must have N·dim entries, got {len(flat)} for dim = {dim}")
-        kinm = point_kinematics(flat, coords, t)
+        kinm = _point_kinematics_cached(flat, coords, t)   # shared with derive_equations
         k = len(kinm.coords)
         args = [t if t is not None else sympy.Symbol("_t"), *kinm.coords, *kinm.speeds]
         Jnz = [(i, j, e) for i, row in enumerate(kinm.J) for j, e in enumerate(row) if e != 0]
