@@ -32,6 +32,8 @@ from .signature import JAC, STEP, finite_step
 from ..contracts import Array, Func, Int, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult, check_result
 
+_maxred = np.maximum.reduce     # np.max without its Python wrapper (the same reduction, NaN kept)
+
 __all__ = ["newton_solve", "implicit_euler_step", "implicit_midpoint_step", "expm_small", "exponential_euler_step",
            "jacobian", "time_derivative", "factor", "SMALL"]
 
@@ -110,7 +112,7 @@ def _iterate(fun, t, y0, z, f, theta_h, solve, refresh, tol, max_iter):
         if not dz.size:
             return z, solve
         # relative Newton correction, per trajectory in batch mode
-        res = float(np.max(np.max(np.abs(dz), axis=-1) / (1.0 + np.max(np.abs(z), axis=-1))))
+        res = float(_maxred(_maxred(np.abs(dz), axis=-1) / (1.0 + _maxred(np.abs(z), axis=-1)), axis=None))
         if not np.isfinite(res):
             break
         if res <= tol or (res <= 1e-8 and res >= prev):  # converged, or no progress at roundoff level

@@ -92,6 +92,7 @@ E = np.linalg.solve(A.T, _V)
 _VINV = np.linalg.inv(np.column_stack([C, C ** 2, C ** 3]))     # Z(cᵢ) = Σₖ qₖ cᵢᵏ  →  q = V⁻¹Z
 _P123 = np.array([1.0, 2.0, 3.0])
 _EPS = float(np.finfo(float).eps)
+_maxred = np.maximum.reduce     # np.max without its Python wrapper (the same reduction)
 
 
 def _solvers(hd, J):
@@ -140,7 +141,7 @@ def radau5_step(fun, t, y, h, split=None, jac=None, tol=1e-13, max_iter=50):
         dW = _newton_update(F, W, h, solve_r, solve_c)
         W += dW
         Z = _lin(T, W)
-        res = float(np.max(np.abs(_lin(T, dW)))) / (1.0 + float(np.max(np.abs(Z))))
+        res = float(_maxred(np.abs(_lin(T, dW)), axis=None)) / (1.0 + float(_maxred(np.abs(Z), axis=None)))
         if not np.isfinite(res):
             break
         if res <= tol:
