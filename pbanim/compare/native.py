@@ -68,7 +68,8 @@ def _rigid_trace(rb, res, wall: float, steps: int, settings: str, extra=None) ->
     R = quat_to_matrix(q)
     RtL = np.matmul(L[..., None, :], R)[..., 0, :]
     w = np.matmul(R, np.matmul(rb.inv_I_body, RtL[..., None]))[..., 0]
-    return Trace(res.t, x.copy(), q.copy(), rb.inv_mass[:, None] * P, w, wall, steps, extra or {}, settings)
+    extra = {} if extra is None else extra          # (not ``extra or {}``: a lazy extra's truth would compute it)
+    return Trace(res.t, x.copy(), q.copy(), rb.inv_mass[:, None] * P, w, wall, steps, extra, settings)
 
 
 def _timed(fn):
@@ -160,11 +161,14 @@ def _contact(spec: SceneSpec, h: float, T: float, method: str) -> Trace:
                 return None
             return make_contacts([0], [-1], [x - [0.0, 0.0, r]], up, [r - x[2]])
 
+    from ..results import LazyDiagnostics
+
     ts = TimeStepping(rb, detect, [RigidGravity(spec.gravity)], friction=mu, facets=4)
     res, wall = _timed(lambda: ts.simulate(T, h))
+    # the penetration series (a detection per recorded state) is computed when a score reads it (the stack's)
     return _rigid_trace(rb, res, wall, int(np.ceil(T / h - 1e-9)),
                         f"velocity-level LCP (Lemke), μ = {mu:g}, 4-facet pyramid, look-ahead {MARGIN:g} m",
-                        {"penetration": res.diagnostics["max_penetration"]})
+                        LazyDiagnostics(lambda: {"penetration": res.diagnostics["max_penetration"]}))
 
 
 SMOOTH = ("free_fall", "projectile", "chain", "top")
