@@ -40,7 +40,7 @@ from pbanim.plotting import figure
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=32.0)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=24.5)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)

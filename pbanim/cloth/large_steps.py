@@ -59,6 +59,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .collide import contacts
+from .lean_pcg import lean_pcg
 from .multigrid import Multigrid
 from .step_system import spring_system
 from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
@@ -112,7 +113,18 @@ def _dot(a, b):
 
 def _jacobi(A):
     dinv = 1.0 / A.diagonal()
-    return lambda r: dinv * r
+    pinv = lambda r: dinv * r                                  # noqa: E731
+    pinv.jacobi = True                                         # the lean PCG forms r / diag A itself
+    return pinv
+
+
+def _solve(cloth, A, b, filt, z, tol, max_iter, prec):
+    """:func:`_pcg`, or its lean twin (:mod:`pbanim.cloth.lean_pcg`, the same iterates bit for bit) unless
+    ``cloth.lean_path`` is False."""
+    if not getattr(cloth, "lean_path", True) or filt.S is not None:
+        return _pcg(A, b, filt, z, tol, max_iter, prec)
+    x, it, res, ok = lean_pcg(A, b, filt, z, tol, max_iter, None if getattr(prec, "jacobi", False) else prec, _dot)
+    return PCGResult(x, it, res, ok, tol)
 
 
 def _pcg(A, b, filt, z, tol, max_iter, prec=None):
@@ -237,7 +249,7 @@ def _large_step(cloth, y, h, tol, max_iter, precond="jacobi"):
             f, kdata, ddata = cloth._all(x, v, exact=False)
             A = _system(cloth, kdata, ddata, h)
             b = h * (f + cloth.pattern.matrix(kdata) @ (h * y[n:] + ycorr))
-        sol = _pcg(A, b, filt, z, tol, max_iter, _preconditioner(cloth, A, precond))
+        sol = _solve(cloth, A, b, filt, z, tol, max_iter, _preconditioner(cloth, A, precond))
         y1 = np.empty_like(y)
         y1[n:] = y[n:] + sol.x
         y1[:n] = y[:n] + h * y1[n:] + ycorr
@@ -264,7 +276,7 @@ def _newton_step(cloth, y, h, tol, max_iter, cg_tol, cg_iter, precond="jacobi"):
                 f, kdata, ddata = cloth._all(x1.reshape(-1, 3), v1.reshape(-1, 3), exact=False)
                 A = _system(cloth, kdata, ddata, h)
             g = filt(h * f - cloth.mass3 * dv)                  # −(residual) of M Δv = h f(x₁, v₁)
-            step = _pcg(A, g, filt, None, cg_tol, cg_iter, _preconditioner(cloth, A, precond))
+            step = _solve(cloth, A, g, filt, None, cg_tol, cg_iter, _preconditioner(cloth, A, precond))
             cg += step.iterations
             dv += step.x
             size = float(np.max(np.abs(step.x))) if len(step.x) else 0.0

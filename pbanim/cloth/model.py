@@ -144,6 +144,7 @@ class Cloth:
         self.pattern = Pattern(self.n, [c.dofs for c in self.conditions],
                                [c.elements if hasattr(c, "pair_terms") else None for c in self.conditions])
         self.pinned = sheet.pinned
+        self.lean_path = True            # False: the large steps' CG takes the readable _pcg (ORACLES J13)
         free = np.ones(N, bool)
         free[self.pinned] = False
         self.free_particles = np.flatnonzero(free)
