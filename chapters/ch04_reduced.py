@@ -177,7 +177,7 @@ def energy_error(ctx):
 # in maximal, reduced and Lagrangian form.
 
 # %%
-@figure("ch04", "cost_vs_n", "n-link pendulum: cost per simulated second at equal accuracy", cost=16.0)
+@figure("ch04", "cost_vs_n", "n-link pendulum: cost per simulated second at equal accuracy", cost=9.0)
 def cost_vs_n(ctx):
     ns = [2, 3] if ctx.quick else [2, 5, 10, 20, 50]
     tol = 1e-8
