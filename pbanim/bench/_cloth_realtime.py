@@ -101,6 +101,14 @@ colours per axis instead of three (the bend springs' couplings between lines of 
 line blocks and their |a_ij| added to the blocks' diagonals, ℓ1-style, which keeps the sweep convergent):
 CG iterations 4.55 → 4.72 at 10⁻², 2.05 → 1.95 at 10⁻¹, CPU s 4.98/5.57 → 4.85/5.16 and 3.55/3.89 →
 3.48/3.69 (two alternating rounds): under 10 %, inside the spread.
+
+Profiled again (cProfile, N = 64, 30 steps 6 steps into the fall, CG to 10⁻², one BLAS thread): the V-cycles
+(row-block products in the line sweeps and the band solves) are ~2/3 of a step, the setup (6 band factors,
+Galerkin products) ~1/4, the one-pass assembly ~1/12; the filter and the contact search (no colliders) are
+negligible. The lean PCG (:mod:`pbanim.cloth.lean_pcg`, the same iterates bit for bit) changes 60 steps
+3.46 (3.35–3.59) → 3.35 (3.27–3.39) CPU s (alternating, load ~3): the CG's own work around the V-cycle is
+small here. With two BLAS threads on a busy machine the coarsest level's Cholesky (192 × 192) alone took
+~186 ms a setup (0.5–0.7 ms on one thread): the row is timed under ``one_blas_thread`` as every benchmark.
 """
 
 from __future__ import annotations
