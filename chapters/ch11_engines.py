@@ -121,7 +121,7 @@ def trajectories(ctx):
 # Error against the closed form vs cost per step, for each engine as the step changes.
 
 # %%
-@figure("ch11", "error_vs_cost", "Error vs cost per engine as the step changes", cost=39.0, group="ch11_comparison")
+@figure("ch11", "error_vs_cost", "Error vs cost per engine as the step changes", cost=19.5, group="ch11_comparison")
 def error_vs_cost(ctx):
     cmp = comparison(ctx.quick)
     names = list(cmp.scenes)
