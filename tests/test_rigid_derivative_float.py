@@ -115,3 +115,34 @@ def test_a_jointed_chain_runs_the_same_states():
         runs.append(np.asarray(res.y))
     rb.lean_path = True
     assert _same_bits(runs[0], runs[1])
+
+
+def test_float_renormalization_equals_the_arrays():
+    """QuaternionRenormalize.post_step of a few bodies on floats: the same bits as the arrays' q/|q|, also where
+    the arrays rescale a |q|² that would overflow or underflow (the float twin hands those to them) and for NaN."""
+    from pbanim.contracts import unchecked
+    from pbanim.rigid import QuaternionRenormalize
+
+    rng = np.random.default_rng(5)
+    for k in range(400):
+        N = int(rng.integers(1, FLOAT_MAX_BODIES + 1))
+        rb = RigidBodies(np.ones(N), [1.0, 1.5, 1.8])
+        stage = QuaternionRenormalize()
+        stage.bind(rb)
+        y = rng.normal(size=13 * N) * rng.choice([1e-3, 1.0, 1e3])
+        if k % 5 == 0:
+            y[3 * N:3 * N + 4] *= rng.choice([1e160, 1e-160])     # |q|² beyond the direct range
+        if k % 37 == 0:
+            y[3 * N] = np.nan
+        fast, slow = y.copy(), y.copy()
+        rb.lean_path = True
+        with np.errstate(all="ignore"):
+            unchecked(stage.post_step)(0.0, fast, 0.01)
+            rb.lean_path = False
+            unchecked(stage.post_step)(0.0, slow, 0.01)
+        assert np.array_equal(fast, slow, equal_nan=True)
+        assert np.array_equal(np.signbit(fast), np.signbit(slow))
+        if k % 5 and k % 37:                                     # and it is q/|q| to roundoff
+            q = y[3 * N:7 * N].reshape(N, 4)
+            assert np.allclose(fast[3 * N:7 * N].reshape(N, 4), q / np.linalg.norm(q, axis=1, keepdims=True),
+                               rtol=4e-16, atol=0)

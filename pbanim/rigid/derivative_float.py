@@ -19,12 +19,19 @@ class's ``derivative`` and ``derivative_and_omega`` are the package's own code (
 user's subclass runs what it wrote) and ``lean_path`` is true; ``rb.lean_path = False`` runs the vectorized
 one. Limits: the quaternions of a run (|q|² neither overflows nor underflows, as for
 :func:`pbanim.rigid.quat._matrices`); a zero quaternion divides by zero and is handed to the vectorized path.
+The post-step stage q ← q/|q| of :class:`pbanim.rigid.QuaternionRenormalize` has its float twin here too,
+:func:`renormalize_floats` (|q|² summed in turn, as ``np.sum`` over a row of four does); a |q|² within a factor
+of 2 of the range where :func:`pbanim.rigid.domain.tame` rescales (or NaN) hands the step to the arrays.
 Reference: Baraff, *Physically Based Modeling: Rigid Body Simulation* (SIGGRAPH 1997 notes) §§2–5.
 """
 
 from __future__ import annotations
 
+from math import sqrt
+
 import numpy as np
+
+from .domain import _SAFE
 
 #: Up to this many bodies the right-hand side runs on floats: the float loop costs a few µs per body, the
 #: vectorized one about 40 µs whatever N (measured: a 3-rod chain's RK4 stage).
@@ -74,3 +81,22 @@ def derivative_floats(rb, y: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.
         dT += f[3:]
         om += (w0, w1, w2)
     return np.array(dx + dq + dF + dT), np.array(om).reshape(N, 3)
+
+
+_LO, _HI = 2.0 * _SAFE[0], 0.5 * _SAFE[1]        # |q|² here: tame() leaves every q as it is
+
+
+def renormalize_floats(y: np.ndarray, N: int) -> bool:
+    """q ← q/|q| of every body, in place in the flat state ``y`` (13N,), on floats; False (``y`` untouched) when
+    a |q|² is near the rescaling range of :func:`pbanim.rigid.domain.tame` or not a number."""
+    q = y[3 * N:7 * N].tolist()
+    out = []
+    for i in range(N):
+        a, b, c, d = q[4 * i: 4 * i + 4]
+        n2 = a * a + b * b + c * c + d * d
+        if not _LO < n2 < _HI:
+            return False
+        s = sqrt(n2)
+        out += (a / s, b / s, c / s, d / s)
+    y[3 * N:7 * N] = out
+    return True
