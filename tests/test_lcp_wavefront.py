@@ -38,16 +38,20 @@ def _both(A, b, max_iter, omega=1.0, warm=None):
     return r1, r2
 
 
+def _case(case):
+    """(A, b) of a named test problem: the pile's LCP, a redundant random contact LCP, or a sparse one."""
+    if case == "pile":
+        return _pile_lcp()
+    if case == "redundant":
+        c = random_contact_lcp(80, redundant=True, seed=3)
+        return c.A, c.b
+    return _sparse_lcp(120, 5)
+
+
 # ORACLES D21: the same iterates, the products summed in another order: a few ulps of max|f| per sweep
 @pytest.mark.parametrize("case", ["pile", "redundant", "sparse", "sor"])
 def test_wavefront_sweeps_equal_the_readable_sweeps(case):
-    if case == "pile":
-        A, b = _pile_lcp()
-    elif case == "redundant":
-        c = random_contact_lcp(80, redundant=True, seed=3)
-        A, b = c.A, c.b
-    else:
-        A, b = _sparse_lcp(120, 5)
+    A, b = _case(case)
     omega = 1.3 if case == "sor" else 1.0
     r1, r2 = _both(A, b, 25, omega)
     assert r1[1:3] == r2[1:3]                                    # same status after the same number of sweeps
@@ -101,13 +105,7 @@ def _wavefront_every_sweep(A, b, f, diag, absA, tol_b, max_iter, omega=1.0):
 @pytest.mark.parametrize("case", ["pile", "redundant", "sparse"])
 @pytest.mark.parametrize("tol_b", [1e-3, 1e-8, 1e-13, 0.0])
 def test_wavefront_stop_test_bound_skips_nothing_it_needs(case, tol_b):
-    if case == "pile":
-        A, b = _pile_lcp()
-    elif case == "redundant":
-        c = random_contact_lcp(80, redundant=True, seed=3)
-        A, b = c.A, c.b
-    else:
-        A, b = _sparse_lcp(120, 5)
+    A, b = _case(case)
     diag, absA = np.diag(A).copy(), np.abs(A)
     statuses = set()
     for max_iter in (1, 7, 60, 400):
