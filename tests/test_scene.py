@@ -336,7 +336,7 @@ def test_a_user_subclass_of_a_linear_force_runs_the_apply_it_wrote():
     trust only the package's own code: a subclass written outside pbanim (as a course assignment's copy is)
     runs its own apply. Free fall under the doubled force, exact for RK4 and symplectic Euler's closed form
     (ORACLES A8)."""
-    from pbanim.contracts import package_code
+    from pbanim.contracts import package_code, package_code_cached
     from pbanim.particles import Gravity, ParticleSystem
 
     class Doubled(Gravity):
@@ -345,6 +345,9 @@ def test_a_user_subclass_of_a_linear_force_runs_the_apply_it_wrote():
             super().apply(t, y, Q)
 
     assert package_code(Gravity([0.0, -10.0]), "apply", "affine") and not package_code(Doubled([0.0, -10.0]), "apply")
+    for _ in range(2):      # the per-class cache answers what package_code answers, first call and later
+        assert package_code_cached(Gravity([0.0, -10.0]), "apply", "affine")
+        assert not package_code_cached(Doubled([0.0, -10.0]), "apply")
     ps = ParticleSystem([[0.0, 0.0]], [[1.0, 0.0]], masses=2.0)
     for method in ("rk4", "symplectic_euler"):
         res = Scene(ps, [Doubled([0.0, -10.0])]).simulate(1.0, 0.01, method)

@@ -37,22 +37,10 @@ from math import sqrt
 
 import numpy as np
 
-from ..contracts import Int, Obj, Real, contract, package_code
+from ..contracts import Int, Obj, Real, contract, package_code_cached
 from ..ode.driver import check_finite
 
 __all__ = ["lean_ball"]
-
-_TRUST: dict = {}
-
-
-def _trusted(obj, names: tuple) -> bool:
-    """:func:`pbanim.contracts.package_code` of ``obj``, kept per class (what it answers depends on the class)."""
-    key = (type(obj), names)
-    got = _TRUST.get(key)
-    if got is None:
-        got = _TRUST[key] = package_code(obj, *names)
-    return got
-
 
 _HAIR = 1e-9          # relative distance to a threshold below which a step is handed to the readable one
 
@@ -76,11 +64,11 @@ def lean_ball(scene, col, method, gap_tol: float, max_events: int) -> "LeanBall 
         return None
     # the trust rule (pbanim.contracts.package_code): the float step replaces the effect's response and the
     # forces' apply by their closed forms; a user's subclass or a copy of the module runs what it wrote
-    if not _trusted(col, ("respond", "post_step", "threshold", "gaps", "contacts", "diagnostics")):
+    if not package_code_cached(col, "respond", "post_step", "threshold", "gaps", "contacts", "diagnostics"):
         return None
     for e in scene._force:
         aff = getattr(e, "affine", None)
-        if not callable(aff) or not _trusted(e, ("apply", "affine")) or aff()[1] is not None:
+        if not callable(aff) or not package_code_cached(e, "apply", "affine") or aff()[1] is not None:
             return None
     W = float(system.W[0])
     if not W > 0:

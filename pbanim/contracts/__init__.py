@@ -17,10 +17,10 @@ decorator and where checks run.
 """
 
 from .declare import (Contract, boundary_checks, call_checked, contract, contract_of, finite_result,
-                      lenient_signatures, package_code, unchecked)
+                      lenient_signatures, package_code, package_code_cached, unchecked)
 from .specs import (Anything, Array, Choice, Either, Env, Flag, Func, Has, Index, Indices, Int, Obj, Opt, PathLike,
                     Real, Seq, Spec, Text)
 
-__all__ = ["contract", "contract_of", "unchecked", "finite_result", "call_checked", "package_code", "lenient_signatures", "Contract", "boundary_checks", "Spec", "Real", "Int", "Index", "Array",
+__all__ = ["contract", "contract_of", "unchecked", "finite_result", "call_checked", "package_code", "package_code_cached", "lenient_signatures", "Contract", "boundary_checks", "Spec", "Real", "Int", "Index", "Array",
            "Indices", "Choice", "Flag", "Text", "PathLike", "Func", "Obj", "Has", "Seq", "Opt", "Either", "Anything",
            "Env"]

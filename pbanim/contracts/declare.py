@@ -29,7 +29,7 @@ import numpy as np
 
 from .specs import Env, Spec, _is_ref
 
-__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked", "finite_result", "call_checked",
+__all__ = ["contract", "Contract", "contract_of", "boundary_checks", "unchecked", "finite_result", "call_checked", "package_code_cached",
            "lenient_signatures"]
 
 _PKG = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
@@ -244,6 +244,19 @@ def package_code(obj, *names: str) -> bool:
         if code is None or not code.co_filename.startswith(_PKG):
             return False
     return True
+
+
+_CLASS_CODE: dict = {}
+
+
+def package_code_cached(obj, *names: str) -> bool:
+    """:func:`package_code`, kept per (class, names): for a lean path that asks at every step (what it answers
+    depends on the class only, whose methods a run does not replace)."""
+    key = (type(obj), names)
+    got = _CLASS_CODE.get(key)
+    if got is None:
+        got = _CLASS_CODE[key] = package_code(obj, *names)
+    return got
 
 
 def call_checked(fn, *args, **kwargs):

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..contracts import Array, Opt, contract, package_code
+from ..contracts import Array, Opt, contract, package_code_cached
 from ..geometry import cross
 from .admissible import Inertia
 from .derivative_float import FLOAT_MAX_BODIES, derivative_floats
@@ -42,18 +42,6 @@ def _per_body(name: str, value, N: int, tail: tuple) -> np.ndarray:
     except ValueError:
         raise InvalidInput(f"{name} must have shape {tail} or ({N}, {', '.join(map(str, tail))}), "
                          f"got {a.shape}") from None
-
-
-def _own(rb) -> bool:
-    """Whether ``rb``'s class computes ẏ with the package's code (then its float twin may stand in), once per
-    class: a course assignment's copy or a user's subclass runs what it wrote."""
-    got = _TRUST.get(type(rb))
-    if got is None:
-        got = _TRUST[type(rb)] = package_code(rb, "derivative", "derivative_and_omega")
-    return got
-
-
-_TRUST: dict = {}
 
 
 class RigidBodies(RigidBodyProtocol):
@@ -253,7 +241,8 @@ class RigidBodies(RigidBodyProtocol):
     def derivative(self, y: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """ẏ = [v, ½(0, ω)⊗q, F, τ] for all bodies at once (static bodies: 0); for a few bodies on floats
         (:mod:`pbanim.rigid.derivative_float`, the same bits; ``lean_path = False``: the arrays)."""
-        if self.N <= FLOAT_MAX_BODIES and self.lean_path and _own(self):
+        if (self.N <= FLOAT_MAX_BODIES and self.lean_path        # a course copy or a subclass runs its own code
+                and package_code_cached(self, "derivative", "derivative_and_omega")):
             try:
                 return derivative_floats(self, y, Q)[0]
             except ZeroDivisionError:        # a zero quaternion: the vectorized path names it

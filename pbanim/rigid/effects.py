@@ -27,7 +27,7 @@ from typing import Callable
 import numpy as np
 
 from .bodies import RigidBodies, _matvec
-from ..contracts import Array, Either, Func, Obj, Opt, Real, contract, package_code
+from ..contracts import Array, Either, Func, Obj, Opt, Real, contract, package_code_cached
 from .derivative_float import FLOAT_MAX_BODIES, renormalize_floats
 from .domain import BodyIndices, RigidState, certifier, certify, row_norms, tame
 from ..geometry import cross as _cross
@@ -294,17 +294,6 @@ class AngularDrag(_Drag):
         self._drag(slice(3, 6), w, y, Q)
 
 
-def _own_renormalize(effect) -> bool:
-    """Whether ``effect``'s post_step is the package's code (a course copy or a subclass runs what it wrote)."""
-    got = _TRUST.get(type(effect))
-    if got is None:
-        got = _TRUST[type(effect)] = package_code(effect, "post_step")
-    return got
-
-
-_TRUST: dict = {}
-
-
 class QuaternionRenormalize(Effect):
     """Post-step stage q ← q/|q| (||q| − 1| stays within a few ε; a q near 10³⁰⁰ or 10⁻³⁰⁰ is scaled to
     max |qᵢ| = 1 first, so |q|² neither overflows nor underflows)."""
@@ -319,7 +308,7 @@ class QuaternionRenormalize(Effect):
     @contract(t=_T, y=_Y, h=Real(gt=0))
     def post_step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         rb = self.system
-        if (rb.N <= FLOAT_MAX_BODIES and rb.lean_path and _own_renormalize(self)
+        if (rb.N <= FLOAT_MAX_BODIES and rb.lean_path and package_code_cached(self, "post_step")
                 and renormalize_floats(y, rb.N)):      # a few bodies on floats, the same bits
             return y
         tame(self.system.unpack(y)[1])
