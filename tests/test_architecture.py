@@ -26,7 +26,7 @@ REPO = Path(__file__).resolve().parent.parent
 # low → high; a module may import its own layer and the layers below it
 LAYERS: dict[str, int] = {
     # 0: named errors, result records, small vector helpers
-    "errors": 0, "results": 0, "geometry": 0, "derivatives": 0, "contracts": 0,
+    "errors": 0, "results": 0, "geometry": 0, "derivatives": 0, "contracts": 0, "sparse_kernel": 0,
     # 1: integrators and the fixed-step driver; the LCP / QP core
     "ode": 1, "lcp": 1,
     # 2: the body protocol; Scene, Effect and the step pipeline

@@ -16,8 +16,8 @@ but with less work around them per iteration:
 ``cloth.lean_path = False`` makes :func:`pbanim.cloth.large_steps.large_step` and ``newton_step`` take the
 readable ``_pcg``; ``modified_pcg`` with a general S (3 × 3 blocks) always does.
 
-Limits: A must be CSR with sorted or unsorted indices alike (the kernel reads them as stored); where scipy's
-kernel is not importable the product falls back to ``A @ c`` (the same numbers).
+Limits: A must be CSR with sorted or unsorted indices alike (the kernel reads them as stored); the product is
+:func:`pbanim.sparse_kernel.csr_product` (``A @ c`` where scipy's kernel is not importable: the same numbers).
 
 References: Baraff & Witkin, "Large steps in cloth simulation", SIGGRAPH 1998, §5.3 (Fig. 2).
 """
@@ -26,10 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-try:                                                          # scipy's CSR kernel: y += A x
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:                                           # pragma: no cover
-    _csr_matvec = None
+from ..sparse_kernel import csr_product
 
 
 class _LeanFilter:
@@ -52,26 +49,10 @@ class _LeanFilter:
         return r
 
 
-def _product(A):
-    """(c, out) ↦ out = A c (CSR A), scipy's kernel into ``out`` zeroed first."""
-    if _csr_matvec is None:                                   # pragma: no cover
-        def product(c, out):
-            out[:] = A @ c
-            return out
-        return product
-    m, n, ptr, idx, data = A.shape[0], A.shape[1], A.indptr, A.indices, A.data
-
-    def product(c, out):
-        out.fill(0.0)
-        _csr_matvec(m, n, ptr, idx, data, c, out)
-        return out
-    return product
-
-
 def lean_pcg(A, b, filt, z, tol, max_iter, prec, dot):
     """(Δv, iterations, residual, converged) of B&W's modified PCG, bit for bit those of the readable ``_pcg``
     (``filt`` a pins-and-contacts ``_Filter``; ``prec`` r ↦ P⁻¹r or None for Jacobi; ``dot`` its aᵀb)."""
-    S, mv = _LeanFilter(filt), _product(A)
+    S, mv = _LeanFilter(filt), csr_product(A)
     if prec is None:
         dinv = 1.0 / A.diagonal()
 

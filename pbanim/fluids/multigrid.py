@@ -37,12 +37,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import ConvergenceError
+from ..sparse_kernel import add_csr_product
 from .poisson import CellOperator, _direct, _norm, operator_matrix, relax, unit_scale, warm_start
 
-try:                      # scipy's own kernel behind ``M @ x`` for CSR M (y += M x), reached without its dispatch
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:       # pragma: no cover - another scipy layout: the public product
-    _csr_matvec = None
 
 __all__ = ["LeanCycle", "lean_cycle", "levels", "multigrid_solve", "preconditioner", "v_cycle"]
 
@@ -113,22 +110,12 @@ def v_cycle(hierarchy, b: np.ndarray, alpha: float, beta: float, level: int = 0)
 
 
 def _mv(M, x: np.ndarray) -> np.ndarray:
-    """M x for a CSR matrix M: what ``M @ x`` computes (zeros, then scipy's kernel adds M x), without its type
-    dispatch, which on the coarse levels costs as long as the product (bit for bit the same numbers)."""
-    if _csr_matvec is None:                                        # pragma: no cover
-        return M @ x
+    """M x for a CSR matrix M: what ``M @ x`` computes, without its type dispatch, which on the coarse levels
+    costs as long as the product (bit for bit the same numbers; :mod:`pbanim.sparse_kernel`)."""
     y = np.empty(M.shape[0])
     y.fill(0.0)                                                    # (np.zeros: a fresh zeroed page, slower)
-    _csr_matvec(M.shape[0], M.shape[1], M.indptr, M.indices, M.data, x, y)
+    add_csr_product(M, x, y)
     return y
-
-
-def _add_mv(M, x: np.ndarray, y: np.ndarray) -> None:
-    """y += M x in place (y a contiguous array or view), by scipy's kernel when reachable."""
-    if _csr_matvec is None:                                        # pragma: no cover
-        y += M @ x
-    else:
-        _csr_matvec(M.shape[0], M.shape[1], M.indptr, M.indices, M.data, x, y)
 
 
 class LeanCycle:
@@ -194,7 +181,7 @@ class LeanCycle:
             for part, N in order:              # x_part = b/a + N x, added in place (N reads the other colour)
                 y = x[part]
                 y[...] = bs[part]
-                _add_mv(N, x, y)
+                add_csr_product(N, x, y)
         return x * lv["fluid"]
 
 

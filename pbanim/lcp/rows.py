@@ -38,14 +38,10 @@ from __future__ import annotations
 import numpy as np
 from scipy import sparse
 
-try:                                    # scipy's sparse kernels, called without the operator's dispatch (_product)
-    from scipy.sparse import _sparsetools
-except ImportError:                     # pragma: no cover - an older or newer layout: the operator is used
-    _sparsetools = None
-
 from .box import _box_residual, _scale, _warm_impulses
 from ..contracts import Array, Int, Opt, Real, Seq, contract
 from ..errors import InvalidInput
+from ..sparse_kernel import product_of   # scipy's kernel bound once: A @ x bit for bit
 
 __all__ = ["pgs_box_friction_rows", "pgs_normal_rows", "delassus_diagonal"]
 
@@ -218,8 +214,8 @@ def pgs_normal_rows(a, b, Ga, Gb, Wb, bias, colors, *, max_iter: int = 100, tol:
 def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     """J and W Jᵀ as sparse matrices on u (nb·d,), the contacts in color order with k rows each (ga, gb, wga,
     wgb of shape (m, k, d)): row r of contact c holds G_a,r at a's d columns, −G_b,r at b's. Returns x ↦ J x,
-    per color (start, end, x ↦ J_K x, x ↦ (W Jᵀ)_K x: :func:`_product` of the color's CSR and CSC slices), and the
-    arrays of W Jᵀ (for the warm start's product)."""
+    per color (start, end, x ↦ J_K x, x ↦ (W Jᵀ)_K x: :func:`pbanim.sparse_kernel.product_of` of the color's CSR
+    and CSC slices), and the arrays of W Jᵀ (for the warm start's product)."""
     m, k = ga.shape[:2]
     w2 = 2 * d
     cols = np.repeat(np.concatenate([ac[:, None] * d + np.arange(d), bc[:, None] * d + np.arange(d)], axis=1), k, axis=0)
@@ -227,38 +223,14 @@ def _color_matrices(ac, bc, ga, gb, wga, wgb, spans, nb, d):
     dataM = np.concatenate([wga, -wgb], axis=2).reshape(-1)
     itype = np.int32 if max(nb * d, k * m * w2) < 2 ** 31 else np.int64      # scipy's own index type: no copies
     cols, ptr = cols.reshape(-1).astype(itype), np.arange(0, k * m * w2 + 1, w2, dtype=itype)
-    J = _product("csr", (dataJ, cols, ptr), (k * m, nb * d))
+    J = product_of("csr", (dataJ, cols, ptr), (k * m, nb * d))
     plan = []
     for s, e in spans:
         lo, hi, loc = k * s * w2, k * e * w2, ptr[:k * (e - s) + 1]
-        JK = _product("csr", (dataJ[lo:hi], cols[lo:hi], loc), (k * (e - s), nb * d))
-        MK = _product("csc", (dataM[lo:hi], cols[lo:hi], loc), (nb * d, k * (e - s)))
+        JK = product_of("csr", (dataJ[lo:hi], cols[lo:hi], loc), (k * (e - s), nb * d))
+        MK = product_of("csc", (dataM[lo:hi], cols[lo:hi], loc), (nb * d, k * (e - s)))
         plan.append((s, e, JK, MK))
     return J, plan, (dataM, cols, ptr)
-
-
-def _product(fmt: str, arrays: tuple, shape: tuple):
-    """``(x, out) -> out = A x`` of the CSR or CSC matrix A = (data, indices, indptr) of ``shape`` (float64 data,
-    scipy's index type), bound once: scipy's own kernel (``csr_matvec`` or ``csc_matvec``) into ``out`` zeroed
-    first — what ``A @ x`` computes, bit for bit (scipy's product is that kernel into a zeroed result), without
-    building a matrix object per color and step or the operator's dispatch and checks on every call (the
-    sweeps call it twice per color per sweep); the matrix and its operator where that kernel is not found."""
-    kernel = getattr(_sparsetools, f"{fmt}_matvec", None) if _sparsetools is not None else None
-    if kernel is None:
-        A = (sparse.csr_matrix if fmt == "csr" else sparse.csc_matrix)(arrays, shape=shape)
-
-        def product(x, out):
-            out[:] = A @ x
-            return out
-        return product
-    M, N = shape
-    data, idx, ptr = arrays
-
-    def product(x, out):
-        out.fill(0.0)
-        kernel(M, N, ptr, idx, data, x, out)
-        return out
-    return product
 
 
 def _transpose_product(dataM, cols, ptr, z, size):
