@@ -42,7 +42,10 @@ def _cases():
 def test_small_check_equals_check_finite(y):
     # ORACLES A18: the same pass / raise (and message) as check_finite, case by case, as drive calls it
     # (from inside pbanim, where contracts are not re-checked: its unchecked body)
-    assert _outcome(driver._check_finite_small, y) == _outcome(unchecked(check_finite), y)
+    assert _outcome(driver.check_finite_quick, y) == _outcome(unchecked(check_finite), y)
+    # the 3-D walk's loop calls it on its 37 numbers with max_size = 64: the same outcome there too
+    quick64 = lambda *a: driver.check_finite_quick(*a, max_size=64)          # noqa: E731
+    assert _outcome(quick64, y) == _outcome(unchecked(check_finite), y)
 
 
 def test_drive_still_stops_a_diverging_run():

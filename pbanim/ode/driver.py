@@ -147,18 +147,19 @@ def check_finite(y: np.ndarray, t: float, step: int, quantity: str = "state") ->
         raise SimulationDiverged(t, step, quantity, detail)
 
 
-#: states up to this size take :func:`_check_finite_small` in :func:`drive`
+#: states up to this size take :func:`check_finite_quick` in :func:`drive`
 _SMALL_CHECK = 32
 
 
-def _check_finite_small(y, t: float, step: int, quantity: str = "state") -> None:
-    """:func:`check_finite` for a small float64 state, without its ``np.errstate`` context (most of its cost).
+def check_finite_quick(y, t: float, step: int, quantity: str = "state", max_size: int = _SMALL_CHECK) -> None:
+    """:func:`check_finite` for a small float64 state (at most ``max_size`` entries), without its
+    ``np.errstate`` context (most of its cost); a step loop outside :func:`drive` calls it too.
 
     |y|² is summed over Python floats, which overflow to inf and carry NaN without a warning. A sum at most
-    1e307 is finite however BLAS orders and rounds it (n ≤ 32 terms, relative rounding ≤ 32ε): the state
+    1e307 is finite however BLAS orders and rounds it (n ≤ max_size terms, relative rounding ≤ nε): the state
     passes as the readable check passes it; anything else (and a larger or non-float state) gets the
     readable check itself (its contract included), so a failure raises what :func:`check_finite` raises."""
-    if type(y) is np.ndarray and y.dtype == np.float64 and y.size <= _SMALL_CHECK:
+    if type(y) is np.ndarray and y.dtype == np.float64 and y.size <= max_size:
         v = y.ravel().tolist()
         s = sum(map(operator.mul, v, v))
         if s <= 1e307:            # False for NaN and inf
@@ -188,14 +189,14 @@ def drive(advance: Callable[[float, np.ndarray, float], np.ndarray], grid: StepG
         y1 = advance(t, y, h)
         due = last or (k + 1) % check_every == 0
         if due:
-            _check_finite_small(y1, t, k, quantity)
+            check_finite_quick(y1, t, k, quantity)
         for hook in hooks:
             out = hook(k, t, y, t1, y1, h)
             if out is not None:
                 t1, y1, stop = out
                 stopped = stopped or stop
         if hooks and (due or stopped):
-            _check_finite_small(y1, t, k, quantity)
+            check_finite_quick(y1, t, k, quantity)
         if record is not None and (last or stopped or (k + 1) % record_every == 0):
             record(t1, y1)
         t, y = t1, y1
