@@ -10,7 +10,7 @@ Tested bit for bit against ``solve_lcp`` (``tests/test_lcp_core.py``, ``tests/te
 Lemke's route polishes with :func:`_polish_lean`, the arithmetic of :func:`pbanim.lcp.pivoting._polish` (the
 minimum-norm correction on the active set, LAPACK's gelsd with rcond = |C| ε as ``np.linalg.lstsq`` calls it,
 through the same gufunc) without the per-call wrappers; tested bit for bit against it
-(``tests/test_lcp_lean_polish.py``, ORACLES D22).
+(``tests/test_lcp_lean_polish.py``, ORACLES D23).
 """
 
 from __future__ import annotations
