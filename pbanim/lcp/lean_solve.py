@@ -23,6 +23,7 @@ import numpy as np
 from .pivoting import _EPS1000, _lemke, _scale, residual_threshold
 from .specs import LIMIT as _LIMIT
 from . import solve as _solve     # its sweeps_for (the readable row loop lives beside pgs)
+from ..contracts import unchecked
 from ..results import ContactSolution, natural_map_residual
 
 __all__ = ["lean_pgs", "lean_lemke"]
@@ -46,9 +47,7 @@ def _lstsq(M: np.ndarray, r: np.ndarray) -> np.ndarray:
     return x[:, 0]
 
 
-def _nmr(f: np.ndarray, w: np.ndarray) -> float:
-    """:func:`pbanim.results.natural_map_residual` ‖f − max(0, f − w)‖∞ of non-empty float arrays, unwrapped."""
-    return float(np.abs(f - np.maximum(0.0, f - w)).max())
+_nmr = unchecked(natural_map_residual)     # ‖f − max(0, f − w)‖∞ without the contract wrapper
 
 
 def _polish_lean(A: np.ndarray, b: np.ndarray, f: np.ndarray, rounds: int = 4) -> np.ndarray:
