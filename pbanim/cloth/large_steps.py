@@ -113,9 +113,7 @@ def _dot(a, b):
 
 def _jacobi(A):
     dinv = 1.0 / A.diagonal()
-    pinv = lambda r: dinv * r                                  # noqa: E731
-    pinv.jacobi = True                                         # the lean PCG forms r / diag A itself
-    return pinv
+    return lambda r: dinv * r
 
 
 def _solve(cloth, A, b, filt, z, tol, max_iter, prec):
@@ -123,7 +121,7 @@ def _solve(cloth, A, b, filt, z, tol, max_iter, prec):
     ``cloth.lean_path`` is False."""
     if not getattr(cloth, "lean_path", True) or filt.S is not None:
         return _pcg(A, b, filt, z, tol, max_iter, prec)
-    x, it, res, ok = lean_pcg(A, b, filt, z, tol, max_iter, None if getattr(prec, "jacobi", False) else prec, _dot)
+    x, it, res, ok = lean_pcg(A, b, filt, z, tol, max_iter, prec, _dot)
     return PCGResult(x, it, res, ok, tol)
 
 
@@ -217,12 +215,12 @@ def _system(cloth, kdata, ddata, h):
 
 
 def _preconditioner(cloth, A, precond):
-    """r ↦ P⁻¹r for the system A of the cloth: Jacobi, or a multigrid V-cycle (hierarchy built once per cloth):
-    "multigrid" smooths by line Gauss–Seidel with the pins' couplings dropped, "multigrid-l1" by ℓ1-Jacobi
+    """r ↦ P⁻¹r for the system A of the cloth: None for Jacobi (both PCGs form r / diag A), or a multigrid
+    V-cycle (hierarchy built once per cloth): "multigrid" smooths by line Gauss–Seidel with the pins' couplings dropped, "multigrid-l1" by ℓ1-Jacobi
     (additive on the finest level). A V-cycle whose line blocks are not positive definite (A not SPD) is
     replaced by Jacobi: the CG then still runs with an SPD preconditioner."""
     if precond == "jacobi":
-        return _jacobi(A)
+        return None
     cache = cloth.__dict__.setdefault("_multigrid", {})
     mg = cache.get(precond)
     if mg is None:
@@ -231,7 +229,7 @@ def _preconditioner(cloth, A, precond):
     try:
         mg.setup(A.data)
     except np.linalg.LinAlgError:
-        return _jacobi(A)
+        return None
     return mg
 
 
