@@ -5,16 +5,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pbanim import sparse_kernel
 from pbanim.lcp import rows
 from pbanim.lcp.colored import colors_by_bodies
 from test_lcp_rows import _rows_problem as _problem     # random rows (3 per contact) between bodies and the world
 
 
 def _both(monkeypatch, call):
-    """``call()`` with the bound kernels, then with scipy's operator (``_sparsetools`` absent)."""
+    """``call()`` with the bound kernels, then with scipy's operator (``_sparsetools`` absent from
+    :mod:`pbanim.sparse_kernel`, where lcp.rows binds its products)."""
     fast = call()
     with monkeypatch.context() as m:
-        m.setattr(rows, "_sparsetools", None)
+        m.setattr(sparse_kernel, "_sparsetools", None)
         slow = call()
     return fast, slow
 
@@ -26,8 +28,8 @@ def _both(monkeypatch, call):
 @given(seed=st.integers(0, 10**6), bodies=st.integers(1, 8), contacts=st.integers(1, 14),
        sweeps=st.integers(1, 6), warm=st.booleans())
 def test_bound_kernels_give_the_operators_sweeps_bit_for_bit(seed, bodies, contacts, sweeps, warm):
-    if rows._sparsetools is None:
-        pytest.skip("scipy's sparse kernels are not where pbanim.lcp.rows looks: the operator runs both sides")
+    if sparse_kernel._sparsetools is None:
+        pytest.skip("scipy's sparse kernels are not where pbanim.sparse_kernel looks: the operator runs both sides")
     ra, rb, Ga, Gb, Wb, u, bias, mu, (a, b) = _problem(seed, bodies, contacts)
     colors = colors_by_bodies(a, b, static=[bodies])
     z0 = np.abs(np.random.default_rng(seed + 1).normal(size=3 * contacts)) if warm else None
