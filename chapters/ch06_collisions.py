@@ -104,7 +104,7 @@ def _rack(radius: float):
 # Billiards break: momentum and energy through the impacts (ε = 1, μ = 0).
 
 # %%
-@figure("ch06", "billiards_break", "Billiards break: momentum and energy through the impacts (ε = 1, μ = 0)", cost=3.2)
+@figure("ch06", "billiards_break", "Billiards break: momentum and energy through the impacts (ε = 1, μ = 0)", cost=2.4)
 def billiards_break(ctx):
     from pbanim.particles import ParticleSystem
     from pbanim.scene import Scene

@@ -148,6 +148,17 @@ def grid_pairs(centers, radii, margin: float = 0.0, cell: float | None = None) -
     return _finish(i[hit], j[hit], i.size, "grid")
 
 
+def _grid_pairs_small(centers, radii, margin: float = 0.0) -> np.ndarray:
+    """``grid_pairs(centers, radii, margin).pairs`` for a few spheres, by one all-pairs product: the pairs within
+    a slightly wider margin (a superset of the grid's), then the grid's own overlap test on each (the same
+    d·d and (rᵢ + rⱼ + margin)², bit for bit), in the same sorted order. For N ≥ 2 centres and radii > 0
+    somewhere (the callers' test); several times cheaper than the grid below a few dozen spheres."""
+    c = _as3(centers)
+    r = np.broadcast_to(np.asarray(radii, dtype=float), (len(c),))
+    p = all_pairs(c, r, margin + 1e-9 * (1.0 + float(r.max()) + margin)).pairs
+    return p[_overlap(c, r, p[:, 0], p[:, 1], margin)]
+
+
 @contract(centers=_CENTRES, radii=_RADII, method=Choice(METHODS), margin=_MARGIN)
 def broad_phase(centers, radii, method: str = "grid", margin: float = 0.0) -> BroadPhase:
     """Overlapping sphere pairs by ``method`` = "grid" (near-linear) or "all_pairs" (quadratic).

@@ -24,14 +24,13 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from .broad import all_pairs, grid_pairs
+from .broad import _grid_pairs_small, all_pairs, grid_pairs
 from .lean_spheres import _Pending, lean_spheres, obstacles_apart, quick_obstacles
 from .impulse import FRICTION_MODELS, MODES, ImpulseBodies, ImpulseResult, resolve_collisions
 from .narrow import collide, sphere_plane, sphere_sphere
 from .shapes import Box, Capsule, Contacts, Plane, Sphere
 from .specs import Obstacle
-from ..bodies import require_bodies
-from ..bodies import BodySystem
+from ..bodies import BodySystem, require_bodies
 from ..contracts import Array, Choice, Either, Flag, Indices, Int, Obj, Opt, Real, Seq, contract
 from ..scene import Effect
 from ..errors import InvalidInput
@@ -165,7 +164,7 @@ class Collisions(Effect):
         self._bound = None
         self._lean = lean_spheres(self, system)
 
-    lean_path = True        # False: the readable response always (not the float one of pbanim.collision.lean_spheres)
+    lean_path = True        # False: the readable response and broad phase (not pbanim.collision.lean_spheres' floats)
 
     @property
     def last(self) -> ImpulseResult | None:
@@ -235,11 +234,12 @@ class Collisions(Effect):
         return self._bound
 
     def _pairs(self, x, margin):
-        """Broad phase on bounding spheres (uniform grid)."""
+        """Broad phase on bounding spheres: the grid's pairs (≤ SMALL_PAIRS bodies, lean: by one product, bit for bit)."""
         bound = self._bounds()
         if len(x) < 2 or not np.any(bound > 0):
             return np.zeros((0, 2), np.intp)
-        return grid_pairs(x, bound, margin=margin).pairs
+        small = len(x) <= self.SMALL_PAIRS and self.lean_path
+        return _grid_pairs_small(x, bound, margin) if small else grid_pairs(x, bound, margin=margin).pairs
 
     def _candidates(self, x, margin):
         """The pairs the narrow phase tests: a few bodies (≤ SMALL_PAIRS) test every pair within a slightly
