@@ -15,18 +15,21 @@ and is pushed on the torso (:func:`pbanim.control.qp_balance.simulate_balance`).
 
 Figures:
 
-* ``qp_push_balance``: a push of 20 N s is recovered and one of 30 N s is not (ORACLES F14): the centre
-  of mass against the edges of the feet; the contact forces of every QP step inside their friction
-  cones |fₜ| ≤ μ fₙ (ORACLES F10); the normal forces of heel and toe (the centre of pressure moves to the
-  toe, then back: the ankle strategy). In full mode also the outcome against the impulse, with the
-  capture-point bound P = M √(g/z) d of a linear inverted pendulum.
+* ``qp_push_balance``: a push of 20 N s is recovered and one of 30 N s is not (ORACLES F14), by the weighted
+  controller and by the prioritized one (``BALANCE_FIRST``: the soles held flat on the top level, then the
+  centre of mass and the angular momentum, then the posture): the centre of mass against the edges of the
+  feet; the contact forces of every QP step inside their friction cones |fₜ| ≤ μ fₙ (ORACLES F10); the normal
+  forces of heel and toe (the centre of pressure moves to the toe, then back: the ankle strategy). In full
+  mode also the outcome against the impulse for both controllers on the same pushes, with the capture-point
+  bound P = M √(g/z) d of a linear inverted pendulum.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from pbanim.control.qp_balance import simulate_balance_pushes
+from pbanim.control.biped import BIPED_JOINTS
+from pbanim.control.qp_balance import BALANCE_FIRST, simulate_balance_pushes
 from pbanim.models.biped import planar_biped
 from pbanim.plotting import figure
 
@@ -40,7 +43,8 @@ def capture_impulse(run) -> float:
 def _summary(run) -> dict:
     return {"t": run.t, "com": run.com, "forces": run.forces, "sim_forces": run.sim_forces, "outcome": run.outcome,
             "end_time": run.end_time, "cause": run.cause, "com_error": run.com_error(0.5), "push": run.push,
-            "qp_ms_per_step": 1e3 * run.qp_time / max(len(run.t) * 5, 1)}
+            "qp_ms_per_step": 1e3 * run.qp_time / max(len(run.t) * 5, 1),
+            "torso_max": float(np.abs(run.q[:, BIPED_JOINTS["torso"]]).max())}
 
 
 # %% [markdown]
@@ -49,7 +53,7 @@ def _summary(run) -> dict:
 # The QP controller's centre of mass and contact forces inside their cones during a push.
 
 # %%
-@figure("ch08", "qp_push_balance", "QP balance controller: a push recovered, a larger one not; forces in their cones",
+@figure("ch08", "qp_push_balance", "QP balance, weighted and prioritized: a push recovered, a larger one not; forces in cones",
         cost=23.0)
 def qp_push_balance(ctx):
     t_end = 2.5
@@ -61,6 +65,12 @@ def qp_push_balance(ctx):
     # certify); the 18 runs measured 48.3 -> 29.3 CPU s in one process at load ~12 (hint: 37.9 quiet x 0.61)
     pushes = [20.0, 30.0] + ([] if ctx.quick else [float(p) for p in impulses if p != 20.0])
     runs = dict(zip(pushes, simulate_balance_pushes(pushes, t_end)))
+    # the prioritized controller (BALANCE_FIRST) on the same pushes: ±20 N s, in full mode also ±12 and ±24
+    # (its runs cost ~6 CPU s each, four QPs a step on the readable path, so not the whole grid; measured on
+    # the grid −32 … 32: it recovers every push the weighted one recovers and falls beyond the capture point,
+    # ±28 and ±32, as the weighted one does: ORACLES F14)
+    prio_pushes = [20.0, -20.0] + ([] if ctx.quick else [-24.0, -12.0, 12.0, 24.0])
+    prio = dict(zip(prio_pushes, simulate_balance_pushes(prio_pushes, t_end, **BALANCE_FIRST)))
     small, large = runs[20.0], runs[30.0]
     mu = small.mu
     f = small.forces.reshape(-1, 2)
@@ -71,7 +81,9 @@ def qp_push_balance(ctx):
     sim_ratio = float(np.max(np.abs(fs[sim_loaded, 1]) / fs[sim_loaded, 0])) if sim_loaded.any() else 0.0
     envelope = None
     if not ctx.quick:
-        envelope = {"impulse": impulses, "recovered": np.array([runs[float(p)].recovered for p in impulses])}
+        envelope = {"impulse": impulses, "recovered": np.array([runs[float(p)].recovered for p in impulses]),
+                    "prioritized_impulse": np.array(sorted(prio)),
+                    "prioritized_recovered": np.array([prio[p].recovered for p in sorted(prio)])}
     ncols = 3 if ctx.quick else 4
     fig, axs = ctx.subplots(1, ncols, figsize=(4.2 * ncols, 3.8))
     a, b, c = axs[:3]
@@ -79,6 +91,9 @@ def qp_push_balance(ctx):
     for run, col in ((small, "C0"), (large, "C3")):
         a.plot(run.t, run.com[:, 0] - run.com_target[0], color=col,
                label=f"P = {run.push:g} N s: {run.outcome}" + (f" at {run.end_time:.2f} s" if not run.recovered else ""))
+    p20 = prio[20.0]
+    a.plot(p20.t, p20.com[:, 0] - p20.com_target[0], color="C2", ls="--",
+           label=f"P = 20 N s, prioritized: {p20.outcome}" + (f" at {p20.end_time:.2f} s" if not p20.recovered else ""))
     a.axhline(lo, color="0.4", ls="--", lw=1, label="heel / toe")
     a.axhline(hi, color="0.4", ls="--", lw=1)
     a.axvline(small.push_time, color="0.6", lw=0.8)
@@ -99,15 +114,20 @@ def qp_push_balance(ctx):
     c.legend(fontsize=7)
     if envelope is not None:
         d = axs[3]
-        ok = envelope["recovered"]
-        d.plot(envelope["impulse"][ok], np.ones(ok.sum()), "o", color="C0", label="recovered")
-        d.plot(envelope["impulse"][~ok], np.zeros((~ok).sum()), "x", color="C3", label="fell / infeasible")
-        for s in (-1, 1):
-            d.axvline(s * capture_impulse(small), color="0.4", ls="--", lw=1)
-        d.set(xlabel="push P [N s]", ylabel="recovered (1) or not (0) [–]", ylim=(-0.3, 1.5))
-        d.legend(fontsize=7)
+        for row, (P, ok) in enumerate(((envelope["prioritized_impulse"], envelope["prioritized_recovered"]),
+                                       (envelope["impulse"], envelope["recovered"]))):
+            d.plot(P[ok], np.full(ok.sum(), row), "o", color="C0", label="recovered" if row else None)
+            d.plot(P[~ok], np.full((~ok).sum(), row), "x", color="C3", label="fell / infeasible" if row else None)
+        for sgn in (-1, 1):
+            d.axvline(sgn * capture_impulse(small), color="0.4", ls="--", lw=1,
+                      label="capture-point bound" if sgn > 0 else None)
+        d.set(xlabel="push P [N s]", ylabel="controller [–]", ylim=(-0.6, 1.8), yticks=[0, 1],
+              yticklabels=["prioritized", "weighted"],
+              title="outcome of each push, by controller")
+        d.legend(fontsize=7, loc="upper left", ncol=3)
     ctx.save(fig)
     return {"recovered": _summary(small), "fallen": _summary(large), "mu": mu, "max_cone_ratio": ratio,
+            "prioritized": {p: _summary(prio[p]) for p in (20.0, -20.0)},
             "max_sim_cone_ratio": sim_ratio, "capture_impulse": capture_impulse(small), "support": small.support,
             "envelope": envelope}
 

@@ -321,8 +321,7 @@ class QPController:
                 g = -sum(t.weight * A.T @ b for t, A, b in here)
             xk, st, it, kk = solve_qp(Q, g, C=G, l=zero - np.inf, u=zero, **dict(common, Aeq=Aeq, beq=beq, x0=x))
             iters += it
-            if x is not None and not self._feasible(xk, Aeq, beq, G, P["lb"], P["ub"]) \
-                    and self._feasible(x, Aeq, beq, G, P["lb"], P["ub"]):
+            if x is not None and not self._feasible(P, xk, Aeq, beq) and self._feasible(P, x, Aeq, beq):
                 statuses.append(f"{st} (kept level above)")
                 kkt = np.inf                                   # this level's tasks were not optimized
                 continue
@@ -334,13 +333,32 @@ class QPController:
                 Aeq, beq = keep_level(Aeq, beq, np.vstack([A for _, A, _ in here]), x)
         return x, statuses, iters, kkt
 
-    def _feasible(self, x, Aeq, beq, G, lb, ub) -> bool:
-        """x satisfies the equalities, the cone rows and the bounds to ``feasibility_tol`` (force scale)."""
+    def _feasible(self, P: dict, x, Aeq, beq) -> bool:
+        """x satisfies every constraint group to the tolerances :meth:`_judge` holds it to, and the optima
+        kept from the levels above (rows of ``Aeq`` past the problem's own) to ``feasibility_tol`` (force scale)."""
         if not np.all(np.isfinite(x)):
             return False
-        tol = self.feasibility_tol * (self.f_scale + np.abs(beq).max(initial=0.0))
-        return bool(np.abs(Aeq @ x - beq).max(initial=0.0) <= tol and (G @ x).max(initial=0.0) <= tol
-                    and np.maximum(lb - x, x - ub).max(initial=0.0) <= tol)
+        res, tol = self._residuals(P, x)
+        n0 = P["Aeq"].shape[0]
+        kept = self.feasibility_tol * (self.f_scale + np.abs(beq).max(initial=0.0))
+        return all(res[g] <= tol[g] for g in res) and np.abs(Aeq[n0:] @ x - beq[n0:]).max(initial=0.0) <= kept
+
+    def _residuals(self, P: dict, x) -> tuple[dict, dict]:
+        """(violation, tolerance) per constraint group of a finite x: the equations of motion, the held contact
+        points, the cones and the limits (torques and the joint limits' bounds on q̈)."""
+        nv, na = self.kernel.nv, self.na
+        qdd, tau_a = x[:nv], x[nv:nv + na]
+        F = x[nv + na:].reshape(-1, P.get("dirs", 2))        # per point (fₙ, fₜ…): 2 entries planar, 3 in 3-D
+        fn, ft = F[:, 0], np.abs(F[:, 1:]).max(axis=1, initial=0.0)
+        res = {"dynamics": float(np.abs(P["Aeq"][:nv] @ x - P["beq"][:nv]).max()),
+               "contact": float(np.abs(P["Aeq"][nv:] @ x - P["beq"][nv:]).max(initial=0.0)),
+               "cone": float(np.maximum(np.abs(ft) - self.ground.mu * fn, self.min_normal - fn).max(initial=0.0)),
+               "limits": float(max((np.abs(tau_a) - self.torque_limits).max(initial=0.0),
+                                   np.maximum(P["lb"][:nv] - qdd, qdd - P["ub"][:nv]).max(initial=0.0)))}
+        tol = {"dynamics": self.feasibility_tol * (self.f_scale + np.abs(P["C"]).max()),
+               "contact": self.feasibility_tol * (1.0 + np.abs(P["bnt"]).max(initial=0.0)),
+               "cone": self.feasibility_tol * self.f_scale, "limits": self.feasibility_tol * self.f_scale}
+        return res, tol
 
     @contract(q=_STATE, qd=_STATE, kin=_KIN)
     def torques(self, q, qd, kin: dict | None = None) -> np.ndarray:
@@ -352,17 +370,8 @@ class QPController:
         nv, na = self.kernel.nv, self.na
         finite = np.all(np.isfinite(x))
         x = np.where(np.isfinite(x), x, 0.0)
-        qdd, tau_a, f = x[:nv], x[nv:nv + na], x[nv + na:]
-        F = f.reshape(-1, P.get("dirs", 2))                 # per point (fₙ, fₜ…): 2 entries planar, 3 in 3-D
-        fn, ft = F[:, 0], np.abs(F[:, 1:]).max(axis=1, initial=0.0)
-        res = {"dynamics": float(np.abs(P["Aeq"][:nv] @ x - P["beq"][:nv]).max()),
-               "contact": float(np.abs(P["Aeq"][nv:] @ x - P["beq"][nv:]).max(initial=0.0)),
-               "cone": float(np.maximum(np.abs(ft) - self.ground.mu * fn, self.min_normal - fn).max(initial=0.0)),
-               "limits": float(max((np.abs(tau_a) - self.torque_limits).max(initial=0.0),
-                                   np.maximum(P["lb"][:nv] - qdd, qdd - P["ub"][:nv]).max(initial=0.0)))}
-        tol = {"dynamics": self.feasibility_tol * (self.f_scale + np.abs(P["C"]).max()),
-               "contact": self.feasibility_tol * (1.0 + np.abs(P["bnt"]).max(initial=0.0)),
-               "cone": self.feasibility_tol * self.f_scale, "limits": self.feasibility_tol * self.f_scale}
+        qdd, tau_a, F = x[:nv], x[nv:nv + na], x[nv + na:].reshape(-1, P.get("dirs", 2))
+        res, tol = self._residuals(P, x)
         with np.errstate(over="ignore"):                  # targets near MAX_DATUM: an error of inf, said so
             errors = {t.name: float(np.linalg.norm(A @ x - b)) for t, A, b in P["tasks"]}
         bad = [g for g in res if not res[g] <= tol[g]]

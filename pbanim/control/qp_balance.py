@@ -12,11 +12,15 @@ level 0 (traded by their weights inside it), the posture uses what they leave.
 With the centre of mass alone on top, the top level buys c̈* with any motion the constraints allow —
 it whips the torso, which no lower level can then undo — and the biped fell at 20 N s where the weighted
 controller recovers 24 (measured; ORACLES F14). With the momentum beside it (weight 1e-2) and the torso
-kept within ±0.3 rad by a joint limit (an inequality of every level, ``joint_limits``), the prioritized
-controller recovers ±20 N s as the weighted one does; at ±24 it does not (measured: +24 stays up but 5.9
-mm off its target, −24 ends with an infeasible QP at 1.19 s, the torso limit's braking beyond the torque
-limits), where the weighted one is back within 4.4 and 6.2 mm: the weighted QP's posture term (weight
-1e-3) tempers every motion of the balance tasks, which strict levels by construction cannot.
+kept within ±0.3 rad by a joint limit (an inequality of every level, ``joint_limits``), it recovered ±20 but
+lost backward pushes of 8, 12, 16 and 24 N s (measured): a backward push sends the centre of pressure to
+the heels, the toes carry nothing and lift past ``contact_tol``, and then nothing holds the soles — the level
+above fixes c̈ and L̇, turning a foot back down changes both, so the posture level cannot — and the biped
+rocks on its heels (c̈ₓ pinned near g d/z ≈ 0.9 m/s², the pendulum about the heel, while c̈* asked −6) until it
+falls. The weighted QP's posture term (weight 1e-3) turns the feet back down; strict levels need it said on a
+level of its own: ``press`` holds each heel and toe at its standing place by a point task on a level above
+balance (:data:`BALANCE_FIRST`; the 3-D step does the same). So the prioritized controller recovers what the
+weighted one recovers, every push of −24 … 24 N s, and neither ±28 (beyond the capture point below).
 
 and the simulation is the velocity-level contact step of chapter 08
 (:class:`~pbanim.articulated.planar_step.PlanarContactStep`: Coulomb friction, heel and toe points), the
@@ -67,7 +71,7 @@ from .qp_tasks import InvalidTask, Task
 from .specs import Mapping, Pair, named
 from .walk import fall_cause
 
-__all__ = ["BalanceResult", "balance_tasks", "crouched_state", "simulate_balance", "simulate_balance_pushes"]
+__all__ = ["BALANCE_FIRST", "BalanceResult", "balance_tasks", "crouched_state", "simulate_balance", "simulate_balance_pushes"]
 
 
 class _Stop(Exception):
@@ -164,8 +168,15 @@ _RUN = dict(t_end=Real(gt=0), h=Real(gt=0), push_time=Real(ge=0), mode=Choice(MO
             friction=Real(ge=0), knee=Real(ge=0, le=1.2),
             torque_limits=named(InvalidGains, Array((6,), ge=0, finite=False, scalar=True)), record_every=Int(ge=1),
             backend=Choice(backends), max_steps=Int(ge=1), joint_limits=Opt(Mapping(Text(), Pair(Real(), Real()))),
-            lean=Flag(), **_TASK_GAINS)
+            lean=Flag(), press=Flag(), **_TASK_GAINS)
 _PUSH = Real(ge=-1e4, le=1e4)
+_SOLES = ("left heel", "left toe", "right heel", "right toe")      # biped_contact_points' order
+
+#: The prioritized controller the chapter compares with the weighted default (ORACLES F14): the soles held
+#: flat on the top level, then the centre of mass and the angular momentum (weight 1e-2), then the posture;
+#: the torso within ±0.3 rad by an inequality of every level.
+BALANCE_FIRST = {"mode": "prioritized", "press": True, "momentum_priority": 0, "momentum_weight": 1e-2,
+                 "joint_limits": {"torso": (-0.3, 0.3)}}
 
 
 @contract(push=_PUSH, **_RUN)
@@ -175,7 +186,7 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
                      max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                      posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
                      momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
-                     joint_limits: dict | None = None, lean: bool = True) -> BalanceResult:
+                     joint_limits: dict | None = None, lean: bool = True, press: bool = False) -> BalanceResult:
     """Stand the planar biped with the QP controller and push it (``push`` N s at ``push_time`` s).
 
     ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`. ``lean`` (default): the
@@ -183,7 +194,9 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
     operations in their order), the weighted QP is solved on its lean path (:class:`~pbanim.control.qp_lean.LeanQP`,
     ORACLES F23) and one lean kinematics of q serves the QP, the step and the fall detector; ``lean=False``
     runs :class:`PlanarContactStep` and :meth:`QPController.solve` themselves (ORACLES F22: the same run to the QP
-    runs' own spread).
+    runs' own spread). ``press``: the soles held flat, a point task per heel and toe (k_p 100, k_d 20, its
+    standing position the target) on a level of their own above the others (:data:`BALANCE_FIRST`; module
+    docstring). :data:`BALANCE_FIRST` holds the prioritized options the chapter compares with the weighted default.
     """
     options = {k: v for k, v in locals().items() if k not in ("push", "t_end", "h")}
     return _balance(push, t_end, h, options)
@@ -196,7 +209,8 @@ def simulate_balance_pushes(pushes=(), t_end: float = 2.5, h: float = 2e-3, *, p
                             max_steps: int = MAX_STEPS, kp: float = 60.0, kd: float = 25.0, momentum: float = 2.0,
                             posture_kp: float = 100.0, posture_kd: float = 20.0, posture_weight: float = 1e-3,
                             momentum_weight: float = 1e-3, momentum_priority: int = 1, posture_priority: int = 1,
-                            joint_limits: dict | None = None, lean: bool = True) -> list[BalanceResult]:
+                            joint_limits: dict | None = None, lean: bool = True,
+                            press: bool = False) -> list[BalanceResult]:
     """``[simulate_balance(P, t_end, h, …) for P in pushes]``, equal bit for bit, with the stance before
     ``push_time`` simulated once: every run is the unpushed one until the step its push lands in, so that
     run stops there (kept: the state, the held torques and QP answer, the contact modes, the records) and
@@ -232,7 +246,12 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
     names = [lk.name for lk in tree.links]
     torso = np.array([names.index("torso")])
     posture = {nm: float(q0[i]) for nm, i in JI.items() if i >= 2}
-    ctrl = QPController(kernel, pts, ground, balance_tasks(target, posture, **task_options), mode=o["mode"],
+    tasks = balance_tasks(target, posture, **task_options)
+    if o["press"]:                                           # the soles held flat, on a level above the others
+        tasks = [Task("point", target=tuple(p[:2]), kp=100.0, kd=20.0, priority=0, name=nm, link=int(lk),
+                      local=tuple(loc)) for nm, (lk, loc), p in zip(_SOLES, pts, soles)] \
+            + [replace(t, priority=t.priority + 1) for t in tasks]
+    ctrl = QPController(kernel, pts, ground, tasks, mode=o["mode"],
                         torque_limits=o["torque_limits"], backend=o["backend"], joint_limits=o["joint_limits"])
     record_every = o["record_every"]
     grid = step_grid(0.0, t_end, h, max_steps=o["max_steps"], record_every=record_every)
