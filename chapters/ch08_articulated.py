@@ -32,6 +32,7 @@ from pbanim.articulated import RigidJoints, aba, aba_batch, bias_forces, crba
 from pbanim.models.articulated import rod_chain
 from pbanim.contracts import unchecked
 from pbanim.plotting import figure
+from pbanim.plotting_gif import frozen_backdrop
 from pbanim.rigid import quat_to_matrix
 
 L, M, G = 0.5, 1.0, 9.81
@@ -202,9 +203,7 @@ def ragdoll_fall(ctx):
     # and labels) is rendered once per resolution and shown as an image under them; the limbs, the stairs'
     # edge and the spines (drawn over the limbs) and the title stay live, in their order. The same pixels as
     # drawing every artist at every frame (checked frame by frame), a quarter of the drawing time
-    from chapters.ch08_characters import _frozen_backdrop
-
-    show_backdrop = _frozen_backdrop(fig, [fig.patch, ax.patch, *ax.collections, ax.xaxis, ax.yaxis],
+    show_backdrop = frozen_backdrop(fig, [fig.patch, ax.patch, *ax.collections, ax.xaxis, ax.yaxis],
                                      limbs + [pelvis, edge, ax.title, *ax.spines.values()])
 
     def draw(j):

@@ -32,6 +32,7 @@ from pbanim.control import FAST_WALK, SERVOS, WALK, Push, largest_stable_step, s
 from pbanim.control.walk import stick_figure
 from pbanim.control.walk_branch import simulate_pushes
 from pbanim.plotting import figure
+from pbanim.plotting_gif import frozen_backdrop
 
 STATE_COLOURS = {"R0": "#dbe9f6", "R1": "#9ecae1", "L0": "#fde0c5", "L1": "#fdae6b"}
 
@@ -92,38 +93,6 @@ def pd_stability_map(ctx):
 # ours on flat ground: an animation, a strip of stick figures and the centre of mass's speed (ORACLES F4).
 
 # %%
-def _frozen_backdrop(fig, still, moving):
-    """``show()``, called first in each frame of a GIF: the artists ``still`` — the same in every frame and
-    drawn in a frame before every one of ``moving`` — rendered once per resolution (with ``moving`` hidden) and
-    shown as one image under the rest, so that a frame draws only ``moving``. The frame's pixels are those of
-    drawing everything (each pixel is written in the same order); artists in neither list must not overlap."""
-    still = [a for a in still if a.get_visible()]
-    moving = [a for a in moving if a.get_visible()]
-    made = {}
-
-    def show():
-        if made.get("dpi") == fig.dpi:
-            return
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-        if "image" in made:                                     # rendered at another resolution: again
-            made.pop("image").remove()
-        for a in still:
-            a.set_visible(True)
-        for a in moving:
-            a.set_visible(False)
-        canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
-        canvas.draw()
-        image = np.asarray(canvas.buffer_rgba()).copy()
-        for a in moving:
-            a.set_visible(True)
-        for a in still:
-            a.set_visible(False)
-        made["image"], made["dpi"] = fig.figimage(image, 0, 0, origin="upper", zorder=-1), fig.dpi
-
-    return show
-
-
 def _draw_biped(ax, segments, **kw):
     for seg in segments:
         ax.plot(seg[:, 0], seg[:, 1], "-", lw=kw.get("lw", 2), color=kw.get("color", "k"), alpha=kw.get("alpha", 1))
@@ -154,7 +123,7 @@ def biped_walk(ctx):
     # ~45 % of the drawing time)
     ax.set_title(" ", y=1.0)
     ax.xaxis.set_label_coords(0.5, -0.2), ax.yaxis.set_label_coords(-0.1, 0.5)
-    backdrop = _frozen_backdrop(fig, [fig.patch, ax.patch, ax.yaxis],
+    backdrop = frozen_backdrop(fig, [fig.patch, ax.patch, ax.yaxis],
                                 bones + [floor, ax.xaxis, ax.title, *ax.spines.values()])
 
     def draw(i):

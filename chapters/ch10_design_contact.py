@@ -22,6 +22,7 @@ from pbanim.design.control import position_goal
 from pbanim.design.stepped import ContactScene, StaticBox
 from pbanim.design.stepped_design import design_contact
 from pbanim.plotting import figure
+from pbanim.plotting_gif import blit_canvas
 from pbanim.rigid import quat_to_matrix
 
 
@@ -45,49 +46,6 @@ def _outline(ax, shape, x, q, **kw):
         return [ax.add_patch(mpatches.Circle((x[0], x[2]), shape.radius, fill=False, **kw))]
     c = x + shape.vertices() @ quat_to_matrix(q).T
     return [ax.plot(c[[a, b], 0], c[[a, b], 2], **kw)[0] for a, b in _EDGES]
-
-
-def _blit_canvas(fig, moving):
-    """An Agg canvas for ``fig`` that renders everything but the artists ``moving()`` once, then per frame
-    restores that background and draws only them: the bytes of a full draw when the moving artists are the
-    last data artists drawn (after every other line, patch, collection, image and text of their axes in
-    matplotlib's order: z-order, then order of addition; the box's outline, re-added every frame, lies inside
-    the axes, under no spine, tick or label), at a fraction of its cost (the ticks and labels are not laid out
-    again per frame). Otherwise (a sphere's circle is a patch, drawn before the lines) every frame is a full
-    draw."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-    def last_drawn(arts):
-        for ax in {a.axes for a in arts}:
-            order = {id(k): (k.get_zorder(), i) for i, k in enumerate(ax.get_children())}
-            first = min(order[id(a)] for a in arts if a.axes is ax)
-            data = [*ax.lines, *ax.patches, *ax.collections, *ax.images, *ax.texts]
-            if any(order[id(o)] > first for o in data if o.get_visible() and all(o is not a for a in arts)):
-                return False
-        return True
-
-    class Blit(FigureCanvasAgg):
-        background = None
-
-        def draw(self):
-            arts = moving()
-            if not last_drawn(arts):
-                return super().draw()
-            key = (self.figure.dpi, tuple(self.figure.bbox.bounds))
-            if self.background is None or self.background[0] != key:
-                for a in arts:
-                    a.set_visible(False)
-                super().draw()
-                for a in arts:
-                    a.set_visible(True)
-                self.background = (key, self.copy_from_bbox(self.figure.bbox))
-            else:
-                self.restore_region(self.background[1])
-            renderer = self.get_renderer()
-            for a in arts:
-                a.draw(renderer)
-
-    return Blit(fig)
 
 
 def _strip_and_gif(ctx, scene, tr, decor, goal):
@@ -116,7 +74,7 @@ def _strip_and_gif(ctx, scene, tr, decor, goal):
         drawn[:] = _outline(ax, scene.body.shape, P[i], tr.y[i, 3:7], color="C1")
         return drawn
 
-    _blit_canvas(fig, lambda: drawn)
+    blit_canvas(fig, lambda: drawn)
     ctx.save_gif(fig, update, frames=frames, fps=12)
 
 

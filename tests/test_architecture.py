@@ -41,8 +41,9 @@ LAYERS: dict[str, int] = {
     "control": 6, "design": 6,
     # 7: canonical systems with their exact answers (the oracles)
     "models": 7,
-    # 8: work-precision sweeps, test assertions, figure styling and registry, the engine comparison harness
-    "accuracy": 8, "testing": 8, "plotting": 8, "compare": 8,
+    # 8: work-precision sweeps, test assertions, figure styling and registry, GIF frames without redrawing what
+    #    does not move, the engine comparison harness
+    "accuracy": 8, "testing": 8, "plotting": 8, "plotting_gif": 8, "compare": 8,
     # 9: benchmark families, the command line, the course tools (assignments, grader), and the facade pbanim/__init__.py (it re-exports from the
     #    subpackages, so only the top layers may import ``pbanim`` itself)
     "bench": 9, "cli": 9, "course": 9, "__init__": 9,
@@ -173,8 +174,8 @@ def test_every_unit_of_the_package_is_in_the_layer_table():
 
 
 def test_plotting_does_not_import_the_chapters():
-    found = [(line, target) for line, target, _ in
-             _imports(ast.parse((REPO / "pbanim" / "plotting.py").read_text(encoding="utf-8")), "pbanim.plotting", False)
+    found = [(name, line, target) for name in ("plotting", "plotting_gif") for line, target, _ in
+             _imports(ast.parse((REPO / "pbanim" / f"{name}.py").read_text(encoding="utf-8")), f"pbanim.{name}", False)
              if target.split(".")[0] == "chapters"]
     assert found == []
 

@@ -1,4 +1,4 @@
-"""The contact figures' GIF frames drawn by blitting (chapters.ch10_design_contact._blit_canvas) against full
+"""The contact figures' GIF frames drawn by blitting (pbanim.plotting_gif.blit_canvas) against full
 draws: the same bytes (ORACLES L7)."""
 
 import hashlib
@@ -15,6 +15,6 @@ def test_blitted_gif_of_the_box_slide_equals_full_draws(tmp_path, monkeypatch):
     spec = select_figures(["ch10_contact_box_slide"])["ch10_contact_box_slide"]
     digest = lambda files: {f.name: hashlib.md5(f.read_bytes()).hexdigest() for f in files}  # noqa: E731
     blit = digest(run_figure(spec, tmp_path / "blit", quick=True)[1])
-    monkeypatch.setattr(ch, "_blit_canvas", lambda fig, moving: None)
+    monkeypatch.setattr(ch, "blit_canvas", lambda fig, moving: None)
     full = digest(run_figure(spec, tmp_path / "full", quick=True)[1])
     assert blit == full and len(full) == 2

@@ -8,7 +8,7 @@ import pytest
 
 from contract_fuzz import check_entry, entries_of, hypothesis_test
 
-ENTRIES = entries_of(('pbanim.fluids.', 'pbanim.compare.', 'pbanim.plotting.', 'pbanim.bench.', 'pbanim.course.',))
+ENTRIES = entries_of(('pbanim.fluids.', 'pbanim.compare.', 'pbanim.plotting.', 'pbanim.plotting_gif.', 'pbanim.bench.', 'pbanim.course.',))
 
 
 @pytest.mark.parametrize("entry", ENTRIES, ids=[e.id for e in ENTRIES])
