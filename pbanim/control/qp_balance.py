@@ -37,6 +37,14 @@ Runs use the one fixed-step driver (:func:`pbanim.ode.driver.drive`: its grid, i
 check). A fall is reported as a fall (time and cause, the walk's detector) and the run stops there; a
 control QP without a feasible answer stops the run too, with the QP's message (outcome "infeasible").
 
+Solver options: ProxQP's defaults (eps_abs 1e-9, no row equilibration), not the 3-D controller's
+(``equilibrate``, ``primal_inf`` 1e-8). Measured on the weighted envelope (−32 … 32 N s, 17 runs, lean path): the
+same outcome for every push with either; equilibration alone leaves the equations of motion 3.7e-7 off (F10's
+bound is 1e-8; with eps_abs 1e-11 6.2e-9) at the same CPU (20.6, 20.5, 19.1 s); its one gain is beyond the
+capture point, where −28 and −32 end "fell" at 0.90 and 0.88 s instead of "infeasible" (a false certificate) at
+0.86 and 0.82 s. The prioritized path, which calls ProxQP at every level, took 24.5 s instead of 5.5 at
+eps_abs 1e-11 on one run (−16 N s without the soles' level), ending the same way.
+
 Limiting cases: P = 0 — the crouched stance is an equilibrium (every task met, the state does not move);
 μ = 0 — the feet cannot push sideways, so the centre of mass cannot be brought back (only the posture
 moves); a push inside the capture-point bound but a controller solved every k steps — the torques are held
