@@ -54,7 +54,7 @@ def _summary(run) -> dict:
 
 # %%
 @figure("ch08", "qp_push_balance", "QP balance, weighted and prioritized: a push recovered, a larger one not; forces in cones",
-        cost=23.0)
+        cost=45.0)
 def qp_push_balance(ctx):
     t_end = 2.5
     impulses = np.arange(-32.0, 33.0, 4.0)
@@ -121,8 +121,8 @@ def qp_push_balance(ctx):
         for sgn in (-1, 1):
             d.axvline(sgn * capture_impulse(small), color="0.4", ls="--", lw=1,
                       label="capture-point bound" if sgn > 0 else None)
-        d.set(xlabel="push P [N s]", ylabel="controller [–]", ylim=(-0.6, 1.8), yticks=[0, 1],
-              yticklabels=["prioritized", "weighted"],
+        d.set_yticks([0, 1], ["prioritized", "weighted"], rotation=90, va="center")
+        d.set(xlabel="push P [N s]", ylabel="controller [–]", ylim=(-0.6, 1.8),
               title="outcome of each push, by controller")
         d.legend(fontsize=7, loc="upper left", ncol=3)
     ctx.save(fig)
