@@ -199,6 +199,7 @@ def ragdoll_fall(ctx):
     edge = ax.plot(xs, stairs.height(xs), color="k", lw=1)[0]
     ax.set_xlim(-1.0, 2.8), ax.set_ylim(-1.1, 1.6), ax.set_aspect("equal")
     ax.set_xlabel("x (m)"), ax.set_ylabel("z (m)")
+    ax.set_title(" ", y=1.0)              # where matplotlib puts it (nothing above the axes), without asking
     # the view never moves: what is drawn before the limbs (the figure, the axes, the stairs' fill, the ticks
     # and labels) is rendered once per resolution and shown as an image under them; the limbs, the stairs'
     # edge and the spines (drawn over the limbs) and the title stay live, in their order. The same pixels as

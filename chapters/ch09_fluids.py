@@ -89,6 +89,7 @@ def smoke_plume_figure(ctx):
     im = ax.imshow(frames[0].T, origin="lower", extent=extent, cmap="magma", vmin=0, vmax=vmax)
     ax.contour(X, Y, g.solid.astype(float), levels=[0.5], colors="w", linewidths=1)
     ax.set_xlabel("x (m)"), ax.set_ylabel("y (m)")
+    ax.set_title(" ", y=1.0)              # where matplotlib puts it (nothing above the axes), without asking
 
     def draw(i):
         im.set_data(frames[i].T)

@@ -12,8 +12,8 @@ bytes at a fraction of the cost when most artists are the same in every frame:
 ==================  ==========================================================================================
 helper              what is rendered once; what each frame draws; when to use it
 ==================  ==========================================================================================
-frozen_backdrop     the *prefix* P = a_k ∘ … ∘ a_1 (the still artists, drawn before every moving one), shown
-                    as one image under the rest; a frame is a full draw of the others (their layout is
+frozen_backdrop     the *prefix* P = a_k ∘ … ∘ a_1 (the still artists, drawn before every moving one), its
+                    pixels copied back first; a frame is a full draw of the others (their layout is
                     redone). Use it when the view moves (x limits following a walker: the ticks move) or
                     when still artists are drawn after moving ones (a terrain's edge over the limbs).
 blit_canvas         everything but the *suffix* (the moving artists, drawn last in their axes), restored as
@@ -34,6 +34,7 @@ Anti-Grain Geometry's scanline compositing.
 
 from __future__ import annotations
 
+import functools
 from typing import Callable
 
 import numpy as np
@@ -56,7 +57,7 @@ def _agg_canvas(fig):
 def frozen_backdrop(fig, still, moving) -> Callable[[], None]:
     """``show()``, to be called first in each frame's update of a GIF of ``fig``: the artists ``still`` — the
     same in every frame and drawn in a frame before every one of ``moving`` — rendered once per resolution
-    (with ``moving`` hidden) and shown as one image under the rest, hidden themselves, so that a frame draws
+    (with ``moving`` hidden) and its pixels copied back before the rest, hidden themselves, so that a frame draws
     only ``moving`` (and what is in neither list). The frame's pixels are those of drawing everything (each
     pixel is written in the same order); artists in neither list must not overlap the still ones.
 
@@ -76,14 +77,35 @@ def frozen_backdrop(fig, still, moving) -> Callable[[], None]:
             a.set_visible(False)
         canvas = _agg_canvas(fig)
         canvas.draw()
-        image = np.asarray(canvas.buffer_rgba()).copy()
+        backdrop = _backdrop_class()(canvas.copy_from_bbox(fig.bbox), canvas.get_width_height(physical=True))
         for a in moving:
             a.set_visible(True)
         for a in still:
             a.set_visible(False)
-        made["image"], made["dpi"] = fig.figimage(image, 0, 0, origin="upper", zorder=-1), fig.dpi
+        made["image"], made["dpi"] = fig.add_artist(backdrop), fig.dpi
 
     return show
+
+
+@functools.cache
+def _backdrop_class():
+    """The artist that shows a backdrop (a class made on first use: matplotlib loads lazily)."""
+    from matplotlib.artist import Artist
+
+    class Backdrop(Artist):
+        """The figure's pixels as they stood, copied back first at each draw (``restore_region``: the bytes,
+        where a figure image of them goes through the image resampler every frame); nothing at another size."""
+
+        def __init__(self, region, size) -> None:
+            super().__init__()
+            self.region, self.size = region, tuple(size)
+            self.set_zorder(-np.inf)
+
+        def draw(self, renderer) -> None:
+            if self.get_visible() and (int(renderer.width), int(renderer.height)) == self.size:
+                renderer.restore_region(self.region)
+
+    return Backdrop
 
 
 def _last_drawn(arts) -> bool:

@@ -42,7 +42,7 @@ def test_frames_over_a_frozen_backdrop_are_the_frames_drawn_whole(tmp_path):
 
 
 def test_the_backdrop_is_made_again_at_another_resolution():
-    # ORACLES G5: the writer draws once at the figure's dpi, then at its own; the backdrop follows (one image)
+    # ORACLES G5: the writer draws once at the figure's dpi, then at its own; the backdrop follows (one copy)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     plt = pyplot()
@@ -54,7 +54,7 @@ def test_the_backdrop_is_made_again_at_another_resolution():
         fig.dpi = dpi
         show()
         canvas.draw()
-        assert len(fig.images) == 1 and fig.images[0].get_array().shape[:2] == (2 * dpi, 2 * dpi)
+        assert len(fig.artists) == 1 and fig.artists[0].size == (2 * dpi, 2 * dpi)
     assert not ax.xaxis.get_visible() and line.get_visible()
     assert np.asarray(canvas.buffer_rgba()).shape == (60, 60, 4)
     plt.close(fig)
