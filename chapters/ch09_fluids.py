@@ -50,6 +50,7 @@ from pbanim.fluids import (
 )
 from pbanim.contracts import unchecked
 from pbanim.plotting import figure
+from pbanim.plotting_gif import pinned_labels
 
 ADVECTION_SCHEMES = ("semi_lagrangian", "cubic", "bfecc", "maccormack")
 PROJECTIONS = (("gauss_seidel", {"iterations": 20}, "Gauss–Seidel 20 (Stam)"),
@@ -90,8 +91,10 @@ def smoke_plume_figure(ctx):
     ax.contour(X, Y, g.solid.astype(float), levels=[0.5], colors="w", linewidths=1)
     ax.set_xlabel("x (m)"), ax.set_ylabel("y (m)")
     ax.set_title(" ", y=1.0)              # where matplotlib puts it (nothing above the axes), without asking
+    labels = pinned_labels(fig)           # the view never moves: the axis labels placed once per resolution
 
     def draw(i):
+        labels()
         im.set_data(frames[i].T)
         ax.set_title(f"t = {res.frame_times[i]:.2f} s")
         return (im,)

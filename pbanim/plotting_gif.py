@@ -20,10 +20,14 @@ blit_canvas         everything but the *suffix* (the moving artists, drawn last 
                     pixels; a frame draws only the suffix (nothing is laid out again). Use it when the
                     moving artists are the last data artists of a fixed view (a body's outline over the
                     scenery); anything else makes it fall back to full draws, frame by frame.
+pinned_labels       no pixels; the axis labels' places, laid out by one draw and kept: a frame does not
+                    place them again from the tick labels' boxes. Use it under a moving image (a field
+                    drawn first, under the grid and the spines: neither helper above applies) with a view
+                    and tick labels that do not move.
 ==================  ==========================================================================================
 
-Both leave each frame's pixels those of drawing every artist (ORACLES G5, L7: the GIF's bytes are those of
-full draws); both follow the resolution (the GIF writer draws once at the figure's dpi, then at its own).
+All three leave each frame's pixels those of drawing every artist (ORACLES G5, L7: the GIF's bytes are those of
+full draws); all follow the resolution (the GIF writer draws once at the figure's dpi, then at its own).
 
 Limits: artists in neither list of :func:`frozen_backdrop` must not overlap the frozen ones' pixels (they
 would be drawn over the image instead of under the still artists in between); an artist whose look changes
@@ -41,7 +45,7 @@ import numpy as np
 
 from .contracts import Func, Obj, Seq, contract
 
-__all__ = ["frozen_backdrop", "blit_canvas"]
+__all__ = ["frozen_backdrop", "blit_canvas", "pinned_labels"]
 
 _FIG = Obj("matplotlib.figure:Figure", what="a matplotlib Figure")
 _ARTISTS = Seq(Obj("matplotlib.artist:Artist", what="a matplotlib Artist"))
@@ -106,6 +110,33 @@ def _backdrop_class():
                 renderer.restore_region(self.region)
 
     return Backdrop
+
+
+@contract(fig=_FIG)
+def pinned_labels(fig) -> Callable[[], None]:
+    """``show()``, to be called first in each frame's update of a GIF of ``fig`` whose axes' limits and tick
+    labels are the same in every frame: at the first call at each resolution one draw lays the figure out,
+    and each visible axis label is pinned where it was put (its own position and transform), so that a frame
+    does not place it again from the tick labels' boxes (the same position: the same pixels). At another
+    resolution the labels are placed by matplotlib again, then pinned."""
+    made: dict = {}
+
+    def show() -> None:
+        if made.get("dpi") == fig.dpi:
+            return
+        for axis in made.pop("pinned", []):
+            axis._autolabelpos = True                       # placed from the tick labels again (next draw)
+        _agg_canvas(fig).draw()
+        pinned = []
+        for ax in fig.axes:
+            for axis in (ax.xaxis, ax.yaxis):
+                if axis._autolabelpos and axis.get_visible() and axis.label.get_visible():
+                    x, y = axis.label.get_position()
+                    axis.set_label_coords(x, y, transform=axis.label.get_transform())
+                    pinned.append(axis)
+        made["pinned"], made["dpi"] = pinned, fig.dpi
+
+    return show
 
 
 def _last_drawn(arts) -> bool:
