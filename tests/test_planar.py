@@ -240,3 +240,33 @@ def test_lean_contact_step_hands_what_it_cannot_take_to_the_readable_step():
             readable.step(q, qd, 1e-3, np.zeros(9))
         with pytest.raises(NonFiniteResult, match="planar step"):
             _lean_step(lean, q, qd, 1e-3, np.zeros(9))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 10 ** 6), st.integers(1, 4), st.sampled_from([0.0, 0.3, 0.9]))
+def test_lean_mode_switching_equals_the_readable_solve(seed, m, mu):
+    # ORACLES F3 (the contact step's LCP core): the lean step's rounds of solve_planar_contact (the modes
+    # imposed, checked and switched on Python floats) give the readable solve's impulses and modes bit for
+    # bit whenever they answer; they answer for most problems, switching modes in many of them
+    from pbanim.articulated.planar_lean import LeanPlanarStep
+    from pbanim.lcp.planar import solve_planar_contact
+
+    rng = np.random.default_rng(seed)
+    tree = planar_biped()
+    lean = LeanPlanarStep(PlanarContactStep(PlanarKernel(tree), biped_contact_points(tree), PlanarGround(0.0, mu)))
+    answered = switched = 0
+    for _ in range(20):
+        G = rng.normal(size=(2 * m, 3))
+        A = G @ G.T + rng.uniform(1e-3, 1.0) * np.eye(2 * m)
+        b = rng.normal(size=2 * m)
+        guess = tuple(int(x) for x in rng.integers(0, 4, size=m))
+        z, modes = lean._modes_solve(A, b, b.tolist(), guess)
+        if z is None:
+            continue
+        zr, mr, info = solve_planar_contact(A, b, mu, np.array(guess))
+        assert info["path"] in ("guess", "modes")
+        assert np.array_equal(z, zr) and tuple(modes) == tuple(mr.tolist())
+        answered += 1
+        switched += info["path"] == "modes"
+    assert answered >= 10
+    assert switched >= 1 or mu == 0.0 and m == 1

@@ -33,6 +33,7 @@ except ImportError:             # pragma: no cover - another numpy: the public f
 
 from ..contracts import unchecked
 from ..lcp.planar import SEPARATE, SLIDE_NEG, SLIDE_POS, STICK, solve_planar_contact
+from ..lcp.specs import LIMIT as _LIMIT
 from .planar_step import PlanarContactStep
 
 __all__ = ["LeanPlanarStep"]
@@ -117,7 +118,11 @@ class LeanPlanarStep:
         gap = (pz * self.nbar).real
         Jc = (1j * (pz[:, None] - zo[None, :]) * self.Pr_c) @ self.Rv + self.Dz_c
         vn = ((Jc @ qd) * self.nbar).real
-        near = np.flatnonzero(gap < self.margin + h * np.maximum(-vn, 0.0) + h * h * 10.0)
+        # the points near the ground, gap < margin + h max(−vₙ, 0) + 10 h², on Python floats (the same roundings)
+        margin, hh10 = self.margin, h * h * 10.0
+        gapl = gap.tolist()
+        near = np.array([i for i, (gi, vi) in enumerate(zip(gapl, vn.tolist()))
+                         if gi < margin + h * (-vi if -vi > 0.0 or -vi != -vi else 0.0) + hh10], dtype=np.intp)
         modes = self.modes
         if not near.size:
             u = _solve_one(Mt, rhs)
@@ -132,16 +137,26 @@ class LeanPlanarStep:
             sol = _solve_many(Mt, R.T)
             u, MinvJt = sol[:, 0], sol[:, 1:]
             A = rows @ MinvJt
-            A.flat[::m2 + 1] += self.cfm * max(float(A.diagonal().max()), 1e-300)
-            b = rows @ u
-            g = gap[near]
-            b[0::2] += np.maximum(g, 0.0) / h + self.erp * np.minimum(g, 0.0) / h
-            guess = modes[near]
-            z = self._guess(A, b, guess)
-            if z is None:                                       # the previous modes fail: the readable solve
+            dl = A.diagonal().tolist()
+            if isfinite(sum(dl)):                               # A_ii += cfm max(max_j A_jj, 1e-300), on floats
+                e = self.cfm * max(max(dl), 1e-300)
+                A.flat[::m2 + 1] = [x + e for x in dl]
+            else:                                               # NaN or inf: numpy's max, which carries them
+                A.flat[::m2 + 1] += self.cfm * max(float(A.diagonal().max()), 1e-300)
+            bl = (rows @ u).tolist()
+            erp, nearl = self.erp, near.tolist()
+            for j, gj in enumerate([gapl[i] for i in nearl]):         # b_n += max(g, 0)/h + erp min(g, 0)/h
+                gp = gj if gj > 0.0 or gj != gj else 0.0
+                gm = gj if gj < 0.0 or gj != gj else 0.0
+                bl[2 * j] = bl[2 * j] + (gp / h + erp * gm / h)
+            b = np.array(bl)
+            ml = modes.tolist()
+            guess0 = tuple(ml[i] for i in nearl)                # the previous step's modes
+            z, guess = self._modes_solve(A, b, bl, guess0)
+            if z is None:                                       # the lean rounds stop short: the readable solve
                 if not (np.isfinite(A).all() and np.isfinite(b).all()):
                     return None
-                z, guess, _ = self._solve(A, b, self.mu, guess)
+                z, guess, _ = self._solve(A, b, self.mu, np.array(guess0, dtype=modes.dtype))
             u = u + MinvJt @ z
             modes[:] = SEPARATE
             modes[near] = guess
@@ -150,25 +165,24 @@ class LeanPlanarStep:
             return None
         return q1, u, near, z
 
-    def _guess(self, A, b, guess):
-        """z with the contact modes ``guess`` imposed (solve_planar_contact's first round), when every
-        condition of the planar contact problem holds to its tolerance; None otherwise."""
-        key = guess.tobytes()
-        system = self._systems.get(key)
+    def _round(self, A, b, bl, guess):
+        """One round of solve_planar_contact with the modes ``guess`` (a tuple): (z, whether every condition
+        holds, z and w = A z + b as lists, the scale of the tolerance); None when b is not finite."""
+        system = self._systems.get(guess)
         if system is None:
-            system = self._systems[key] = self._mode_system(guess)
+            system = self._systems[guess] = self._mode_system(np.array(guess))
         cols, T = system
         if cols is None:
             z = np.zeros(b.size)
         else:
             z = T @ _solve_one(A[cols] @ T, -b[cols])
         w = (A @ z + b).tolist()
-        zl, bl = z.tolist(), b.tolist()
+        zl = z.tolist()
         scale = _TOL * (1.0 + max(map(abs, bl)))
         if not isfinite(scale + sum(bl)):
             return None
         mu = self.mu
-        for i, md in enumerate(guess.tolist()):
+        for i, md in enumerate(guess):
             zn, zt, wn, wt = zl[2 * i], zl[2 * i + 1], w[2 * i], w[2 * i + 1]
             if md == SEPARATE:
                 ok = wn >= -scale
@@ -181,8 +195,47 @@ class LeanPlanarStep:
                 else:
                     ok = ok and wt <= scale
             if not ok:
-                return None
-        return z
+                return z, False, zl, w, scale
+        return z, True, zl, w, scale
+
+    def _modes_solve(self, A, b, bl, guess):
+        """(z, modes) of solve_planar_contact(A, b, μ, guess) when its mode switching finds them (its rounds,
+        in its order: the modes imposed, the conditions checked, the failing modes switched, at most 3m + 3
+        rounds); (None, guess) when it would go further (a round's z or w not finite, a singular system, A
+        or b beyond the solver's limit, the rounds used up: the readable solve then answers)."""
+        out = self._round(A, b, bl, guess)
+        if out is None:
+            return None, guess
+        if out[1]:
+            return out[0], guess
+        if not float(np.abs(A).max()) <= _LIMIT or not max(map(abs, bl)) <= _LIMIT:
+            return None, guess
+        mu = self.mu
+        for _ in range(3 * len(guess) + 2):
+            z, ok, zl, w, eps = out
+            if not isfinite(sum(zl) + sum(w)):
+                return None, guess
+            new = []                                            # lcp.planar._switch_modes, contact by contact
+            for i, md in enumerate(guess):
+                zn, zt, wn, wt = zl[2 * i], zl[2 * i + 1], w[2 * i], w[2 * i + 1]
+                nm = md
+                if md == SEPARATE and wn < -eps:
+                    nm = STICK
+                if md != SEPARATE and zn < -eps:
+                    nm = SEPARATE
+                if md == STICK and abs(zt) > mu * zn + eps:
+                    if zt > 0:
+                        nm = SLIDE_NEG
+                    if zt < 0:
+                        nm = SLIDE_POS
+                if (md == SLIDE_POS and wt < -eps) or (md == SLIDE_NEG and wt > eps):
+                    nm = STICK
+                new.append(nm)
+            guess = tuple(new)
+            out = self._round(A, b, bl, guess)
+            if out[1]:
+                return out[0], guess
+        return None, guess
 
     def _mode_system(self, modes):
         """(rows, T) of solve_planar_contact's mode solve: the equations w_r = 0 and the map from their
