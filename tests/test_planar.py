@@ -245,9 +245,9 @@ def test_lean_contact_step_hands_what_it_cannot_take_to_the_readable_step():
 @settings(max_examples=60, deadline=None)
 @given(st.integers(0, 10 ** 6), st.integers(1, 4), st.sampled_from([0.0, 0.3, 0.9]))
 def test_lean_mode_switching_equals_the_readable_solve(seed, m, mu):
-    # ORACLES F3 (the contact step's LCP core): the lean step's rounds of solve_planar_contact (the modes
-    # imposed, checked and switched on Python floats) give the readable solve's impulses and modes bit for
-    # bit whenever they answer; they answer for most problems, switching modes in many of them
+    # ORACLES F24 (and F3: the contact step's LCP core): the lean step's rounds of solve_planar_contact (the
+    # modes imposed, checked and switched on Python floats) give the readable solve's impulses and modes bit
+    # for bit whenever they answer; they answer for most problems, switching modes in many of them
     from pbanim.articulated.planar_lean import LeanPlanarStep
     from pbanim.lcp.planar import solve_planar_contact
 
