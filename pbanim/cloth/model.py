@@ -41,6 +41,7 @@ import scipy.sparse as sp
 
 from .assembly import FreeJacobian, Pattern
 from .bend import BendCondition
+from .lean_terms import bend_data, triangle_terms
 from .collide import Ground, Sphere
 from .conditions import SpringCondition, TriangleCondition
 from .sheet import Sheet
@@ -144,7 +145,10 @@ class Cloth:
         self.pattern = Pattern(self.n, [c.dofs for c in self.conditions],
                                [c.elements if hasattr(c, "pair_terms") else None for c in self.conditions])
         self.pinned = sheet.pinned
-        self.lean_path = True            # False: the large steps' CG takes the readable _pcg (ORACLES J13)
+        self.lean_path = True            # False: the large steps' CG takes the readable _pcg (ORACLES J13) and
+                                         # their bend terms the readable assembly (ORACLES J14)
+        self.lean_terms = True           # False: the readable bend and triangle terms alone (J13 compares the CGs
+                                         # on them)
         free = np.ones(N, bool)
         free[self.pinned] = False
         self.free_particles = np.flatnonzero(free)
@@ -212,16 +216,39 @@ class Cloth:
 
     def _all(self, x, v, exact=True):
         """f (n,), K.data and D.data on the pattern (D.data None when undamped; ``exact=False``: K without
-        its unsymmetric damping term, for the CG solves)."""
+        its unsymmetric damping term, for the CG solves: then, unless ``lean_path`` or ``lean_terms`` is False,
+        the bend hinges' data and the triangles' blocks by :mod:`pbanim.cloth.lean_terms`, equal to roundoff,
+        ORACLES J14)."""
         f = self.fext.copy()
         Kb, Db = [], []
-        for c, reduced in zip(self.conditions, self.pattern.reduced):
-            fe, Ke, De = c.pair_terms(x, v, exact) if reduced else c.terms(x, v, True, exact)
+        use_lean = not exact and self.lean_path and self.lean_terms and not self.pattern.pair_kinds
+        lean = [i for i, c in enumerate(self.conditions) if use_lean and isinstance(c, BendCondition)]
+        for i, (c, reduced) in enumerate(zip(self.conditions, self.pattern.reduced)):
+            if i in lean:                          # its data below, by the lean twin (ORACLES J14)
+                fe, Ke, De = bend_data(c, x, v, self.pattern.maps[i], self.pattern.nnz)
+            elif use_lean and isinstance(c, TriangleCondition):
+                fe, Ke, De = triangle_terms(c, x, v)
+            else:
+                fe, Ke, De = c.pair_terms(x, v, exact) if reduced else c.terms(x, v, True, exact)
             f += np.bincount(c.dofs.ravel(), fe.ravel(), minlength=self.n)
             Kb.append(Ke)
             Db.append(De)
         damped = any(d is not None for d in Db)
-        return f, self.pattern.data(Kb), (self.pattern.data(Db) if damped else None)
+        if not lean:
+            return f, self.pattern.data(Kb), (self.pattern.data(Db) if damped else None)
+        kdata, ddata = self._lean_data(Kb, lean), self._lean_data(Db, lean) if damped else None
+        return f, kdata, ddata
+
+    def _lean_data(self, blocks, lean):
+        """Σ_kinds of the data in the order of :meth:`Pattern.data` (each kind added after the ones before it),
+        the kinds in ``lean`` already as data."""
+        out = None
+        for i, b in enumerate(blocks):
+            if b is None:
+                continue
+            add = b if i in lean else self.pattern.data([b if j == i else None for j in range(len(blocks))])
+            out = add if out is None else out + add
+        return np.zeros(self.pattern.nnz) if out is None else out
 
     @contract(y=_Y, returns=finite_result)
     def forces(self, y) -> np.ndarray:
