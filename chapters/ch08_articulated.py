@@ -163,7 +163,7 @@ def cost_vs_links(ctx):
 # energy (never growing) and the height of its lowest point above the tread under it.
 
 # %%
-@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase", cost=14.5)
+@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase", cost=10.8)
 def ragdoll_fall(ctx):
     from pbanim.articulated.contact import ArticulatedContact, Staircase
     from pbanim.models.articulated import ragdoll_contact_points, ragdoll_down_stairs

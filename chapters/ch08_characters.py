@@ -99,7 +99,7 @@ def _draw_biped(ax, segments, **kw):
 
 
 @figure("ch08", "biped_walk", "SIMBICON's planar biped walking (stable PD servos, h = 2 ms, 4-state machine)",
-        cost=15.0)
+        cost=10.0)
 def biped_walk(ctx):
     t_end = 4.0 if ctx.quick else 20.0
     res = {g.name: simulate_walk(g, t_end, 2e-3, servo="stable", record_every=10) for g in (WALK, FAST_WALK)}

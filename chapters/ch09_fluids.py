@@ -74,7 +74,7 @@ PROJECTIONS = (("gauss_seidel", {"iterations": 20}, "Gauss–Seidel 20 (Stam)"),
 # divergence-free to the solver's tolerance, in about 10 iterations whatever the grid.
 
 # %%
-@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=23.0)
+@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=12.8)
 def smoke_plume_figure(ctx):
     shape, t_end, h = ((40, 60), 1.2, 0.02) if ctx.quick else ((128, 192), 3.0, 0.01)
     every = 10
