@@ -202,7 +202,8 @@ class LeanPlanarStep:
         """(z, modes) of solve_planar_contact(A, b, μ, guess) when its mode switching finds them (its rounds,
         in its order: the modes imposed, the conditions checked, the failing modes switched, at most 3m + 3
         rounds); (None, guess) when it would go further (a round's z or w not finite, a singular system, A
-        or b beyond the solver's limit, the rounds used up: the readable solve then answers)."""
+        or b beyond the solver's limit, the modes cycling or the rounds used up: the readable solve then
+        answers; a cycle means PGS, as every round is a function of the modes alone)."""
         out = self._round(A, b, bl, guess)
         if out is None:
             return None, guess
@@ -210,7 +211,7 @@ class LeanPlanarStep:
             return out[0], guess
         if not float(np.abs(A).max()) <= _LIMIT or not max(map(abs, bl)) <= _LIMIT:
             return None, guess
-        mu = self.mu
+        mu, seen = self.mu, {guess}
         for _ in range(3 * len(guess) + 2):
             z, ok, zl, w, eps = out
             if not isfinite(sum(zl) + sum(w)):
@@ -232,6 +233,9 @@ class LeanPlanarStep:
                     nm = STICK
                 new.append(nm)
             guess = tuple(new)
+            if guess in seen:                                   # the modes cycle: no round will hold
+                return None, guess
+            seen.add(guess)
             out = self._round(A, b, bl, guess)
             if out[1]:
                 return out[0], guess
