@@ -55,7 +55,7 @@ def _frozen_axes3d(fig, ax, moving):
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=13.6)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=16.3)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
