@@ -174,3 +174,20 @@ def test_one_pass_falls_back_for_other_conditions():
     assert np.array_equal(rhs(0.0, yf), cloth.rhs(0.0, yf))
     assert abs(jac(0.0, yf) - cloth.jac(0.0, yf)).max() == 0.0
     assert abs(second_order_jac(cloth)(0.0, yf).tocsr() - cloth.jac(0.0, yf)).max() == 0.0
+
+
+def test_one_pass_force_sum_is_the_operator_product_bit_for_bit():
+    # ORACLES J11: the springs' forces summed into the particles by scipy's CSR kernel, one column at a time,
+    # are the operator's product signed @ fe.T (the same sums in the same order), bit for bit
+    from pbanim.cloth.assembly import _spring_pass
+    cloth = Cloth(Sheet(6, pins="corners"), stretch=1e3, shear=1e2, bend=0.1, damping=1e-3)
+    yf = _bent_state(cloth, seed=5)
+    lean = _spring_pass(cloth)
+    f = lean.pass_(yf, False)[0]
+    X = lean._state(yf)
+    dX = np.take(X, lean.a, axis=1) - np.take(X, lean.b, axis=1)
+    d, dv = dX[:3], dX[3:]
+    length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    w = d * (1.0 / length)
+    s = lean.k * (length - lean.rest) + lean.kd * (w[0] * dv[0] + w[1] * dv[1] + w[2] * dv[2])
+    assert np.array_equal(f, (lean.signed @ (w * -s).T + lean.fext).ravel())
