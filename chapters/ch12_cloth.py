@@ -55,7 +55,7 @@ def _frozen_axes3d(fig, ax, moving):
 # for bit) and no particle ends inside the sphere by more than a step's approach.
 
 # %%
-@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=16.3)
+@figure("ch12", "drape", "A sheet draping over a sphere by large steps (h = 1/60 s)", cost=14.2)
 def drape(ctx):
     n, frames, every = (10, 12, 6) if ctx.quick else (24, 90, 4)
     sphere = Sphere([0.0, 0.0, -0.45], 0.3)
@@ -123,7 +123,7 @@ def drape(ctx):
 
 # %%
 @figure("ch12", "work_precision", "Work-precision on a stiff spring sheet: large steps, XPBD, stiff solvers",
-        cost=13.4)
+        cost=14.3)
 def work_precision_figure(ctx):
     # the budget (CPU s per run) only stops a runaway method: quick runs take 0.01-0.3 s each here, and a 1.5 s
     # budget once cut the large steps' second point in a loaded test run (the test needs two points)
