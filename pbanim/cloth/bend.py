@@ -36,6 +36,8 @@ R. Tamstorf, E. Grinspun, "Discrete bending forces and their Jacobians", Graphic
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from .conditions import Conditions
@@ -59,8 +61,11 @@ def _outer(p, q):
     return p[:, :, None] * q[:, None, :]
 
 
-def _angle_terms(X, hessian=True):
-    """θ (E,), ∇θ (E, 9) and ∇²θ (E, 9, 9) in z = (e, a, b) for hinge vertices X (E, 4, 3)."""
+def _hinge_gradient(X):
+    """θ = atan2(S, Cc) and ∇θ in z = (e, a, b) for hinge vertices X (E, 4, 3), with the pieces both the readable
+    ∇²θ and the lean edge-coordinate terms (:mod:`.lean_terms`) build on: e, a, b; ee, ea, eb, ab (their dot
+    products); T = a·(e × b), r = |e|, S = T r, Cc = (e·a)(e·b) − (a·b)(e·e); ê; ∇T, ∇|e| = (ê, 0, 0), ∇S, ∇Cc;
+    R = S² + Cc²; ∇θ = (Cc ∇S − S ∇Cc)/R. A namespace of arrays (E,) or (E, 3) or (E, 9)."""
     e, a, b = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]
     dot = lambda p, q: np.einsum("ij,ij->i", p, q)  # noqa: E731
     ee, ea, eb, ab = dot(e, e), dot(e, a), dot(e, b), dot(a, b)
@@ -68,18 +73,27 @@ def _angle_terms(X, hessian=True):
     r = np.sqrt(ee)
     S, Cc = T * r, ea * eb - ab * ee
     theta = np.arctan2(S, Cc)
-    E = len(X)
     with np.errstate(divide="ignore", invalid="ignore"):
         ehat = e / r[:, None]
         gT = np.concatenate([np.cross(b, a), np.cross(e, b), np.cross(a, e)], axis=1)
-        gr = np.concatenate([ehat, np.zeros((E, 6))], axis=1)
+        gr = np.concatenate([ehat, np.zeros((len(X), 6))], axis=1)
         gS = r[:, None] * gT + T[:, None] * gr
         gC = np.concatenate([a * eb[:, None] + b * ea[:, None] - 2.0 * ab[:, None] * e,
                              e * eb[:, None] - b * ee[:, None], e * ea[:, None] - a * ee[:, None]], axis=1)
         R = S * S + Cc * Cc
         g = (Cc[:, None] * gS - S[:, None] * gC) / R[:, None]
+    return SimpleNamespace(e=e, a=a, b=b, ee=ee, ea=ea, eb=eb, ab=ab, T=T, r=r, S=S, Cc=Cc, theta=theta, ehat=ehat,
+                           gT=gT, gr=gr, gS=gS, gC=gC, R=R, g=g)
+
+
+def _angle_terms(X, hessian=True):
+    """θ (E,), ∇θ (E, 9) and ∇²θ (E, 9, 9) in z = (e, a, b) for hinge vertices X (E, 4, 3)."""
+    h = _hinge_gradient(X)
+    theta, g = h.theta, h.g
     if not hessian:
         return theta, g, None
+    e, a, b, ee, ea, eb, ab, T, r, S, Cc = h.e, h.a, h.b, h.ee, h.ea, h.eb, h.ab, h.T, h.r, h.S, h.Cc
+    ehat, gT, gr, gS, gC, R, E = h.ehat, h.gT, h.gr, h.gS, h.gC, h.R, len(X)
     HT = np.zeros((E, 3, 3, 3, 3))                           # (E, row block, 3, col block, 3) over (e, a, b)
     Ka, Kb, Ke = _skew(a), _skew(b), _skew(e)
     HT[:, 0, :, 1, :], HT[:, 0, :, 2, :] = Kb, -Ka           # ∂(b × a)/∂a = [b]×, ∂(b × a)/∂b = −[a]×

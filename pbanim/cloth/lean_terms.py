@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .bend import _outer, _skew
+from .bend import _outer, _skew, _hinge_gradient
 from .conditions import Conditions
 
 __all__: list[str] = []      # internal: the lean twin of Cloth._all's bend and triangle terms
@@ -52,24 +52,11 @@ __all__: list[str] = []      # internal: the lean twin of Cloth._all's bend and 
 def _z_terms(cond, x, v):
     """(f_e (E, 12), K_z (E, 9, 9), D_z (E, 9, 9) or None): the symmetric K_e = Lᵀ K_z L, D_e = Lᵀ D_z L."""
     el = cond.elements
-    X = x[el]
     E = len(el)
-    e, a, b = X[:, 1] - X[:, 0], X[:, 2] - X[:, 0], X[:, 3] - X[:, 0]
-    dot = lambda p, q: np.einsum("ij,ij->i", p, q)  # noqa: E731
-    ee, ea, eb, ab = dot(e, e), dot(e, a), dot(e, b), dot(a, b)
-    T = dot(a, np.cross(e, b))
-    r = np.sqrt(ee)
-    S, Cc = T * r, ea * eb - ab * ee
-    theta = np.arctan2(S, Cc)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ehat = e / r[:, None]
-        gT = np.concatenate([np.cross(b, a), np.cross(e, b), np.cross(a, e)], axis=1)
-        gS = r[:, None] * gT
-        gS[:, 0:3] += T[:, None] * ehat
-        gC = np.concatenate([a * eb[:, None] + b * ea[:, None] - 2.0 * ab[:, None] * e,
-                             e * eb[:, None] - b * ee[:, None], e * ea[:, None] - a * ee[:, None]], axis=1)
-        R = S * S + Cc * Cc
-        g = (Cc[:, None] * gS - S[:, None] * gC) / R[:, None]
+    h = _hinge_gradient(x[el])                                   # θ, ∇θ and their pieces (the readable ones)
+    e, a, b, ee, ea, eb, ab, T, r = h.e, h.a, h.b, h.ee, h.ea, h.eb, h.ab, h.T, h.r
+    S, Cc, theta = h.S, h.Cc, h.theta
+    ehat, gT, gS, gC, R, g = h.ehat, h.gT, h.gS, h.gC, h.R, h.g
     k, kd = cond.k[:, 0], cond.kd[:, 0]
     damped = bool(np.any(kd))
     vz = (v[el[:, 1:]] - v[el[:, :1]]).reshape(E, 9)           # L v: the edge-coordinate velocities
