@@ -133,8 +133,9 @@ class Pattern:
             self.pairs[c] = True
 
     def data(self, blocks) -> np.ndarray:
-        """CSR data of Σ_kinds of the element blocks ``blocks[c]`` (E_c, q, q) (None: nothing from that kind);
-        a pair kind (``pair_kinds``) passes its reduced blocks B (E_c, 3, 3), K_e = c cᵀ ⊗ B."""
+        """CSR data of Σ_kinds of the element blocks ``blocks[c]`` (E_c, q, q) (None: nothing from that kind; a
+        vector (nnz,): that kind's data already scattered, as :mod:`.lean_terms` gives them); a pair kind
+        (``pair_kinds``) passes its reduced blocks B (E_c, 3, 3), K_e = c cᵀ ⊗ B."""
         out = None
         if self.pair_kinds:
             B = np.concatenate([blocks[c].reshape(-1, 9) if blocks[c] is not None else
@@ -144,9 +145,12 @@ class Pattern:
         for m, b, pair, reduced in zip(self.maps, blocks, self.pairs, self.reduced):
             if b is None or pair is not None:
                 continue
-            if reduced:                                        # reduced blocks of a pair kind: expand c cᵀ ⊗ B
-                b = np.einsum("ij,ekl->eikjl", _CC, b).reshape(len(b), 6, 6)
-            add = np.bincount(m, b.ravel(), minlength=self.nnz)
+            if b.ndim == 1:                                    # already this kind's data
+                add = b
+            else:
+                if reduced:                                    # reduced blocks of a pair kind: expand c cᵀ ⊗ B
+                    b = np.einsum("ij,ekl->eikjl", _CC, b).reshape(len(b), 6, 6)
+                add = np.bincount(m, b.ravel(), minlength=self.nnz)
             out = add if out is None else out + add
         return np.zeros(self.nnz) if out is None else out
 

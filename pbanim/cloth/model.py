@@ -234,21 +234,7 @@ class Cloth:
             Kb.append(Ke)
             Db.append(De)
         damped = any(d is not None for d in Db)
-        if not lean:
-            return f, self.pattern.data(Kb), (self.pattern.data(Db) if damped else None)
-        kdata, ddata = self._lean_data(Kb, lean), self._lean_data(Db, lean) if damped else None
-        return f, kdata, ddata
-
-    def _lean_data(self, blocks, lean):
-        """Σ_kinds of the data in the order of :meth:`Pattern.data` (each kind added after the ones before it),
-        the kinds in ``lean`` already as data."""
-        out = None
-        for i, b in enumerate(blocks):
-            if b is None:
-                continue
-            add = b if i in lean else self.pattern.data([b if j == i else None for j in range(len(blocks))])
-            out = add if out is None else out + add
-        return np.zeros(self.pattern.nnz) if out is None else out
+        return f, self.pattern.data(Kb), (self.pattern.data(Db) if damped else None)
 
     @contract(y=_Y, returns=finite_result)
     def forces(self, y) -> np.ndarray:
