@@ -113,7 +113,7 @@ def incline_stick_slip(ctx):
 
 # %%
 @figure("ch07", "solver_residual_time", "What accuracy costs: natural-map residual vs time for every LCP solver",
-        cost=10.1)
+        cost=4.9)
 def solver_residual_time(ctx):
     m = 60 if ctx.quick else 200
     case = random_contact_lcp(m, redundant=True, seed=7)
