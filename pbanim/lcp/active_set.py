@@ -323,7 +323,9 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
     z = np.zeros(n)
     w = b.copy()
     best, worse = np.inf, 0
+    res = None                              # the residual of the current (z, w) once computed: returned as is
     for it in range(1, int(max_iter) + 1):
+        res = None
         on = s[:, 0] == 1
         # unknowns: f of active contacts, t of their sticking tangents; sliding t = ±μ f (column map P)
         cols_f = 3 * np.flatnonzero(on)
@@ -362,4 +364,4 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
             if worse >= patience:
                 break
         s = new
-    return z, box_friction_residual(z, w, mu), it, s
+    return z, box_friction_residual(z, w, mu) if res is None else res, it, s
