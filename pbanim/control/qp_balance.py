@@ -74,6 +74,7 @@ from .biped import biped_contact_points, planar_biped
 from .pd import InvalidGains
 from .qp import MODES, InfeasibleControl, QPController
 from .qp_lean import LeanQP
+from .qp_lean_levels import LeanLevels
 from .qp_solve import backends
 from .qp_tasks import InvalidTask, Task
 from .specs import Mapping, Pair, named
@@ -200,7 +201,8 @@ def simulate_balance(push: float = 0.0, t_end: float = 2.5, h: float = 2e-3, *, 
     ``kp`` … ``momentum_weight``: the gains and weights of :func:`balance_tasks`. ``lean`` (default): the
     simulation's contact step is :class:`~pbanim.articulated.planar_lean.LeanPlanarStep` (the readable step's
     operations in their order), the weighted QP is solved on its lean path (:class:`~pbanim.control.qp_lean.LeanQP`,
-    ORACLES F23) and one lean kinematics of q serves the QP, the step and the fall detector; ``lean=False``
+    ORACLES F23), the prioritized one on its lean levels (:class:`~pbanim.control.qp_lean_levels.LeanLevels`,
+    ORACLES F25) and one lean kinematics of q serves the QP, the step and the fall detector; ``lean=False``
     runs :class:`PlanarContactStep` and :meth:`QPController.solve` themselves (ORACLES F22: the same run to the QP
     runs' own spread). ``press``: the soles held flat, a point task per heel and toe (k_p 100, k_d 20, its
     standing position the target) on a level of their own above the others (:data:`BALANCE_FIRST`; module
@@ -276,7 +278,7 @@ def _balance(push: float, t_end: float, h: float, o: dict, *, watch: bool = Fals
     solve = unchecked(ctrl.solve)
     kinematics, com = unchecked(kernel.kinematics), unchecked(kernel.centre_of_mass)
     lean = LeanPlanarStep(stepper) if o["lean"] else None
-    lean_qp = LeanQP(ctrl, lean) if lean is not None else None
+    lean_qp = (LeanLevels if o["mode"] == "prioritized" else LeanQP)(ctrl, lean) if lean is not None else None
     if lean_qp is not None and lean_qp.supported:       # the QP's lean twin (ORACLES F23) takes the lean kinematics
         solve = unchecked(lean_qp.solve)
     else:

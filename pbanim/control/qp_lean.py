@@ -34,7 +34,7 @@ once), g̃ = −Σₖ wₖ J_kᵀ (ÿₖ* − J̇_k q̇), Ã = [[H, −Sᵀ D_τ
 
 The result is a :class:`~.qp.QPResult` with the readable path's status, residuals, tolerances and task errors;
 equal to the readable path to the solver's tolerance (the operations are the same up to their order;
-tests/test_qp_lean.py, ORACLES F23). Whatever it does not handle — a prioritized controller, another
+tests/test_qp_lean.py, ORACLES F23). Whatever it does not handle — a prioritized controller (:mod:`.qp_lean_levels` has its lean levels), another
 backend, a task kind other than centre of mass, angular momentum and posture, data that are not finite or
 beyond :data:`~.qp_solve.MAX_DATUM`, a status other than met or compromise — goes to the readable
 :meth:`QPController.solve` from the same state, which answers (or raises) as it always does.
@@ -76,9 +76,7 @@ class LeanQP:
         k = ctrl.kernel
         self.ctrl, self.lean, self.kernel = ctrl, lean_step, k
         self._readable = unchecked(ctrl.solve)
-        self.supported = (ctrl.mode == "weighted" and ctrl.backend == "proxqp" and ctrl.native
-                          and all(t.kind in _KINDS for t in ctrl.tasks) and lean_step.kernel is k
-                          and not set(ctrl.solver_options) - {"equilibrate", "primal_inf"})
+        self.supported = self._supports(ctrl, lean_step)
         nv, na = k.nv, ctrl.na
         self.nv, self.na = nv, na
         self.mass, self.M = k.mass, float(k.mass.sum())
@@ -87,11 +85,13 @@ class LeanQP:
         self.Pr_c, self.Dz_c, self.P_c = k.Pr[ctrl.links], k._Dz[ctrl.links], k.P[ctrl.links]
         n_, t_ = ctrl.ground.normal, ctrl.ground.tangent
         self.normal, self.nx, self.ny, self.tx, self.ty = n_, float(n_[0]), float(n_[1]), float(t_[0]), float(t_[1])
-        self.tasks = []                                   # (kind, weight, gains, target, acceleration, velocity, idx)
+        self.Pr, self.Dz, self.P = k.Pr, k._Dz, k.P
+        self.tasks = []             # (kind, weight, gains, target, acceleration, velocity, idx, name, priority, point's link, offset)
         for t in ctrl.tasks:
             idx = np.array([ctrl.joints[nm] for nm in t.target]) if t.kind == "posture" else None
+            pt = (int(t.link), complex(k.point_offsets([t.link], [t.local])[0])) if t.kind == "point" else (-1, 0j)
             self.tasks.append((t.kind, float(t.weight), float(t.kp), float(t.kd), t._target, t.acceleration,
-                               t.velocity, idx, t.name))
+                               t.velocity, idx, t.name, int(t.priority)) + pt)
         self.eps, self.f_scale = ctrl.eps, ctrl.f_scale
         self.equilibrate = bool(ctrl.solver_options.get("equilibrate", False))
         self.primal_inf = ctrl.solver_options.get("primal_inf")
@@ -102,6 +102,13 @@ class LeanQP:
 
             self._dense_solve = proxsuite.proxqp.dense.solve
             self._proxqp = proxsuite.proxqp
+
+    @staticmethod
+    def _supports(ctrl: QPController, lean_step: LeanPlanarStep) -> bool:
+        """Whether the lean path handles ``ctrl``: weighted, native ProxQP, tasks of :data:`_KINDS`."""
+        return (ctrl.mode == "weighted" and ctrl.backend == "proxqp" and ctrl.native
+                and all(t.kind in _KINDS for t in ctrl.tasks) and lean_step.kernel is ctrl.kernel
+                and not set(ctrl.solver_options) - {"equilibrate", "primal_inf"})
 
     # -- once per contact set -------------------------------------------------------------------
     def _layout(self, m2: int) -> dict:
@@ -141,6 +148,68 @@ class LeanQP:
 
     def _lean(self, q, qd, kin):
         t0 = time.perf_counter()
+        B = self._build(q, qd, kin)
+        if B is None:
+            return None
+        H, C, Jnt, bnt, keep, active, Lay, rows, Aeq, beq, lbs, ubs = B
+        ctrl, nv, N, D = self.ctrl, self.nv, Lay["N"], Lay["D"]
+        Q, g = Lay["Q"], Lay["g"]
+        Qq = self.eps * self._eye_nv
+        gq = np.zeros(nv)
+        for name, J, b, wt, idx, prio in rows:
+            if wt > 0:
+                if J is None:
+                    np.add.at(Qq, (idx, idx), wt)
+                    np.subtract.at(gq, idx, wt * b)
+                else:
+                    Qq += (wt * J.T) @ J
+                    gq -= (wt * J.T) @ b
+        Q[:nv, :nv] = Qq
+        g[:nv] = gq
+        neq = Aeq.shape[0]
+        Gs, l, u = Lay["Gs"], Lay["l"], Lay["u"]
+        if not isfinite(float(Qq.sum() + gq.sum() + Aeq.sum() + beq.sum())):
+            return None                                   # not finite: the readable path says why
+        As, Cs, bs, ls, us = Aeq, Gs, beq, l, u
+        if self.equilibrate:                              # solve_qp's equilibrate: rows over their largest entry
+            sa = np.abs(Aeq).max(axis=1, initial=0.0)
+            sa = 1.0 / np.where(sa > 0, sa, 1.0)
+            sc = np.abs(Gs).max(axis=1, initial=0.0)
+            sc = 1.0 / np.where(sc > 0, sc, 1.0)
+            As, bs, Cs, ls, us = sa[:, None] * Aeq, sa * beq, sc[:, None] * Gs, sc * l, sc * u
+        t1 = time.perf_counter()
+        r = _ActiveSet.solve(Lay, Q, g, As, bs, Cs, us, lbs, ubs, ctrl.eps_abs)
+        if r is None and not max(np.abs(Qq).max(), np.abs(gq).max(), np.abs(Aeq).max(), np.abs(beq).max(),
+                                 np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
+                                 np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0)) <= MAX_DATUM:
+            return None                                   # beyond MAX_DATUM ProxQP stalls: the readable path says why
+        if r is not None:
+            pass
+        elif self.primal_inf is None:
+            r = self._dense_solve(Q, g, As, bs, Cs, ls, us, l_box=lbs, u_box=ubs, eps_abs=ctrl.eps_abs, eps_rel=0.0,
+                                  max_iter=ctrl.max_iter)
+        else:
+            qp = self._proxqp.dense.QP(N, neq, Cs.shape[0], True)
+            st = qp.settings
+            st.eps_abs, st.eps_rel, st.max_iter, st.eps_primal_inf = ctrl.eps_abs, 0.0, ctrl.max_iter, self.primal_inf
+            qp.init(Q, g, As, bs, Cs, ls, us, lbs, ubs)
+            qp.solve()
+            r = qp.results
+        if not isinstance(r, _ActiveSet):
+            _ActiveSet.remember(Lay, r.z, Cs.shape[0], lbs, ubs)
+        xs, y, z = r.x, r.y, r.z
+        t2 = time.perf_counter()
+        if not isfinite(float(xs.sum())):
+            return None
+        nc = Cs.shape[0]
+        kkt = _kkt(Q, g, As, bs, Cs, us, lbs, ubs, xs, y, z[:nc], z[nc:])
+        x = D * xs
+        return self._judge(x, H, C, Jnt, bnt, keep, active, rows, lbs[:nv], ubs[:nv], kkt,
+                           [str(r.info.status).split(".")[-1]], int(r.info.iter), t1 - t0, t2 - t1)
+
+    def _build(self, q, qd, kin):
+        """(H, C, J_c, J̇_c q̇, kept rows, active mask, layout, task rows, Ã, b, l̃, ũ) at (q, q̇); None when the
+        contact rows' QR fails (the readable path answers)."""
         rot, w, zo, zc, Jz = kin
         lean, nv, na, m = self.lean, self.nv, self.na, self.mass
         # equations of motion and the centres' bias accelerations J̇ᵢ q̇ (PlanarKernel.dynamics, _bias_z)
@@ -188,32 +257,27 @@ class LeanQP:
         else:
             keep = np.zeros(0, dtype=int)
         nk = keep.size
-        # the QP's arrays, in the scaled unknowns x̃ = D⁻¹ x
-        Q, g = Lay["Q"], Lay["g"]
-        Qq = self.eps * self._eye_nv
-        gq = np.zeros(nv)
-        rows = []                                         # (name, J, b, weight) of every task: e = J q̈ − b
+        # the tasks' rows: e = J q̈ − b (J None for a posture: q̈[idx] − b)
+        rows = []                                         # (name, J, b, weight, idx, priority) of every task
         com, vcom = np.array([comz.real, comz.imag]), np.array([vz.real, vz.imag])
-        for kind, wt, kp, kd, target, acc, vel, idx, name in self.tasks:
+        for kind, wt, kp, kd, target, acc, vel, idx, name, prio, link, r0 in self.tasks:
             if kind == "com":
                 J = np.vstack([Jcz.real, Jcz.imag])
                 b = acc + kp * (target - com) + kd * (vel - vcom) - np.array([bz.real, bz.imag])
             elif kind == "momentum":
                 J = A_L[None, :]
                 b = acc + kd * (target - L) - L_bias
+            elif kind == "point":                         # qp_features.point_feature on complex numbers
+                pt = zo[link] + rot[link] * r0
+                Jt = (1j * (pt - zo) * self.Pr[link]) @ lean.Rv + self.Dz[link]
+                bt = -((self.P[link] * pd2) @ w) - phid[link] ** 2 * (pt - zo[link])
+                J = np.vstack([Jt.real, Jt.imag])
+                b = acc + kp * (target - np.array([pt.real, pt.imag])) + kd * (vel - J @ qd) - np.array([bt.real, bt.imag])
             else:
                 J = None
                 b = acc + kp * (target - q[idx]) + kd * (vel - qd[idx])
-            rows.append((name, J, b, wt, idx))
-            if wt > 0:
-                if J is None:
-                    np.add.at(Qq, (idx, idx), wt)
-                    np.subtract.at(gq, idx, wt * b)
-                else:
-                    Qq += (wt * J.T) @ J
-                    gq -= (wt * J.T) @ b
-        Q[:nv, :nv] = Qq
-        g[:nv] = gq
+            rows.append((name, J, b, wt, idx, prio))
+        # the QP's equalities and bounds, in the scaled unknowns x̃ = D⁻¹ x
         neq = nv + nk
         Aeq = np.zeros((neq, N))
         Aeq[:nv, :nv], Aeq[:nv, nv:nv + na], Aeq[:nv, nv + na:] = H, Lay["StD"], -Jnt.T * Lay["Dq"][na:]
@@ -226,47 +290,10 @@ class LeanQP:
             lbs, ubs = lbs.copy(), ubs.copy()
             lbs[i] = kk * (ctrl.limit_lo - q[i] - T * qd[i])
             ubs[i] = kk * (ctrl.limit_hi - q[i] - T * qd[i])
-        Gs, l, u = Lay["Gs"], Lay["l"], Lay["u"]
-        if not isfinite(float(Qq.sum() + gq.sum() + Aeq.sum() + beq.sum())):
-            return None                                   # not finite: the readable path says why
-        As, Cs, bs, ls, us = Aeq, Gs, beq, l, u
-        if self.equilibrate:                              # solve_qp's equilibrate: rows over their largest entry
-            sa = np.abs(Aeq).max(axis=1, initial=0.0)
-            sa = 1.0 / np.where(sa > 0, sa, 1.0)
-            sc = np.abs(Gs).max(axis=1, initial=0.0)
-            sc = 1.0 / np.where(sc > 0, sc, 1.0)
-            As, bs, Cs, ls, us = sa[:, None] * Aeq, sa * beq, sc[:, None] * Gs, sc * l, sc * u
-        t1 = time.perf_counter()
-        r = _ActiveSet.solve(Lay, Q, g, As, bs, Cs, us, lbs, ubs, ctrl.eps_abs)
-        if r is None and not max(np.abs(Qq).max(), np.abs(gq).max(), np.abs(Aeq).max(), np.abs(beq).max(),
-                                 np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
-                                 np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0)) <= MAX_DATUM:
-            return None                                   # beyond MAX_DATUM ProxQP stalls: the readable path says why
-        if r is not None:
-            pass
-        elif self.primal_inf is None:
-            r = self._dense_solve(Q, g, As, bs, Cs, ls, us, l_box=lbs, u_box=ubs, eps_abs=ctrl.eps_abs, eps_rel=0.0,
-                                  max_iter=ctrl.max_iter)
-        else:
-            qp = self._proxqp.dense.QP(N, neq, Cs.shape[0], True)
-            st = qp.settings
-            st.eps_abs, st.eps_rel, st.max_iter, st.eps_primal_inf = ctrl.eps_abs, 0.0, ctrl.max_iter, self.primal_inf
-            qp.init(Q, g, As, bs, Cs, ls, us, lbs, ubs)
-            qp.solve()
-            r = qp.results
-        if not isinstance(r, _ActiveSet):
-            _ActiveSet.remember(Lay, r.z, Cs.shape[0], lbs, ubs)
-        xs, y, z = r.x, r.y, r.z
-        t2 = time.perf_counter()
-        if not isfinite(float(xs.sum())):
-            return None
-        nc = Cs.shape[0]
-        kkt = _kkt(Q, g, As, bs, Cs, us, lbs, ubs, xs, y, z[:nc], z[nc:])
-        x = D * xs
-        return self._judge(x, H, C, Jnt, bnt, keep, active, rows, lbs[:nv], ubs[:nv], kkt, r, t1 - t0, t2 - t1)
+        return H, C, Jnt, bnt, keep, active, Lay, rows, Aeq, beq, lbs, ubs
 
-    def _judge(self, x, H, C, Jnt, bnt, keep, active, rows, lbq, ubq, kkt, r, t_build, t_solve):
-        """:meth:`QPController._judge` on the lean arrays; None (the readable path answers) unless met or compromise."""
+    def _groups(self, x, H, C, Jnt, bnt, keep, lbq, ubq) -> tuple:
+        """(violation, tolerance) per constraint group of x: :meth:`QPController._residuals` on the lean arrays."""
         ctrl, nv, na = self.ctrl, self.nv, self.na
         qdd, tau_a, f = x[:nv], x[nv:nv + na], x[nv + na:]
         tau = np.zeros(nv)
@@ -282,11 +309,19 @@ class LeanQP:
         tol = {"dynamics": ftol * (fs + np.abs(C).max()), "contact": ftol * (1.0 + np.abs(bnt).max(initial=0.0)),
                "cone": ftol * fs, "limits": ftol * fs}
         res = {"dynamics": dyn, "contact": con, "cone": cone, "limits": lim}
+        return res, tol, tau, F
+
+    def _judge(self, x, H, C, Jnt, bnt, keep, active, rows, lbq, ubq, kkt, statuses, iters, t_build, t_solve):
+        """:meth:`QPController._judge` on the lean arrays; None (the readable path answers) unless met or compromise."""
+        ctrl, nv = self.ctrl, self.nv
+        qdd = x[:nv]
+        res, tol, tau, F = self._groups(x, H, C, Jnt, bnt, keep, lbq, ubq)
+        dyn, con, cone, lim = res["dynamics"], res["contact"], res["cone"], res["limits"]
         if not (dyn <= tol["dynamics"] and con <= tol["contact"] and cone <= tol["cone"] and lim <= tol["limits"]
                 and kkt <= KKT_TOL):
             return None
         errors, missed = {}, {}
-        for name, J, b, wt, idx in rows:
+        for name, J, b, wt, idx, _ in rows:
             d = (qdd[idx] if J is None else J @ qdd) - b
             e = sqrt(float(d @ d))                        # np.linalg.norm's arithmetic for a vector
             errors[name] = e
@@ -298,5 +333,5 @@ class LeanQP:
             f"task {n!r} misses its desired acceleration by {e:.3g}" for n, e in missed.items()))
         return QPResult(status="compromise" if missed else "met", message=msg, tau=tau, qdd=qdd.copy(), forces=forces,
                         active=active, task_errors=errors, residuals=res, tolerances=tol,
-                        solver_status=[str(r.info.status).split(".")[-1]], iterations=int(r.info.iter),
+                        solver_status=statuses, iterations=iters,
                         build_time=t_build, solve_time=t_solve, kkt=float(kkt))

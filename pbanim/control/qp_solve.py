@@ -172,17 +172,26 @@ def keep_level(Aeq: np.ndarray, beq: np.ndarray, Ak: np.ndarray, x: np.ndarray,
     A_k Z = U Σ Vᵀ, T = U_rᵀ for the r singular values above ``rank_tol`` ‖A_k‖; the rows left out are
     combinations of A_eq's and hold with it. The stacked equalities stay of full row rank.
     """
+    T = _level_rows(Aeq, Ak, rank_tol)
+    if T is None:
+        return Aeq, beq
+    return np.vstack([Aeq, T]), np.concatenate([beq, T @ x])
+
+
+def _level_rows(Aeq: np.ndarray, Ak: np.ndarray, rank_tol: float = 1e-9) -> np.ndarray | None:
+    """T of :func:`keep_level` (its rows T A_k x = T A_k x* to add), or None when A_k Z has no singular value above
+    ``rank_tol`` ‖A_k‖: then A_k x is the same at every x of A_eq x = b_eq, the level's objective is constant there
+    and every feasible point is its optimum. T depends on A_eq and A_k alone, not on the level's answer."""
     _, s, Vt = np.linalg.svd(Aeq)
     r = int(np.sum(s > rank_tol * max(s[0], 1e-300))) if s.size else 0
     Z = Vt[r:].T
     if Z.shape[1] == 0 or not Ak.size:
-        return Aeq, beq
+        return None
     U, sk, _ = np.linalg.svd(Ak @ Z, full_matrices=False)
     rk = int(np.sum(sk > rank_tol * max(np.linalg.norm(Ak, 2), 1e-300)))
     if rk == 0:
-        return Aeq, beq
-    T = U[:, :rk].T @ Ak
-    return np.vstack([Aeq, T]), np.concatenate([beq, T @ x])
+        return None
+    return U[:, :rk].T @ Ak
 
 
 def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: str = "proxqp", native: bool = True,
