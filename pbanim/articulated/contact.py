@@ -43,7 +43,7 @@ from ..lcp import pgs_box_friction
 from ..lcp.box import box_friction_handoff
 from ..ode.driver import MAX_STEPS, check_finite, drive, step_grid
 from ..results import SimResult
-from .dynamics import bias_forces, crba, world_poses
+from .dynamics import _mass_bias_poses, bias_forces, crba, world_poses
 from .spatial import plucker_inverse
 from .system import ArticulatedSystem
 
@@ -110,8 +110,13 @@ def point_jacobians(tree, q: np.ndarray, links, points) -> tuple[np.ndarray, np.
     The motion subspaces in world Plücker coordinates (ω_j, v_j) = ⁰X_j S_j are formed once per link, and the
     columns ω_j × p + v_j of every point at once, kept on the path from the root to the point's link (the
     same products as a walk up the path, point by point, so the same numbers)."""
+    return _point_jacobians(tree, world_poses(tree, q), links, points)
+
+
+def _point_jacobians(tree, poses, links, points) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`point_jacobians` from the tree's ``poses`` = :func:`.dynamics.world_poses` (tree, q)."""
     A = tree.arrays()
-    _, X0, origins = world_poses(tree, q)
+    _, X0, origins = poses
     links = np.asarray(links, dtype=int).reshape(-1)
     m, nv = links.size, tree.nv
     P = np.zeros((m, 3))
@@ -172,6 +177,10 @@ class ArticulatedContact:
         self._persist: dict = {}                     # contact key -> its [on, stick/slide, stick/slide] state
         self.fallbacks = 0                           # active-set steps handed to PGS
         self.last = None
+        # H, C and the points' Jacobians from one evaluation of the transforms ⁱX_λ(q) per step (each of CRBA,
+        # RNEA and the world poses computes the same ones): the same steps bit for bit; False: the readable
+        # crba, bias_forces and point_jacobians, each with its own
+        self.lean_path = True
 
     def _set_spheres(self, spheres: list) -> None:
         """Spheres (link, centre in the link frame, radius) that collide with the spheres of other links,
@@ -195,10 +204,14 @@ class ArticulatedContact:
     def step(self, t: float, y: np.ndarray, h: float) -> np.ndarray:
         s, tree = self.system, self.tree
         q, qd = y[:s.nq], y[s.nq:]
-        H = crba(tree, q)
+        if self.lean_path:
+            H, C, poses = _mass_bias_poses(tree, q, qd)
+        else:
+            H, C, poses = crba(tree, q), None, None
         tau = s._tau(t, q, qd) - tree.arrays()["damping"] * qd
-        u = qd + h * np.linalg.solve(H, tau - bias_forces(tree, q, qd))
-        P, Jp = point_jacobians(tree, q, self.links, self.points)
+        u = qd + h * np.linalg.solve(H, tau - (bias_forces(tree, q, qd) if C is None else C))
+        P, Jp = (point_jacobians(tree, q, self.links, self.points) if poses is None
+                 else _point_jacobians(tree, poses, self.links, self.points))
         gap, nrm = self.terrain.gap_normal(P)
         speed = np.einsum("kij,j,ki->k", Jp, u, nrm)                  # normal speed of each point at u*
         near = np.flatnonzero(gap < self.margin + h * np.abs(speed))

@@ -76,7 +76,11 @@ def external_forces(tree: ArticulatedTree, f_ext, K: int | None = None) -> np.nd
 def world_poses(tree: ArticulatedTree, q) -> tuple[list, list, np.ndarray]:
     """(Xup, X0, origins): the child-from-parent transforms, the link-from-world transforms ⁱX_0 and the
     link origins in world coordinates (n, 3), from ⁱX_0 = [[E, 0], [−E r×, E]]: r× = −Eᵀ(−E r×)."""
-    Xup = link_transforms(tree, q)
+    return _poses(tree, link_transforms(tree, q))
+
+
+def _poses(tree, Xup) -> tuple[list, list, np.ndarray]:
+    """:func:`world_poses` from the transforms ``Xup`` = :func:`link_transforms` (tree, q)."""
     X0 = [None] * tree.n
     origins = np.zeros((tree.n, 3))
     for i in range(tree.n):
@@ -94,9 +98,9 @@ def rnea(tree: ArticulatedTree, q, qd, qdd, f_ext=None) -> np.ndarray:
         return check_result("rnea", _rnea(tree, q, qd, qdd, f_ext), _HUGE)
 
 
-def _rnea(tree, q, qd, qdd, f_ext):
+def _rnea(tree, q, qd, qdd, f_ext, Xup=None):
     A, fx = tree.arrays(), external_forces(tree, f_ext)
-    Xup = link_transforms(tree, q)
+    Xup = link_transforms(tree, q) if Xup is None else Xup
     v, a, f = [None] * tree.n, [None] * tree.n, [None] * tree.n
     for i in range(tree.n):
         S, vi = A["S"][i], A["vi"][i]
@@ -128,9 +132,9 @@ def crba(tree: ArticulatedTree, q) -> np.ndarray:
         return check_result("crba", _crba(tree, q), _HUGE)
 
 
-def _crba(tree, q):
+def _crba(tree, q, Xup=None):
     A = tree.arrays()
-    Xup = link_transforms(tree, q)
+    Xup = link_transforms(tree, q) if Xup is None else Xup
     Ic = [I.copy() for I in A["I"]]
     for i in reversed(range(tree.n)):
         lam = tree.parent[i]
@@ -149,6 +153,17 @@ def _crba(tree, q):
             H[vi, A["vi"][j]] = F.T @ A["S"][j]
             H[A["vi"][j], vi] = H[vi, A["vi"][j]].T
     return H
+
+
+def _mass_bias_poses(tree, q, qd) -> tuple:
+    """(H, C, world poses) = (:func:`crba`, :func:`bias_forces`, :func:`world_poses`) at (q, q̇) from one
+    evaluation of the transforms ⁱX_λ(q) (each of the three computes the same ones): the same numbers, the
+    same named errors (a contact step's lean path, :mod:`.contact`)."""
+    Xup = link_transforms(tree, q)
+    with np.errstate(over="ignore", invalid="ignore"):
+        H = check_result("crba", _crba(tree, q, Xup), _HUGE)
+        C = check_result("rnea", _rnea(tree, q, qd, np.zeros(tree.nv), None, Xup), _HUGE)
+    return H, C, _poses(tree, Xup)
 
 
 @contract(tree=_TREE, q=_Q, qd=_V, tau=_V, f_ext=_FEXT)
