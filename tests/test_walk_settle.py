@@ -31,3 +31,15 @@ def test_settled_runs_keep_the_outcome_and_are_the_full_runs_up_to_their_stop():
     assert k < rec_full.t.size
     assert np.array_equal(rec.t, rec_full.t[:k]) and np.array_equal(rec.q, rec_full.q[:k])
     assert rec.strikes == rec_full.strikes[:len(rec.strikes)] and rec.push_time == rec_full.push_time
+
+
+def test_five_strikes_decide_the_late_fall_that_four_strikes_miss():
+    # ORACLES F26: −120 N s at phase 0.9 of the 4th right step strikes four times upright after its push, then
+    # falls; settle=4 stops it as recovered, settle=5 (the chapter's figure) keeps the fall of the full run
+    push = [Push(-120.0, 0.9, 4)]
+    full = simulate_pushes(WALK, 4.5, H, push, servo="stable", record_every=50)[0]
+    five = simulate_pushes(WALK, 4.5, H, push, servo="stable", record_every=50, settle=5)[0]
+    four = simulate_pushes(WALK, 4.5, H, push, servo="stable", record_every=50, settle=4)[0]
+    assert full.fell and len([t for t, _ in full.strikes if t > full.push_time]) == 4
+    assert five.fell and five.settled is None and five.fall_time == full.fall_time
+    assert not four.fell and four.settled is not None

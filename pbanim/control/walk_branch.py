@@ -21,7 +21,9 @@ limit is 1 rad): ``WalkResult.settled`` is that time and the run's records end t
 that step is the full run's, bit for bit. Measured on the chapter's envelope (70 pushes of 30–200 N s at
 phases 0.1–0.9 of the 4th step, h = 2 ms, 7 s): every fallen run fell within 4 strikes after its push
 (1.9 s at most), every recovered one walked 11–12 strikes to 7 s; n = 6 leaves a margin of two strikes
-and gives every run the outcome of its full run (ORACLES F6, tested).
+and gives every run the outcome of its full run (ORACLES F6, tested); n = 5 (the chapter's figure) gives the
+same 70 outcomes, and n = 4 does not: −120 N s at phase 0.9 falls 0.12 s after its 4th strike, upright at it
+(ORACLES F26, tested).
 """
 
 from __future__ import annotations
