@@ -161,7 +161,7 @@ def work_precision_figure(ctx):
 # smaller step. Large steps (implicit Euler, linearized) and XPBD do not care.
 
 # %%
-@figure("ch12", "stable_step", "Largest stable step vs stiffness per method", cost=7.0)
+@figure("ch12", "stable_step", "Largest stable step vs stiffness per method", cost=4.4)
 def stable_step(ctx):
     ks = (1e2, 1e3, 1e4) if ctx.quick else (1e1, 1e2, 1e3, 1e4, 1e5)
     n = 6 if ctx.quick else 8
