@@ -127,7 +127,9 @@ class LeanCycle:
     exact arithmetic, to roundoff in floats (ORACLES E24). Every smoothing level has even lengths (:func:`_coarsen`),
     so no red cell neighbours a red one, even across a periodic side: N_R reads black cells only and the
     product adds into x_R in place. A solid cell's row is the identity, as in :class:`CellOperator`.
-    Called on a field of the fine grid's shape, it returns what ``v_cycle(hierarchy, b, α, β)`` returns.
+    Called on a field of the fine grid's shape, it returns what ``v_cycle(hierarchy, b, α, β)`` returns. A
+    level's first red half-sweep starts from x = 0, so it is x_R = b_R / a_R, taken without the product (the
+    same numbers: N_R·0 adds zeros).
     """
 
     def __init__(self, hierarchy) -> None:
@@ -159,11 +161,11 @@ class LeanCycle:
             self.levels.insert(0, lv)
             below = lv
         self.perm = self.levels[0]["perm"]
+        self.back = np.empty_like(self.perm)                 # the inverse permutation: a gather, not a scatter
+        self.back[self.perm] = np.arange(self.perm.size)
 
     def __call__(self, b: np.ndarray) -> np.ndarray:
-        out = np.empty(b.size)
-        out[self.perm] = self._cycle(0, b.ravel()[self.perm])
-        return out.reshape(b.shape)
+        return self._cycle(0, b.ravel().take(self.perm)).take(self.back).reshape(b.shape)
 
     def _cycle(self, k: int, b: np.ndarray) -> np.ndarray:
         lv = self.levels[k]
@@ -172,9 +174,11 @@ class LeanCycle:
             full = np.empty(b.size)
             full[lv["perm"]] = b
             return _direct(g, full.reshape(g.shape), A.alpha, A.beta).ravel()[lv["perm"]] * lv["fluid"]
-        x, bs = np.zeros(b.size), b / lv["d"]
+        bs = b / lv["d"]
         pre, post = lv["sweeps"]
-        for order in (pre, "coarse", post):
+        x = np.zeros(b.size)                   # the first (red) half-sweep from x = 0 is x_R = b_R/a_R: no product
+        x[pre[0][0]] = bs[pre[0][0]]
+        for order in (pre[1:], "coarse", post):
             if order == "coarse":
                 x += _mv(lv["P"], self._cycle(k + 1, _mv(lv["R"], b - _mv(lv["M"], x))))
                 continue
