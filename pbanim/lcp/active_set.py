@@ -283,8 +283,8 @@ def dual_active_set(A: np.ndarray, b: np.ndarray, *, tol: float = 1e-10, max_ite
 def box_friction_residual(z: np.ndarray, w: np.ndarray, mu) -> float:
     """Largest violation of the box-friction conditions (normal: natural map; tangent: w at a bound with
     the wrong sign, w ≠ 0 inside, |t| above μf)."""
-    f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-    wn, wt = w[0::3], np.stack([w[1::3], w[2::3]], axis=1)
+    f, t = z[0::3], z.reshape(-1, 3)[:, 1:]              # the tangent pairs (m, 2), a view
+    wn, wt = w[0::3], w.reshape(-1, 3)[:, 1:]
     lim = (np.asarray(mu, dtype=float) * np.maximum(f, 0.0))[:, None]
     over = np.maximum(np.abs(t) - lim, 0.0)
     # natural map of the box: t − clip(t − w, −μf, μf)
@@ -345,8 +345,8 @@ def box_friction_active_set(A: np.ndarray, b: np.ndarray, mu, *, state=None, max
             x, _ = _prox_solve(A[unk] @ P, -b[unk], rho, refine, sym=False)
             z = P @ x
         w = A @ z + b
-        f, t = z[0::3], np.stack([z[1::3], z[2::3]], axis=1)
-        wn, wt = w[0::3], np.stack([w[1::3], w[2::3]], axis=1)
+        f, t = z[0::3], z.reshape(m, 3)[:, 1:]
+        wn, wt = w[0::3], w.reshape(m, 3)[:, 1:]
         lim = (mu * f)[:, None]
         new = s.copy()
         new[:, 0] = np.where(on, f >= -thr, wn < -thr)
