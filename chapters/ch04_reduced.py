@@ -280,7 +280,7 @@ def derive_forked(jobs, cap: float) -> list[dict]:
 
 # %%
 @figure("ch04", "derivation_time", "Deriving + compiling the n-link pendulum: pbanim vs sympy.physics.mechanics",
-        cost=15.0)
+        cost=9.6)
 def derivation_time(ctx):
     # full: n up to 6, where sympy is already 5-10x slower and its curves steeper; beyond, only sympy's own
     # time grows (n = 20: 13 s Kane, 27 s Lagrange, of the 136 s the figure took with n = 2, 5, 10, 20)
@@ -289,11 +289,13 @@ def derivation_time(ctx):
     kinds = ("pbanim", "kane", "lagrange")
     times = {k: [] for k in kinds}
     values = {}
-    jobs = [(k, n, 1 if n == ns[0] else 0) for n in ns for k in kinds]
+    # the first n's jobs also give the rhs at one state (the three formulations agree: tests/test_reduced.py),
+    # not its time (five repeats of ≥ 0.05 s each, 0.8 s of the child's time nobody plotted)
+    jobs = [(k, n, 1 if n == ns[0] else 0, False) for n in ns for k in kinds]
     # quick: one process for all (a single sympy import); full: a fresh process per job, forked from one that
     # has only imported (cold caches as in a new interpreter; the imports, ≈2 s each, paid once)
     results = derive_batch(jobs, cap) if ctx.quick else derive_forked(jobs, cap)
-    for (k, n, _), r in zip(jobs, results):
+    for (k, n, _, _), r in zip(jobs, results):
         times[k].append(r["total"])
         if "rhs_value" in r:
             values[k] = np.array(r["rhs_value"])
