@@ -55,7 +55,7 @@ def test_lean_levels_equal_the_readable_levels():
     # ORACLES F25: 40 states near the stance (random speeds, a foot lifted or tilted now and then): the same active
     # contacts; where the readable path (at eps_abs 1e-9, and at 1e-11) certifies its answer, the same status and
     # the answers within 1e3 eps_abs (in the scaled unknowns: τ, f over M g; q̈ relative; measured ≤ 5.1e-9 M g);
-    # a state the lean path hands on gets the readable answer itself
+    # an answer neither certifies is "unconverged" on both, and the same
     q0, ctrl, tight, lq, lean = _balance_first()
     assert lq.supported
     f_scale, tol = ctrl.f_scale, 1e3 * 1e-9
@@ -71,8 +71,11 @@ def test_lean_levels_equal_the_readable_levels():
         lean_answers += a.solver_status != b.solver_status
         fixed += "level fixed by the constraints" in a.solver_status
         refs = [r for r in (b, c) if r.status in ("met", "compromise")]      # the certified readable answers
-        if a.status not in ("met", "compromise"):      # handed to the readable path: its answer
-            assert a.status == b.status and np.array_equal(a.tau, b.tau)
+        if a.status not in ("met", "compromise"):
+            # a level ProxQP does not certify, or whose answer is not feasible (then the level above is kept), as on
+            # the readable path: "unconverged", the constraints holding, the same answer as the readable one
+            assert a.status == b.status == "unconverged" and all(a.residuals[g] <= a.tolerances[g] for g in a.residuals)
+            assert np.abs(a.tau - b.tau).max() <= tol * f_scale and np.abs(a.forces - b.forces).max() <= tol * f_scale
             continue
         assert a.kkt <= KKT_TOL and all(a.residuals[g] <= a.tolerances[g] for g in a.residuals)
         for ref in refs:
@@ -104,7 +107,7 @@ def test_a_level_the_constraints_fix_adds_no_row():
 def test_balance_runs_on_the_lean_levels_equal_the_readable_runs(push):
     # ORACLES F25: the figure's prioritized runs (BALANCE_FIRST) on the lean levels and on the readable ones: the
     # same outcome, the centre of mass within 1e-5 m and the joint angles within 2e-2 rad (measured over 2.5 s:
-    # 2e-10 m, 8e-9 rad at 20 N s; 1.9e-6 m, 5.5e-3 rad at −24 N s, where ProxQP leaves some steps uncertified:
+    # 2e-10 m, 8e-9 rad at 20 N s; 4.9e-6 m, 6.6e-3 rad at −24 N s, where ProxQP leaves some steps uncertified:
     # the readable run at eps_abs 1e-9 differs from itself at 1e-11 by 7.6e-3 rad, the lean run at 1e-11 from
     # the readable at 1e-11 by 1.9e-8 rad)
     a = simulate_balance(push, 1.5, **BALANCE_FIRST)

@@ -26,10 +26,11 @@ contact set, in the scaled unknowns x̃ = D⁻¹x):
   last step's last level (:class:`~.qp_active.ActiveSet`, as in :class:`~.qp_lean.LeanQP`), ProxQP from the
   level above's answer when that does not certify;
 * every level's answer is judged as ``_feasible`` judges it (each constraint group within its tolerance, the
-  kept rows within feasibility_tol (f_scale + max |b|)) and by its KKT residual; where the readable path would
-  keep the level above (a level's answer not feasible), or any level is not certified (KKT residual above
-  :data:`~.qp.KKT_TOL`), or the final status is not met or compromise, the readable
-  :meth:`QPController.solve` answers from the same state.
+  kept rows within feasibility_tol (f_scale + max |b|)) and by its KKT residual, with the readable path's
+  consequences: an answer not feasible keeps the level above ("… (kept level above)", not certified), a KKT
+  residual above :data:`~.qp.KKT_TOL` makes the status "unconverged" (:meth:`QPController._judge` itself says
+  so); where the readable path would go on from an answer that is not feasible (no feasible level above), or the
+  data are not finite, the readable :meth:`QPController.solve` answers from the same state.
 
 So the answer is the readable one to the solver's tolerance: the same problems level by level, each
 level's kept value A_ℓ x* the same to eps_abs (tests/test_qp_lean_levels.py, ORACLES F25).
@@ -105,16 +106,14 @@ class LeanLevels(LeanQP):
         if not big <= MAX_DATUM:
             return None                                   # not finite or too large: the readable path says why
         t1 = time.perf_counter()
-        x, statuses, iters, kkt = None, [], 0, 0.0
+        x, statuses, iters, kkt, Z = None, [], 0, 0.0, None
         for here in levels + [None]:
             if here is None:                              # the last level: the regularization
                 Q, g = Lay["Qreg_s"], Lay["zeros"]
                 r = _ActiveSet.solve(Lay, Q, g, As, beq, Gs, u, lbs, ubs, ctrl.eps_abs)
             else:
-                Jk = np.vstack([self._eye_nv[idx] if J is None else J for _, J, _, _, idx, _ in here])
-                Ak = np.zeros((Jk.shape[0], N))
-                Ak[:, :nv] = Jk
-                T = _level_rows(Aeq, Ak)
+                Ak = np.vstack([self._padded(J, idx, N) for _, J, _, _, idx, _ in here])
+                T, Z = _level_rows(Aeq, Ak, Z=Z)          # Z: the equalities' null space, kept while they are
                 if T is None:                             # A_k x fixed by the equalities: every feasible x is optimal
                     statuses.append("level fixed by the constraints")
                     continue
@@ -142,16 +141,39 @@ class LeanLevels(LeanQP):
             z = np.asarray(r.z)
             kk = _kkt(Q, g, As, beq, Gs, u, lbs, ubs, xs, r.y, z[:nc], z[nc:])
             xk = D * xs
-            if not (kk <= KKT_TOL and self._feasible(xk, H, C, Jnt, bnt, keep, lbq, ubq, Aeq, beq, n0)):
-                return None                               # the readable path keeps the level above or says why
-            x, kkt = xk, max(kkt, kk)
-            statuses.append(str(r.info.status).split(".")[-1])
+            st = str(r.info.status).split(".")[-1]
             iters += int(r.info.iter)
+            if not self._feasible(xk, H, C, Jnt, bnt, keep, lbq, ubq, Aeq, beq, n0):
+                if x is None or not self._feasible(x, H, C, Jnt, bnt, keep, lbq, ubq, Aeq, beq, n0):
+                    return None                           # the readable path goes on from xk: it says what happens
+                statuses.append(f"{st} (kept level above)")   # as the readable path: x stays, not certified
+                kkt = np.inf
+                continue
+            x, kkt = xk, max(kkt, kk)
+            statuses.append(st)
             if here is not None:                          # keep this optimum (keep_level's rows T A_k x = T A_k x*)
                 Aeq, beq = np.vstack([Aeq, T]), np.concatenate([beq, T @ x])
                 As = np.vstack([As, T])                   # T acts on q̈ only, where D = 1
+                Z = None
         t2 = time.perf_counter()
-        return self._judge(x, H, C, Jnt, bnt, keep, active, rows, lbq, ubq, kkt, statuses, iters, t1 - t0, t2 - t1)
+        if kkt <= KKT_TOL:
+            return self._judge(x, H, C, Jnt, bnt, keep, active, rows, lbq, ubq, kkt, statuses, iters, t1 - t0, t2 - t1)
+        # a level not certified (as the readable path, which goes on): QPController._judge says "unconverged"
+        P = {"Aeq": Aeq[:n0], "beq": beq[:n0], "C": C, "bnt": bnt, "lb": lbs * D, "ub": ubs * D, "active": active,
+             "tasks": [(t, self._padded(J, idx, N), b)
+                       for t, (_, J, b, _, idx, _) in zip(ctrl.tasks, rows)]}
+        return self._ctrl_judge(P, x, statuses, iters, kkt, t1 - t0, t2 - t1)
+
+    def _padded(self, J, idx, N: int) -> np.ndarray:
+        """A task's rows over all N unknowns (zero outside q̈), as QPController.build lays them out."""
+        Jq = self._eye_nv[idx] if J is None else J
+        A = np.zeros((Jq.shape[0], N))
+        A[:, :self.nv] = Jq
+        return A
+
+    def _ctrl_judge(self, *args):
+        """:meth:`QPController._judge` itself (the readable verdict and message)."""
+        return self.ctrl._judge(*args)
 
     def _feasible(self, x, H, C, Jnt, bnt, keep, lbq, ubq, Aeq, beq, n0) -> bool:
         """:meth:`QPController._feasible` on the lean arrays: every group within its tolerance, the kept rows

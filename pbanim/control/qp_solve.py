@@ -172,26 +172,32 @@ def keep_level(Aeq: np.ndarray, beq: np.ndarray, Ak: np.ndarray, x: np.ndarray,
     A_k Z = U Σ Vᵀ, T = U_rᵀ for the r singular values above ``rank_tol`` ‖A_k‖; the rows left out are
     combinations of A_eq's and hold with it. The stacked equalities stay of full row rank.
     """
-    T = _level_rows(Aeq, Ak, rank_tol)
+    T, _ = _level_rows(Aeq, Ak, rank_tol)
     if T is None:
         return Aeq, beq
     return np.vstack([Aeq, T]), np.concatenate([beq, T @ x])
 
 
-def _level_rows(Aeq: np.ndarray, Ak: np.ndarray, rank_tol: float = 1e-9) -> np.ndarray | None:
-    """T of :func:`keep_level` (its rows T A_k x = T A_k x* to add), or None when A_k Z has no singular value above
-    ``rank_tol`` ‖A_k‖: then A_k x is the same at every x of A_eq x = b_eq, the level's objective is constant there
-    and every feasible point is its optimum. T depends on A_eq and A_k alone, not on the level's answer."""
-    _, s, Vt = np.linalg.svd(Aeq)
-    r = int(np.sum(s > rank_tol * max(s[0], 1e-300))) if s.size else 0
-    Z = Vt[r:].T
+def _level_rows(Aeq: np.ndarray, Ak: np.ndarray, rank_tol: float = 1e-9, Z: np.ndarray | None = None) -> tuple:
+    """(T, Z): T of :func:`keep_level` (its rows T A_k x = T A_k x* to add), or None when A_k Z has no singular value
+    above ``rank_tol`` ‖A_k‖₂ (then A_k x is the same at every x of A_eq x = b_eq, the level's objective is constant
+    there and every feasible point is its optimum); Z the null space of A_eq (given: not computed again). T depends
+    on A_eq and A_k alone, not on the level's answer. A_k Z of Frobenius norm below ½ rank_tol ‖A_k‖_F / √min(shape)
+    has rank 0 without its SVD (s₁ ≤ ‖·‖_F, ‖A_k‖₂ ≥ ‖A_k‖_F / √rank)."""
+    if Z is None:
+        _, s, Vt = np.linalg.svd(Aeq)
+        r = int(np.sum(s > rank_tol * max(s[0], 1e-300))) if s.size else 0
+        Z = Vt[r:].T
     if Z.shape[1] == 0 or not Ak.size:
-        return None
-    U, sk, _ = np.linalg.svd(Ak @ Z, full_matrices=False)
+        return None, Z
+    AZ = Ak @ Z
+    if np.sqrt(np.sum(AZ * AZ)) <= 0.5 * rank_tol * np.sqrt(np.sum(Ak * Ak) / min(Ak.shape)):
+        return None, Z
+    U, sk, _ = np.linalg.svd(AZ, full_matrices=False)
     rk = int(np.sum(sk > rank_tol * max(np.linalg.norm(Ak, 2), 1e-300)))
     if rk == 0:
-        return None
-    return U[:, :rk].T @ Ak
+        return None, Z
+    return U[:, :rk].T @ Ak, Z
 
 
 def solve_qp(Q, g, *, Aeq, beq, C, l, u, lb, ub, scale=None, x0=None, backend: str = "proxqp", native: bool = True,
