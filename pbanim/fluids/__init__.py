@@ -28,7 +28,7 @@ module              what it holds
 
 from __future__ import annotations
 
-from .advection import ADVECTION, BACKTRACES, advect_scalar, advect_velocity, semi_lagrangian_loop
+from .advection import ADVECTION, BACKTRACES, advect_scalar, advect_scalar_steps, advect_velocity, semi_lagrangian_loop
 from .collocated import COLLOCATED_STENCILS, collocated_divergence, collocated_gradient, project_collocated
 from .diffusion import DIFFUSION_METHODS, diffuse_scalar, diffuse_velocity
 from .effects import (Advection, Buoyancy, Diffusion, FluidEffect, Force, Projection, Source, VorticityConfinement,
@@ -43,7 +43,7 @@ from .stam import STAM_DIFFUSION, StamResult, StamSolver, advect_collocated
 
 __all__ = ["Grid", "BOUNDARIES", "FluidScene", "FluidState", "FluidResult", "FluidEffect", "Source", "Force",
            "Buoyancy", "VorticityConfinement", "Diffusion", "Advection", "Projection", "vorticity",
-           "confinement_force", "ADVECTION", "BACKTRACES", "advect_scalar", "advect_velocity",
+           "confinement_force", "ADVECTION", "BACKTRACES", "advect_scalar", "advect_scalar_steps", "advect_velocity",
            "semi_lagrangian_loop", "DIFFUSION_METHODS", "diffuse_scalar", "diffuse_velocity", "POISSON_METHODS",
            "SolveInfo", "solve_cells", "sample", "COLLOCATED_STENCILS", "collocated_divergence",
            "collocated_gradient", "project_collocated", "GHIA_RE100", "centreline_u", "lid_driven_cavity",

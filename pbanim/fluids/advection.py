@@ -43,15 +43,17 @@ import math
 
 import numpy as np
 
-from ..contracts import Choice, Obj, Real, contract
+from ..contracts import Choice, Int, Obj, Real, contract
 from ..errors import InvalidInput, NonFiniteResult
 from .interpolate import _sample as sample
+from .interpolate import _where
 from .interpolate import component_at_faces, pad_field
 from .specs import Cells, Velocity, finite_fields, quiet
 
 BACKTRACES = ("euler", "midpoint")
 
-__all__ = ["ADVECTION", "BACKTRACES", "advect_scalar", "advect_velocity", "semi_lagrangian_loop"]
+__all__ = ["ADVECTION", "BACKTRACES", "advect_scalar", "advect_scalar_steps", "advect_velocity",
+           "semi_lagrangian_loop"]
 
 # name → (interpolation order, correction, limited)
 ADVECTION = {
@@ -93,18 +95,26 @@ def _trace(grid, X, vel, h, pads, backtrace):
     return [x - h * v for x, v in zip(X, vm)]
 
 
-def _one(grid, q, component, X, vel, h, method, pads, padded=None, backtrace="euler"):
-    """One quantity advected by ``method`` given its sample points X and the velocity there."""
+def _departures(grid, component, X, vel, h, pads, backtrace, both):
+    """The sample coordinates (:func:`~.interpolate._where`) of the departure points of X over h, and over −h
+    when ``both`` (the corrections' reverse step; else None)."""
+    def where(step):
+        return _where(grid, component, _trace(grid, X, vel, step, pads, backtrace))
+    return where(h), (where(-h) if both else None)
+
+
+def _one(grid, q, component, X, vel, h, method, pads, padded=None, backtrace="euler", at=None):
+    """One quantity advected by ``method`` given its sample points X and the velocity there (``at``: their
+    :func:`_departures`, computed before; then X and vel are not read)."""
     order, correction, limited = ADVECTION[method]
-    fwd = _trace(grid, X, vel, h, pads, backtrace)
+    fwd, bwd = _departures(grid, component, X, vel, h, pads, backtrace, correction is not None) if at is None else at
     if correction is None:
-        return sample(grid, q, component, fwd, order, padded=padded)
-    bwd = _trace(grid, X, vel, -h, pads, backtrace)
-    q1, lo, hi = sample(grid, q, component, fwd, order, bounds=True)
-    back = sample(grid, q1, component, bwd, order)
+        return sample(grid, q, component, None, order, padded=padded, at=fwd)
+    q1, lo, hi = sample(grid, q, component, None, order, bounds=True, at=fwd)
+    back = sample(grid, q1, component, None, order, at=bwd)
     if correction == "bfecc":
         corrected = q + 0.5 * (q - back)
-        out = sample(grid, corrected, component, fwd, order)
+        out = sample(grid, corrected, component, None, order, at=fwd)
         return np.clip(out, lo, hi) if limited else out
     out = q1 + 0.5 * (q - back)
     if limited:
@@ -138,6 +148,23 @@ def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_la
     if grid.has_obstacles:
         out[grid.solid] = 0.0
     return out
+
+
+@contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, steps=Int(ge=0, le=10_000), method=_METHOD,
+          returns=finite_fields)
+@quiet
+def advect_scalar_steps(grid, s: np.ndarray, u: list, h: float, steps: int,
+                        method: str = "semi_lagrangian") -> np.ndarray:
+    """``steps`` steps of ``advect_scalar(grid, s, u, h, method)`` in a row under the same velocity u: its
+    departure points (Euler backtrace) and their sample coordinates computed once, not every step; the same
+    numbers as the steps one by one (ORACLES E27)."""
+    X = _positions(grid, None)
+    at = _departures(grid, None, X, grid.faces_to_cells(u), h, None, "euler", ADVECTION[method][1] is not None)
+    for _ in range(steps):
+        s = _one(grid, s, None, X, None, h, method, None, at=at)
+        if grid.has_obstacles:
+            s[grid.solid] = 0.0
+    return s
 
 
 @contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, returns=finite_fields)

@@ -157,14 +157,20 @@ def sample(grid, q: np.ndarray, component: int | None, points, order: str = "lin
     return _sample(grid, q, component, points, order, padded, bounds)
 
 
-def _sample(grid, q, component, points, order="linear", padded=None, bounds=False):
-    """:func:`sample` without the checks (the advection's inner loop)."""
-    out_shape = np.shape(points[0])
+def _where(grid, component, points):
+    """(shape of the points, padded indices, fractions) of ``points`` for :func:`_sample`'s ``at``: what it
+    computes from them, once for several fields sampled at the same points."""
+    return (np.shape(points[0]),
+            *_coordinates(grid, grid.shape if component is None else grid.face_shape(component), component, points))
+
+
+def _sample(grid, q, component, points, order="linear", padded=None, bounds=False, at=None):
+    """:func:`sample` without the checks (the advection's inner loop); ``at``: ``_where(grid, component,
+    points)`` computed before (then ``points`` is not read)."""
+    out_shape, idx, frac = _where(grid, component, points) if at is None else at
     P = pad_field(grid, q, component) if padded is None else padded
     flat = P.ravel()
     strides = [int(np.prod(P.shape[a + 1:])) for a in range(grid.dim)]
-    idx, frac = _coordinates(grid, grid.shape if component is None else grid.face_shape(component), component,
-                             points)
     base = sum(j * st for j, st in zip(idx, strides))
     if order == "linear" and not bounds:               # in place, corner pair by corner pair: least memory
         val = _lerp(flat, base, strides, frac, 0, 0)
