@@ -296,7 +296,7 @@ def solver_cost(ctx):
 # Drift and energy error vs wall time for none / Baumgarte / projection.
 
 # %%
-@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=13.0)
+@figure("ch03", "work_precision", "Work-precision: drift and energy error vs wall time per stabilization", cost=7.9)
 def work_precision_fig(ctx):
     wp = work_precision(ctx.quick)
     rows = wp["rows"]

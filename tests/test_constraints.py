@@ -470,6 +470,28 @@ def test_figure_work_precision(figure_data):
     assert none[0][1] < none[-1][1]  # smaller h, smaller drift
 
 
+@pytest.mark.parametrize("method", ["rk4", "symplectic_euler"])
+@pytest.mark.parametrize("stab,kw,lean", [("none", {}, True), ("baumgarte", {"natural_frequency": 30.0}, True),
+                                          ("projection", {}, True), ("baumgarte", {"natural_frequency": 30.0}, False)])
+def test_work_precision_drift_energy_are_the_diagnostics(method, stab, kw, lean):
+    """ORACLES B10: the sweep's E series and max |C| equal the scene's diagnostics, bit for bit."""
+    from pbanim.bench.constraints import _energy_and_drift
+    from pbanim.constraints import Constraints
+    from pbanim.models.constrained import hanging_chain
+    from pbanim.particles.system import Gravity
+    from pbanim.scene import Scene
+
+    mod = hanging_chain(5, link_length=0.2, angle=np.pi / 2)
+    eff = Constraints(mod.constraints, stabilization=stab, max_violation=1.0, **kw)
+    eff.lean_path = lean
+    scene = Scene(mod.system, [Gravity(mod.g), eff])
+    res = scene.simulate(0.2, 0.01, method)
+    E, drift = _energy_and_drift(scene, eff, res.y.T)
+    assert drift > 0.0 if stab != "projection" else drift < 1e-12
+    np.testing.assert_array_equal(E, res.diagnostics["energy"])
+    assert drift == float(res.diagnostics["C_max"].max())
+
+
 def test_bench_smoke():
     from pbanim.bench.constraints import run
 
