@@ -150,6 +150,20 @@ def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_la
     return out
 
 
+def _advect_scalars(grid, fields: list, u: list, h: float, method: str, backtrace: str) -> list:
+    """``[advect_scalar(grid, s, u, h, method, backtrace) for s in fields]`` (the same numbers) with the departure
+    points and their sample coordinates traced once for all the fields (the scene's density and temperature)."""
+    X = _positions(grid, None)
+    pads = [pad_field(grid, c, i) for i, c in enumerate(u)] if backtrace != "euler" else None
+    at = _departures(grid, None, X, grid.faces_to_cells(u), h, pads, backtrace, ADVECTION[method][1] is not None)
+    out = []
+    for s in fields:
+        out.append(_one(grid, s, None, X, None, h, method, pads, backtrace=backtrace, at=at))
+        if grid.has_obstacles:
+            out[-1][grid.solid] = 0.0
+    return out
+
+
 @contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, steps=Int(ge=0, le=10_000), method=_METHOD,
           returns=finite_fields)
 @quiet

@@ -39,7 +39,7 @@ import numpy as np
 
 from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, Seq, Text, contract
 from ..errors import InvalidInput, check_result
-from .advection import ADVECTION, BACKTRACES, advect_scalar, advect_velocity
+from .advection import ADVECTION, BACKTRACES, _advect_scalars, advect_scalar, advect_velocity
 from .diffusion import DIFFUSION_METHODS, diffuse_scalar, diffuse_velocity
 from .poisson import POISSON_METHODS, _solve, check_method_fits
 from .specs import MAX_ITER, MAX_SWEEPS, Named, StateOn, Velocity, finite_fields, quiet
@@ -320,8 +320,12 @@ class Advection(FluidEffect):
         u = state.u
         for k in self._bound(grid, "names"):
             self._need_scalar(state, k, self.name)
-        for k in self.names:
-            state.scalars[k] = advect_scalar(grid, state.scalars[k], u, h, self.method, self.backtrace)
+        if getattr(self, "lean_path", True) and len(set(self.names)) == len(self.names):   # departures traced once
+            fields = _advect_scalars(grid, [state.scalars[k] for k in self.names], u, h, self.method, self.backtrace)
+            state.scalars.update(zip(self.names, fields))
+        else:
+            for k in self.names:
+                state.scalars[k] = advect_scalar(grid, state.scalars[k], u, h, self.method, self.backtrace)
         if self.velocity:
             state.u = advect_velocity(grid, u, h, self.method, self.backtrace)
 
