@@ -73,7 +73,7 @@ PROJECTIONS = (("gauss_seidel", {"iterations": 20}, "Gauss–Seidel 20 (Stam)"),
 # divergence-free to the solver's tolerance, in about 10 iterations whatever the grid.
 
 # %%
-@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=12.8)
+@figure("ch09", "smoke_plume", "Smoke rising around an obstacle", cost=16.1)
 def smoke_plume_figure(ctx):
     shape, t_end, h = ((40, 60), 1.2, 0.02) if ctx.quick else ((128, 192), 3.0, 0.01)
     every = 10
@@ -288,7 +288,7 @@ def collocated_vs_mac(ctx):
 # steady state) and the velocity on the vertical centre line follows Ghia, Ghia and Shin's table.
 
 # %%
-@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=7.5)
+@figure("ch09", "lid_cavity", "Lid-driven cavity, Re = 100: steady centre-line velocity vs Ghia et al.", cost=6.1)
 def lid_cavity(ctx):
     n, h, t_end = (24, 0.04, 10.0) if ctx.quick else (64, 0.01, 20.0)
     scene = lid_driven_cavity(n, 100.0)

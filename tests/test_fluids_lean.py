@@ -240,3 +240,20 @@ def test_scalars_advected_together_are_advected_one_by_one(method, backtrace):
     assert d1[-1].max() > 0.1 and len(d1) >= 4                 # smoke was carried up
     assert np.array_equal(d1, d2) and np.array_equal(t1, t2)
     assert all(np.array_equal(a, b) for a, b in zip(u1, u2))
+
+
+@pytest.mark.parametrize("mode", ["wrap", "reflect", "symmetric"])
+def test_ghost_layers_by_slices_are_np_pad(mode):
+    # ORACLES E29: the ghost layers copied by slices are np.pad's, bit for bit and shape for shape, on every axis
+    # of 2-D and 3-D fields, short axes (np.pad's repeated reflections) included
+    from pbanim.fluids.interpolate import GHOSTS, _pad
+
+    rng = np.random.default_rng(8)
+    for shape in [(3, 5), (4, 7), (5, 2), (9, 8), (33, 48), (6, 4, 5)]:
+        q = rng.standard_normal(shape)
+        for a in range(len(shape)):
+            pad = [(0, 0)] * len(shape)
+            pad[a] = (GHOSTS, GHOSTS)
+            want = np.pad(q, pad, mode=mode)
+            got = _pad(q, pad, mode)
+            assert got.shape == want.shape and np.array_equal(got, want), (shape, a)

@@ -47,6 +47,31 @@ ORDERS = ("linear", "cubic")
 GHOSTS = 2
 
 
+def _pad(q: np.ndarray, pad, mode: str) -> np.ndarray:
+    """``np.pad(q, pad, mode)`` for one axis padded by g on both sides in mode "wrap", "reflect" or "symmetric":
+    the same copies by slices, without np.pad's general machinery (np.pad itself when the axis has ≤ g + 1
+    entries, where its reflections repeat)."""
+    a = next(i for i, p in enumerate(pad) if p != (0, 0))
+    g, n = pad[a][0], q.shape[a]
+    if n <= g + 1:
+        return np.pad(q, pad, mode=mode)
+    shape = list(q.shape)
+    shape[a] += 2 * g
+    out = np.empty(shape)
+
+    def at(x, lo, hi, step=1):
+        return x[(slice(None),) * a + (slice(lo, hi, step),)]
+
+    at(out, g, g + n)[...] = q
+    if mode == "wrap":
+        at(out, 0, g)[...], at(out, g + n, None)[...] = at(q, n - g, None), at(q, 0, g)
+    elif mode == "reflect":                          # the edge entry not repeated: q[g], …, q[1] | q | q[n−2], …
+        at(out, 0, g)[...], at(out, g + n, None)[...] = at(q, g, 0, -1), at(q, n - 2, n - g - 2, -1)
+    else:                                            # symmetric: q[g−1], …, q[0] | q | q[n−1], …, q[n−g]
+        at(out, 0, g)[...], at(out, g + n, None)[...] = at(q, g - 1, None, -1), at(q, n - 1, n - g - 1, -1)
+    return out
+
+
 def pad_field(grid, q: np.ndarray, component: int | None) -> np.ndarray:
     """``q`` with two ghost layers on every side that carry the boundary condition (see the module)."""
     g = GHOSTS
@@ -55,10 +80,10 @@ def pad_field(grid, q: np.ndarray, component: int | None) -> np.ndarray:
         pad = [(0, 0)] * grid.dim
         pad[a] = (g, g)
         if grid.periodic[a]:
-            out = np.pad(out, pad, mode="wrap")
+            out = _pad(out, pad, "wrap")
             continue
         if component == a:                            # normal component: odd about the wall face (u = 0 there)
-            out = np.pad(out, pad, mode="reflect")
+            out = _pad(out, pad, "reflect")
             lo = [slice(None)] * grid.dim
             lo[a] = slice(0, g)
             hi = [slice(None)] * grid.dim
@@ -66,7 +91,7 @@ def pad_field(grid, q: np.ndarray, component: int | None) -> np.ndarray:
             out[tuple(lo)] *= -1.0
             out[tuple(hi)] *= -1.0
             continue
-        out = np.pad(out, pad, mode="symmetric")     # scalar: no flux; tangential: mirrored then 2w − q
+        out = _pad(out, pad, "symmetric")            # scalar: no flux; tangential: mirrored then 2w − q
         if component is None:
             continue
         for side, sl in ((0, slice(0, g)), (1, slice(-g, None))):
