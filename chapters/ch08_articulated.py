@@ -71,7 +71,7 @@ def _tip_reduced(Q):
 # joint drift that only the maximal form has.
 
 # %%
-@figure("ch08", "chain_maximal_vs_reduced", "A chain of rods in maximal and in reduced coordinates", cost=17.0)
+@figure("ch08", "chain_maximal_vs_reduced", "A chain of rods in maximal and in reduced coordinates", cost=9.9)
 def chain_maximal_vs_reduced(ctx):
     n, h = (3, 2e-3) if ctx.quick else (5, 1e-3)
     t_end = 1.0 if ctx.quick else 4.0
@@ -163,7 +163,7 @@ def cost_vs_links(ctx):
 # energy (never growing) and the height of its lowest point above the tread under it.
 
 # %%
-@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase", cost=10.8)
+@figure("ch08", "ragdoll_fall", "A ragdoll (11 links, damped hinges) thrown down a staircase", cost=8.5)
 def ragdoll_fall(ctx):
     from pbanim.articulated.contact import ArticulatedContact, Staircase
     from pbanim.models.articulated import ragdoll_contact_points, ragdoll_down_stairs

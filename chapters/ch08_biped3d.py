@@ -22,7 +22,8 @@ Figures:
   machine. With the lean step's kinematics, controller and C(q, q̇) on floats (``pbanim bench control``): 15.2 s
   (14.8–17.6) → 13.1 s (12.2–13.5) of the figure's CPU, 3 alternating rounds at load 2.2–2.7 (the 20 s walk
   alone without the turn: 8.5 → 5.4–5.8 s CPU, single runs; 65 strikes, 0.8869 m/s both); quick: 2.5 s at
-  h = 3.5 ms.
+  h = 3.5 ms. The GIF drawn over a frozen backdrop (the figure and the side view's face, ORACLES G5; the same
+  bytes): about 1 s less of the figure's CPU (paired runs at load ~4: 19.2 → 18.1, 19.9 → 18.8 s).
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ def _points(ws, q, bones) -> np.ndarray:
 
 # %%
 @figure("ch08", "biped3d_walk", "SIMBICON's 3-D biped walking: side and top views, speed and heading",
-        cost=24.0)
+        cost=16.0)
 def biped3d_walk(ctx):
     from pbanim.control.biped3d_step import WorldStep
     from pbanim.control.biped3d import biped3d_contact_points

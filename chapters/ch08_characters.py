@@ -99,7 +99,7 @@ def _draw_biped(ax, segments, **kw):
 
 
 @figure("ch08", "biped_walk", "SIMBICON's planar biped walking (stable PD servos, h = 2 ms, 4-state machine)",
-        cost=9.3)
+        cost=10.7)
 def biped_walk(ctx):
     t_end = 4.0 if ctx.quick else 20.0
     res = {g.name: simulate_walk(g, t_end, 2e-3, servo="stable", record_every=10) for g in (WALK, FAST_WALK)}
@@ -199,7 +199,7 @@ def _intervals(trace, t_end):
 # Pushes on the torso at several impulses and phases of a step: recovered or fell (ORACLES F6).
 
 # %%
-@figure("ch08", "push_envelope", "Push recovery: impulse on the torso against the phase of the step", cost=14.8)
+@figure("ch08", "push_envelope", "Push recovery: impulse on the torso against the phase of the step", cost=16.5)
 def push_envelope(ctx):
     if ctx.quick:
         phases, impulses, count, t_end = [0.4], [-150.0, 100.0], 3, 4.0

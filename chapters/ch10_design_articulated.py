@@ -57,7 +57,7 @@ def _polyline(kernel, q):
 
 # %%
 @figure("ch10", "thrown_chain", "A chain thrown so that its tip is at a target at T (∂S/∂u from ABA's derivatives)",
-        cost=7.0)
+        cost=3.0)
 def thrown_chain_figure(ctx):
     """Aim a springy 3-rod chain: min-norm updates of (vx, vy, ω) until |p_tip(T) − p*| ≤ 1e-8."""
     tree, q0, qd0, k, T, h = chain_problem(ctx.quick)
