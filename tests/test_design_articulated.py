@@ -106,21 +106,3 @@ def test_thrown_chain_figure(figure_data):
     assert d["success"] and d["residuals"][-1] <= 1e-8
     assert np.abs(d["tip"] - d["target"]).max() <= 1e-8
     assert d["fd_error"] <= 1e-5 * (1 + d["dS_du_scale"])
-
-
-def test_the_thrown_chain_gif_blitted_equals_full_draws(tmp_path, monkeypatch):
-    # ORACLES G5 (L7's blitting): the view never moves and the chain and its trail are the last artists drawn;
-    # the axes, ticks, labels and target restored as pixels under them give the bytes of full draws (the
-    # quick figure here; the full one's GIF too)
-    import hashlib
-
-    import chapters.ch10_design_articulated as ch
-    from pbanim.cli import select_figures
-    from pbanim.plotting import run_figure
-
-    spec = select_figures(["ch10_thrown_chain"])["ch10_thrown_chain"]
-    digest = lambda files: {f.name: hashlib.md5(f.read_bytes()).hexdigest() for f in files}  # noqa: E731
-    blit = digest(run_figure(spec, tmp_path / "blit", quick=True)[1])
-    monkeypatch.setattr(ch, "blit_canvas", lambda fig, moving: None)
-    full = digest(run_figure(spec, tmp_path / "full", quick=True)[1])
-    assert blit == full and len(full) == 2
