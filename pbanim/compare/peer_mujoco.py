@@ -189,10 +189,17 @@ def run_mujoco(spec: SceneSpec, h: float, t_end: float, option: str | None = Non
     pen = np.zeros(steps + 1)
     vel = np.zeros(6)
 
+    body, xipos, xquat = mujoco.mjtObj.mjOBJ_BODY, data.xipos, data.xquat
+
     def read(k):
+        # slices copied into the record (the same numbers as a list of the unpacked entries, without it)
+        rk = rec[k]
+        rk[:, :3] = xipos[1:n + 1]
+        rk[:, 3:7] = xquat[1:n + 1]
         for i in range(n):
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, i + 1, vel, 0)
-            rec[k, i] = [*data.xipos[i + 1], *data.xquat[i + 1], *vel[3:], *vel[:3]]
+            mujoco.mj_objectVelocity(model, data, body, i + 1, vel, 0)
+            rk[i, 7:10] = vel[3:]
+            rk[i, 10:] = vel[:3]
         if data.ncon:
             pen[k] = max(0.0, -float(np.min(data.contact.dist)))
 
