@@ -56,6 +56,14 @@ every ε here keeps the solve's error below the step's own truncation error, 10�
 the goal row keeps 10⁻² (a factor 17) and the floor line also prints the cost at 10⁻¹'s 2 iterations: even
 there the step is ~3× the 16.7 ms of the goal (ORACLES J11).
 
+Measured and not kept: a sparse direct solve of the step's A in place of CG (exact, no iterations). At N = 64,
+30 steps into the fall (A of 12 288 unknowns, 467 748 stored entries, one BLAS thread, CPU time, best of 3):
+SuperLU (``scipy.sparse.linalg.splu``) with COLAMD takes 412 ms a factorization (5.7·10⁶ entries in L and U;
+a solve 10.9 ms), with MMD on AᵀA 500 ms, and on A pre-ordered by a geometric nested dissection of the grid
+(separators two nodes wide, for the bend springs) with the natural order and diagonal pivots 292 ms (4.7·10⁶
+entries; a solve 9.1 ms): one factorization is ~17× the 16.7 ms a step of the goal, and its fill is the
+nested-dissection bound of a 2-D grid with 3 unknowns a node, so no ordering brings it near.
+
 Measured and not kept: a constant preconditioner with no per-step setup, P = (M + L_α) ⊗ I₃ (every
 spring's block α ŵŵᵀ + γ(𝟙 − ŵŵᵀ) of A replaced by its isotropic bound α𝟙, α = h²k + hk_d, γ ≤ α; L_α the
 α-weighted graph Laplacian, the Laplacian of projective dynamics / Liu et al. 2013; pins decoupled),
