@@ -142,9 +142,21 @@ def advect_velocity(grid, u: list, h: float, method: str = "semi_lagrangian", ba
 def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_lagrangian",
                   backtrace: str = "euler") -> np.ndarray:
     """A cell-centred scalar carried by u over one step ``h`` (0 inside obstacles)."""
+    return _carried(grid, s, h, method, backtrace, *_scalar_departures(grid, u, h, method, backtrace))
+
+
+def _scalar_departures(grid, u: list, h: float, method: str, backtrace: str) -> tuple:
+    """(the velocity's padded components or None, :func:`_departures` of the cell centres over h): what
+    carrying any cell-centred scalar by u over h reads of u, computed once for as many scalars as share it."""
     X = _positions(grid, None)
     pads = [pad_field(grid, c, i) for i, c in enumerate(u)] if backtrace != "euler" else None
-    out = _one(grid, s, None, X, grid.faces_to_cells(u), h, method, pads, backtrace=backtrace)
+    return pads, _departures(grid, None, X, grid.faces_to_cells(u), h, pads, backtrace,
+                             ADVECTION[method][1] is not None)
+
+
+def _carried(grid, s: np.ndarray, h: float, method: str, backtrace: str, pads, at) -> np.ndarray:
+    """The scalar s advected from its departure points ``at`` (:func:`_scalar_departures`), 0 inside obstacles."""
+    out = _one(grid, s, None, None, None, h, method, pads, backtrace=backtrace, at=at)
     if grid.has_obstacles:
         out[grid.solid] = 0.0
     return out
@@ -153,15 +165,8 @@ def advect_scalar(grid, s: np.ndarray, u: list, h: float, method: str = "semi_la
 def _advect_scalars(grid, fields: list, u: list, h: float, method: str, backtrace: str) -> list:
     """``[advect_scalar(grid, s, u, h, method, backtrace) for s in fields]`` (the same numbers) with the departure
     points and their sample coordinates traced once for all the fields (the scene's density and temperature)."""
-    X = _positions(grid, None)
-    pads = [pad_field(grid, c, i) for i, c in enumerate(u)] if backtrace != "euler" else None
-    at = _departures(grid, None, X, grid.faces_to_cells(u), h, pads, backtrace, ADVECTION[method][1] is not None)
-    out = []
-    for s in fields:
-        out.append(_one(grid, s, None, X, None, h, method, pads, backtrace=backtrace, at=at))
-        if grid.has_obstacles:
-            out[-1][grid.solid] = 0.0
-    return out
+    pads, at = _scalar_departures(grid, u, h, method, backtrace)
+    return [_carried(grid, s, h, method, backtrace, pads, at) for s in fields]
 
 
 @contract(grid=_GRID, s=Cells(), u=Velocity(), h=_H, steps=Int(ge=0, le=10_000), method=_METHOD,
@@ -172,12 +177,9 @@ def advect_scalar_steps(grid, s: np.ndarray, u: list, h: float, steps: int,
     """``steps`` steps of ``advect_scalar(grid, s, u, h, method)`` in a row under the same velocity u: its
     departure points (Euler backtrace) and their sample coordinates computed once, not every step; the same
     numbers as the steps one by one (ORACLES E27)."""
-    X = _positions(grid, None)
-    at = _departures(grid, None, X, grid.faces_to_cells(u), h, None, "euler", ADVECTION[method][1] is not None)
+    pads, at = _scalar_departures(grid, u, h, method, "euler")
     for _ in range(steps):
-        s = _one(grid, s, None, X, None, h, method, None, at=at)
-        if grid.has_obstacles:
-            s[grid.solid] = 0.0
+        s = _carried(grid, s, h, method, "euler", pads, at)
     return s
 
 

@@ -306,6 +306,7 @@ class Advection(FluidEffect):
                  backtrace: str = "euler") -> None:
         super().__init__()
         self.method, self.velocity, self.backtrace = method, bool(velocity), backtrace
+        self.lean_path = True            # False: each scalar by advect_scalar, its departures traced again (E28)
         self.fields = None if fields is None else list(fields)
         self.name = f"advect[{method}]" if backtrace == "euler" else f"advect[{method}, {backtrace}]"
 
@@ -320,7 +321,7 @@ class Advection(FluidEffect):
         u = state.u
         for k in self._bound(grid, "names"):
             self._need_scalar(state, k, self.name)
-        if getattr(self, "lean_path", True) and len(set(self.names)) == len(self.names):   # departures traced once
+        if self.lean_path and len(set(self.names)) == len(self.names):   # departures traced once for all names
             fields = _advect_scalars(grid, [state.scalars[k] for k in self.names], u, h, self.method, self.backtrace)
             state.scalars.update(zip(self.names, fields))
         else:
