@@ -154,16 +154,7 @@ class LeanQP:
         H, C, Jnt, bnt, keep, active, Lay, rows, Aeq, beq, lbs, ubs = B
         ctrl, nv, N, D = self.ctrl, self.nv, Lay["N"], Lay["D"]
         Q, g = Lay["Q"], Lay["g"]
-        Qq = self.eps * self._eye_nv
-        gq = np.zeros(nv)
-        for name, J, b, wt, idx, prio in rows:
-            if wt > 0:
-                if J is None:
-                    np.add.at(Qq, (idx, idx), wt)
-                    np.subtract.at(gq, idx, wt * b)
-                else:
-                    Qq += (wt * J.T) @ J
-                    gq -= (wt * J.T) @ b
+        Qq, gq = _task_terms(self.eps * self._eye_nv, np.zeros(nv), [r for r in rows if r[3] > 0])
         Q[:nv, :nv] = Qq
         g[:nv] = gq
         neq = Aeq.shape[0]
@@ -183,12 +174,10 @@ class LeanQP:
                                  np.abs(lbs[:nv][np.isfinite(lbs[:nv])]).max(initial=0.0),
                                  np.abs(ubs[:nv][np.isfinite(ubs[:nv])]).max(initial=0.0)) <= MAX_DATUM:
             return None                                   # beyond MAX_DATUM ProxQP stalls: the readable path says why
-        if r is not None:
-            pass
-        elif self.primal_inf is None:
+        if r is None and self.primal_inf is None:
             r = self._dense_solve(Q, g, As, bs, Cs, ls, us, l_box=lbs, u_box=ubs, eps_abs=ctrl.eps_abs, eps_rel=0.0,
                                   max_iter=ctrl.max_iter)
-        else:
+        elif r is None:
             qp = self._proxqp.dense.QP(N, neq, Cs.shape[0], True)
             st = qp.settings
             st.eps_abs, st.eps_rel, st.max_iter, st.eps_primal_inf = ctrl.eps_abs, 0.0, ctrl.max_iter, self.primal_inf
@@ -335,3 +324,16 @@ class LeanQP:
                         active=active, task_errors=errors, residuals=res, tolerances=tol,
                         solver_status=statuses, iterations=iters,
                         build_time=t_build, solve_time=t_solve, kkt=float(kkt))
+
+
+def _task_terms(Qq: np.ndarray, gq: np.ndarray, rows) -> tuple:
+    """Qq + Σ wₖ J_kᵀ J_k and gq − Σ wₖ J_kᵀ bₖ over the task ``rows`` (name, J, b, w, idx, …) in their order, in
+    place (a posture's J = None: its joints' diagonal entries): the readable path's t.weight * A.T @ A."""
+    for _, J, b, wt, idx, *_ in rows:
+        if J is None:
+            np.add.at(Qq, (idx, idx), wt)
+            np.subtract.at(gq, idx, wt * b)
+        else:
+            Qq += (wt * J.T) @ J
+            gq -= (wt * J.T) @ b
+    return Qq, gq

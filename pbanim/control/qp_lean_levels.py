@@ -51,7 +51,7 @@ from ..articulated.planar_lean import LeanPlanarStep
 from .qp import KKT_TOL, QPController
 from .qp_active import ActiveSet as _ActiveSet
 from .qp_active import kkt_lean as _kkt
-from .qp_lean import LeanQP
+from .qp_lean import LeanQP, _task_terms
 from .qp_solve import MAX_DATUM, _level_rows
 
 __all__ = []
@@ -72,12 +72,10 @@ class LeanLevels(LeanQP):
 
     def _level_layout(self, Lay: dict) -> dict:
         """The last level's Q̃ = D R D and the ProxQP's warm-start flag, once per contact set."""
-        if "Qreg" not in Lay:
-            nv, na, N = self.nv, self.na, Lay["N"]
-            R = np.concatenate([np.ones(nv), np.full(na, self.f_scale ** -2), np.full(N - nv - na, self.f_scale ** -2)])
-            Lay["Qreg"] = np.diag(R)
-            D = Lay["D"]
-            Lay["Qreg_s"] = D[:, None] * Lay["Qreg"] * D
+        if "Qreg_s" not in Lay:
+            nv, N, D = self.nv, Lay["N"], Lay["D"]
+            R = np.concatenate([np.ones(nv), np.full(N - nv, self.f_scale ** -2)])
+            Lay["Qreg_s"] = D[:, None] * np.diag(R) * D
             Lay["zeros"] = np.zeros(N)
             Lay["warm"] = self._proxqp.InitialGuess.WARM_START
         return Lay
@@ -118,14 +116,7 @@ class LeanLevels(LeanQP):
                     statuses.append("level fixed by the constraints")
                     continue
                 Q, g = np.zeros((N, N)), np.zeros(N)
-                Qq, gq = Q[:nv, :nv], g[:nv]
-                for name, J, b, wt, idx, _ in here:       # Σ wₖ Aₖᵀ Aₖ and −Σ wₖ Aₖᵀ bₖ, in the tasks' order
-                    if J is None:
-                        np.add.at(Qq, (idx, idx), wt)
-                        np.subtract.at(gq, idx, wt * b)
-                    else:
-                        Qq += (wt * J.T) @ J             # the readable's t.weight * A.T @ A
-                        gq -= (wt * J.T) @ b
+                Qq, gq = _task_terms(Q[:nv, :nv], g[:nv], here)   # in place: Σ wₖ Aₖᵀ Aₖ, −Σ wₖ Aₖᵀ bₖ
                 if not np.max([np.abs(Qq).max(), np.abs(gq).max()]) <= MAX_DATUM:
                     return None
                 r = None
@@ -162,7 +153,7 @@ class LeanLevels(LeanQP):
         P = {"Aeq": Aeq[:n0], "beq": beq[:n0], "C": C, "bnt": bnt, "lb": lbs * D, "ub": ubs * D, "active": active,
              "tasks": [(t, self._padded(J, idx, N), b)
                        for t, (_, J, b, _, idx, _) in zip(ctrl.tasks, rows)]}
-        return self._ctrl_judge(P, x, statuses, iters, kkt, t1 - t0, t2 - t1)
+        return ctrl._judge(P, x, statuses, iters, kkt, t1 - t0, t2 - t1)
 
     def _padded(self, J, idx, N: int) -> np.ndarray:
         """A task's rows over all N unknowns (zero outside q̈), as QPController.build lays them out."""
@@ -170,10 +161,6 @@ class LeanLevels(LeanQP):
         A = np.zeros((Jq.shape[0], N))
         A[:, :self.nv] = Jq
         return A
-
-    def _ctrl_judge(self, *args):
-        """:meth:`QPController._judge` itself (the readable verdict and message)."""
-        return self.ctrl._judge(*args)
 
     def _feasible(self, x, H, C, Jnt, bnt, keep, lbq, ubq, Aeq, beq, n0) -> bool:
         """:meth:`QPController._feasible` on the lean arrays: every group within its tolerance, the kept rows
