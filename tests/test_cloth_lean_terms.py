@@ -31,7 +31,7 @@ def _close(a, b):
 
 @pytest.mark.parametrize("damping", [0.02, 0.0])
 @pytest.mark.parametrize("seed", [0, 1])
-def test_lean_terms_terms_equal_the_readable_ones(damping, seed):
+def test_lean_bend_terms_equal_the_readable_ones(damping, seed):
     cloth = _cloth(damping=damping)
     bend = cloth.conditions[1]
     x, v = _crumpled(cloth, seed)
