@@ -139,19 +139,17 @@ class LeanQP:
         ``kin`` = (rot, w, zo, zc, Jz) of :class:`LeanPlanarStep` at q."""
         if self.supported:
             with np.errstate(all="ignore"):
-                out = self._lean(q, qd, kin)
+                t0 = time.perf_counter()
+                B = self._build(q, qd, kin)         # None when the contact rows' QR fails
+                out = None if B is None else self._lean(t0, *B)
             if out is not None:
                 if raise_on_failure and not out.success:
                     raise InfeasibleControl(out)
                 return out
         return self._readable(q, qd, raise_on_failure=raise_on_failure)
 
-    def _lean(self, q, qd, kin):
-        t0 = time.perf_counter()
-        B = self._build(q, qd, kin)
-        if B is None:
-            return None
-        H, C, Jnt, bnt, keep, active, Lay, rows, Aeq, beq, lbs, ubs = B
+    def _lean(self, t0, H, C, Jnt, bnt, keep, active, Lay, rows, Aeq, beq, lbs, ubs):
+        """The weighted QP from the lean build (:meth:`_build`, begun at ``t0``); None: the readable path answers."""
         ctrl, nv, N, D = self.ctrl, self.nv, Lay["N"], Lay["D"]
         Q, g = Lay["Q"], Lay["g"]
         Qq, gq = _task_terms(self.eps * self._eye_nv, np.zeros(nv), [r for r in rows if r[3] > 0])

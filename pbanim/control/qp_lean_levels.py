@@ -80,12 +80,8 @@ class LeanLevels(LeanQP):
             Lay["warm"] = self._proxqp.InitialGuess.WARM_START
         return Lay
 
-    def _lean(self, q, qd, kin):
-        t0 = time.perf_counter()
-        B = self._build(q, qd, kin)
-        if B is None:
-            return None
-        H, C, Jnt, bnt, keep, active, Lay, rows, As, beq, lbs, ubs = B
+    def _lean(self, t0, H, C, Jnt, bnt, keep, active, Lay, rows, As, beq, lbs, ubs):
+        """The levels from the lean build (:meth:`_build`, begun at ``t0``); None: the readable path answers."""
         ctrl, nv, na = self.ctrl, self.nv, self.na
         Lay = self._level_layout(Lay)
         N, D = Lay["N"], Lay["D"]
