@@ -110,6 +110,29 @@ line blocks and their |a_ij| added to the blocks' diagonals, ℓ1-style, which k
 CG iterations 4.55 → 4.72 at 10⁻², 2.05 → 1.95 at 10⁻¹, CPU s 4.98/5.57 → 4.85/5.16 and 3.55/3.89 →
 3.48/3.69 (two alternating rounds): under 10 %, inside the spread.
 
+Measured and not kept (N = 64, 30 steps into the fall, CG to 10⁻², one BLAS thread, idle machine; the line
+multigrid there: 5 iterations, Δv within 0.096 m/s of the solve to 10⁻¹⁰):
+
+* a preconditioner with no setup but the sheet's frames: per particle an orthonormal frame (t_u, t_w, n) from
+  central differences of the grid, the two tangential components solved by a constant-coefficient operator
+  of the flat sheet (m̄ + α_s L_axis + the shear and bend springs' Laplacians, diagonal in the 2-D cosine
+  basis: one DCT pair, 0.50 ms a call with the rotations), the normal one by A's diagonal projected on n.
+  22 iterations, and Δv within 0.85 m/s only (the mass alone on the normal: 99 iterations); matching the
+  multigrid's error needs ε = 10⁻³ and 153 iterations. The hanging sheet's tension gives the normal direction
+  a stiffness γ(𝟙 − ŵŵᵀ) concentrated at the pins, which no constant operator and no diagonal represents.
+* a stale exact preconditioner: SuperLU of the free block of A at step 30, used for the steps 1, 2, 4, 8 later:
+  38, 55, 158, 317 iterations; turned by each particle's frame rotation Q_i(t) Q_i(30)ᵀ: 41, 41, 67, 117.
+  A is not a rotated copy of an earlier A: γ = h² s⁺/|d| follows the springs' tension s = k C + k_d Ċ, whose
+  strain rates change from step to step, so no factorization or hierarchy can be amortised over steps (the
+  reused hierarchies above agree).
+* a cheaper product with A: 0.37 ms in CSR, 0.38 ms in 3 × 3 BSR, 0.38 ms in float32 (0.61 in BSR float32);
+  its 467 748 values and indices are 5.6 MB, read at ~15 GB/s: the product is bound by memory, not by calls.
+
+So per step the assembly (3.4 ms) and the hierarchy's setup (9.6 ms) alone leave 3.7 ms of the 16.7 ms
+budget, less than one V-cycle (4.6 ms) and its product with A; and the loosest tolerance whose CG error stays
+below the step's truncation error (10⁻¹, 2 iterations) measured 36.9 ms a step (2.21 CPU s per simulated
+second, idle machine, 2026-11-29; 10⁻²: 3.39 s, and 2.69 s in another process under the profiler).
+
 Profiled again (cProfile, N = 64, 30 steps 6 steps into the fall, CG to 10⁻², one BLAS thread): the V-cycles
 (row-block products in the line sweeps and the band solves) are ~2/3 of a step, the setup (6 band factors,
 Galerkin products) ~1/4, the one-pass assembly ~1/12; the filter and the contact search (no colliders) are
