@@ -34,7 +34,8 @@ Parts: :mod:`pbanim.constraints.base` (the base class of the kinds and their sha
 :mod:`pbanim.constraints.assembly` (J and JWJᵀ patterns, chain/tree structure),
 :mod:`pbanim.constraints.rows` (row gathers, slices and dot products of the kinds and the assembly),
 :mod:`pbanim.constraints.solvers` (witkin-dense, witkin-sparse, witkin-cg, kkt, linear; min-norm λ for
-redundant rows), :mod:`pbanim.constraints.effect` (the scene effect, projection, gains),
+redundant rows; :mod:`pbanim.constraints.chain_lean` the linear solver's lean twin on a chain),
+:mod:`pbanim.constraints.effect` (the scene effect, projection, gains),
 :mod:`pbanim.constraints.stability` (the step limit of Baumgarte feedback).
 
 Limiting cases

@@ -60,7 +60,7 @@ class Assembly:
     J: sp.csr_matrix
     v: np.ndarray                   # q̇ (flat), for Ċ
     vals: tuple | None = None  # (diag (m,), off (pairs,)): W_p G·G of A = JWJᵀ (blocks mode)
-    JT: sp.csr_matrix | None = None  # Jᵀ (CSR)
+    JT: sp.spmatrix | None = None  # Jᵀ (CSC on J's own arrays for built-in kinds; CSR otherwise)
     _Cdot: np.ndarray | None = None
 
     @property
@@ -196,11 +196,10 @@ class ConstraintSet:
         bperm = order[::dim] // dim
         same = np.array_equal(order, (bperm[:, None] * dim + np.arange(dim)).ravel())
         self._Jblocks = gb[bperm] if same else None
-        # Jᵀ as its own CSR pattern: Q_C = Jᵀλ is then a plain CSR mat-vec (no transpose per step)
-        orderT = np.lexsort((jr, jc))
-        indptrT = np.concatenate([[0], np.cumsum(np.bincount(jc, minlength=self.n))])
-        self._JT = sp.csr_matrix((np.zeros(E * dim), jr[orderT], indptrT), shape=(self.n, m))
-        self._JTperm = gflat[orderT]
+        # Jᵀ is J's own arrays read as CSC (n × m): Q_C = Jᵀλ adds each column's entries in row order from 0,
+        # the sums a CSR copy of Jᵀ forms, bit for bit, with no gather of J's values per step (only J.data
+        # is handed over)
+        self._JT = sp.csc_matrix((self._J.data, self._J.indices, self._J.indptr), shape=(self.n, m))
         # diagonal of A: A_rr = Σ_e∈r W_e|G_e|², summed per row (entries are sorted by row)
         Wpad = np.r_[self.W, 0.0]  # index −1 (a fixed point) has W = 0
         # per kind, W of each slot as (k, m); a kind with opposite blocks needs |G|² once: (W_a + W_b) |G_0|²
@@ -294,7 +293,7 @@ class ConstraintSet:
             gflat = Gf.ravel()
             J.data = np.take(gflat, self._Jperm) if self._Jblocks is None else \
                 np.take(Gf, self._Jblocks, axis=0).ravel()
-            JT.data = np.take(gflat, self._JTperm)
+            JT.data = J.data
             vals = None
             if pairs:
                 diags = []

@@ -25,7 +25,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..contracts import Array, Choice, Int, Obj, Opt, Real, contract
+from ..contracts import Array, Choice, Flag, Int, Obj, Opt, Real, contract
 from ..errors import ConvergenceError, InvalidInput, NonFiniteResult, SingularConstraintError, check_result
 from ..particles.specs import IndexArray, Matrix
 
@@ -306,9 +306,9 @@ def certified(sol: ConstraintSolution, where: str = "", arguments=None) -> Const
 @contract(J=Matrix(("m", "n")), W=Array(("n",), gt=0), Q=Array(("n",)), c=Array(("m",), empty=True),
           solver=Choice(SOLVERS), cset=Opt(Obj("pbanim.constraints.assembly:ConstraintSet")),
           asm=Opt(Obj("pbanim.constraints.assembly:Assembly")), A=Opt(Matrix(("m", "m"))), tol=Real(gt=0),
-          max_iter=Opt(Int(ge=1)), returns=certified)
+          max_iter=Opt(Int(ge=1)), lean=Flag(), returns=certified)
 def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=None, A=None,
-                 tol: float = 1e-12, max_iter: int | None = None) -> ConstraintSolution:
+                 tol: float = 1e-12, max_iter: int | None = None, lean: bool = True) -> ConstraintSolution:
     """Solve for λ with a named solver (see the module docstring).
 
     Parameters
@@ -325,6 +325,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         "linear" and "auto" need ``cset``/``asm`` (a :class:`~pbanim.constraints.assembly.ConstraintSet`
         whose structure is a chain or tree).
     tol, max_iter : CG's relative tolerance and iteration cap (default 10·m + 100).
+    lean : False runs the readable "linear" solver on a chain, not its lean twin (``chain_lean``, bit for bit).
 
     Examples
     --------
@@ -353,6 +354,11 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         raise InvalidInput(f"solver 'linear' needs chain- or tree-structured constraints of built-in kinds (cset, "
                            f"and asm assembled with pairs=True); this set's structure is {kind!r}; use 'auto', "
                            "'witkin-sparse' or 'kkt'")
+    if solver == "linear" and lean and J is asm.J:
+        from . import chain_lean  # on first use (it loads the sparse kernel, not loaded with pbanim)
+        out = chain_lean.chain_lambda(cset, asm, J, W, Q, c) if chain_lean.applies(cset, asm) else None
+        if out is not None:
+            return ConstraintSolution(*out[:3], "linear", 0, False, None, (J, W, out[3]))
     JT = asm.JT if (asm is not None and asm.JT is not None) else J.T.tocsr()
     r = c - J @ (W * Q)
     if not _finite(r):      # from a NaN state inside a run, or an overflow of finite inputs
