@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .fastcomposite import lean_fits, sweep_composite
 from .fastkernel import _cross, _floating_accel, _quat_frame, _rotate
 from .fastplan import FIXED, FLOATING, PRISMATIC, REVOLUTE, Plan
 
@@ -132,24 +133,33 @@ def _motion(P: Plan, w: dict, qdT) -> None:
 
 def _inertia_bias(P: Plan, w: dict, F) -> None:
     """World spatial inertias into w["IA"] (6, 6, n, K) and biases p̂ = v̂ ×* I v̂ + I Ĉ − f̂ᵉˣᵗ into w["pA"]."""
-    R, p, IA, pA, h, mh, Pm, L, t, s = (w[k] for k in ("R", "p", "IA", "pA", "h", "mh", "P", "L", "t", "s"))
-    n = P.n
-    v, C = w["v"][:, :n], w["C"][:, :n]
-    m = P.mass_n
+    J = _centres(P, w)
+    _rigid_inertia(P, w, J)
+    _bias(P, w, F, J)
+
+
+def _centres(P: Plan, w: dict):
+    """Centres of mass h = p + R c into w["h"], m h into w["mh"]; returns Ī_w = R Ī Rᵀ (w["J"]) or None."""
+    R, p, h, mh = w["R"], w["p"], w["h"], w["mh"]
     np.einsum("ajnk,jn->ank", R, P.com_n[..., 0], out=h)
     h += p                                                        # centre of mass h = p + R c
-    np.multiply(h, m, out=mh)
+    np.multiply(h, P.mass_n, out=mh)
+    if P.ibar_n is None:
+        return None
+    np.einsum("ajnk,jbnx->abnk", R, P.ibar_n, out=w["T"])
+    return np.einsum("ajnk,bjnk->abnk", w["T"], R, out=w["J"])
+
+
+def _rigid_inertia(P: Plan, w: dict, J) -> None:
+    """The links' world spatial inertias I_i into w["IA"] (6, 6, n, K)."""
+    IA, h, mh, s = w["IA"], w["h"], w["mh"], w["s"]
     A = IA[:3, :3]
     np.multiply(mh[:, None], h[None], out=A)                      # m(|h|² 1 − h hᵀ)
     np.negative(A, out=A)
     np.einsum("ank,ank->nk", mh, h, out=s)
     for k in range(3):
         A[k, k] += s
-    J = None
-    if P.ibar_n is not None:                                      # + R Ī Rᵀ
-        J = w["J"]
-        np.einsum("ajnk,jbnx->abnk", R, P.ibar_n, out=w["T"])
-        np.einsum("ajnk,bjnk->abnk", w["T"], R, out=J)
+    if J is not None:                                             # + R Ī Rᵀ
         A += J
     for (r, cc), (sign, k) in {(0, 4): (-1, 2), (0, 5): (1, 1), (1, 3): (1, 2), (1, 5): (-1, 0), (2, 3): (-1, 1),
                                (2, 4): (1, 0)}.items():          # m h× and its transpose
@@ -158,7 +168,14 @@ def _inertia_bias(P: Plan, w: dict, F) -> None:
     for r in range(3):
         IA[r, r + 3] = 0.0
         IA[r + 3, r] = 0.0
-    np.multiply(np.eye(3)[:, :, None, None], m, out=IA[3:, 3:])
+    np.multiply(np.eye(3)[:, :, None, None], P.mass_n, out=IA[3:, 3:])
+
+
+def _bias(P: Plan, w: dict, F, J) -> None:
+    """The links' biases p̂ = v̂ ×* I v̂ + I Ĉ − f̂ᵉˣᵗ into w["pA"] (6, n, K); J: Ī_w or None."""
+    R, p, pA, h, Pm, L, t, s = (w[k] for k in ("R", "p", "pA", "h", "P", "L", "t", "s"))
+    n, m = P.n, P.mass_n
+    v, C = w["v"][:, :n], w["C"][:, :n]
     # momentum P = m (u + ω × h), L = h × P + Ī_w ω; bias (ω × L + u × P, ω × P)
     _cross_into(v[:3], h, Pm, s)
     Pm += v[3:]
@@ -187,10 +204,12 @@ def _inertia_bias(P: Plan, w: dict, F) -> None:
         pA[:3] -= t
 
 
-def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q) -> np.ndarray:
+def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q, lean: bool = True) -> np.ndarray:
     """q̈ (nv, K) for q (K, nq), q̇ and τ (K, nv); F (6, n, K) external forces in joint frames or None;
     ``pivot(D, i, floor)`` returns 1/D or raises; ``check_q(P, qT)`` validates the quaternions. The result
-    is a buffer of the plan: copy it before the next call."""
+    is a buffer of the plan: copy it before the next call. ``lean`` (where :func:`.fastcomposite.lean_fits`):
+    the sweeps by composites and rank-one terms, no 6 × 6 articulated inertia (:mod:`.fastcomposite`);
+    ``lean=False`` runs the sweeps below."""
     K = q.shape[0]
     w = _work(P, K)
     qT, qdT, tauT = w["qT"], w["qdT"], w["tauT"]
@@ -203,6 +222,9 @@ def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q) -> np.ndarray:
     np.take(qT, P.revolute_q, axis=0, out=w["qr"])
     _kinematics(P, w, qT, qdT, np.cos(w["qr"], out=w["cos"]), np.sin(w["qr"], out=w["sin"]))
     _motion(P, w, qdT)
+    if lean and w.setdefault("c_fits", lean_fits(P)):
+        _bias(P, w, F, _centres(P, w))
+        return sweep_composite(P, w, w["tauT"], pivot, _cross_into)
     _inertia_bias(P, w, F)
     _backward(P, w, w["tauT"], pivot)
     return _forward(P, w, w["tauT"], pivot)
