@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .fastcomposite import lean_fits, sweep_composite
+from .fastcomposite import bias_com, lean_fits, sweep_composite
 from .fastkernel import _cross, _floating_accel, _quat_frame, _rotate
 from .fastplan import FIXED, FLOATING, PRISMATIC, REVOLUTE, Plan
 
@@ -196,12 +196,18 @@ def _bias(P: Plan, w: dict, F, J) -> None:
     pA[:3] += L
     if J is not None:
         pA[:3] += np.einsum("abnk,bnk->ank", J, C[:3])
-    if F is not None:                                             # − f̂ᵉˣᵗ in world coordinates
-        f = np.einsum("ajnk,jnk->ank", R, F[3:])
-        pA[3:] -= f
-        pA[:3] -= np.einsum("ajnk,jnk->ank", R, F[:3])
-        _cross_into(p, f, t, s)
-        pA[:3] -= t
+    if F is not None:
+        _external(w, F)
+
+
+def _external(w: dict, F) -> None:
+    """w["pA"] −= f̂ᵉˣᵗ in world coordinates (F: (6, n, K) in joint frames)."""
+    R, p, pA, t, s = w["R"], w["p"], w["pA"], w["t"], w["s"]
+    f = np.einsum("ajnk,jnk->ank", R, F[3:])
+    pA[3:] -= f
+    pA[:3] -= np.einsum("ajnk,jnk->ank", R, F[:3])
+    _cross_into(p, f, t, s)
+    pA[:3] -= t
 
 
 def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q, lean: bool = True) -> np.ndarray:
@@ -223,7 +229,9 @@ def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q, lean: bool = True) -> np
     _kinematics(P, w, qT, qdT, np.cos(w["qr"], out=w["cos"]), np.sin(w["qr"], out=w["sin"]))
     _motion(P, w, qdT)
     if lean and w.setdefault("c_fits", lean_fits(P)):
-        _bias(P, w, F, _centres(P, w))
+        bias_com(P, w, _centres(P, w), _cross_into)
+        if F is not None:
+            _external(w, F)
         return sweep_composite(P, w, w["tauT"], pivot, _cross_into)
     _inertia_bias(P, w, F)
     _backward(P, w, w["tauT"], pivot)

@@ -86,6 +86,31 @@ def lean_fits(P: Plan) -> bool:
     return int(depth.sum()) <= 12 * P.n                         # Σ_i |desc(i)| = Σ_i depth(i)
 
 
+def bias_com(P: Plan, w: dict, J, cross) -> None:
+    """The links' biases p̂ = v̂ ×* I v̂ + I Ĉ (without f̂ᵉˣᵗ) into w["pA"], through the centre of mass: with
+    v_h = u + ω × h its velocity, ω × (h × P) + u × P = h × (ω × P) (Jacobi; v_h × m v_h = 0), so
+
+        p̂ = (h × G + ω × Ī_w ω + Ī_w C_ω,  G),    G = m (ω × v_h + C_u + C_ω × h),
+
+    five cross products where the kernel's momentum form takes seven (J: Ī_w or None)."""
+    n, h, pA, t, s, G, L = P.n, w["h"], w["pA"], w["t"], w["s"], w["P"], w["L"]
+    v, C = w["v"][:, :n], w["C"][:, :n]
+    cross(v[:3], h, t, s)
+    t += v[3:]                                                  # v_h
+    cross(v[:3], t, G, s)
+    cross(C[:3], h, L, s)
+    G += L
+    G += C[3:]
+    G *= P.mass_n
+    pA[3:] = G
+    cross(h, G, pA[:3], s)
+    if J is not None:
+        np.einsum("abnk,bnk->ank", J, v[:3], out=L)
+        cross(v[:3], L, t, s)
+        pA[:3] += t
+        pA[:3] += np.einsum("abnk,bnk->ank", J, C[:3], out=t)
+
+
 def _composites(P: Plan, w: dict, cross) -> None:
     """Z = (J (9), c (3), P (... in c_P)) per link summed over subtrees, then Y_i S_i and S_iᵀ P_i for all links.
     Needs w["h"], w["mh"] (centres of mass) and, when the links have rotational inertia, w["J"] = R Ī Rᵀ."""
@@ -133,6 +158,7 @@ def _backward(S, YS, U, W, du, g, tK, d, u, desc, Dall, moving) -> None:
 
 def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
     """q̈ (nv, K) from the kernel's buffers after its kinematics, motion and bias steps (``w["pA"]`` = p̂,
+    e.g. by :func:`bias_com`,
     overwritten by the composites P_i); ``cross``: the kernel's component cross product. The pivots are
     checked once after the backward sweep (``pivot`` raises for the first bad joint, leaves first, as the
     kernel's sweep would). The result is a buffer of the plan (copy it before the next call)."""
