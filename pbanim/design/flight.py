@@ -77,6 +77,8 @@ class FlightModel:
     dm: np.ndarray       # (p, N)
     dIinv: np.ndarray    # (p, N, 3)
 
+    lean_path = True    # False: augmented_step runs the readable step (not pbanim.design.lean_tangent's)
+
     @property
     def n_state(self) -> int:
         """Length of a state y = [x, q, P, L]: 13N."""
@@ -145,6 +147,20 @@ def omega_tangent(model: FlightModel, R, L, Lb, w, dphi, TL) -> np.ndarray:
     return dw
 
 
+def _blocks(q, R, w, L, Iinv):
+    """(Ξ(q), ∂q̇/∂q (n, 4, 4), ∂q̇/∂L (n, 4, 3)) of n bodies, or of n stages of one body (rows of q, R, ω, L,
+    I⁻¹): the per-body blocks of :func:`flight_jacobian`."""
+    n = q.shape[0]
+    X = xi(q)
+    Iw_inv = np.matmul(R * Iinv[:, None, :], np.swapaxes(R, 1, 2))
+    Sw, SL = skew(np.concatenate([w, L])).reshape(2, n, 3, 3)
+    Dw_q = np.matmul(np.matmul(Iw_inv, SL) - Sw, np.swapaxes(X, 1, 2)) * (2.0 / np.sum(q * q, axis=1))[:, None, None]
+    Om = np.empty((n, 4, 4))
+    Om[:, 0, 0] = 0.0
+    Om[:, 0, 1:], Om[:, 1:, 0], Om[:, 1:, 1:] = -w, w, Sw
+    return X, 0.5 * (np.matmul(X, Dw_q) + Om), 0.5 * np.matmul(X, Iw_inv)
+
+
 def flight_jacobian(model: FlightModel, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(f(y), ∂f/∂y (13N, 13N)): the matrix of the variational equations, assembled per body.
 
@@ -157,15 +173,7 @@ def flight_jacobian(model: FlightModel, y: np.ndarray) -> tuple[np.ndarray, np.n
     w, Lb = _omega(R, model.Iinv, L)
     f = np.concatenate([(model.W[:, None] * P).ravel(), _qdot(q, w).ravel(),
                         (model.m[:, None] * model.g).ravel(), np.zeros(3 * N)])
-    X = xi(q)
-    Iw_inv = np.matmul(R * model.Iinv[:, None, :], np.swapaxes(R, 1, 2))
-    Sw, SL = skew(np.concatenate([w, L])).reshape(2, N, 3, 3)
-    Dw_q = np.matmul(np.matmul(Iw_inv, SL) - Sw, np.swapaxes(X, 1, 2)) * (2.0 / np.sum(q * q, axis=1))[:, None, None]
-    Om = np.empty((N, 4, 4))
-    Om[:, 0, 0] = 0.0
-    Om[:, 0, 1:], Om[:, 1:, 0], Om[:, 1:, 1:] = -w, w, Sw
-    Aqq = 0.5 * (np.matmul(X, Dw_q) + Om)
-    AqL = 0.5 * np.matmul(X, Iw_inv)
+    X, Aqq, AqL = _blocks(q, R, w, L, model.Iinv)
     A = np.zeros((13 * N, 13 * N))
     for i in range(N):
         A[3 * i:3 * i + 3, 7 * N + 3 * i:7 * N + 3 * i + 3] = model.W[i] * _EYE3
@@ -235,7 +243,15 @@ def plain_step(model: FlightModel, y: np.ndarray, h: float) -> np.ndarray:
 @contract(model=_MODEL, y=DesignState(), T=_TANGENTS, h=Real(ge=0), returns=finite_result)
 def augmented_step(model: FlightModel, y: np.ndarray, T: np.ndarray, h: float):
     """One RK4 step of (y, Φᵀ) together, then the unit-norm projection: the exact derivative of
-    :func:`plain_step` (the same stages, linearized)."""
+    :func:`plain_step` (the same stages, linearized). One body takes the lean twin
+    (:mod:`~pbanim.design.lean_tangent`: the same state bit for bit, Φᵀ to roundoff); ``model.lean_path = False``
+    runs this readable step."""
+    if model.lean_path:
+        from .lean_tangent import one_body_augmented
+
+        lean = one_body_augmented(model)
+        if lean is not None:
+            return lean(y, T, h)
     n, p = y.size, T.shape[0]
 
     def fun(t, Y):
