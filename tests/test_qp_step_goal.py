@@ -68,9 +68,12 @@ def test_the_goal_step_equals_the_readable_step_near_the_stance():
 
 def test_the_goal_table_states_what_it_timed():
     # ORACLES F27: the goal's value is the lean ProxQP step's; its row says PROXQP_SOLVED and its difference from
-    # the readable answer (≤ 1e-6 M g); the readable step and the bare ProxQP call are rows beside it
+    # the readable answer (≤ 1e-6 M g); the readable step, the bare ProxQP call and the step's counted floor (ProxQP
+    # and more) are rows beside it
     table, value, note = qp_step_goal(quick=True)
-    assert len(table.rows) == 4 and np.isfinite(value) and value > 0
+    assert len(table.rows) == 5 and np.isfinite(value) and value > 0
+    floor = table.rows[4]
+    assert floor[0].startswith("floor of the goal's step") and floor[1] > table.rows[3][1] and "lower bound" in note
     lean = table.rows[1]
     assert "ProxQP every step" in lean[0] and lean[6].endswith("PROXQP_SOLVED") and 0 <= lean[7] <= TOL
     assert "ACTIVE_SET_CERTIFIED" in table.rows[2][6] and table.rows[0][7] == 0

@@ -154,22 +154,30 @@ def _rounds(fns: dict, rounds: int, min_cpu: float) -> dict:
 def qp_step_goal(quick: bool) -> tuple[Table, float, str]:
     """(table, the goal's value in s, the goal's note): one weighted QP control step of the standing biped with
     proxsuite, on the lean path with ProxQP every step, against the readable step (module docstring)."""
+    from .control import _bare_calls, _count_calls
+
     ctrl, q, qd = standing_controller("proxqp", True, "weighted")
     lean = lean_proxqp_step(ctrl)
     readable = ctrl.solve(q, qd)
     res = {"readable": readable, "lean": lean(q, qd), "shortcut": lean(q, qd, proxqp=False)}
     Mg = ctrl.f_scale
     fns = {"readable": lambda: ctrl.solve(q, qd), "lean": lambda: lean(q, qd),
-           "shortcut": lambda: lean(q, qd, proxqp=False), "proxqp": _bare_proxqp(ctrl, q, qd)}
+           "shortcut": lambda: lean(q, qd, proxqp=False), "proxqp": _bare_proxqp(ctrl, q, qd), **_bare_calls()}
     rounds, min_cpu = (3, 0.05) if quick else (7, 0.3)
     times = _rounds(fns, rounds, min_cpu)
     wall = {k: np.array([w for w, _ in v]) for k, v in times.items()}
     cpu = {k: np.array([c for _, c in v]) for k, v in times.items()}
+    calls = _count_calls(lambda: lean(q, qd))           # (Python, builtins, numpy) calls of the goal's step
+    for clock in (wall, cpu):                            # the floor per round: ProxQP's solve and the counted calls
+        clock["floor"] = clock["proxqp"] + sum(n * clock[k] / 1000 for n, k in zip(calls, _bare_calls()))
+    per = [float(np.median(cpu[k])) / 1000 for k in _bare_calls()]      # each kind's bare cost (CPU s)
     spread = lambda x: f"{1e3 * np.min(x):.3g}–{1e3 * np.max(x):.3g}"  # noqa: E731
     labels = {"readable": "readable QPController.solve (build, ProxQP, judge)",
               "lean": "lean LeanQP, ProxQP every step (the goal's step)",
               "shortcut": "lean LeanQP from the last active set (no ProxQP call; not the goal)",
-              "proxqp": "ProxQP's dense solve alone on this QP (the floor of a ProxQP step)"}
+              "proxqp": "ProxQP's dense solve alone on this QP (the floor of a ProxQP step)",
+              "floor": f"floor of the goal's step: ProxQP + {calls[0]} Python, {calls[1]} builtin, {calls[2]} numpy calls "
+                       f"at bare cost (a lower bound)"}
     rows, diff = [], {}
     for k, label in labels.items():
         r = res.get(k)
@@ -182,7 +190,8 @@ def qp_step_goal(quick: bool) -> tuple[Table, float, str]:
                      "" if r is None else float(diff[k])])
     table = Table(f"one weighted QP control step of the standing biped [ms], {rounds} alternating rounds (median, "
                   f"min–max): the readable step, the lean step the runs take (simulate_balance's default) with ProxQP "
-                  f"every step, and beside them the active-set shortcut and the bare ProxQP call",
+                  f"every step, and beside them the active-set shortcut, the bare ProxQP call and the goal step's "
+                  f"floor (its counted calls at their bare cost, timed in the same rounds, and ProxQP's solve)",
                   ["step", "CPU", "spread", "wall", "spread", "CPU / readable", "status, solver",
                    "max |Δτ|, |Δf| / M g vs readable"], rows)
     equal = (res["lean"].status == readable.status and res["lean"].solver_status == ["PROXQP_SOLVED"]
@@ -193,7 +202,10 @@ def qp_step_goal(quick: bool) -> tuple[Table, float, str]:
             f"{diff['lean']:.1e} M g (F23: 1e-6); process CPU time, median of {rounds} alternating rounds "
             f"({spread(cpu['lean'])} ms; wall {1e3 * np.median(wall['lean']):.3g} ms); the readable "
             f"QPController.solve {1e3 * np.median(cpu['readable']):.3g} ms ({spread(cpu['readable'])}), the bare "
-            f"ProxQP call {1e3 * np.median(cpu['proxqp']):.3g} ms")
+            f"ProxQP call {1e3 * np.median(cpu['proxqp']):.3g} ms; the step's counted floor {1e3 * np.median(cpu['floor']):.3g} "
+            f"ms (ProxQP + {calls[0]} Python calls x {1e9 * per[0]:.0f} ns + {calls[1]} builtins x "
+            f"{1e9 * per[1]:.0f} ns + {calls[2]} numpy calls x {1e9 * per[2]:.0f} ns; operators, "
+            f"ufuncs and LAPACK's wrappers uncounted: a lower bound)")
     if not equal:
         note += f" — NOT MEASURED: the lean answer is not the readable one ({res['lean'].status}, {diff['lean']:.1e} M g)"
     return table, value, note

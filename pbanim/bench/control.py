@@ -99,10 +99,12 @@ _WALK3D_RT = [np.nan, np.nan, np.nan, np.nan]     # wall and CPU real-time facto
 _SPLIT = ("kinematics", "H", "dynamics", "contact", "controller")
 
 
-def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, float, float]:
-    """(Python calls, calls of Python's builtins and of :mod:`math`, other C calls: numpy's) per step of the
-    lean walk, counted by the interpreter's profile hook (operators on arrays, a + b, are not calls: the count
-    is a lower bound of the numpy work; math.cos on a float costs a builtin's call, not a numpy call's)."""
+def _count_calls(fn) -> tuple[int, int, int]:
+    """(Python calls, calls of Python's builtins and of :mod:`math`, other C calls: numpy's) that one ``fn()``
+    makes, counted by the interpreter's profile hook (operators on arrays, a + b, ufuncs called by name,
+    np.abs(a), and extension functions outside CPython's C-function type, e.g. LAPACK's wrappers and ProxQP,
+    are not seen: the count is a lower bound of the numpy work; math.cos on a float costs a builtin's call, not
+    a numpy call's)."""
     import sys
 
     n = {"call": 0, "builtin": 0, "c_call": 0}
@@ -115,25 +117,34 @@ def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, floa
 
     sys.setprofile(hook)
     try:
-        W.simulate_walk3d(t_end=t_end, h=h, record_every=1000)
+        fn()
     finally:
         sys.setprofile(None)
+    return n["call"], n["builtin"], n["c_call"]
+
+
+def _calls_per_step(W, t_end: float = 0.1, h: float = 2e-3) -> tuple[float, float, float]:
+    """(Python calls, builtins, numpy calls) per step of the lean walk (:func:`_count_calls`)."""
     steps = round(t_end / h)
-    return n["call"] / steps, n["builtin"] / steps, n["c_call"] / steps
+    return tuple(c / steps for c in _count_calls(lambda: W.simulate_walk3d(t_end=t_end, h=h, record_every=1000)))
 
 
-def _call_costs(repeats: int) -> tuple[float, float, float]:
-    """(one Python function call, one builtin (min of two floats), one numpy call on 3-vectors) [s]: the
-    interpreter's per-call cost."""
+def _bare_calls() -> dict:
+    """name → 1000 bare calls of one kind: a Python function, a builtin (min of two floats), a numpy call on
+    3-vectors (the interpreter's per-call cost, timed by the caller's clock)."""
     a, b = np.ones(3), np.ones(3)
 
     def f():
         return None
 
-    t_py = median_time(lambda: [f() for _ in range(1000)], repeats, min_time=0.02) / 1000
-    t_bi = median_time(lambda: [min(0.5, 1.5) for _ in range(1000)], repeats, min_time=0.02) / 1000
-    t_np = median_time(lambda: [np.add(a, b) for _ in range(1000)], repeats, min_time=0.02) / 1000
-    return t_py, t_bi, t_np
+    return {"Python call": lambda: [f() for _ in range(1000)], "builtin": lambda: [min(0.5, 1.5) for _ in range(1000)],
+            "numpy call": lambda: [np.add(a, b) for _ in range(1000)]}
+
+
+def _call_costs(repeats: int) -> tuple[float, float, float]:
+    """(one Python function call, one builtin (min of two floats), one numpy call on 3-vectors) [s]: the
+    interpreter's per-call cost."""
+    return tuple(median_time(fn, repeats, min_time=0.02) / 1000 for fn in _bare_calls().values())
 
 
 def _walk3d_table(quick: bool, repeats: int) -> list:
