@@ -47,11 +47,12 @@ def _work(P: Plan, K: int) -> dict:
                  pA=np.empty((6, n, K)), h=np.empty((3, n, K)), mh=np.empty((3, n, K)), P=np.empty((3, n, K)),
                  L=np.empty((3, n, K)), J=np.empty((3, 3, n, K)), T=np.empty((3, 3, n, K)),
                  t=np.empty((3, n, K)), s=np.empty((n, K)), U=np.empty((6, n, K)), d=np.empty((n, K)),
-                 u=np.empty((n, K)), acc=np.empty((6, n, K)), M=np.empty((3, 3, K)), t3=np.empty((3, K)),
+                 u=np.empty((n, K)), acc=np.empty((6, n, K)), M=np.empty((3, 3, K)),
                  T66=np.empty((6, 6, K)), T6=np.empty((6, K)), tK=np.empty(K), out=np.empty((P.nv, K)),
                  qT=np.empty((P.nq, K)), qdT=np.empty((P.nv, K)), tauT=np.empty((P.nv, K)), bqd=np.empty((P.nv, K)),
                  qr=np.empty((len(P.revolute_q), K)), cos=np.empty((len(P.revolute_q), K)),
-                 sin=np.empty((len(P.revolute_q), K)))
+                 sin=np.empty((len(P.revolute_q), K)), sc=np.empty((len(P.revolute_q), 2, K)),
+                 t32=np.empty((3, 2, K)))
     return w
 
 
@@ -65,7 +66,9 @@ def _cross_into(a, b, out, t):
 
 def _kinematics(P: Plan, w: dict, qT, qdT, cos, sin) -> None:
     """World R_i into w["R"] (3, 3, n, K), p_i into w["p"]; floating joints' world twists into w["vJ"]."""
-    R, p, M, t3 = w["R"], w["p"], w["M"], w["t3"]
+    R, p, M, sc, t32 = w["R"], w["p"], w["M"], w["sc"], w["t32"]
+    np.copyto(sc[:, 0], sin)                                      # (sin, −sin) of each revolute joint
+    np.negative(sin, out=sc[:, 1])
     rev = 0
     for i, lp in enumerate(P.links):
         lam, RT, pT = lp.parent, P.RTm[i], P.pTm[i]
@@ -78,14 +81,9 @@ def _kinematics(P: Plan, w: dict, qT, qdT, cos, sin) -> None:
             p[:, i] = pT[:, None]
         Ri = R[:, :, i]
         if lp.kind == REVOLUTE:                                   # R = M R_z(q)
-            c, s = cos[rev], sin[rev]
+            np.multiply(Mi[:, :2], cos[rev], out=Ri[:, :2])        # (M₀ c, M₁ c) + (M₁ s, M₀ (−s))
+            Ri[:, :2] += np.multiply(Mi[:, 1::-1], sc[rev], out=t32)
             rev += 1
-            np.multiply(Mi[:, 0], c, out=Ri[:, 0])
-            np.multiply(Mi[:, 1], s, out=t3)
-            Ri[:, 0] += t3
-            np.multiply(Mi[:, 1], c, out=Ri[:, 1])
-            np.multiply(Mi[:, 0], s, out=t3)
-            Ri[:, 1] -= t3
             Ri[:, 2] = Mi[:, 2]
         elif lp.kind in (PRISMATIC, FIXED):
             Ri[...] = Mi

@@ -34,8 +34,9 @@ W_j, g_ij          U_j / D_j and U_jᵀ S_i
 Cost: the sums over descendants are O(Σ_i |desc(i)|) = O(n · depth) products of 6 K values, against O(n)
 products of 36 K values for the kernel's sweep. Measured on chains at K = 1024 (process time, loaded machine):
 0.78× the kernel's sweep at 10 links, 0.87× at 20, 1.01× at 30 (Σ |desc(i)| = 14.5 n); so trees with
-Σ |desc(i)| > 12 n (deep chains) and trees with a floating joint keep the kernel's sweep (:func:`lean_fits`). Same q̈ as :func:`.fastbatch.sweep_batch` to roundoff (ORACLES I16); the order of the
-sums differs, so not bit for bit.
+Σ |desc(i)| > 12 n (deep chains) and trees with a floating joint keep the kernel's sweep (:func:`lean_fits`).
+Same q̈ as :func:`.fastbatch.sweep_batch` to roundoff (ORACLES I16); the sums run in another order and the biases
+go through the centre of mass (:func:`bias_com`), so not bit for bit.
 
 References: Featherstone, *Rigid Body Dynamics Algorithms*, Springer 2008, ch. 7 (ABA, the articulated
 inertia as the composite one less the joints' rank-one terms) and ch. 6 (composite rigid inertias).
@@ -70,7 +71,8 @@ def _tree_work(P: Plan, w: dict) -> dict:
             if par[i] >= 0:
                 M[par[i]] += M[i]
         moving = [i for i in range(n) if P.kinds[i] != FIXED]
-        w.update(c_desc=desc, c_M=M[:, None], c_moving=moving, c_dof=np.maximum(P.dof, 0), c_D=np.ones((n, K)), c_Z=np.empty((13, n, K)), c_YS=np.empty((6, n, K)),
+        w.update(c_desc=desc, c_M=M[:, None], c_moving=moving, c_dof=np.maximum(P.dof, 0), c_D=np.ones((n, K)),
+                 c_Z=np.empty((12, n, K)), c_Zl=np.empty((n, 18, K)), c_YS=np.empty((6, n, K)),
                  c_SP=np.empty((n, K)), c_U=np.zeros((n, 6, K)), c_W=np.zeros((n, 6, K)), c_du=np.zeros((n, K)),
                  c_g=np.empty((n, K)), c_acc=np.empty((n, 6, K)), c_t=np.empty((3, n, K)))
     return w
@@ -112,32 +114,34 @@ def bias_com(P: Plan, w: dict, J, cross) -> None:
 
 
 def _composites(P: Plan, w: dict, cross) -> None:
-    """Z = (J (9), c (3), P (... in c_P)) per link summed over subtrees, then Y_i S_i and S_iᵀ P_i for all links.
-    Needs w["h"], w["mh"] (centres of mass) and, when the links have rotational inertia, w["J"] = R Ī Rᵀ."""
-    n, Z, t, s = P.n, w["c_Z"], w["c_t"], w["s"]
-    h, mh, S, pA = w["h"], w["mh"], w["S"], w["pA"]
+    """J (9 rows), c (3) and P (6) per link summed over subtrees, then Y_i S_i and S_iᵀ P_i for all links.
+    Needs w["h"], w["mh"] (centres of mass), w["pA"] = p̂ and, with rotational inertia, w["J"] = R Ī Rᵀ. The sums
+    run on a copy with each link's 18 rows contiguous (an add of strided rows costs several times more)."""
+    n, Z, Zl, t, s = P.n, w["c_Z"], w["c_Zl"], w["c_t"], w["s"]
+    h, mh, S = w["h"], w["mh"], w["S"]
     A = Z[:9].reshape(3, 3, n, -1)                              # Ī_w + m(|h|²1 − hhᵀ)
-    np.multiply(mh[:, None], h[None], out=A)
-    np.negative(A, out=A)
+    np.negative(mh, out=t)
+    np.multiply(t[:, None], h[None], out=A)
     np.einsum("ank,ank->nk", mh, h, out=s)
     for k in range(3):
         A[k, k] += s
     if P.ibar_n is not None:
         A += w["J"]
     Z[9:12] = mh
+    np.copyto(Zl[:, :12], Z.transpose(1, 0, 2))
+    np.copyto(Zl[:, 12:], w["pA"].transpose(1, 0, 2))
     par = P.parents.tolist()
-    for i in reversed(range(n)):                                # composites J, c and P, leaves first
+    for i in reversed(range(n)):                                # composites, leaves first
         if par[i] >= 0:
-            Z[:12, par[i]] += Z[:12, i]
-            pA[:, par[i]] += pA[:, i]
-    c, YS = Z[9:12], w["c_YS"]
-    np.einsum("abnk,bnk->ank", A, S[:3], out=YS[:3])            # Y S = (J ω + c × v, M v − c × ω)
+            Zl[par[i]] += Zl[i]
+    c, YS = Zl[:, 9:12].transpose(1, 0, 2), w["c_YS"]
+    np.einsum("nabk,bnk->ank", Zl[:, :9].reshape(n, 3, 3, -1), S[:3], out=YS[:3])   # Y S = (J ω + c × v, M v − c × ω)
     cross(c, S[3:], t, s)
     YS[:3] += t
     np.multiply(S[3:], w["c_M"], out=YS[3:])
     cross(c, S[:3], t, s)
     YS[3:] -= t
-    np.einsum("ank,ank->nk", S, pA, out=w["c_SP"])
+    np.einsum("ank,nak->nk", S, Zl[:, 12:], out=w["c_SP"])
 
 
 def _backward(S, YS, U, W, du, g, tK, d, u, desc, Dall, moving) -> None:
@@ -158,8 +162,7 @@ def _backward(S, YS, U, W, du, g, tK, d, u, desc, Dall, moving) -> None:
 
 def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
     """q̈ (nv, K) from the kernel's buffers after its kinematics, motion and bias steps (``w["pA"]`` = p̂,
-    e.g. by :func:`bias_com`,
-    overwritten by the composites P_i); ``cross``: the kernel's component cross product. The pivots are
+    e.g. by :func:`bias_com`); ``cross``: the kernel's component cross product. The pivots are
     checked once after the backward sweep (``pivot`` raises for the first bad joint, leaves first, as the
     kernel's sweep would). The result is a buffer of the plan (copy it before the next call)."""
     _tree_work(P, w)
@@ -174,16 +177,14 @@ def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
         for i in moving[::-1]:
             pivot(Dall[i], i, 1e-280)
     out, acc, a0 = w["out"], w["c_acc"], np.array(P.a0)
-    for i, lp in enumerate(P.links):                            # forward: the kernel's, on these buffers
+    for i, lp in enumerate(P.links):                            # forward, root first
         lam = lp.parent
         ap = a0[:, None] if lam < 0 else acc[lam]
         if lp.kind == FIXED:
             acc[i] = ap
             continue
-        Ua = a0 @ U[i] if lam < 0 else np.einsum("rk,rk->k", U[i], ap, out=tK)
-        x = out[lp.vi]
-        np.subtract(u[i], Ua, out=x)
-        x *= d[i]
+        x = out[lp.vi]                                          # q̈_i = u_i/D_i − W_iᵀ â'_λ
+        np.subtract(du[i], a0 @ W[i] if lam < 0 else np.einsum("rk,rk->k", W[i], ap, out=tK), out=x)
         np.multiply(S[:, i], x, out=acc[i])
         acc[i] += ap
     return out
