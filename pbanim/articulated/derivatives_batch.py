@@ -183,12 +183,15 @@ def _work(tree, P, K):
             if idx.size and np.array_equal(idx, np.arange(idx[0], idx[-1] + 1)):
                 return slice(int(idx[0]), int(idx[-1]) + 1)
             return idx
+        YBh = np.empty((n, 78, K))                              # per link: Y (36 rows), B (36), h (6), contiguous
         hit = _WORK[tree] = dict(
             plan=P, K=K, cols=cols, same=np.array_equal(cols, np.arange(n)),
             rows=[(part(anc[j]), part(desc[j])) for j in range(nv)], X=np.empty((6, 6, n, K)),
-            B=np.empty((6, 6, n, K)), t=np.empty((6, n, K)), h=np.empty((6, n, K)), F=np.empty((6, n, K)),
+            B=YBh[:, 36:72].reshape(n, 6, 6, K).transpose(1, 2, 0, 3), t=np.empty((6, n, K)),
+            h=YBh[:, 72:].transpose(1, 0, 2), F=np.empty((6, n, K)), YBh=YBh,
             a=np.empty((6, n + 1, K)), RA=np.empty((2, nv, 12, K)), RD=np.empty((2, nv, 6, K)),
-            Y=np.empty((6, 6, n, K)), SBY=np.empty((12, nv, K)), out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
+            Y=YBh[:, :36].reshape(n, 6, 6, K).transpose(1, 2, 0, 3), SBY=np.empty((12, nv, K)),
+            out=np.zeros((nv, 3, nv, K)), L=np.zeros((nv, nv, K)),
             Li=np.zeros((nv, nv, K)), m=np.empty((8, 6, nv, K)))
     return hit
 
@@ -240,12 +243,11 @@ def _aba_derivatives_lean(tree, q, qd, tau, f_ext):
     np.einsum("abnk,bnk->ank", I, v, out=h)                     # momenta I_i v̂_i
     Bc = _coriolis_matrices(I, v, h, b["X"], b["B"], b["t"])
     Y[...] = I
+    YBh = b["YBh"]                                              # Y, B^c and h of each link: one contiguous block
     for i in reversed(range(n)):                                # composites, leaves first, no transforms
         lam = par[i]
         if lam >= 0:
-            Y[:, :, lam] += Y[:, :, i]
-            Bc[:, :, lam] += Bc[:, :, i]
-            h[:, lam] += h[:, i]
+            YBh[lam] += YBh[i]
     cols, rows, S = b["cols"], b["rows"], w["S"]
     pick = (lambda x: x) if b["same"] else (lambda x: x[..., cols, :])   # noqa: E731
     xi, YK = pick(S), pick(Y)
