@@ -113,3 +113,13 @@ def test_non_finite_right_hand_side_is_named_on_both_paths():
     for lean in (True, False):
         with pytest.raises(NonFiniteResult, match="the right-hand side r = c − JWQ"):
             solve_lambda(asm.J, 4 * cs.Wq, Q, -asm.Jdv, "linear", cset=cs, asm=asm, lean=lean)
+
+
+def test_the_goal_rounds_time_both_solves_at_equal_work():
+    # ORACLES B5: the benchmark's two steps solve the same JWJᵀλ = r from the same assembly, both refined once:
+    # their λ agree to roundoff (bound 1e-10, B5's; measured 3.3e-15 at n = 10⁴); the floor's calls run
+    from pbanim.bench.constraints import _goal_rounds
+
+    g = _goal_rounds(n=1000, rounds=2, min_cpu=0.001)
+    assert g["lam_diff"] < 1e-10
+    assert all(len(g[k]) == 2 and min(g[k]) > 0 for k in ("linear", "witkin-sparse", "floor"))
