@@ -27,6 +27,18 @@ QP (the floor of any step that solves with ProxQP). The rows are measured in alt
 round looped for a minimum process CPU time; the goal is the median process CPU time per step (the wall
 time on an unloaded core; the wall medians are printed beside it: on a shared machine the wall clock
 counts the other jobs).
+
+Measured on a shared 2-core machine at load 4.5–7.3, six full runs of ``pbanim bench control`` (7 rounds each):
+the goal's step 1.09, 1.15, 1.22, 1.12, 0.99, 0.93 ms CPU (median of the runs 1.10 ms: the line missed by 10 %),
+the readable step in the same rounds 1.54, 1.80, 1.81, 1.61, 1.44, 1.37 ms (lean / readable 0.66–0.72), the bare
+ProxQP call 0.12–0.16 ms; the goal as it was timed before (the readable step, wall-clock median) read 2.33, 2.14
+and 3.47 ms in runs alternating with these at the same load (1.22 ms on an idle machine). The goal step's parts,
+each timed alone on its own arguments (CPU medians of 5 rounds, load ~6): the lean kinematics 35 µs, LeanQP's
+build 283, the tasks' Q and g 28, ProxQP 158, the KKT residual 103, the active-set bookkeeping 28, the judge 101:
+0.74 ms of the whole step's 1.27 ms in the same rounds (a part looped alone runs warm; the solve after the build,
+timed whole, 0.49–0.72 ms against its parts' 0.42: the rest is the data's size check before ProxQP, the
+finiteness checks and the arrays' glue). The counted floor (the row above) is 0.2–0.34 ms: the step is 3–4× it,
+so this count does not show the line to be call-bound; what is left is numpy work in :mod:`pbanim.control.qp_lean`.
 """
 
 from __future__ import annotations
