@@ -41,7 +41,6 @@ from .dynamics import external_forces
 from .fast import _joint_frame_forces, _pivot_array, aba_fast, batch_of
 from .fastbatch import _inertia_bias, _kinematics, _motion
 from .fastbatch import _work as _kernel_work
-from .fastkernel import _cross, _cross_motion
 from .fastplan import FLOATING, plan_for
 from .spatial import crm, plucker_inverse
 from .specs import JointPositions, Tree
@@ -124,19 +123,36 @@ def _rnea_derivatives_batch(tree, q, qd, qdd, f_ext):
     return dq, dqd, H
 
 
+_CYCLIC = ((0, 1, 2), (1, 2, 0), (2, 0, 1))
+
+
 def _crm_t(v, w, out):
-    """out = v̂ × ŵ on stacks with the components first ((6, ...) arrays)."""
-    for i, x in enumerate(_cross_motion(tuple(v), tuple(w))):
-        out[i] = x
+    """out = v̂ × ŵ on stacks with the components first ((6, ...) arrays), into ``out`` (not aliasing v or w):
+    the products and sums of :func:`.fastkernel._cross_motion` in its order, without temporaries."""
+    t = np.empty_like(out[0])
+    for i, j, k in _CYCLIC:
+        np.multiply(v[j], w[k], out=out[i])                     # ω × ω_w
+        out[i] -= np.multiply(v[k], w[j], out=t)
+        o = out[3 + i]                                          # ((u × ω_w) + ω_j u_w,k) − ω_k u_w,j
+        np.multiply(v[3 + j], w[k], out=o)
+        o -= np.multiply(v[3 + k], w[j], out=t)
+        o += np.multiply(v[j], w[3 + k], out=t)
+        o -= np.multiply(v[k], w[3 + j], out=t)
     return out
 
 
 def _crf_t(v, f, out):
-    """out = v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first."""
-    a, b, c = _cross(v[:3], f[:3]), _cross(v[3:], f[3:]), _cross(v[:3], f[3:])
-    for i in range(3):
-        np.add(a[i], b[i], out=out[i])
-        out[3 + i] = c[i]
+    """out = v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first, into ``out`` (not aliasing
+    v or f): the products and sums of :func:`.fastkernel._cross` in its order, without temporaries."""
+    t, b = np.empty_like(out[0]), np.empty_like(out[0])
+    for i, j, k in _CYCLIC:
+        np.multiply(v[j], f[k], out=out[i])                     # ω × n
+        out[i] -= np.multiply(v[k], f[j], out=t)
+        np.multiply(v[3 + j], f[3 + k], out=b)                  # + u × F
+        b -= np.multiply(v[3 + k], f[3 + j], out=t)
+        out[i] += b
+        np.multiply(v[j], f[3 + k], out=out[3 + i])             # ω × F
+        out[3 + i] -= np.multiply(v[k], f[3 + j], out=t)
     return out
 
 
