@@ -226,7 +226,9 @@ def sweep_batch(P: Plan, q, qd, tau, F, pivot, check_q, lean: bool = True) -> np
     np.take(qT, P.revolute_q, axis=0, out=w["qr"])
     _kinematics(P, w, qT, qdT, np.cos(w["qr"], out=w["cos"]), np.sin(w["qr"], out=w["sin"]))
     _motion(P, w, qdT)
-    if lean and w.setdefault("c_fits", lean_fits(P)):
+    if "c_fits" not in w:                                         # kept with the buffers (per plan and K)
+        w["c_fits"] = lean_fits(P)
+    if lean and w["c_fits"]:
         bias_com(P, w, _centres(P, w), _cross_into)
         if F is not None:
             _external(w, F)
