@@ -16,6 +16,15 @@ recurrence of n dependent divisions or multiply-adds; the four products J(WQ), J
 bare kernel). What the step costs above the floor are its vector passes (A's values, r, q̈) and Python. Both
 steps solve the same JWJᵀλ = r from the same assembly and refine once; their λ agree to roundoff (printed).
 
+Readings (6 full runs each, alternating with the code before the chain solve's lean twin, load 5.7-7.8):
+linear 1.22, 1.29, 0.881, 1.23, 0.988, 0.981 ms (median 1.10; before 1.05, 1.19, 1.15, 1.40, 1.11, 1.32, median
+1.17), floor 0.57-0.77 ms; speed-up 7.75, 7.73, 7.40, 7.98, 9.12, 7.85x (median 7.80; before 7.49), 10.2-13.8x
+at the floor. Both lines are still missed at that load: the floor (LAPACK's three recurrences, ~7 ns a row
+each, the kind's evaluate and the four products) is 60-75 % of the step, the rest one vector pass each. Tried
+and not kept: the tridiagonal LU (dgttrf/dgttrs 121 + 148 µs at n = 10⁴) and banded Cholesky (dpbtrf/dpbtrs
+417 + 199 µs) against dpttrf/dpttrs (79 + 71 µs); J's values copied as two strided slices instead of the
+gather (27 µs): 101 µs, or 22 µs viewed as complex pairs (5 µs, not worth a special case).
+
 Work-precision: a swinging chain (released horizontal, 1 s); for each integrator (RK4, symplectic Euler)
 and stabilization (none, Baumgarte at ω_b ∈ {10, 30, 100} rad/s with ζ = 1, projection) a sweep over
 h; errors are the constraint drift max|C| (units of C = ½(|d|² − L²), m²) and the energy error
