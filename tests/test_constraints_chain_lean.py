@@ -123,3 +123,17 @@ def test_the_goal_rounds_time_both_solves_at_equal_work():
     g = _goal_rounds(n=1000, rounds=2, min_cpu=0.001)
     assert g["lam_diff"] < 1e-10
     assert all(len(g[k]) == 2 and min(g[k]) > 0 for k in ("linear", "witkin-sparse", "floor"))
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_lean_chain_solve_on_random_chains_in_2d_and_3d(dim):
+    # ORACLES B11 on chains of random masses (10^±1), lengths and directions, in the plane and in space
+    rc = random_chain(500, np.random.default_rng(dim), dim=dim)
+    ps = rc.system
+    cs = ConstraintSet(rc.constraints, ps.N, ps.dim, ps.W, ps.x0)
+    asm = cs.assemble(*ps.unpack(ps.state()))
+    assert chain_lean.applies(cs, asm)
+    Q = np.random.default_rng(0).normal(size=cs.n)
+    a = solve_lambda(asm.J, cs.Wq, Q, -asm.Jdv, "linear", cset=cs, asm=asm)
+    b = solve_lambda(asm.J, cs.Wq, Q, -asm.Jdv, "linear", cset=cs, asm=asm, lean=False)
+    assert _same(a.lam, b.lam) and _same(a.Q_C, b.Q_C) and _same(a.qdd, b.qdd)
