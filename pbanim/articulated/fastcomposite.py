@@ -72,8 +72,8 @@ def _tree_work(P: Plan, w: dict) -> dict:
                 M[par[i]] += M[i]
         moving = [i for i in range(n) if P.kinds[i] != FIXED]
         w.update(c_desc=desc, c_M=M[:, None], c_moving=moving, c_dof=np.maximum(P.dof, 0), c_D=np.ones((n, K)),
-                 c_Z=np.empty((12, n, K)), c_Zl=np.empty((n, 18, K)), c_YS=np.empty((6, n, K)),
-                 c_SP=np.empty((n, K)), c_U=np.zeros((n, 6, K)), c_W=np.zeros((n, 6, K)), c_du=np.zeros((n, K)),
+                 c_Z=np.empty((12, n, K)), c_Zl=np.empty((n, 18, K)), c_YS=np.empty((7, n, K)),
+                 c_SP=np.empty((n, K)), c_U=np.zeros((n, 7, K)), c_W=np.zeros((n, 7, K)),
                  c_g=np.empty((n, K)), c_acc=np.empty((n, 6, K)), c_t=np.empty((3, n, K)))
     return w
 
@@ -138,26 +138,25 @@ def _composites(P: Plan, w: dict, cross) -> None:
     np.einsum("nabk,bnk->ank", Zl[:, :9].reshape(n, 3, 3, -1), S[:3], out=YS[:3])   # Y S = (J ω + c × v, M v − c × ω)
     cross(c, S[3:], t, s)
     YS[:3] += t
-    np.multiply(S[3:], w["c_M"], out=YS[3:])
+    np.multiply(S[3:], w["c_M"], out=YS[3:6])
     cross(c, S[:3], t, s)
-    YS[3:] -= t
+    YS[3:6] -= t
     np.einsum("ank,nak->nk", S, Zl[:, 12:], out=w["c_SP"])
 
 
-def _backward(S, YS, U, W, du, g, tK, d, u, desc, Dall, moving) -> None:
-    """U_i, D_i (into Dall), 1/D_i, u_i, W_i and u_i/D_i, leaves first (module docstring)."""
+def _backward(S, YS, U, W, g, tK, d, desc, Dall, moving) -> None:
+    """Rows (U_i, u_i) into U (n, 7, K), D_i into Dall, 1/D_i into d and (W_i, u_i/D_i) into W, leaves first;
+    YS holds (Y_i S_i, τ_i − S_iᵀ P_i), so that one product over the descendants updates U_i and u_i together."""
     for i in moving[::-1]:
-        Ui, Si, ui, D = U[i], S[:, i], u[i], desc[i]
+        Ui, Si, D = U[i], S[:, i], desc[i]
         if D is None:
             np.copyto(Ui, YS[:, i])
         else:
-            gi = np.einsum("jrk,rk->jk", U[D], Si, out=g[:D.stop - D.start] if isinstance(D, slice) else None)
+            gi = np.einsum("jrk,rk->jk", U[D, :6], Si, out=g[:D.stop - D.start] if isinstance(D, slice) else None)
             np.subtract(YS[:, i], np.einsum("jrk,jk->rk", W[D], gi), out=Ui)
-            ui -= np.einsum("jk,jk->k", gi, du[D], out=tK)
-        np.einsum("rk,rk->k", Ui, Si, out=Dall[i])
+        np.einsum("rk,rk->k", Ui[:6], Si, out=Dall[i])
         np.divide(1.0, Dall[i], out=d[i])
         np.multiply(Ui, d[i], out=W[i])
-        np.multiply(ui, d[i], out=du[i])
 
 
 def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
@@ -167,12 +166,12 @@ def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
     kernel's sweep would). The result is a buffer of the plan (copy it before the next call)."""
     _tree_work(P, w)
     _composites(P, w, cross)
-    S, YS, U, W, du, g, tK = w["S"], w["c_YS"], w["c_U"], w["c_W"], w["c_du"], w["c_g"], w["tK"]
-    d, u, desc, Dall, moving = w["d"], w["u"], w["c_desc"], w["c_D"], w["c_moving"]
+    S, YS, U, W, g, tK = w["S"], w["c_YS"], w["c_U"], w["c_W"], w["c_g"], w["tK"]
+    d, desc, Dall, moving = w["d"], w["c_desc"], w["c_D"], w["c_moving"]
     if moving:                                                  # τ_i − S_iᵀ P_i (rows of fixed joints unused)
-        np.subtract(tauT[w["c_dof"]], w["c_SP"], out=u)
+        np.subtract(tauT[w["c_dof"]], w["c_SP"], out=YS[6])
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # a bad pivot is named below
-        _backward(S, YS, U, W, du, g, tK, d, u, desc, Dall, moving)
+        _backward(S, YS, U, W, g, tK, d, desc, Dall, moving)
     if not np.all(np.abs(Dall[moving]) > 1e-280):              # NaN lands here too
         for i in moving[::-1]:
             pivot(Dall[i], i, 1e-280)
@@ -184,7 +183,7 @@ def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
             acc[i] = ap
             continue
         x = out[lp.vi]                                          # q̈_i = u_i/D_i − W_iᵀ â'_λ
-        np.subtract(du[i], a0 @ W[i] if lam < 0 else np.einsum("rk,rk->k", W[i], ap, out=tK), out=x)
+        np.subtract(W[i, 6], a0 @ W[i, :6] if lam < 0 else np.einsum("rk,rk->k", W[i, :6], ap, out=tK), out=x)
         np.multiply(S[:, i], x, out=acc[i])
         acc[i] += ap
     return out
