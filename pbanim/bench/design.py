@@ -80,8 +80,8 @@ def die_designs(starts: int = 1, seed: int = 0) -> list:
     """A die (10 cm cube) thrown from 0.3 m with a random velocity and spin (``starts`` throws drawn from
     ``default_rng(seed)``), each designed by Gauss–Newton on v₀ through its corner impacts and rolling to rest on
     face ``DIE_FACE`` at ``DIE_PLACE`` at T = 1.5 s (up to six seeded kicks where the place lies across a jump
-    of S). Returns ``[(scene, design), ...]`` in the order drawn: the first is the chapter's figure
-    (``ch10_contact_die``)."""
+    of S; the kink-crossing step, on by default for these exact goals: ORACLES L9). Returns
+    ``[(scene, design), ...]`` in the order drawn: the first is the chapter's figure (``ch10_contact_die``)."""
     from ..design.control import position_goal
     from ..design.stepped_design import design_contact
 

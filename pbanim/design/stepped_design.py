@@ -9,6 +9,16 @@ steepest-descent step Jᵀδq at its Cauchy length is tried the same way):
 
     u ← u + α δu,   α ∈ {1, ½, ¼, …},   ‖δq(u + αδu)‖ < ‖δq(u)‖.
 
+A trial that fails can lie past a kink: S is continuous, but ∂S/∂u jumps where a step's contact changes its
+mode, and near the goal the derivative of u's piece mispredicts the far one (a die 3.5e-6 m from its place,
+the kink 7 % of the step away, the far piece's ∂x/∂v₀ half of the near one's: backtracking then creeps, 10 %
+per update). The first trial that fails in an update is therefore also a base: Gauss–Newton from it with its
+own derivative (the far piece's, from the trial's run; one run more), kept when the residual falls
+(``cross``; the kink-crossing step, ORACLES L9; by default only for goals met exactly, no more rows than
+parameters: in a least-squares fit the far piece's minimizer need not lie on that piece):
+
+    u ← u_t + δu_t,   u_t = u + α δu,   (∂S/∂u)(u_t) δu_t = δq(u_t) (min-norm),   ‖δq‖ < ‖δq(u)‖.
+
 Goals are positions x(t) = target (:func:`pbanim.design.control.position_goal`, body 0), and optionally
 *rest* at t_end (|v| and |ω| ≤ ``rest_tol``: a box that slides and stops, a die that stops rolling) and a
 *face*: the body axis ``face`` (0..5: +x, −x, +y, −y, +z, −z in the body frame) pointing down at t_end.
@@ -24,6 +34,7 @@ symbol     code                 meaning
 δq         ``residual``         target − x(t) stacked over the goals (its norm reported)
 M          ``M``                metric of the update (SPD), default 𝟙
 α          ``backtracks``       step fraction (halvings allowed per update)
+u_t        ``cross``            a failed trial u + αδu, the base of the kink-crossing step
 g          ``face``             the cube symmetry applied to the initial orientation (θ₀) for the face
 =========  ===================  =========================================================================
 
@@ -96,19 +107,23 @@ def _residual(tr, goals, comp) -> np.ndarray:
 @contract(scene=Obj(ContactScene), t_end=Real(gt=0), names=Obj(list, tuple), goals=Seq(Obj(Goal)),
           u=Opt(Array((None,))), rest=Flag(), face=Opt(Int(ge=0, le=5)), M=Opt(Array((None, None))),
           h=Real(gt=0), tol=Real(gt=0), rest_tol=Real(gt=0), max_iter=Int(ge=1), backtracks=Int(ge=0),
-          components=Seq(Int(ge=0, le=2)), kicks=Int(ge=0), kick=Real(ge=0), seed=Int(ge=0))
+          components=Seq(Int(ge=0, le=2)), kicks=Int(ge=0), kick=Real(ge=0), seed=Int(ge=0), cross=Opt(Flag()))
 def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = False, face=None, M=None,
                    h: float = 0.01, tol: float = 1e-6, rest_tol: float = 1e-6, max_iter: int = 20,
                    backtracks: int = 8, components=(0, 1, 2), kicks: int = 0, kick: float = 0.1,
-                   seed: int = 0) -> ContactDesign:
+                   seed: int = 0, cross=None) -> ContactDesign:
     """Find u (blocks ``names``) so that the stepped motion meets ``goals`` (position goals of body 0 at
     times in (0, t_end]), comes to rest at t_end (``rest``) and lies on ``face`` (a cube: its initial
     orientation ``theta0`` is then part of the answer, appended to names); ``components`` the coordinates of
     each goal that count (e.g. (0, 1): where a ball passes over a cup, at whatever height); ``kicks``: when
     no step lowers the residual (the goal lies across a jump of S, e.g. a die that tips over one more edge or
     not), restart up to ``kicks`` times from the best u moved by ``kick``·max(|u|, 0.1)·N(0, 1) (seeded), the
-    best answer kept — the discrete layer over which piece of S the answer lies on. Never raises for a goal it
-    cannot meet: ``success`` False with the residual reached and notes.
+    best answer kept — the discrete layer over which piece of S the answer lies on; ``cross``: when a trial
+    fails, try Gauss–Newton from it with its own ∂S/∂u (the far side of a kink; the first failing trial of each
+    update, one run more); None: when the goals count no more rows than u has parameters (goals met exactly,
+    as the die's), not for a least-squares fit (more rows: the far piece's minimizer need not lie on it, e.g.
+    a sketch fit); False: the search without it. Never raises for a goal it cannot meet: ``success``
+    False with the residual reached and notes.
 
     >>> from pbanim.collision import Box, Plane
     >>> from pbanim.design import DesignBody
@@ -160,7 +175,7 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
         gd = J.T @ r                                   # steepest descent, at its Cauchy length, when the
         Jg = J @ gd                                    # Gauss–Newton step meets a kink it cannot get past
         cauchy = gd * (gd @ gd) / (Jg @ Jg) if Jg @ Jg > 0 else gd
-        ok = False
+        ok, crossed = False, not (J.shape[0] <= p if cross is None else cross)
         for kind, du in (("Gauss–Newton", upd(J, r, M).du), ("steepest descent", cauchy)):
             alpha = 1.0
             for _ in range(backtracks + 1):
@@ -174,6 +189,14 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
                 if np.linalg.norm(rt) < history[-1]:
                     u, tr, r, ok = u + alpha * du, trial, rt, True
                     break
+                if not crossed:                # the first step that fails: Gauss–Newton on its own piece
+                    crossed = True
+                    got = _cross(run, goals, comp, upd, M, u + alpha * du, trial, rt, history[-1], p)
+                    if got is not None:
+                        (u, tr, r), ok = got, True
+                        notes.append(f"update {it}: {kind} α = {alpha:g} crossed a kink (Gauss–Newton from "
+                                     f"the far piece)")
+                        break
                 alpha *= 0.5
             if ok:
                 break
@@ -204,6 +227,24 @@ def design_contact(scene, t_end: float, names, goals, *, u=None, rest: bool = Fa
         _, _, u, tr, r, theta = best
         history.append(best[0])
     return _finish(scene, tr, names, u, theta, face, goals, rest, tol, rest_tol, history, notes, it, t_end)
+
+
+def _cross(run, goals, comp, upd, M, ut, trial, rt, res, p):
+    """The kink-crossing step: the trial point u_t = u + α δu failed (‖δq(u_t)‖ ≥ ‖δq(u)‖) because a kink of S
+    lies between u and u_t, where a step's contact changes its mode and ∂S/∂u jumps. Gauss–Newton from u_t
+    with u_t's own derivative (the far piece's J_t, computed by the trial's run):
+
+        u ← u_t + δu_t,   δu_t = argmin δuᵀMδu  subject to  J_t δu = δq(u_t),
+
+    accepted only when ‖δq‖ < ``res`` (the current residual). Returns (u, trajectory, δq) or None."""
+    Jt = np.vstack([trial.d_position(g.time)[comp, :p] for g in goals])
+    try:
+        ut2 = ut + upd(Jt, rt, M).du
+        tr2 = run(ut2)
+    except PbanimError:
+        return None
+    r2 = _residual(tr2, goals, comp)
+    return (ut2, tr2, r2) if np.linalg.norm(r2) < res else None
 
 
 def _relabel(scene, tr, theta, face):
