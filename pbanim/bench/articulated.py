@@ -24,7 +24,9 @@ All need Pinocchio; without it the goal lines say "not measured". Both goals are
 :mod:`pbanim.articulated.fast` (``aba_fast`` for one state on Python floats, ``aba_batch`` for K states
 on arrays; for the chain its sweeps run on composite rigid inertias and rank-one terms,
 :mod:`pbanim.articulated.fastcomposite`, with no 6 × 6 articulated inertia); the readable ABA is timed beside them.
-The batched ABA's goal line also prints the spread of its rounds and the same ratio in process time.
+The batched ABA's goal line also prints the spread of its rounds, the same ratio in process time and the batch's
+fixed cost (its Python and numpy calls: the batch at K = 8, divided by K), the part of the per-state figure that a
+larger K would not lower; the rest is the sweeps' arithmetic on arrays of K values, bound by memory traffic.
 Equal work: the same tree, the same K states, and the
 same q̈ (the agreement column). The maximal columns evaluate the same chain as rigid rods held by hinge
 joints (multipliers by the dense J W Jᵀ solve, and by Baraff's leaves-first sparse elimination).
@@ -134,6 +136,10 @@ def derivative_table(ns, K: int, repeats: int, cpu_ratios: dict | None = None) -
         # apart (the kernels keep buffers per K), then one call at K to restore them
         floor_batch = median_time(lambda: batch(tree, q[:8], qd[:8], tau[:8]), repeats) / K
         batch(tree, q, qd, tau)
+        # the per-batch fixed cost (Python and numpy calls) per state at K: the batch at K = 8, / K; timed apart (the
+        # kernels keep buffers per K), then one call at K to restore them
+        fixed = median_time(lambda: aba_batch(tree, q[:8], qd[:8], tau[:8]), repeats) / K if n == 10 else np.nan
+        aba_batch(tree, q, qd, tau)
         cpu: dict = {}
         times = _interleaved(fns, 2 * repeats + 1, K, cpu)
         med = {k: float(np.median(t)) for k, t in times.items()}
@@ -176,6 +182,10 @@ def run(quick: bool = False) -> Report:
             err = max(float(np.abs(aba_batch(tree, q, qd, tau) - ref).max()),
                       max(float(np.abs(aba_fast(tree, q[k], qd[k], tau[k]) - ref[k]).max()) for k in range(8)),
                       max(float(np.abs(aba(tree, q[k], qd[k], tau[k]) - ref[k]).max()) for k in range(3)))
+        # the per-batch fixed cost (Python and numpy calls) per state at K: the batch at K = 8, / K; timed apart (the
+        # kernels keep buffers per K), then one call at K to restore them
+        fixed = median_time(lambda: aba_batch(tree, q[:8], qd[:8], tau[:8]), repeats) / K if n == 10 else np.nan
+        aba_batch(tree, q, qd, tau)
         cpu: dict = {}
         times = _interleaved(fns, 2 * repeats + 1, K, cpu)
         t_batch, t_fast = float(np.median(times["batch"])), float(np.median(times["fast"]))
@@ -185,7 +195,9 @@ def run(quick: bool = False) -> Report:
             rounds = np.divide(times["batch"], times["pin"])
             in_cpu = np.divide(cpu["batch"], np.maximum(cpu["pin"], 1e-12))
             batch_spread = (f"; spread over {len(rounds)} rounds {rounds.min():.2f}..{rounds.max():.2f}; "
-                            f"in process time {np.median(in_cpu):.2f} ({in_cpu.min():.2f}..{in_cpu.max():.2f})")
+                            f"in process time {np.median(in_cpu):.2f} ({in_cpu.min():.2f}..{in_cpu.max():.2f}); "
+                            f"{t_batch * 1e6:.2f} µs per state against {t_pin * 1e6:.2f}, of which the fixed per-batch "
+                            f"cost (the batch at K = 8, / K) {fixed * 1e6:.2f}")
         scene, rb, _ = rod_chain(n)
         y = rb.state()
         t_max = median_time(lambda: scene.rhs(0.0, y), repeats)
