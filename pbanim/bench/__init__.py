@@ -116,6 +116,24 @@ def median_time(fn: Callable[[], Any], repeats: int = 5, min_time: float = 0.0) 
 HELPERS = frozenset({"contact_peers"})
 
 
+def _alternating(fns: dict, rounds: int, min_cpu: float, max_calls: int = 5000) -> dict:
+    """name → [(wall s, CPU s) per call, one pair per round]: in every round each fn in turn (alternating rounds:
+    every competitor sees the same load), looped until ``min_cpu`` seconds of this process's CPU time or
+    ``max_calls`` calls, whichever comes first (the cost of a measurement is bounded before it starts)."""
+    out: dict = {name: [] for name in fns}
+    for _ in range(rounds):
+        for name, fn in fns.items():
+            n, w0, c0 = 0, time.perf_counter(), time.process_time()
+            while True:
+                fn()
+                n += 1
+                cpu = time.process_time() - c0
+                if cpu >= min_cpu or n >= max_calls:
+                    break
+            out[name].append(((time.perf_counter() - w0) / n, cpu / n))
+    return out
+
+
 def available() -> list[str]:
     """The benchmark families, sorted (modules of this package with a ``run``; helpers excluded)."""
     import pbanim.bench as pkg

@@ -43,11 +43,9 @@ so this count does not show the line to be call-bound; what is left is numpy wor
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
-from . import Table, median_time
+from . import Table, _alternating, median_time
 from ..lcp.qp import backend_failure
 
 __all__ = ["QP_STEP_HEADER", "lean_proxqp_step", "qp_step_goal", "qp_step_rows", "standing_controller"]
@@ -146,23 +144,6 @@ def _bare_proxqp(ctrl, q, qd):
                          max_iter=ctrl.max_iter)
 
 
-def _rounds(fns: dict, rounds: int, min_cpu: float) -> dict:
-    """name → (wall s, CPU s) per call in each round; in every round each fn in turn, looped until ``min_cpu``
-    seconds of this process's CPU time (alternating: every fn sees the same load)."""
-    out = {name: [] for name in fns}
-    for _ in range(rounds):
-        for name, fn in fns.items():
-            n, w0, c0 = 0, time.perf_counter(), time.process_time()
-            while True:
-                fn()
-                n += 1
-                cpu = time.process_time() - c0
-                if cpu >= min_cpu or n >= 5000:
-                    break
-            out[name].append(((time.perf_counter() - w0) / n, cpu / n))
-    return out
-
-
 def qp_step_goal(quick: bool) -> tuple[Table, float, str]:
     """(table, the goal's value in s, the goal's note): one weighted QP control step of the standing biped with
     proxsuite, on the lean path with ProxQP every step, against the readable step (module docstring)."""
@@ -176,7 +157,7 @@ def qp_step_goal(quick: bool) -> tuple[Table, float, str]:
     fns = {"readable": lambda: ctrl.solve(q, qd), "lean": lambda: lean(q, qd),
            "shortcut": lambda: lean(q, qd, proxqp=False), "proxqp": _bare_proxqp(ctrl, q, qd), **_bare_calls()}
     rounds, min_cpu = (3, 0.05) if quick else (7, 0.3)
-    times = _rounds(fns, rounds, min_cpu)
+    times = _alternating(fns, rounds, min_cpu)
     wall = {k: np.array([w for w, _ in v]) for k, v in times.items()}
     cpu = {k: np.array([c for _, c in v]) for k, v in times.items()}
     calls = _count_calls(lambda: lean(q, qd))           # (Python, builtins, numpy) calls of the goal's step

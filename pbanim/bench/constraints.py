@@ -46,7 +46,7 @@ from ..models.constrained import hanging_chain
 from ..particles.system import Gravity
 from ..scene import Scene
 from ..sparse_kernel import product_of
-from . import Goal, Report, Table, median_time
+from . import Goal, Report, Table, _alternating, median_time
 
 __all__ = ["run", "SOLVER_LIST", "chain_step", "step_costs", "loglog_slope", "work_precision"]
 
@@ -136,17 +136,7 @@ def _goal_rounds(n: int = 10_000, rounds: int = 7, min_cpu: float = 0.05) -> dic
     alternating rounds (each call looped for ``min_cpu`` s), and max|λ_linear − λ_LU| / max|λ_LU|."""
     fns = {"linear": chain_step(n, "linear"), "witkin-sparse": chain_step(n, "witkin-sparse"), "floor": _floor(n)}
     a, b = fns["linear"](), fns["witkin-sparse"]()
-    out: dict = {k: [] for k in fns}
-    for _ in range(rounds):
-        for k, fn in fns.items():
-            calls, start = 0, time.process_time()
-            while True:
-                fn()
-                calls += 1
-                el = time.process_time() - start
-                if el >= min_cpu:
-                    break
-            out[k].append(el / calls)
+    out: dict = {k: [cpu for _, cpu in t] for k, t in _alternating(fns, rounds, min_cpu).items()}
     out["lam_diff"] = float(np.abs(a.lam - b.lam).max() / np.abs(b.lam).max())
     return out
 
