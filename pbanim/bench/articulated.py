@@ -138,10 +138,6 @@ def derivative_table(ns, K: int, repeats: int, cpu_ratios: dict | None = None) -
         # apart (the kernels keep buffers per K), then one call at K to restore them
         floor_batch = median_time(lambda: batch(tree, q[:8], qd[:8], tau[:8]), repeats) / K
         batch(tree, q, qd, tau)
-        # the per-batch fixed cost (Python and numpy calls) per state at K: the batch at K = 8, / K; timed apart (the
-        # kernels keep buffers per K), then one call at K to restore them
-        fixed = median_time(lambda: aba_batch(tree, q[:8], qd[:8], tau[:8]), repeats) / K if n == 10 else np.nan
-        aba_batch(tree, q, qd, tau)
         cpu: dict = {}
         times = _interleaved(fns, 2 * repeats + 1, K, cpu)
         med = {k: float(np.median(t)) for k, t in times.items()}
