@@ -26,12 +26,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from ..errors import NonFiniteResult
 from ..sparse_kernel import product_of
+from .solvers import _PIVOT, _checked_rhs
 
 __all__: list[str] = []   # internal: solve_lambda's lean path
 
-_PIVOT = 1e-13            # the readable solver's vanishing-pivot threshold (solvers._PIVOT)
 _dpttrf, _dpttrs = sla.lapack.dpttrf, sla.lapack.dpttrs
 
 
@@ -57,10 +56,7 @@ def chain_lambda(cset, asm, J, W: np.ndarray, Q: np.ndarray, c: np.ndarray):
     Jx = product_of("csr", (J.data, J.indices, J.indptr), J.shape)
     JTx = product_of("csc", (JT.data, JT.indices, JT.indptr), JT.shape)
     np.multiply(W, Q, out=t_n)
-    r = np.subtract(c, Jx(t_n, t_m))              # r = c − J(WQ), a fresh array (the solution keeps it)
-    if not (np.isfinite(np.add.reduce(r)) or np.isfinite(r).all()):
-        raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
-                              f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
+    r = _checked_rhs(np.subtract(c, Jx(t_n, t_m)), c, Q)   # r = c − J(WQ), a fresh array (the solution keeps it)
     d, e = cset.tridiagonal(asm)
     D, E, info = _dpttrf(d, e)                    # copies d and e (the assembly's arrays)
     if info != 0 or (D.min() < _PIVOT * d.max() and np.any(D < _PIVOT * d)):

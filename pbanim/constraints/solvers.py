@@ -84,6 +84,15 @@ def _finite(a: np.ndarray) -> bool:
     return bool(np.isfinite(np.add.reduce(a, axis=None)) or np.isfinite(a).all())
 
 
+def _checked_rhs(r: np.ndarray, c: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """r = c − JWQ, or NonFiniteResult when it is not finite (a NaN state inside a run, an overflow of finite
+    inputs): the check of every solver's right-hand side, the lean chain's included."""
+    if not _finite(r):
+        raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
+                              f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
+    return r
+
+
 def _symbol(name: str):
     def size(env):
         return env.symbols[name]
@@ -360,10 +369,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         if out is not None:
             return ConstraintSolution(*out[:3], "linear", 0, False, None, (J, W, out[3]))
     JT = asm.JT if (asm is not None and asm.JT is not None) else J.T.tocsr()
-    r = c - J @ (W * Q)
-    if not _finite(r):      # from a NaN state inside a run, or an overflow of finite inputs
-        raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
-                              f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
+    r = _checked_rhs(c - J @ (W * Q), c, Q)
     it, deficient = 0, False
     if solver == "kkt":
         K = sp.bmat([[sp.diags(1.0 / W), -JT], [J, None]], format="csc")
