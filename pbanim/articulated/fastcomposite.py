@@ -144,7 +144,7 @@ def _composites(P: Plan, w: dict, cross) -> None:
     np.einsum("ank,nak->nk", S, Zl[:, 12:], out=w["c_SP"])
 
 
-def _backward(S, YS, U, W, g, tK, d, desc, Dall, moving) -> None:
+def _backward(S, YS, U, W, g, d, desc, Dall, moving) -> None:
     """Rows (U_i, u_i) into U (n, 7, K), D_i into Dall, 1/D_i into d and (W_i, u_i/D_i) into W, leaves first;
     YS holds (Y_i S_i, τ_i − S_iᵀ P_i), so that one product over the descendants updates U_i and u_i together."""
     for i in moving[::-1]:
@@ -171,7 +171,7 @@ def sweep_composite(P: Plan, w: dict, tauT, pivot, cross) -> np.ndarray:
     if moving:                                                  # τ_i − S_iᵀ P_i (rows of fixed joints unused)
         np.subtract(tauT[w["c_dof"]], w["c_SP"], out=YS[6])
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):   # a bad pivot is named below
-        _backward(S, YS, U, W, g, tK, d, desc, Dall, moving)
+        _backward(S, YS, U, W, g, d, desc, Dall, moving)
     if not np.all(np.abs(Dall[moving]) > 1e-280):              # NaN lands here too
         for i in moving[::-1]:
             pivot(Dall[i], i, 1e-280)
