@@ -85,12 +85,11 @@ def _finite(a: np.ndarray) -> bool:
 
 
 def _checked_rhs(r: np.ndarray, c: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """r = c − JWQ, or NonFiniteResult when it is not finite (a NaN state inside a run, an overflow of finite
-    inputs): the check of every solver's right-hand side, the lean chain's included."""
-    if not _finite(r):
-        raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
-                              f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
-    return r
+    """r = c − JWQ of every solver (the lean chain's too), or NonFiniteResult (a NaN state, an overflow)."""
+    if _finite(r):
+        return r
+    raise NonFiniteResult("the right-hand side r = c − JWQ of JWJᵀλ = r",
+                          f"max |c| = {np.abs(c).max(initial=0.0):g}, max |Q| = {np.abs(Q).max(initial=0.0):g}")
 
 
 def _symbol(name: str):
@@ -324,10 +323,8 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
     ----------
     J : sparse or dense (m, n)
         Constraint Jacobian.
-    W : array_like (n,)
-        Inverse masses per coordinate (W = M⁻¹ is diagonal for particles).
-    Q : array_like (n,)
-        Applied generalized force.
+    W, Q : array_like (n,)
+        Inverse masses per coordinate (W = M⁻¹ is diagonal for particles) and the applied generalized force.
     c : array_like (m,)
         Desired C̈: −J̇q̇ − k_s C − k_d Ċ.
     solver : {"witkin-dense", "witkin-sparse", "witkin-cg", "kkt", "linear", "auto"}
@@ -379,8 +376,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         if kkt is not None:
             z = kkt(rhs)
             qdd, lam = z[: len(Q)], z[len(Q):]
-            Q_C = JT @ lam
-            return ConstraintSolution(lam, Q_C, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
+            return ConstraintSolution(lam, JT @ lam, qdd, "kkt", 0, False, _rel(K @ z - rhs, rhs))
         lam, deficient = None, True
     elif solver == "witkin-cg":
         lam, it, res = _cg(J, JT, W, r, tol, max_iter or 10 * m + 100)
@@ -396,9 +392,7 @@ def solve_lambda(J, W, Q, c, solver: str = "witkin-sparse", *, cset=None, asm=No
         lam = None if solve is None else _refined(solve, r, J, JT, W)
         deficient = lam is None
     if lam is None:
-        if A is None:
-            A = (J @ sp.diags(W) @ J.T).tocsr()
-        lam = min_norm_lambda(A, r)
+        lam = min_norm_lambda((J @ sp.diags(W) @ J.T).tocsr() if A is None else A, r)
     Q_C = JT @ lam
     qdd = Q + Q_C
     qdd *= W
