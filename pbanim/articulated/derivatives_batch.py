@@ -39,7 +39,7 @@ from .batched import _crf, _crm, link_transforms_batch
 from .derivatives import bar
 from .dynamics import external_forces
 from .fast import _joint_frame_forces, _pivot_array, aba_fast, batch_of
-from .fastbatch import _inertia_bias, _kinematics, _motion
+from .fastbatch import _cross_into, _inertia_bias, _kinematics, _motion
 from .fastbatch import _work as _kernel_work
 from .fastplan import FLOATING, plan_for
 from .spatial import crm, plucker_inverse
@@ -143,16 +143,12 @@ def _crm_t(v, w, out):
 
 def _crf_t(v, f, out):
     """out = v̂ ×* f̂ = (ω × n + u × F, ω × F) on stacks with the components first, into ``out`` (not aliasing
-    v or f): the products and sums of :func:`.fastkernel._cross` in its order, without temporaries."""
-    t, b = np.empty_like(out[0]), np.empty_like(out[0])
-    for i, j, k in _CYCLIC:
-        np.multiply(v[j], f[k], out=out[i])                     # ω × n
-        out[i] -= np.multiply(v[k], f[j], out=t)
-        np.multiply(v[3 + j], f[3 + k], out=b)                  # + u × F
-        b -= np.multiply(v[3 + k], f[3 + j], out=t)
-        out[i] += b
-        np.multiply(v[j], f[3 + k], out=out[3 + i])             # ω × F
-        out[3 + i] -= np.multiply(v[k], f[3 + j], out=t)
+    v or f): the kernel's cross products into buffers (:func:`.fastbatch._cross_into`), then the sum."""
+    t, b = np.empty_like(out[0]), np.empty_like(out[:3])
+    _cross_into(v[:3], f[:3], out[:3], t)                      # ω × n
+    _cross_into(v[3:], f[3:], b, t)                            # + u × F
+    out[:3] += b
+    _cross_into(v[:3], f[3:], out[3:], t)                      # ω × F
     return out
 
 
